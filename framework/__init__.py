@@ -1,0 +1,22 @@
+"""crashlab: vehicle collision models compared, and accidents reconstructed by multi-objective search."""
+from .errors import InputError
+from .outcome import Outcome
+from .registry import available_models, available_optimizers, get_model, get_optimizer
+from .scene import Scene, load_scene
+from .model import CollisionModel
+
+__all__ = ["InputError", "Outcome", "Scene", "CollisionModel", "load_scene", "simulate",
+           "available_models", "available_optimizers", "get_model", "get_optimizer", "load_study"]
+
+
+def simulate(scene, model: str = "impulse", **options) -> Outcome:
+    """Simulate a Scene (or a scene file path) with a registered model; options go to the model."""
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    return get_model(model, **options).simulate(scene)
+
+
+def load_study(path):
+    """A reconstruction study from its TOML file; `.run()` returns the Pareto set."""
+    from .reconstruction import load_study as _load
+    return _load(path)

@@ -1,0 +1,52 @@
+"""`crashlab bench`: simulations per second of a model, one at a time and in a batch."""
+from __future__ import annotations
+
+import os
+import platform
+import time
+from importlib import resources
+from pathlib import Path
+
+
+def default_scene_path() -> Path:
+    """The bundled side collision (PC-Crash case 3), from the repository or the installed examples."""
+    here = Path(__file__).resolve().parent.parent / "studies" / "pc_crash" / "side.toml"
+    return here
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
+
+
+def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
+    from .registry import get_model
+    from .scene import load_scene
+    scene = load_scene(scene_path or default_scene_path())
+    model = get_model(model_name)
+    model.simulate(scene)  # compile / warm up
+    model.simulate_batch([scene] * 2)
+    n_single = 50
+    best_single = min(_time(lambda: [model.simulate(scene) for _ in range(n_single)]) for _ in range(repeat))
+    scenes = [scene.with_vehicle("V1", speed=scene.vehicle("V1").speed * (0.9 + 0.2 * k / batch))
+              for k in range(batch)]
+    best_batch = min(_time(lambda: model.simulate_batch(scenes)) for _ in range(repeat))
+    print(f"machine: {machine()}")
+    print(f"model {model_name}, scene {scene.name}")
+    print(f"single:   {n_single / best_single:10.0f} simulations/s ({best_single / n_single * 1e3:.3f} ms each)")
+    print(f"batch {batch}: {batch / best_batch:8.0f} simulations/s ({best_batch / batch * 1e3:.3f} ms each)")
+    return n_single / best_single, batch / best_batch
+
+
+def _time(fn):
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t

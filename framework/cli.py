@@ -1,0 +1,142 @@
+"""Command line: crashlab models | simulate | compare | reconstruct | bench.
+
+Bad input exits with status 2 and one line naming the file, the key and the problem.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+from .errors import InputError
+from .registry import UnknownPluginError
+
+
+def _model_options(args):
+    return {}
+
+
+def cmd_models(args):
+    from .registry import available_models, available_optimizers
+    print("models:     " + ", ".join(available_models()))
+    print("optimizers: " + ", ".join(available_optimizers()))
+    return 0
+
+
+def _get_model(name, where):
+    from .registry import get_model
+    try:
+        return get_model(name)
+    except UnknownPluginError as err:
+        raise InputError(where, "--model", str(err)) from None
+
+
+def cmd_simulate(args):
+    from .scene import load_scene
+    scene = load_scene(args.scene)
+    model = _get_model(args.model, args.scene)
+    out = model.simulate(scene)
+    if args.plot:
+        from .plotting import top_view
+        top_view(scene, out, args.plot)
+    if args.json:
+        print(json.dumps(out.to_json_dict(), indent=2))
+        return 0
+    import pandas as pd
+    with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 160):
+        print(f"{scene.name} — model {out.model}, {out.wall_time_s * 1e3:.1f} ms")
+        print("rest pose [m, deg]:")
+        print(out.rest.to_string())
+        print("final velocity [km/h, deg/s]:")
+        print(out.final.to_string())
+        if len(out.impacts):
+            print("impacts:")
+            print(out.impacts.drop(columns=["plane_angle"]).to_string(index=False))
+    for w in out.warnings:
+        print("warning:", w)
+    return 0
+
+
+def cmd_compare(args):
+    import pandas as pd
+
+    from .compare import comparison_table
+    from .scene import load_scene
+    scene = load_scene(args.scene)
+    models = [m.strip() for m in args.models.split(",") if m.strip()]
+    outcomes = {}
+    for m in models:
+        outcomes[m] = _get_model(m, args.scene).simulate(scene)
+    df = comparison_table(scene, outcomes)
+    if args.json:
+        print(df.to_json(orient="records", indent=2))
+        return 0
+    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 200,
+                           "display.max_columns", 30):
+        print(f"{scene.name}: rest pose x, y [m], heading [deg]; final velocity vx, vy [km/h]")
+        print(df.to_string(index=False))
+    for m, out in outcomes.items():
+        for w in out.warnings:
+            print(f"warning ({m}):", w)
+    return 0
+
+
+def cmd_bench(args):
+    from .bench import run_bench
+    run_bench(args.model, args.scene, args.batch, args.repeat)
+    return 0
+
+
+def cmd_reconstruct(args):
+    from .reconstruction import run_cli
+    return run_cli(args)
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("models", help="list the registered collision models and optimizers").set_defaults(fn=cmd_models)
+    s = sub.add_parser("simulate", help="simulate a scene file")
+    s.add_argument("scene")
+    s.add_argument("--model", default="impulse")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--plot", metavar="FILE", help="write the top view (PNG, PDF, SVG)")
+    s.set_defaults(fn=cmd_simulate)
+    c = sub.add_parser("compare", help="compare models with each other and with the published results")
+    c.add_argument("scene")
+    c.add_argument("--models", default="impulse")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(fn=cmd_compare)
+    b = sub.add_parser("bench", help="simulations per second, single and batched")
+    b.add_argument("--model", default="impulse")
+    b.add_argument("--scene", default=None, help="scene file (default: the bundled side collision)")
+    b.add_argument("--batch", type=int, default=1000)
+    b.add_argument("--repeat", type=int, default=3)
+    b.set_defaults(fn=cmd_bench)
+    r = sub.add_parser("reconstruct", help="search the pre-impact conditions that explain the evidence")
+    r.add_argument("study")
+    r.add_argument("--optimizer", default=None)
+    r.add_argument("--workers", type=int, default=None)
+    r.add_argument("--scheduler", default=None)
+    r.add_argument("--resume", action="store_true")
+    r.add_argument("--out", default=None)
+    r.add_argument("--json", action="store_true")
+    r.add_argument("--no-progress", action="store_true")
+    r.set_defaults(fn=cmd_reconstruct)
+    return p
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    try:
+        return args.fn(args)
+    except InputError as err:
+        print(f"crashlab: error: {err}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

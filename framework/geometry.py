@@ -1,0 +1,114 @@
+"""Planar geometry of vehicle outlines and barriers (rectangles), shared by every planar model.
+
+The functions are plain Python on scalars and small arrays, registered with numba so that the
+compiled impulse kernel calls the very same code (`register_jitable`): one home for the geometry.
+"""
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+
+@register_jitable
+def rect_corners(x, y, heading, front, rear, half_width):
+    """Corners (4, 2), counter-clockwise, of a rectangle reaching `front` ahead of and `rear` behind
+    its reference point (x, y) along `heading` [rad], `half_width` to each side."""
+    c, s = math.cos(heading), math.sin(heading)
+    out = np.empty((4, 2))
+    local = ((front, -half_width), (front, half_width), (-rear, half_width), (-rear, -half_width))
+    for i in range(4):
+        lx, ly = local[i]
+        out[i, 0] = x + c * lx - s * ly
+        out[i, 1] = y + s * lx + c * ly
+    return out
+
+
+@register_jitable
+def _project(corners, ax, ay):
+    lo, hi = 1e300, -1e300
+    for i in range(corners.shape[0]):
+        p = corners[i, 0] * ax + corners[i, 1] * ay
+        lo = min(lo, p)
+        hi = max(hi, p)
+    return lo, hi
+
+
+@register_jitable
+def penetration(c1, c2):
+    """Separating-axis test of two convex quadrilaterals (corners counter-clockwise).
+
+    Returns (depth, nx, ny, owner): depth > 0 is the overlap along the axis of least overlap, depth <= 0
+    the largest separation found (a lower bound of the distance); n is that axis, unit, oriented from
+    outline 1 to outline 2; owner is 1 or 2, the outline whose edge defines the axis (the struck edge).
+    """
+    best, bnx, bny, owner = 1e300, 0.0, 0.0, 0
+    for k in range(2):
+        poly = c1 if k == 0 else c2
+        for i in range(4):
+            j = (i + 1) % 4
+            ex, ey = poly[j, 0] - poly[i, 0], poly[j, 1] - poly[i, 1]
+            norm = math.hypot(ex, ey)
+            ax, ay = ey / norm, -ex / norm  # outward normal of a counter-clockwise edge
+            lo1, hi1 = _project(c1, ax, ay)
+            lo2, hi2 = _project(c2, ax, ay)
+            overlap = min(hi1, hi2) - max(lo1, lo2)
+            if overlap < best:
+                best = overlap
+                sign = 1.0 if (lo2 + hi2) - (lo1 + hi1) >= 0.0 else -1.0
+                bnx, bny, owner = sign * ax, sign * ay, k + 1
+    return best, bnx, bny, owner
+
+
+@register_jitable
+def clip_convex(subject, clip):
+    """Sutherland-Hodgman: the part of convex polygon `subject` inside convex `clip` (both CCW).
+    Returns (points, n): the first n rows of points hold the overlap polygon."""
+    buf = np.empty((16, 2))
+    nxt = np.empty((16, 2))
+    n = subject.shape[0]
+    buf[:n] = subject
+    m = clip.shape[0]
+    for e in range(m):
+        ax, ay = clip[e, 0], clip[e, 1]
+        bx, by = clip[(e + 1) % m, 0], clip[(e + 1) % m, 1]
+        k = 0
+        for i in range(n):
+            px, py = buf[i, 0], buf[i, 1]
+            qx, qy = buf[(i + 1) % n, 0], buf[(i + 1) % n, 1]
+            sp = (bx - ax) * (py - ay) - (by - ay) * (px - ax)  # >= 0: left of the edge, inside
+            sq = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+            if sp >= 0.0:
+                nxt[k, 0], nxt[k, 1] = px, py
+                k += 1
+            if (sp >= 0.0) != (sq >= 0.0) and k < 16:
+                t = sp / (sp - sq)
+                nxt[k, 0], nxt[k, 1] = px + t * (qx - px), py + t * (qy - py)
+                k += 1
+        n = k
+        buf[:n] = nxt[:n]
+        if n == 0:
+            break
+    return buf, n
+
+
+@register_jitable
+def overlap_centroid(c1, c2):
+    """Centroid (x, y) and area of the overlap of two convex outlines; for a sliver of (near) zero area
+    the mean of its vertices, i.e. the middle of the contact segment."""
+    pts, n = clip_convex(c1, c2)
+    if n == 0:
+        return math.nan, math.nan, 0.0
+    area, cx, cy = 0.0, 0.0, 0.0
+    mx, my = 0.0, 0.0
+    for i in range(n):
+        j = (i + 1) % n
+        cr = pts[i, 0] * pts[j, 1] - pts[j, 0] * pts[i, 1]
+        area += cr
+        cx += (pts[i, 0] + pts[j, 0]) * cr
+        cy += (pts[i, 1] + pts[j, 1]) * cr
+        mx += pts[i, 0]
+        my += pts[i, 1]
+    area *= 0.5
+    if abs(area) < 1e-9:
+        return mx / n, my / n, abs(area)
+    return cx / (6.0 * area), cy / (6.0 * area), abs(area)

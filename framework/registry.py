@@ -1,0 +1,57 @@
+"""Plugins found through entry points (groups `crashlab.models`, `crashlab.optimizers`).
+
+Listing names reads only package metadata; a plugin's module is imported when it is asked for, so
+exudyn or pymunk is imported only by a run that uses it. Unknown names get a "did you mean".
+"""
+from __future__ import annotations
+
+import difflib
+from importlib.metadata import entry_points
+
+MODELS = "crashlab.models"
+OPTIMIZERS = "crashlab.optimizers"
+
+
+class UnknownPluginError(KeyError):
+    def __init__(self, kind: str, name: str, known: list[str]):
+        close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+        hint = f"did you mean {close[0]!r}?" if close else f"known: {', '.join(known)}"
+        self.message = f"unknown {kind} {name!r}; {hint}"
+        super().__init__(self.message)
+
+    def __str__(self):
+        return self.message
+
+
+def _entry_points(group: str) -> dict:
+    return {ep.name: ep for ep in entry_points(group=group)}
+
+
+def names(group: str) -> list[str]:
+    return sorted(_entry_points(group))
+
+
+def load(group: str, name: str):
+    eps = _entry_points(group)
+    if name not in eps:
+        kind = "model" if group == MODELS else "optimizer"
+        raise UnknownPluginError(kind, name, sorted(eps))
+    return eps[name].load()
+
+
+def available_models() -> list[str]:
+    return names(MODELS)
+
+
+def available_optimizers() -> list[str]:
+    return names(OPTIMIZERS)
+
+
+def get_model(name: str, **options):
+    """A CollisionModel instance; options are the model's config keys."""
+    return load(MODELS, name)(**options)
+
+
+def get_optimizer(name: str, **options):
+    """A pymoo Algorithm, usable with pymoo.optimize.minimize."""
+    return load(OPTIMIZERS, name)(**options)

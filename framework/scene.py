@@ -1,0 +1,233 @@
+"""The Scene: the static, immutable description of one event, in SI units.
+
+A scene file (TOML, reconstructionist's units: m, deg, km/h) is validated with pydantic and converted
+once, here, into frozen dataclasses. Variants (the optimizer makes thousands) are cheap copies made
+with `Scene.with_vehicle` / `Scene.replace`.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .errors import InputError
+from .units import deg_to_rad, kmh_to_ms
+from .vehicle import VehicleSpec, load_vehicle, pydantic_error, read_toml
+
+WheelState = Literal["rolling", "locked", "locked_after_impact", "braked"]
+WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
+
+
+# ---------------------------------------------------------------- file schema (file units)
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class RoadFile(_Strict):
+    friction: float = Field(default=0.8, gt=0, le=2.0)
+
+
+class ImpactFile(_Strict):
+    restitution: float = Field(default=0.1, ge=0, le=1)
+    friction: float = Field(default=0.3, ge=0, le=2.0)
+    law: Literal["kudlich-slibar", "brach"] = "kudlich-slibar"
+    force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
+                       "exact-restitution"] = "flores"
+    friction_law: Literal["coulomb", "threlfall", "ambrosio"] = "ambrosio"
+    point: tuple[float, float] | None = None
+    plane_angle: float | None = None
+
+
+class VehicleEntryFile(_Strict):
+    name: str
+    vehicle: str
+    x: float = 0.0
+    y: float = 0.0
+    heading: float = 0.0
+    speed: float = Field(default=0.0, ge=0, le=400)
+    yaw_rate: float = 0.0
+    wheels: WheelState = "rolling"
+    steer: float = Field(default=0.0, ge=-45, le=45)
+    overrides: dict = Field(default_factory=dict)
+
+
+class BarrierFile(_Strict):
+    x: float
+    y: float
+    heading: float = 0.0
+    length: float = Field(gt=0)
+    width: float = Field(gt=0)
+
+
+class SceneFile(_Strict):
+    name: str = "scene"
+    duration: float = Field(default=10.0, gt=0, le=120)
+    stop_at_rest: bool = True
+    road: RoadFile = RoadFile()
+    impact: ImpactFile = ImpactFile()
+    vehicles: list[VehicleEntryFile] = Field(min_length=1)
+    barriers: list[BarrierFile] = Field(default_factory=list)
+    # published results to compare with: reference.<source>.<vehicle> = {x, y, heading, vx, vy, yaw_rate}
+    reference: dict[str, dict[str, dict[str, float]]] = Field(default_factory=dict)
+
+
+# ---------------------------------------------------------------- the scene (SI)
+@dataclasses.dataclass(frozen=True)
+class Road:
+    friction: float = 0.8
+
+
+@dataclasses.dataclass(frozen=True)
+class Impact:
+    restitution: float = 0.1
+    friction: float = 0.3
+    law: str = "kudlich-slibar"
+    force_law: str = "flores"
+    friction_law: str = "ambrosio"
+    point: tuple[float, float] | None = None  # m, global, at first contact
+    plane_angle: float | None = None  # rad, tangent of the contact plane, CCW from +x
+
+
+@dataclasses.dataclass(frozen=True)
+class VehicleState:
+    """One vehicle of a scene: its data and its start state (SI: m, rad, m/s, rad/s)."""
+
+    name: str
+    spec: VehicleSpec
+    x: float = 0.0
+    y: float = 0.0
+    heading: float = 0.0
+    speed: float = 0.0
+    yaw_rate: float = 0.0
+    wheels: str = "rolling"
+    steer: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Barrier:
+    x: float
+    y: float
+    heading: float
+    length: float
+    width: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    name: str
+    vehicles: tuple[VehicleState, ...]
+    road: Road = Road()
+    impact: Impact = Impact()
+    barriers: tuple[Barrier, ...] = ()
+    duration: float = 10.0
+    stop_at_rest: bool = True
+    source: str = "<scene>"
+    references: dict = dataclasses.field(default_factory=dict, compare=False, hash=False)
+
+    def vehicle(self, name: str) -> VehicleState:
+        for v in self.vehicles:
+            if v.name == name:
+                return v
+        raise KeyError(name)
+
+    @property
+    def vehicle_names(self) -> list[str]:
+        return [v.name for v in self.vehicles]
+
+    def replace(self, **changes) -> Scene:
+        return dataclasses.replace(self, **changes)
+
+    def with_vehicle(self, name: str, **changes) -> Scene:
+        """A copy with fields of one vehicle's start state changed (SI units)."""
+        vs = tuple(dataclasses.replace(v, **changes) if v.name == name else v for v in self.vehicles)
+        if vs == self.vehicles and name not in self.vehicle_names:
+            raise KeyError(name)
+        return dataclasses.replace(self, vehicles=vs)
+
+
+def vehicle_outline(v: VehicleState, x=None, y=None, heading=None):
+    from .geometry import rect_corners
+    s = v.spec
+    return rect_corners(v.x if x is None else x, v.y if y is None else y,
+                        v.heading if heading is None else heading, s.cg_to_front, s.cg_to_rear, s.width / 2)
+
+
+def barrier_outline(b: Barrier):
+    from .geometry import rect_corners
+    return rect_corners(b.x, b.y, b.heading, b.length / 2, b.length / 2, b.width / 2)
+
+
+def start_overlaps(scene: Scene) -> list[tuple[str, str]]:
+    """Pairs (vehicle, vehicle or barrier#k) whose outlines overlap in the start state."""
+    from .geometry import penetration
+    outlines = [(v.name, vehicle_outline(v)) for v in scene.vehicles]
+    hits = []
+    for i, (ni, ci) in enumerate(outlines):
+        for nj, cj in outlines[i + 1:]:
+            if penetration(ci, cj)[0] > 0:
+                hits.append((ni, nj))
+        for k, b in enumerate(scene.barriers):
+            if penetration(ci, barrier_outline(b))[0] > 0:
+                hits.append((ni, f"barrier {k}"))
+    return hits
+
+
+def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path | None = None) -> Scene:
+    """Validate a scene given as a dict in file units and convert it to SI."""
+    try:
+        f = SceneFile.model_validate(data)
+    except ValidationError as err:
+        raise pydantic_error(source, err) from None
+    names = [v.name for v in f.vehicles]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise InputError(source, f"vehicles.{i}.name", f"duplicate vehicle name {n!r}")
+    vehicles = tuple(
+        VehicleState(
+            name=v.name,
+            spec=load_vehicle(v.vehicle, base_dir, v.overrides, where=f"vehicles.{i}", scene_file=source),
+            x=v.x, y=v.y, heading=deg_to_rad(v.heading), speed=kmh_to_ms(v.speed),
+            yaw_rate=deg_to_rad(v.yaw_rate), wheels=v.wheels, steer=deg_to_rad(v.steer))
+        for i, v in enumerate(f.vehicles))
+    imp = f.impact
+    if (imp.point is None) != (imp.plane_angle is None):
+        raise InputError(source, "impact.point" if imp.point is None else "impact.plane_angle",
+                         "point and plane_angle are given together or not at all")
+    scene = Scene(
+        name=f.name,
+        vehicles=vehicles,
+        road=Road(friction=f.road.friction),
+        impact=Impact(restitution=imp.restitution, friction=imp.friction, law=imp.law,
+                      force_law=imp.force_law, friction_law=imp.friction_law,
+                      point=None if imp.point is None else tuple(imp.point),
+                      plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle)),
+        barriers=tuple(Barrier(b.x, b.y, deg_to_rad(b.heading), b.length, b.width) for b in f.barriers),
+        duration=f.duration,
+        stop_at_rest=f.stop_at_rest,
+        source=str(source),
+        references=f.reference,
+    )
+    for src, rows in f.reference.items():
+        for vname in rows:
+            if vname not in names:
+                raise InputError(source, f"reference.{src}.{vname}", "no vehicle of that name")
+    if imp.point is None:
+        hits = start_overlaps(scene)
+        if hits:
+            a, b = hits[0]
+            raise InputError(source, "vehicles", f"{a} and {b} overlap at the start; move them apart or "
+                             "give [impact] point and plane_angle (collision position)")
+    return scene
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Load and validate a scene file (TOML). Bad input raises InputError (file, key, problem)."""
+    path = Path(path)
+    return scene_from_dict(read_toml(path, "scene"), source=path, base_dir=path.parent)
+
+
+def initial_velocity(v: VehicleState) -> tuple[float, float]:
+    return v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)

@@ -1,0 +1,342 @@
+"""The compiled time loop of the impulse model: vehicle motion, contact onset, impulses, rest.
+
+Everything per scene runs inside one numba function (no Python loop over time steps); a batch of
+scenes runs in parallel with `prange`. Step-size policy:
+  * fine steps `dt` (Heun, 2nd order) whenever a tyre force can change quickly or vehicles are close;
+  * while every moving vehicle runs straight and no pair can touch within the step, the step grows up
+    to `coarse_dt` (straight running has constant forces, Heun is exact for it);
+  * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it;
+  * the run ends when every vehicle sleeps (stop_at_rest) or at `duration`.
+Contact onset is located by bisection of the step until the outlines overlap by at most `onset_tol`.
+"""
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from crashlab.geometry import overlap_centroid, penetration, rect_corners
+
+from .laws import collision_impulse, impact_matrix
+from .vehicle_motion import (LOCKED, LOCKED_AFTER_IMPACT, P_FRONT, P_HALFW, P_IZ, P_MASS, P_REAR,
+                             P_STEER, P_WHEELS, vehicle_derivative)
+
+# configuration vector
+(C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
+ C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS) = range(16)
+N_CFG = 16
+# impact record
+(I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
+ I_PY, I_PLANE) = range(16)
+N_IMP = 16
+# diagnostics
+(D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
+ D_E_IMPACT, D_SLEEP_SKIPS) = range(12)
+N_DIAG = 12
+STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN = 0, 1, 2, 3
+V_APPROACH = 1e-3  # m/s: an overlapping pair gets a further impulse only when approaching faster
+
+
+@njit(cache=True)
+def _outline(P, S, B, k, nv):
+    if k < nv:
+        return rect_corners(S[k, 0], S[k, 1], S[k, 2], P[k, P_FRONT], P[k, P_REAR], P[k, P_HALFW])
+    b = B[k - nv]
+    return rect_corners(b[0], b[1], b[2], b[3], b[3], b[4])
+
+
+@njit(cache=True)
+def _radius(P, B, k, nv):
+    if k < nv:
+        return math.sqrt(max(P[k, P_FRONT], P[k, P_REAR]) ** 2 + P[k, P_HALFW] ** 2)
+    return math.sqrt(B[k - nv, 3] ** 2 + B[k - nv, 4] ** 2)
+
+
+@njit(cache=True)
+def _centre(S, B, k, nv):
+    if k < nv:
+        return S[k, 0], S[k, 1]
+    return B[k - nv, 0], B[k - nv, 1]
+
+
+@njit(cache=True)
+def _heun(P, S, modes, asleep, mu, acc, h, out, k1, k2, tmp):
+    nv = S.shape[0]
+    for i in range(nv):
+        if asleep[i]:
+            out[i] = S[i]
+            continue
+        vehicle_derivative(P[i], S[i], mu, modes[i], acc[i], k1[i])
+        for q in range(6):
+            tmp[i, q] = S[i, q] + h * k1[i, q]
+        vehicle_derivative(P[i], tmp[i], mu, modes[i], acc[i], k2[i])
+        for q in range(6):
+            out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
+
+
+@njit(cache=True)
+def _point_velocity(S, k, nv, px, py):
+    if k >= nv:
+        return 0.0, 0.0
+    return S[k, 3] - S[k, 5] * (py - S[k, 1]), S[k, 4] + S[k, 5] * (px - S[k, 0])
+
+
+@njit(cache=True)
+def _kinetic(P, S, k, nv):
+    if k >= nv:
+        return 0.0
+    return 0.5 * P[k, P_MASS] * (S[k, 3] ** 2 + S[k, 4] ** 2) + 0.5 * P[k, P_IZ] * S[k, 5] ** 2
+
+
+@njit(cache=True)
+def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law):
+    """Exchange the impulse at (px, py) with normal n (from i to j). Returns (pn, pt, kind, energy, gn)."""
+    w1, iI1 = 1.0 / P[i, P_MASS], 1.0 / P[i, P_IZ]
+    w2, iI2 = 0.0, 0.0
+    if j < nv:
+        w2, iI2 = 1.0 / P[j, P_MASS], 1.0 / P[j, P_IZ]
+    r1x, r1y = px - S[i, 0], py - S[i, 1]
+    r2x, r2y = 0.0, 0.0
+    if j < nv:
+        r2x, r2y = px - S[j, 0], py - S[j, 1]
+    v1x, v1y = _point_velocity(S, i, nv, px, py)
+    v2x, v2y = _point_velocity(S, j, nv, px, py)
+    gx, gy = v2x - v1x, v2y - v1y
+    tx, ty = -ny, nx
+    gn, gt = gx * nx + gy * ny, gx * tx + gy * ty
+    if gn >= 0.0:
+        return 0.0, 0.0, -1, 0.0, gn
+    knn, ktt, knt = impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny)
+    pn, pt, kind = collision_impulse(knn, ktt, knt, gn, gt, e, mu, law)
+    ix, iy = pn * nx + pt * tx, pn * ny + pt * ty
+    ke0 = _kinetic(P, S, i, nv) + _kinetic(P, S, j, nv)
+    S[i, 3] -= ix * w1
+    S[i, 4] -= iy * w1
+    S[i, 5] -= (r1x * iy - r1y * ix) * iI1
+    if j < nv:
+        S[j, 3] += ix * w2
+        S[j, 4] += iy * w2
+        S[j, 5] += (r2x * iy - r2y * ix) * iI2
+    return pn, pt, kind, ke0 - _kinetic(P, S, i, nv) - _kinetic(P, S, j, nv), gn
+
+
+@njit(cache=True)
+def _record_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny):
+    imp[n, I_T], imp[n, I_I], imp[n, I_J] = t, i, j
+    imp[n, I_DVX_I] = S[i, 3] - S_before[i, 3]
+    imp[n, I_DVY_I] = S[i, 4] - S_before[i, 4]
+    imp[n, I_DR_I] = S[i, 5] - S_before[i, 5]
+    if j < nv:
+        imp[n, I_DVX_J] = S[j, 3] - S_before[j, 3]
+        imp[n, I_DVY_J] = S[j, 4] - S_before[j, 4]
+        imp[n, I_DR_J] = S[j, 5] - S_before[j, 5]
+    imp[n, I_ENERGY], imp[n, I_PN], imp[n, I_PT], imp[n, I_KIND] = energy, pn, pt, kind
+    imp[n, I_PX], imp[n, I_PY], imp[n, I_PLANE] = px, py, math.atan2(nx, -ny)  # tangent t = k x n
+
+
+@njit(cache=True)
+def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
+    """Simulate one scene. P (nv, N_PARAMS), S0 (nv, 6) start states, B (nb, 5) barriers
+    (x, y, heading, half length, half width). Outputs are written into the arrays passed in."""
+    nv, nb = P.shape[0], B.shape[0]
+    nk = nv + nb
+    mu, e, mu_imp, law = cfg[C_MU_ROAD], cfg[C_E], cfg[C_MU_IMP], int(cfg[C_LAW])
+    duration, dt, coarse_dt, rec_dt = cfg[C_DURATION], cfg[C_DT], cfg[C_COARSE_DT], cfg[C_REC_DT]
+    tol, v_rest, max_imp = cfg[C_ONSET_TOL], cfg[C_V_REST], min(int(cfg[C_MAX_IMPACTS]), imp.shape[0])
+    S = S0.copy()
+    Snew = np.empty_like(S)
+    S_before = np.empty_like(S)
+    k1 = np.empty_like(S)
+    k2 = np.empty_like(S)
+    tmp = np.empty_like(S)
+    acc = np.zeros((nv, 2))
+    modes = np.empty(nv, np.int64)
+    asleep = np.zeros(nv, np.bool_)
+    hit = np.zeros(nv, np.bool_)
+    radius = np.empty(nk)
+    for k in range(nk):
+        radius[k] = _radius(P, B, k, nv)
+    in_contact = np.zeros((nv, nk), np.bool_)
+    for i in range(nv):
+        modes[i] = int(P[i, P_WHEELS])
+        if modes[i] == LOCKED_AFTER_IMPACT:
+            modes[i] = 0  # rolling until the first impact
+        if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
+            S[i, 3:6] = 0.0
+            asleep[i] = True
+    diag[:] = 0.0
+    diag[D_CONTACT_T] = math.nan
+    contact[:] = math.nan
+    ke0 = 0.0
+    for i in range(nv):
+        ke0 += _kinetic(P, S, i, nv)
+    diag[D_KE0] = ke0
+    n_imp, n_rec, t = 0, 0, 0.0
+    next_rec = 0.0
+    status = STATUS_OK
+
+    # impact at t = 0 at a given point of impact and contact plane (PC-Crash style)
+    if cfg[C_GIVEN] > 0.5 and nk >= 2:
+        j = 1
+        px, py, th = cfg[C_PX], cfg[C_PY], cfg[C_PLANE]
+        nx, ny = math.sin(th), -math.cos(th)
+        cjx, cjy = _centre(S, B, j, nv)
+        if nx * (cjx - S[0, 0]) + ny * (cjy - S[0, 1]) < 0.0:
+            nx, ny = -nx, -ny
+        for i in range(nv):
+            contact[i, 0], contact[i, 1], contact[i, 2] = S[i, 0], S[i, 1], S[i, 2]
+            contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
+        diag[D_CONTACT_T] = 0.0
+        S_before[:] = S
+        pn, pt, kind, energy, gn = _apply_impulse(P, S, 0, j, nv, px, py, nx, ny, e, mu_imp, law)
+        if kind < 0:
+            status = STATUS_NOT_APPROACHING
+        else:
+            _record_impact(imp, 0, 0.0, 0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+            n_imp = 1
+            diag[D_E_IMPACT] += energy
+            for q in (0, j):
+                if q < nv:
+                    hit[q] = True
+                    asleep[q] = False
+                    if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
+                        modes[q] = LOCKED
+            in_contact[0, j] = True
+
+    steps = 0
+    while t < duration - 1e-12:
+        if rec_dt > 0.0 and t >= next_rec - 1e-12 and n_rec < traj.shape[0] - 1:
+            traj[n_rec, :, 0] = t
+            traj[n_rec, :, 1:7] = S
+            n_rec += 1
+            next_rec += rec_dt
+        # ---- step size: coarse while every moving vehicle runs straight and nothing can touch
+        h = dt
+        quiet = True
+        for i in range(nv):
+            if not asleep[i]:
+                lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
+                if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or P[i, P_STEER] != 0.0:
+                    quiet = False
+        if quiet and coarse_dt > dt:
+            h_gap = coarse_dt
+            for i in range(nv):
+                for k in range(i + 1, nk):
+                    if k < nv and asleep[i] and asleep[k]:
+                        continue
+                    ckx, cky = _centre(S, B, k, nv)
+                    gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
+                    closing = math.hypot(S[i, 3], S[i, 4])
+                    if k < nv:
+                        closing += math.hypot(S[k, 3], S[k, 4])
+                    if closing > 0.0:
+                        h_gap = min(h_gap, 0.5 * gap / closing)
+            if h_gap > dt:
+                h = h_gap
+                diag[D_COARSE] += 1
+        h = min(h, duration - t)
+        _heun(P, S, modes, asleep, mu, acc, h, Snew, k1, k2, tmp)
+        steps += 1
+        # ---- onset of a new contact: bisect the step until the overlap is at most tol
+        for i in range(nv):
+            for k in range(i + 1, nk):
+                if in_contact[i, k] or (asleep[i] and (k >= nv or asleep[k])):
+                    continue
+                ckx, cky = _centre(Snew, B, k, nv)
+                if math.hypot(Snew[i, 0] - ckx, Snew[i, 1] - cky) > radius[i] + radius[k]:
+                    continue
+                depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
+                if depth > tol:
+                    lo, hi = 0.0, h
+                    for _ in range(60):
+                        hm = 0.5 * (lo + hi)
+                        _heun(P, S, modes, asleep, mu, acc, hm, Snew, k1, k2, tmp)
+                        diag[D_BISECT] += 1
+                        depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
+                        if depth > tol:
+                            hi = hm
+                        elif depth <= 0.0:
+                            lo = hm
+                        else:
+                            break
+                    h = hm
+        t += h
+        S[:] = Snew
+        # ---- impulses: new contacts, and pairs that still overlap and approach (a further impact)
+        for i in range(nv):
+            for k in range(i + 1, nk):
+                if asleep[i] and (k >= nv or asleep[k]):
+                    continue
+                ckx, cky = _centre(S, B, k, nv)
+                if math.hypot(S[i, 0] - ckx, S[i, 1] - cky) > radius[i] + radius[k]:
+                    in_contact[i, k] = False
+                    continue
+                ci, ck = _outline(P, S, B, i, nv), _outline(P, S, B, k, nv)
+                depth, nx, ny, owner = penetration(ci, ck)
+                if depth <= 0.0:
+                    in_contact[i, k] = False
+                    continue
+                diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
+                px, py, area = overlap_centroid(ci, ck)
+                if math.isnan(px):
+                    continue
+                if in_contact[i, k]:
+                    v1x, v1y = _point_velocity(S, i, nv, px, py)
+                    v2x, v2y = _point_velocity(S, k, nv, px, py)
+                    if (v2x - v1x) * nx + (v2y - v1y) * ny > -V_APPROACH:
+                        continue
+                if n_imp >= max_imp:
+                    status = STATUS_IMPACT_CAP
+                    continue
+                S_before[:] = S
+                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e, mu_imp, law)
+                if kind < 0:
+                    in_contact[i, k] = True
+                    continue
+                if n_imp == 0:
+                    diag[D_CONTACT_T] = t
+                    for q in range(nv):
+                        contact[q, 0], contact[q, 1], contact[q, 2] = S_before[q, 0], S_before[q, 1], S_before[q, 2]
+                        contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
+                _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                n_imp += 1
+                diag[D_E_IMPACT] += energy
+                in_contact[i, k] = True
+                for q in (i, k):
+                    if q < nv:
+                        hit[q] = True
+                        asleep[q] = False
+                        if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
+                            modes[q] = LOCKED
+        # ---- rest: a vehicle out of contact that has (almost) stopped goes to sleep
+        all_asleep = True
+        for i in range(nv):
+            if not asleep[i]:
+                touching = False
+                for k in range(nk):
+                    if (k > i and in_contact[i, k]) or (k < i and in_contact[k, i]):
+                        touching = True
+                if not touching and math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
+                    S[i, 3:6] = 0.0
+                    asleep[i] = True
+                else:
+                    all_asleep = False
+            if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
+                status = STATUS_NAN
+        if status == STATUS_NAN or (all_asleep and cfg[C_STOP_AT_REST] > 0.5):
+            break
+    if rec_dt > 0.0 and n_rec < traj.shape[0]:
+        traj[n_rec, :, 0] = t
+        traj[n_rec, :, 1:7] = S
+        n_rec += 1
+    rest[:, :] = S[:, 0:3]
+    final[:, :] = S[:, 3:6]
+    diag[D_STEPS], diag[D_IMPACTS], diag[D_NREC], diag[D_T_END] = steps, n_imp, n_rec, t
+    diag[D_STATUS] = status
+
+
+@njit(cache=True, parallel=True)
+def simulate_many(P, S0, B, cfg, rest, final, contact, imp, diag):
+    """A batch of scenes of the same composition, in parallel, without trajectories."""
+    no_traj = np.empty((0, P.shape[1], 7))
+    for s in prange(P.shape[0]):
+        simulate_one(P[s], S0[s], B[s], cfg[s], rest[s], final[s], contact[s], imp[s], no_traj, diag[s])

@@ -1,0 +1,108 @@
+"""Planar 3-DOF vehicle motion with four wheel contacts (FORMULAS.md §10).
+
+One implementation of the tyre/ground forces, compiled with numba, used by every planar model.
+State per vehicle (global): x, y, heading psi, vx, vy, yaw rate r.
+Parameters per vehicle: the P_* indices below (SI).
+"""
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from crashlab.units import G
+
+# vehicle parameter vector layout
+P_MASS, P_IZ, P_A, P_B, P_TRACK, P_H, P_FRR, P_CALPHA, P_FRONT, P_REAR, P_HALFW, P_WHEELS, P_STEER = range(13)
+N_PARAMS = 13
+# wheel states (scene `wheels`)
+ROLLING, LOCKED, LOCKED_AFTER_IMPACT, BRAKED = 0, 1, 2, 3
+WHEEL_CODES = {"rolling": ROLLING, "locked": LOCKED, "locked_after_impact": LOCKED_AFTER_IMPACT,
+               "braked": BRAKED}
+
+V_REG = 0.05  # m/s: regularisation of Coulomb friction and rolling resistance near zero slip speed
+V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it defined near standstill
+
+
+@register_jitable
+def wheel_force(vwx, vwy, normal, mu, mode, f_rr, c_alpha):
+    """Force (Fx, Fy) of the road on one wheel, in the wheel frame, from its contact velocity.
+
+    rolling: rolling resistance f_rr N and lateral force -mu N tanh(C_alpha alpha / (mu N)) (slip angle
+    alpha, saturating at mu N); locked: Coulomb against the sliding velocity; braked (ABS-like): the
+    lateral force of a rolling wheel and the friction left in the friction circle as braking force.
+    """
+    if normal <= 0.0:
+        return 0.0, 0.0
+    fmax = mu * normal
+    if mode == LOCKED:
+        s = math.sqrt(vwx * vwx + vwy * vwy + V_REG * V_REG)
+        return -fmax * vwx / s, -fmax * vwy / s
+    alpha = math.atan2(vwy, max(abs(vwx), V_LOW))
+    fy = -fmax * math.tanh(c_alpha * alpha / fmax)
+    if mode == BRAKED:
+        fx = -math.sqrt(max(fmax * fmax - fy * fy, 0.0)) * math.tanh(vwx / V_REG)
+        return fx, fy
+    fx = -f_rr * normal * math.tanh(vwx / V_REG)
+    f = math.hypot(fx, fy)
+    if f > fmax:
+        return fx * fmax / f, fy * fmax / f
+    return fx, fy
+
+
+@register_jitable
+def vehicle_derivative(p, s, mu, mode, acc_body, out):
+    """Time derivative of one vehicle's state s = (x, y, psi, vx, vy, r) into out[0:6].
+
+    acc_body = (ax, ay) of the previous evaluation, for quasi-static load transfer from the CG height;
+    it is updated in place.
+    """
+    m, iz, a, b = p[P_MASS], p[P_IZ], p[P_A], p[P_B]
+    track, h, steer = p[P_TRACK], p[P_H], p[P_STEER]
+    wb = a + b
+    c, sn = math.cos(s[2]), math.sin(s[2])
+    u = c * s[3] + sn * s[4]  # body-frame velocity
+    v = -sn * s[3] + c * s[4]
+    r = s[5]
+    # axle loads with longitudinal transfer, then lateral transfer per axle (§10, pycrash style)
+    nf = m * (G * b - acc_body[0] * h) / wb
+    nr = m * (G * a + acc_body[0] * h) / wb
+    dlat = m * acc_body[1] * h / track
+    fx_t, fy_t, mz = 0.0, 0.0, 0.0
+    cs, ss = math.cos(steer), math.sin(steer)
+    for w in range(4):
+        front = w < 2
+        left = w % 2 == 0
+        xw = a if front else -b
+        yw = 0.5 * track if left else -0.5 * track
+        nax = nf if front else nr
+        share = b / wb if front else a / wb
+        normal = 0.5 * nax + (-0.5 if left else 0.5) * dlat * share
+        vx_w = u - r * yw
+        vy_w = v + r * xw
+        if front and steer != 0.0:
+            wx = cs * vx_w + ss * vy_w
+            wy = -ss * vx_w + cs * vy_w
+            fx, fy = wheel_force(wx, wy, normal, mu, mode, p[P_FRR], p[P_CALPHA])
+            fx, fy = cs * fx - ss * fy, ss * fx + cs * fy
+        else:
+            fx, fy = wheel_force(vx_w, vy_w, normal, mu, mode, p[P_FRR], p[P_CALPHA])
+        fx_t += fx
+        fy_t += fy
+        mz += xw * fy - yw * fx
+    ax_b, ay_b = fx_t / m, fy_t / m  # CG acceleration in body axes
+    acc_body[0], acc_body[1] = ax_b, ay_b
+    out[0], out[1], out[2] = s[3], s[4], r
+    out[3] = c * ax_b - sn * ay_b
+    out[4] = sn * ax_b + c * ay_b
+    out[5] = mz / iz
+
+
+def pack_vehicle(spec, wheels: str, steer: float) -> np.ndarray:
+    """The parameter vector of one vehicle (SI)."""
+    p = np.empty(N_PARAMS)
+    p[P_MASS], p[P_IZ] = spec.mass, spec.yaw_inertia
+    p[P_A], p[P_B], p[P_TRACK], p[P_H] = spec.cg_to_front_axle, spec.cg_to_rear_axle, spec.track, spec.cg_height
+    p[P_FRR], p[P_CALPHA] = spec.rolling_resistance, spec.cornering_stiffness
+    p[P_FRONT], p[P_REAR], p[P_HALFW] = spec.cg_to_front, spec.cg_to_rear, spec.width / 2
+    p[P_WHEELS], p[P_STEER] = WHEEL_CODES[wheels], steer
+    return p
