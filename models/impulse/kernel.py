@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit, prange
 
 from crashlab.geometry import overlap_centroid, penetration, rect_corners
+from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
 from .vehicle_motion import (LOCKED, LOCKED_AFTER_IMPACT, P_FRONT, P_HALFW, P_IZ, P_MASS, P_REAR,
@@ -32,8 +33,10 @@ N_IMP = 16
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
  D_E_IMPACT, D_SLEEP_SKIPS) = range(12)
 N_DIAG = 12
-STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN = 0, 1, 2, 3
-V_APPROACH = 1e-3  # m/s: an overlapping pair gets a further impulse only when approaching faster
+STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
+MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
+V_APPROACH = 0.05  # m/s: an overlapping pair gets a further impulse only when approaching faster
+STOP_MARGIN = 0.5  # m/s: coarse steps end this far above the speed a coarse step could brake away
 
 
 @njit(cache=True)
@@ -156,6 +159,10 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
     for k in range(nk):
         radius[k] = _radius(P, B, k, nv)
     in_contact = np.zeros((nv, nk), np.bool_)
+    for i in range(nv):  # outlines that overlap at the start are in contact (a collision position)
+        for k in range(i + 1, nk):
+            if penetration(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv))[0] > 0.0:
+                in_contact[i, k] = True
     for i in range(nv):
         modes[i] = int(P[i, P_WHEELS])
         if modes[i] == LOCKED_AFTER_IMPACT:
@@ -217,6 +224,10 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                 lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
                 if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or P[i, P_STEER] != 0.0:
                     quiet = False
+                # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
+                # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
+                if math.hypot(S[i, 3], S[i, 4]) < 2.0 * mu * G * coarse_dt + STOP_MARGIN:
+                    quiet = False
         if quiet and coarse_dt > dt:
             h_gap = coarse_dt
             for i in range(nv):
@@ -236,6 +247,9 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         h = min(h, duration - t)
         _heun(P, S, modes, asleep, mu, acc, h, Snew, k1, k2, tmp)
         steps += 1
+        if steps > MAX_STEPS:
+            status = STATUS_STEP_LIMIT
+            break
         # ---- onset of a new contact: bisect the step until the overlap is at most tol
         for i in range(nv):
             for k in range(i + 1, nk):
@@ -286,6 +300,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                         continue
                 if n_imp >= max_imp:
                     status = STATUS_IMPACT_CAP
+                    in_contact[i, k] = True
                     continue
                 S_before[:] = S
                 pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e, mu_imp, law)
@@ -307,15 +322,11 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                         asleep[q] = False
                         if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
                             modes[q] = LOCKED
-        # ---- rest: a vehicle out of contact that has (almost) stopped goes to sleep
+        # ---- rest: a vehicle that has (almost) stopped goes to sleep; an impulse wakes it
         all_asleep = True
         for i in range(nv):
             if not asleep[i]:
-                touching = False
-                for k in range(nk):
-                    if (k > i and in_contact[i, k]) or (k < i and in_contact[k, i]):
-                        touching = True
-                if not touching and math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
+                if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
                     S[i, 3:6] = 0.0
                     asleep[i] = True
                 else:

@@ -42,20 +42,51 @@ def collision_impulse(knn, ktt, knt, gn, gt, e, mu, law):
         pn = (-(1.0 + e) * gn * ktt + gt * knt) / d
         pt = (-knn * gt + knt * (1.0 + e) * gn) / d
     if abs(pt) <= mu * pn + 1e-12 * abs(pn):
+        pn, pt = energy_limited(knn, ktt, knt, gn, gt, e, pn, pt)
         return pn, pt, FULL
-    # sliding: tangential impulse capped at mu Pn, opposing the initial slip; keep the sign that
-    # does not reverse the slip (FORMULAS §9 pitfall)
+    # sliding: tangential impulse capped at mu Pn, against the initial slip s = -sgn(g_t) (§9); without
+    # initial slip, against the slip the impact would start (the sign of the law's Pt). Friction that
+    # pushes along the slip would create energy, so the other sign is never taken.
     s = -1.0 if gt > 0.0 else 1.0
     if gt == 0.0:
         s = 1.0 if pt > 0.0 else -1.0
-    for _ in range(2):
-        den = knn + s * mu * knt
-        if den > 0.0:
-            pn = -(1.0 + e) * gn / den
-            pt = s * mu * pn
-            gt_after = gt + knt * pn + ktt * pt
-            if gt_after * gt >= -1e-12 * (abs(gt) + 1.0) or gt == 0.0:
-                return pn, pt, SLIDING
-        s = -s
+    den = knn + s * mu * knt
+    if den > 0.0:
+        pn = -(1.0 + e) * gn / den
+        pn, pt = energy_limited(knn, ktt, knt, gn, gt, e, pn, s * mu * pn)
+        return pn, pt, SLIDING
     pn = -(1.0 + e) * gn / knn
     return pn, 0.0, SLIDING
+
+
+@register_jitable
+def _dissipation_sign(knn, ktt, knt, gn, gt, e, r):
+    """(T' - T) times a positive factor, for the impulse of tangential ratio r = Pt/Pn with g'_n = -e g_n,
+    and the size of its terms (for a round-off tolerance)."""
+    c = -(1.0 + e) * gn
+    a2, a1, a0 = 2.0 * gt * knt + c * ktt, 2.0 * gt * knn - 2.0 * e * gn * knt, (1.0 - e) * gn * knn
+    return a2 * r * r + a1 * r + a0, abs(a2 * r * r) + abs(a1 * r) + abs(a0)
+
+
+@register_jitable
+def energy_limited(knn, ktt, knt, gn, gt, e, pn, pt):
+    """(Pn, Pt) unchanged when the impact dissipates energy (T' - T = ½ Π·(g + g') <= 0, §9); otherwise
+    the tangential/normal ratio is reduced toward 0 (the frictionless impact, always dissipative), keeping
+    g'_n = -e g_n, to the largest ratio that creates no energy (Brach's energy bound on the impulse ratio).
+    The Newton-type sticking impulse with e > 0, and a sliding impulse whose friction reverses the slip
+    by more than it had, can otherwise create energy."""
+    if pn <= 0.0:
+        return pn, pt
+    r = pt / pn
+    f, size = _dissipation_sign(knn, ktt, knt, gn, gt, e, r)
+    if f <= 1e-12 * size:
+        return pn, pt
+    lo, hi = 0.0, r
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if _dissipation_sign(knn, ktt, knt, gn, gt, e, mid)[0] <= 0.0:
+            lo = mid
+        else:
+            hi = mid
+    pn = -(1.0 + e) * gn / (knn + lo * knt)
+    return pn, lo * pn

@@ -16,7 +16,8 @@ from .vehicle_motion import N_PARAMS, pack_vehicle
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH}
 STATUS_TEXT = {K.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
                K.STATUS_IMPACT_CAP: "more impacts than max_impacts; later contacts ignored",
-               K.STATUS_NAN: "the state became NaN"}
+               K.STATUS_NAN: "the state became NaN",
+               K.STATUS_STEP_LIMIT: "step limit reached (the time step collapsed)"}
 
 
 class ImpulseModel(CollisionModel):

@@ -1,0 +1,501 @@
+"""Reconstruction: search the pre-impact conditions whose simulated rest poses match the evidence.
+
+A study file names a base scene, a model, an optimizer, the free variables with bounds and the
+measured rest poses. The problem is a pymoo Problem evaluated a population at a time through the
+model's `simulate_batch` (serially, in processes or on Dask: crashlab.execution). Objectives, one per
+vehicle (thesis eqs 4.13-4.14, 5.4-5.8): f_k = |r_k - r_k*| + heading_weight * |wrap(psi_k - psi_k*)|.
+Constraints: g1 = overlap depth at the start <= 0, g2 = 0 when the vehicles collide, 1 when they miss.
+"""
+from __future__ import annotations
+
+import math
+import os
+import pickle
+import time
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from .errors import InputError
+from .registry import UnknownPluginError, available_models, available_optimizers
+from .scene import Scene, load_scene
+from .units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
+from .vehicle import pydantic_error, read_toml
+
+VEHICLE_FIELDS = ("x", "y", "heading", "speed")
+IMPACT_FIELDS = ("restitution", "friction")
+FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluation
+
+
+# ---------------------------------------------------------------- study file
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class OptimizerSection(_Strict):
+    name: str = "nsga2"
+    pop_size: int = Field(default=75, ge=4)
+    generations: int = Field(default=20, ge=1)
+    seed: int = 1
+    options: dict = Field(default_factory=dict)
+
+
+class FreeVariable(_Strict):
+    vehicle: str | None = None  # None for the impact's restitution / friction
+    field: Literal["x", "y", "heading", "speed", "restitution", "friction"]
+    lower: float
+    upper: float
+
+    @model_validator(mode="after")
+    def _check(self):
+        if not self.lower < self.upper:
+            raise ValueError(f"lower ({self.lower}) must be below upper ({self.upper})")
+        if self.field in VEHICLE_FIELDS and self.vehicle is None:
+            raise ValueError(f"field {self.field!r} needs a vehicle")
+        return self
+
+    @property
+    def label(self) -> str:
+        return f"{self.vehicle}.{self.field}" if self.vehicle else f"impact.{self.field}"
+
+
+class RestPose(_Strict):
+    x: float
+    y: float
+    heading: float = 0.0
+
+
+class Evidence(_Strict):
+    rest: dict[str, RestPose] = Field(default_factory=dict)
+    twin: bool = False  # evidence = the model's own simulation of the base scene (twin experiment)
+
+
+class ObjectiveSection(_Strict):
+    heading_weight: float = Field(default=0.0, ge=0)
+    hv_reference: float = Field(default=10.0, gt=0)  # m, hypervolume reference point per objective
+
+
+class ExecutionSection(_Strict):
+    backend: Literal["serial", "processes", "dask"] = "serial"
+    workers: int = Field(default=2, ge=1)
+    scheduler: str | None = None
+
+
+class RepairSection(_Strict):
+    enabled: bool = True
+    max_shift: float = Field(default=1.0, ge=0)
+
+
+class StudyFile(_Strict):
+    name: str = ""
+    scene: str
+    model: str = "impulse"
+    model_options: dict = Field(default_factory=dict)
+    optimizer: OptimizerSection = OptimizerSection()
+    free: list[FreeVariable] = Field(min_length=1)
+    evidence: Evidence
+    objective: ObjectiveSection = ObjectiveSection()
+    execution: ExecutionSection = ExecutionSection()
+    repair: RepairSection = RepairSection()
+
+
+# ---------------------------------------------------------------- the problem
+def _problem_base():
+    from pymoo.core.problem import Problem
+    return Problem
+
+
+class ReconstructionProblem(_problem_base()):
+    """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
+
+    def __init__(self, scene: Scene, free: list[FreeVariable], evidence: dict, heading_weight: float,
+                 model: str, model_options: dict):
+        self.scene, self.free, self.evidence = scene, free, evidence  # evidence: name -> (x, y, heading deg)
+        self.heading_weight, self.model, self.model_options = heading_weight, model, model_options
+        self.names = scene.vehicle_names
+        self.targets = [self.names.index(n) for n in evidence]
+        self.executor = None
+        self.archive = {"X": [], "F": [], "G": [], "rest": [], "contact": [], "ok": []}
+        self.n_failed = 0
+        nv = len(self.names)
+        self.outline_dims = np.array([[v.spec.cg_to_front, v.spec.cg_to_rear, v.spec.width / 2]
+                                      for v in scene.vehicles])
+        self.movable = np.zeros(nv, bool)
+        self.columns = {}  # (vehicle index, field) -> column of X
+        for c, f in enumerate(free):
+            if f.vehicle is not None:
+                self.columns[(self.names.index(f.vehicle), f.field)] = c
+        for i in range(nv):
+            self.movable[i] = (i, "x") in self.columns and (i, "y") in self.columns
+        super().__init__(n_var=len(free), n_obj=len(evidence), n_ieq_constr=2,
+                         xl=np.array([f.lower for f in free]), xu=np.array([f.upper for f in free]))
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["executor"] = None  # a live pool or Dask client is not part of a checkpoint
+        return state
+
+    # -- variables <-> scenes (file units in X: m, deg, km/h)
+    def scene_for(self, x) -> Scene:
+        changes: dict[int, dict] = {}
+        impact = {}
+        for f, val in zip(self.free, x):
+            if f.vehicle is None:
+                impact[f.field] = float(val)
+                continue
+            i = self.names.index(f.vehicle)
+            v = {"heading": deg_to_rad(val), "speed": kmh_to_ms(val)}.get(f.field, float(val))
+            changes.setdefault(i, {})[f.field] = v
+        scene = self.scene
+        for i, ch in changes.items():
+            scene = scene.with_vehicle(self.names[i], **ch)
+        if impact:
+            import dataclasses
+            scene = scene.replace(impact=dataclasses.replace(scene.impact, **impact))
+        return scene
+
+    def start_poses(self, X) -> np.ndarray:
+        """(n, nv, 4): x, y, heading [rad], speed [m/s] of every vehicle at the start."""
+        X = np.atleast_2d(X)
+        poses = np.empty((len(X), len(self.names), 4))
+        for i, v in enumerate(self.scene.vehicles):
+            base = (v.x, v.y, v.heading, v.speed)
+            for q, field in enumerate(VEHICLE_FIELDS):
+                c = self.columns.get((i, field))
+                if c is None:
+                    poses[:, i, q] = base[q]
+                else:
+                    poses[:, i, q] = X[:, c] if field in ("x", "y") else (
+                        np.radians(X[:, c]) if field == "heading" else X[:, c] / 3.6)
+        return poses
+
+    def with_positions(self, X, poses) -> np.ndarray:
+        """X with the free x, y columns taken from poses, clipped to the bounds."""
+        X = np.array(X, dtype=float, copy=True)
+        for (i, field), c in self.columns.items():
+            if field in ("x", "y"):
+                X[:, c] = poses[:, i, 0 if field == "x" else 1]
+        return np.clip(X, self.xl, self.xu)
+
+    def start_overlap(self, X) -> np.ndarray:
+        from crashlab.optimizers.repair import _depth
+        poses = self.start_poses(X)
+        nv = len(self.names)
+        out = np.full(len(poses), -1.0)
+        for k in range(len(poses)):
+            for i in range(nv):
+                for j in range(i + 1, nv):
+                    out[k] = max(out[k], _depth(poses[k], self.outline_dims, i, j)[0])
+        return out
+
+    # -- evaluation
+    def objectives(self, rest: np.ndarray) -> np.ndarray:
+        """rest (n, nv, 3) SI -> F (n, n_obj) [m]."""
+        F = np.empty((len(rest), len(self.evidence)))
+        for col, (name, (ex, ey, eh)) in enumerate(self.evidence.items()):
+            i = self.names.index(name)
+            F[:, col] = np.hypot(rest[:, i, 0] - ex, rest[:, i, 1] - ey)
+            if self.heading_weight:
+                F[:, col] += self.heading_weight * np.abs(wrap_deg(np.degrees(rest[:, i, 2]) - eh))
+        return F
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        from .execution import Executor
+        scenes = [self.scene_for(x) for x in X]
+        executor = self.executor or Executor()
+        ok, rest, contact, n_imp = executor.evaluate(self.model, self.model_options, scenes)
+        F = self.objectives(rest)
+        F[~ok] = FAILED_OBJECTIVE
+        G = np.column_stack([self.start_overlap(X), np.where(n_imp > 0, 0.0, 1.0)])
+        G[~ok] = 1.0
+        self.n_failed += int((~ok).sum())
+        for key, val in (("X", X), ("F", F), ("G", G), ("rest", rest), ("contact", contact), ("ok", ok)):
+            self.archive[key].append(np.asarray(val))
+        out["F"], out["G"] = F, G
+
+    def archive_arrays(self) -> dict:
+        return {k: np.concatenate(v) if v else np.empty(0) for k, v in self.archive.items()}
+
+
+# ---------------------------------------------------------------- the study
+class ReconstructionResult:
+    def __init__(self, pareto, evaluations, failed, feasible_fraction, wall_time_s, problem, algorithm_info):
+        self.pareto, self.evaluations, self.failed = pareto, evaluations, failed
+        self.feasible_fraction, self.wall_time_s = feasible_fraction, wall_time_s
+        self.problem, self.algorithm_info = problem, algorithm_info
+
+    def to_json_dict(self) -> dict:
+        p = self.problem
+        items = []
+        for _, row in self.pareto.iterrows():
+            items.append({"start": {f.label: float(row[f.label]) for f in p.free},
+                          "objectives": {f"f_{n}": float(row[f"f_{n}"]) for n in p.evidence},
+                          "rest": {n: {k: float(row[f"rest_{n}_{k}"]) for k in ("x", "y", "heading")}
+                                   for n in p.names}})
+        return {"pareto": items, "evaluations": self.evaluations, "failed": self.failed,
+                "feasible_fraction": self.feasible_fraction, "wall_time_s": round(self.wall_time_s, 3),
+                **self.algorithm_info}
+
+
+class Study:
+    def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict):
+        self.path, self.spec, self.scene, self.evidence = path, spec, scene, evidence
+
+    def make_problem(self) -> ReconstructionProblem:
+        return ReconstructionProblem(self.scene, self.spec.free, self.evidence, self.spec.objective.heading_weight,
+                                     self.spec.model, self.spec.model_options)
+
+    def make_algorithm(self, optimizer: str | None = None):
+        from .registry import get_optimizer
+        o = self.spec.optimizer
+        name = optimizer or o.name
+        opts = dict(o.options)
+        if self.spec.repair.enabled:
+            from crashlab.optimizers.repair import CollisionRepair
+            opts["repair"] = CollisionRepair(max_shift=self.spec.repair.max_shift)
+        try:
+            return name, get_optimizer(name, pop_size=o.pop_size, **opts)
+        except UnknownPluginError as err:
+            raise InputError(self.path, "optimizer.name", str(err)) from None
+        except TypeError as err:
+            raise InputError(self.path, "optimizer.options", str(err)) from None
+
+    def run(self, optimizer: str | None = None, workers: int | None = None, scheduler: str | None = None,
+            out_dir: str | Path | None = None, resume: bool = False, progress: bool = False):
+        from .execution import Executor
+        t0 = time.perf_counter()
+        ex = self.spec.execution
+        backend = ex.backend
+        if scheduler or ex.scheduler:
+            backend = "dask"
+        elif workers and backend == "serial":
+            backend = "dask"
+        out_dir = Path(out_dir) if out_dir else None
+        ckpt = out_dir / "checkpoint.pkl" if out_dir else None
+        if resume:
+            if ckpt is None or not ckpt.exists():
+                raise InputError(ckpt or self.path, "--resume", "no checkpoint to resume from (give --out DIR)")
+            with open(ckpt, "rb") as fh:
+                algorithm, name = pickle.load(fh)
+            problem = algorithm.problem
+        else:
+            name, algorithm = self.make_algorithm(optimizer)
+            problem = self.make_problem()
+            algorithm.setup(problem, termination=("n_gen", self.spec.optimizer.generations),
+                            seed=self.spec.optimizer.seed, verbose=False)
+        if out_dir:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        bar = _progress(self.spec.optimizer.generations, progress)
+        if bar is not None and algorithm.n_iter:
+            bar.update(algorithm.n_iter)
+        with Executor(backend, workers or ex.workers, scheduler or ex.scheduler) as executor:
+            problem.executor = executor
+            while algorithm.has_next():
+                algorithm.next()
+                if ckpt is not None:
+                    _atomic_pickle(ckpt, (algorithm, name))
+                if bar is not None:
+                    bar.set_postfix_str(_status(problem, self.spec.objective.hv_reference))
+                    bar.update(1)
+            problem.executor = None
+        if bar is not None:
+            bar.close()
+        info = {"optimizer": name, "generations": int(algorithm.n_iter or 0) - 1 if algorithm.n_iter else 0,
+                "pop_size": self.spec.optimizer.pop_size}
+        if getattr(algorithm, "sigma_share", None) is not None:
+            info["sigma_share"] = float(algorithm.sigma_share)
+        repair = getattr(algorithm, "repair", None)
+        if repair is not None and hasattr(repair, "repaired"):
+            info["repaired"] = int(repair.repaired)
+        arch = problem.archive_arrays()
+        feasible = np.all(arch["G"] <= 0, axis=1) & arch["ok"]
+        pareto = pareto_table(problem, arch)
+        result = ReconstructionResult(pareto, int(len(arch["X"])), int(problem.n_failed),
+                                      float(feasible.mean()) if len(feasible) else 0.0,
+                                      time.perf_counter() - t0, problem, info)
+        if out_dir:
+            write_outputs(self, result, arch, out_dir)
+        return result
+
+
+def pareto_table(problem: ReconstructionProblem, arch: dict):
+    """Non-dominated feasible solutions among every evaluated candidate, one row each: free variables,
+    objectives f_<vehicle>, rest poses and the state at first contact (file units)."""
+    import pandas as pd
+    from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
+    feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
+    if len(feasible) == 0:
+        return pd.DataFrame()
+    F = arch["F"][feasible]
+    _, first = np.unique(np.round(F, 9), axis=0, return_index=True)  # one row per objective vector
+    idx = feasible[np.sort(first)]
+    front = NonDominatedSorting().do(arch["F"][idx], only_non_dominated_front=True)
+    idx = idx[front]
+    idx = idx[np.argsort(arch["F"][idx].sum(axis=1))]
+    rows = []
+    for k in idx:
+        row = {f.label: arch["X"][k, c] for c, f in enumerate(problem.free)}
+        row.update({f"f_{n}": arch["F"][k, c] for c, n in enumerate(problem.evidence)})
+        for i, n in enumerate(problem.names):
+            r, c = arch["rest"][k, i], arch["contact"][k, i]
+            row.update({f"rest_{n}_x": r[0], f"rest_{n}_y": r[1], f"rest_{n}_heading": rad_to_deg(r[2])})
+            row.update({f"contact_{n}_x": c[0], f"contact_{n}_y": c[1], f"contact_{n}_heading": rad_to_deg(c[2]),
+                        f"contact_{n}_speed": ms_to_kmh(c[3])})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _status(problem, hv_ref):
+    from pymoo.indicators.hv import HV
+    F, G = problem.archive["F"][-1], problem.archive["G"][-1]
+    feas = np.all(G <= 0, axis=1)
+    allF = np.concatenate(problem.archive["F"])
+    allfeas = np.all(np.concatenate(problem.archive["G"]) <= 0, axis=1)
+    evals = len(allF)
+    if allfeas.any():
+        best = allF[allfeas].min(axis=0)
+        hv = HV(ref_point=np.full(allF.shape[1], hv_ref))(allF[allfeas])
+        best_s = " ".join(f"{b:.2f}" for b in best)
+    else:
+        hv, best_s = 0.0, "-"
+    return f"evals {evals} feasible {feas.mean():.0%} best [{best_s}] m HV {hv:.2f}"
+
+
+def _progress(total, enabled):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, unit="gen", dynamic_ncols=True)
+
+
+def _atomic_pickle(path: Path, obj):
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    with open(tmp, "wb") as fh:
+        pickle.dump(obj, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def write_outputs(study: Study, result: ReconstructionResult, arch: dict, out_dir: Path):
+    """pareto.csv, objectives.png, top views of chosen solutions, summary.md."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .plotting import top_view
+    from .registry import get_model
+    problem = result.problem
+    result.pareto.to_csv(out_dir / "pareto.csv", index=False)
+    names = list(problem.evidence)
+    if len(names) >= 2:
+        fig, ax = plt.subplots(figsize=(6, 5))
+        feas = np.all(arch["G"] <= 0, axis=1) & arch["ok"]
+        F = arch["F"][feas]
+        ax.scatter(F[:, 0], F[:, 1], s=6, color="0.6", label="dominated / evaluated")
+        if len(result.pareto):
+            ax.scatter(result.pareto[f"f_{names[0]}"], result.pareto[f"f_{names[1]}"], s=24, color="C3",
+                       label="non-dominated")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"f_{names[0]} [m]")
+        ax.set_ylabel(f"f_{names[1]} [m]")
+        ax.legend()
+        ax.grid(alpha=0.3, which="both")
+        fig.tight_layout()
+        fig.savefig(out_dir / "objectives.png", dpi=120)
+        plt.close(fig)
+    model = get_model(problem.model, **problem.model_options)
+    chosen = []
+    if len(result.pareto):
+        cols = [f.label for f in problem.free]
+        for k in sorted({0, *[int(result.pareto[f"f_{n}"].idxmin()) for n in names]}):
+            chosen.append((k, result.pareto.loc[k, cols].to_numpy(dtype=float)))
+    for k, x in chosen[:3]:
+        scene = problem.scene_for(x)
+        top_view(scene, model.simulate(scene), out_dir / f"solution_{k}.png",
+                 title=f"Pareto solution {k}", measured=problem.evidence)
+    lines = [f"# Reconstruction: {study.spec.name or study.path.stem}", "",
+             f"- study: `{study.path}`; model `{problem.model}`; optimizer `{result.algorithm_info['optimizer']}`",
+             f"- evaluations {result.evaluations}, failed {result.failed}, feasible fraction "
+             f"{result.feasible_fraction:.1%}, wall time {result.wall_time_s:.1f} s"]
+    for key in ("sigma_share", "repaired"):
+        if key in result.algorithm_info:
+            lines.append(f"- {key}: {result.algorithm_info[key]}")
+    lines += ["", "Evidence (measured rest poses): " + "; ".join(
+        f"{n} ({x:.2f}, {y:.2f}, {h:.1f} deg)" for n, (x, y, h) in problem.evidence.items()), "",
+        f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
+    if len(result.pareto):
+        show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names]].head(15)
+        lines.append(show.to_markdown(index=False, floatfmt=".3f") if _has_tabulate() else show.to_string())
+    (out_dir / "summary.md").write_text("\n".join(lines) + "\n")
+
+
+def _has_tabulate():
+    try:
+        import tabulate  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+# ---------------------------------------------------------------- loading and CLI
+def load_study(path) -> Study:
+    path = Path(path)
+    data = read_toml(path, "study")
+    try:
+        spec = StudyFile.model_validate(data)
+    except ValidationError as err:
+        raise pydantic_error(path, err) from None
+    if spec.model not in available_models():
+        import difflib
+        close = difflib.get_close_matches(spec.model, available_models(), n=1)
+        raise InputError(path, "model", f"unknown model {spec.model!r}" + (f"; did you mean {close[0]!r}?" if close else ""))
+    if spec.optimizer.name not in available_optimizers():
+        import difflib
+        close = difflib.get_close_matches(spec.optimizer.name, available_optimizers(), n=1)
+        raise InputError(path, "optimizer.name", f"unknown optimizer {spec.optimizer.name!r}"
+                         + (f"; did you mean {close[0]!r}?" if close else ""))
+    scene_path = path.parent / spec.scene
+    if not scene_path.exists():
+        raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
+    scene = load_scene(scene_path)
+    names = scene.vehicle_names
+    for k, f in enumerate(spec.free):
+        if f.vehicle is not None and f.vehicle not in names:
+            raise InputError(path, f"free.{k}.vehicle", f"no vehicle {f.vehicle!r} in the scene ({', '.join(names)})")
+    if spec.evidence.twin:
+        from .registry import get_model
+        out = get_model(spec.model, **spec.model_options).simulate(scene)
+        evidence = {n: (out.rest_si[i, 0], out.rest_si[i, 1], math.degrees(out.rest_si[i, 2]))
+                    for i, n in enumerate(names)}
+    else:
+        for n in spec.evidence.rest:
+            if n not in names:
+                raise InputError(path, f"evidence.rest.{n}", f"no vehicle {n!r} in the scene")
+        evidence = {n: (p.x, p.y, p.heading) for n, p in spec.evidence.rest.items()}
+    if not evidence:
+        raise InputError(path, "evidence.rest", "no measured rest pose given")
+    return Study(path, spec, scene, evidence)
+
+
+def run_cli(args) -> int:
+    import json
+    study = load_study(args.study)
+    if args.optimizer and args.optimizer not in available_optimizers():
+        from .registry import UnknownPluginError as U
+        raise InputError(args.study, "--optimizer", str(U("optimizer", args.optimizer, available_optimizers())))
+    res = study.run(optimizer=args.optimizer, workers=args.workers, scheduler=args.scheduler,
+                    out_dir=args.out, resume=args.resume, progress=not (args.json or args.no_progress))
+    if args.json:
+        print(json.dumps(res.to_json_dict(), indent=2))
+        return 0
+    import pandas as pd
+    with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 200, "display.max_columns", 40):
+        cols = [f.label for f in study.spec.free] + [f"f_{n}" for n in study.evidence]
+        print(res.pareto[cols].to_string(index=False) if len(res.pareto) else "no feasible solution")
+    print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
+          f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
+    return 0

@@ -1,0 +1,181 @@
+"""Equations of motion of one vehicle (FORMULAS.md §7.1-7.2): Newton-Euler with Euler parameters,
+constraints with Lagrange multipliers and Baumgarte stabilisation, solved by the Schur complement.
+
+State y of one vehicle (nb bodies, nw wheels):
+  y[7b:7b+3] r_b (global), y[7b+3:7b+7] p_b (Euler parameters)                      b < nb
+  y[NQ+6b:NQ+6b+3] r_dot_b (global), y[NQ+6b+3:NQ+6b+6] w'_b (body-fixed)           NQ = 7 nb
+  y[NV+2k], y[NV+2k+1] transient slips s, a of wheel k (tyre.py)                    NV = 13 nb
+  y[NV+2nw] work of the non-conservative forces (dampers, tyre friction, brakes)   (energy balance)
+Per body M = diag(m I3, J') (principal axes), g = [f ; n' - w' x J'w'].
+  [M  D^T] [v_dot]   [g                         ]
+  [D   0 ] [lam  ] = [gamma - 2 alpha Phi_dot - beta^2 Phi]
+solved as (D M^-1 D^T) lam = D M^-1 g - rhs (Cholesky; the Schur matrix is built from the two 6-blocks
+of each row, exploiting that a row touches only two bodies), then v_dot = M^-1 (g - D^T lam).
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .euler_parameters import cross, mv, p_dot, rotation_into
+from .joints import J_TYPE, REVOLUTE_LOCKED, SPHERICAL, TRANSLATIONAL, joint_rows
+from .spring_damper import S_LB, spring_damper, spring_energy
+from .tyre import T_KZ, deflection, tyre
+
+B_MASS, B_IXX, B_IYY, B_IZZ = 0, 1, 2, 3
+# configuration vector (per run)
+(C_G, C_MU, C_ALPHA, C_BETA, C_DAMPING, C_FRICTION, C_RTOL, C_ATOL, C_HMAX, C_H0, C_TEND, C_STOP_AT_REST,
+ C_V_REST, C_W_REST, C_T_SLEEP, C_REC_DT, C_ONSET_TOL) = range(17)
+N_CFG = 17
+# aux outputs of one evaluation (per vehicle)
+AUX_FZ, AUX_DRIFT_POS, AUX_DRIFT_ANG = 0, 4, 5
+N_AUX = 6
+MAX_ROWS = 48
+
+
+def sizes(nb, nw):
+    nq = 7 * nb
+    nv = 13 * nb
+    return nq, nv, nv + 2 * nw + 1
+
+
+@njit(cache=True)
+def n_rows(JNT):
+    n = 0
+    for k in range(JNT.shape[0]):
+        t = int(JNT[k, J_TYPE])
+        n += 3 if t == SPHERICAL else (6 if t == REVOLUTE_LOCKED else (5 if t == TRANSLATIONAL or t == 1 else 4))
+    return n
+
+
+@njit(cache=True)
+def unpack(y, nb, A, R, V, W):
+    nq = 7 * nb
+    for b in range(nb):
+        o = 7 * b
+        rotation_into(y[o + 3], y[o + 4], y[o + 5], y[o + 6], A, b)
+        for k in range(3):
+            R[b, k] = y[o + k]
+            V[b, k] = y[nq + 6 * b + k]
+            W[b, k] = y[nq + 6 * b + 3 + k]
+
+
+@njit(cache=True)
+def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, aux):
+    nb, nw = BODY.shape[0], TYR.shape[0]
+    nq, nvq = 7 * nb, 13 * nb
+    unpack(y, nb, A, R, V, W)
+    g = cfg[C_G]
+    for b in range(nb):
+        o = 7 * b
+        pd = p_dot(y[o + 3], y[o + 4], y[o + 5], y[o + 6], (W[b, 0], W[b, 1], W[b, 2]))
+        for k in range(3):
+            dy[o + k] = V[b, k]
+        for k in range(4):
+            dy[o + 3 + k] = pd[k]
+        w = (W[b, 0], W[b, 1], W[b, 2])
+        h = cross(w, (BODY[b, B_IXX] * w[0], BODY[b, B_IYY] * w[1], BODY[b, B_IZZ] * w[2]))
+        Q[b, 0], Q[b, 1], Q[b, 2] = 0.0, 0.0, -BODY[b, B_MASS] * g
+        Q[b, 3], Q[b, 4], Q[b, 5] = -h[0], -h[1], -h[2]
+    pnc = 0.0
+    for s in range(SPR.shape[0]):
+        diss, _ = spring_damper(SPR[s], A, R, V, W, Q, cfg[C_DAMPING])
+        pnc -= diss
+    dsl = np.empty(2)
+    for k in range(nw):
+        fz, pw = tyre(TYR[k], A, R, V, W, Q, y[nvq + 2 * k], y[nvq + 2 * k + 1], cfg[C_MU], cfg[C_FRICTION],
+                      cfg[C_DAMPING], dsl)
+        dy[nvq + 2 * k], dy[nvq + 2 * k + 1] = dsl[0], dsl[1]
+        aux[AUX_FZ + k] = fz
+        pnc += pw
+    dy[nvq + 2 * nw] = pnc
+    # constraints
+    m = 0
+    for k in range(JNT.shape[0]):
+        m = joint_rows(JNT[k], A, R, V, W, D, phi, gam, rowb, ispos, m)
+    dpos, dang = 0.0, 0.0
+    a2, b2 = 2.0 * cfg[C_ALPHA], cfg[C_BETA] * cfg[C_BETA]
+    for r in range(m):
+        i, j = rowb[r, 0], rowb[r, 1]
+        phid = 0.0
+        mq = 0.0
+        for k in range(3):
+            phid += D[r, k] * V[i, k] + D[r, 3 + k] * W[i, k] + D[r, 6 + k] * V[j, k] + D[r, 9 + k] * W[j, k]
+        # D M^-1 g
+        mi, mj = BODY[i, B_MASS], BODY[j, B_MASS]
+        for k in range(3):
+            mq += D[r, k] * Q[i, k] / mi + D[r, 6 + k] * Q[j, k] / mj
+            mq += D[r, 3 + k] * Q[i, 3 + k] / BODY[i, 1 + k] + D[r, 9 + k] * Q[j, 3 + k] / BODY[j, 1 + k]
+        lam[r] = mq - (gam[r] - a2 * phid - b2 * phi[r])
+        if ispos[r]:
+            dpos = max(dpos, abs(phi[r]))
+        else:
+            dang = max(dang, abs(phi[r]))
+    aux[AUX_DRIFT_POS], aux[AUX_DRIFT_ANG] = dpos, dang
+    # Schur complement S = D M^-1 D^T (only pairs of rows that share a body)
+    for r in range(m):
+        for c in range(r + 1):
+            acc = 0.0
+            for sr in range(2):
+                br = rowb[r, sr]
+                for sc in range(2):
+                    if rowb[c, sc] == br:
+                        mb = BODY[br, B_MASS]
+                        for k in range(3):
+                            acc += D[r, 6 * sr + k] * D[c, 6 * sc + k] / mb
+                            acc += D[r, 6 * sr + 3 + k] * D[c, 6 * sc + 3 + k] / BODY[br, 1 + k]
+            S[r, c] = acc
+    # Cholesky S = L L^T in place (lower triangle), then solve
+    for j in range(m):
+        d = S[j, j]
+        for k in range(j):
+            d -= S[j, k] * S[j, k]
+        d = math.sqrt(max(d, 1e-300))
+        S[j, j] = d
+        for i in range(j + 1, m):
+            acc = S[i, j]
+            for k in range(j):
+                acc -= S[i, k] * S[j, k]
+            S[i, j] = acc / d
+    for i in range(m):
+        acc = lam[i]
+        for k in range(i):
+            acc -= S[i, k] * lam[k]
+        lam[i] = acc / S[i, i]
+    for i in range(m - 1, -1, -1):
+        acc = lam[i]
+        for k in range(i + 1, m):
+            acc -= S[k, i] * lam[k]
+        lam[i] = acc / S[i, i]
+    # reactions and accelerations
+    for r in range(m):
+        i, j = rowb[r, 0], rowb[r, 1]
+        for k in range(6):
+            Q[i, k] -= D[r, k] * lam[r]
+            Q[j, k] -= D[r, 6 + k] * lam[r]
+    for b in range(nb):
+        o = nq + 6 * b
+        for k in range(3):
+            dy[o + k] = Q[b, k] / BODY[b, B_MASS]
+            dy[o + 3 + k] = Q[b, 3 + k] / BODY[b, 1 + k]
+
+
+@njit(cache=True)
+def energy(y, BODY, SPR, TYR, g, A, R, V, W):
+    """Mechanical energy: kinetic + gravity + suspension springs (and bump stops) + tyre radial springs."""
+    nb = BODY.shape[0]
+    unpack(y, nb, A, R, V, W)
+    e = 0.0
+    for b in range(nb):
+        m = BODY[b, B_MASS]
+        e += 0.5 * m * (V[b, 0] ** 2 + V[b, 1] ** 2 + V[b, 2] ** 2) + m * g * R[b, 2]
+        e += 0.5 * (BODY[b, B_IXX] * W[b, 0] ** 2 + BODY[b, B_IYY] * W[b, 1] ** 2 + BODY[b, B_IZZ] * W[b, 2] ** 2)
+    Qd = np.zeros((nb, 6))
+    for s in range(SPR.shape[0]):
+        _, l = spring_damper(SPR[s], A, R, V, W, Qd, 0.0)
+        e += spring_energy(SPR[s], l)
+    for k in range(TYR.shape[0]):
+        d, _, _ = deflection(TYR[k], A, R)
+        if d > 0.0:
+            e += 0.5 * TYR[k, T_KZ] * d * d
+    return e

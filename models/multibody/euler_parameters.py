@@ -1,0 +1,96 @@
+"""Euler parameters (Nikravesh 1988; FORMULAS.md §1.4), compiled helpers on 3-tuples.
+
+p = [e0, e1, e2, e3], A(p) the rotation matrix (body -> global), p_dot = 1/2 L(p)^T w' with w' the
+body-fixed angular velocity. Vectors are tuples so that numba keeps them in registers (no allocation).
+"""
+import math
+
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(cache=True, inline="always")
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True, inline="always")
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(cache=True, inline="always")
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(cache=True, inline="always")
+def scale(s, a):
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@njit(cache=True, inline="always")
+def mv(A, b, x):
+    """A[b] @ x (body -> global)."""
+    return (A[b, 0, 0] * x[0] + A[b, 0, 1] * x[1] + A[b, 0, 2] * x[2],
+            A[b, 1, 0] * x[0] + A[b, 1, 1] * x[1] + A[b, 1, 2] * x[2],
+            A[b, 2, 0] * x[0] + A[b, 2, 1] * x[1] + A[b, 2, 2] * x[2])
+
+
+@njit(cache=True, inline="always")
+def mtv(A, b, x):
+    """A[b]^T @ x (global -> body)."""
+    return (A[b, 0, 0] * x[0] + A[b, 1, 0] * x[1] + A[b, 2, 0] * x[2],
+            A[b, 0, 1] * x[0] + A[b, 1, 1] * x[1] + A[b, 2, 1] * x[2],
+            A[b, 0, 2] * x[0] + A[b, 1, 2] * x[1] + A[b, 2, 2] * x[2])
+
+
+@njit(cache=True)
+def rotation_into(e0, e1, e2, e3, A, b):
+    """A(p) of §1.4 written into A[b] (p need not be exactly unit: it is normalised here)."""
+    n = 1.0 / (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+    A[b, 0, 0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n
+    A[b, 0, 1] = 2.0 * (e1 * e2 - e0 * e3) * n
+    A[b, 0, 2] = 2.0 * (e1 * e3 + e0 * e2) * n
+    A[b, 1, 0] = 2.0 * (e1 * e2 + e0 * e3) * n
+    A[b, 1, 1] = (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * n
+    A[b, 1, 2] = 2.0 * (e2 * e3 - e0 * e1) * n
+    A[b, 2, 0] = 2.0 * (e1 * e3 - e0 * e2) * n
+    A[b, 2, 1] = 2.0 * (e2 * e3 + e0 * e1) * n
+    A[b, 2, 2] = (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * n
+
+
+@njit(cache=True, inline="always")
+def p_dot(e0, e1, e2, e3, w):
+    """p_dot = 1/2 L^T w'  (w' body-fixed angular velocity)."""
+    return (-0.5 * (e1 * w[0] + e2 * w[1] + e3 * w[2]),
+            0.5 * (e0 * w[0] + e2 * w[2] - e3 * w[1]),
+            0.5 * (e0 * w[1] + e3 * w[0] - e1 * w[2]),
+            0.5 * (e0 * w[2] + e1 * w[1] - e2 * w[0]))
+
+
+def from_matrix(A):
+    """Euler parameters of a rotation matrix, Shepperd's branch (largest of e0^2..e3^2; §1.4 pitfall)."""
+    tr = A[0, 0] + A[1, 1] + A[2, 2]
+    cand = [tr, A[0, 0], A[1, 1], A[2, 2]]
+    k = max(range(4), key=lambda i: cand[i])
+    if k == 0:
+        e0 = 0.5 * math.sqrt(1.0 + tr)
+        e = [(A[2, 1] - A[1, 2]) / (4 * e0), (A[0, 2] - A[2, 0]) / (4 * e0), (A[1, 0] - A[0, 1]) / (4 * e0)]
+        p = [e0] + e
+    elif k == 1:
+        e1 = 0.5 * math.sqrt(1.0 + 2 * A[0, 0] - tr)
+        p = [(A[2, 1] - A[1, 2]) / (4 * e1), e1, (A[1, 0] + A[0, 1]) / (4 * e1), (A[0, 2] + A[2, 0]) / (4 * e1)]
+    elif k == 2:
+        e2 = 0.5 * math.sqrt(1.0 + 2 * A[1, 1] - tr)
+        p = [(A[0, 2] - A[2, 0]) / (4 * e2), (A[1, 0] + A[0, 1]) / (4 * e2), e2, (A[2, 1] + A[1, 2]) / (4 * e2)]
+    else:
+        e3 = 0.5 * math.sqrt(1.0 + 2 * A[2, 2] - tr)
+        p = [(A[1, 0] - A[0, 1]) / (4 * e3), (A[0, 2] + A[2, 0]) / (4 * e3), (A[2, 1] + A[1, 2]) / (4 * e3), e3]
+    if p[0] < 0:
+        p = [-c for c in p]
+    return p

@@ -1,0 +1,122 @@
+"""Kinematic joints as constraint rows (FORMULAS.md §7.3), with velocity Jacobians in the body-fixed
+angular-velocity form: each row k has Phi_k, D_k = [d/d r_dot_i, d/d w'_i, d/d r_dot_j, d/d w'_j] (12
+numbers) and gamma_k = -(D_dot v)_k, so that Phi_ddot = D v_dot - gamma.
+
+Basic rows: n1(a_i, a_j) (two body-fixed unit vectors perpendicular), n2(a_i, d) (a_i perpendicular to
+the joint vector d = r_j + s_Q - r_i - s_P), sph (d = 0, three rows). Joints:
+  SPHERICAL     sph                                                   3 rows
+  REVOLUTE      sph + n1(x_i, z_j) + n1(y_i, z_j)                     5 rows  (z = joint axis)
+  CYLINDRICAL   n1(x_i, z_j) + n1(y_i, z_j) + n2(x_i, d) + n2(y_i, d)  4 rows
+  TRANSLATIONAL CYLINDRICAL + n1(y_i, x_j)  (no rotation about z)     5 rows
+  REVOLUTE_LOCKED  REVOLUTE + n1(y_i, x_j)  (a locked wheel)           6 rows
+Joint table row (J_* indices): type, body i, body j, s'_P (on i), s'_Q (on j), joint frame on i
+(x_i, y_i, z_i as body-fixed unit vectors), on j (x_j, z_j).
+"""
+from numba import njit
+
+from .euler_parameters import add, cross, dot, mtv, mv, scale, sub
+
+SPHERICAL, REVOLUTE, CYLINDRICAL, TRANSLATIONAL, REVOLUTE_LOCKED = 0, 1, 2, 3, 4
+ROWS = {SPHERICAL: 3, REVOLUTE: 5, CYLINDRICAL: 4, TRANSLATIONAL: 5, REVOLUTE_LOCKED: 6}
+(J_TYPE, J_I, J_J) = range(3)
+J_SP, J_SQ, J_XI, J_YI, J_ZI, J_XJ, J_ZJ = 3, 6, 9, 12, 15, 18, 21
+N_J = 24
+
+
+@njit(cache=True, inline="always")
+def _v3(a, k):
+    return (a[k], a[k + 1], a[k + 2])
+
+
+@njit(cache=True, inline="always")
+def _acc0(A, b, w, s):
+    """Acceleration of a body-fixed vector at zero angular acceleration: A (w' x (w' x s'))."""
+    return mv(A, b, cross(w, cross(w, s)))
+
+
+@njit(cache=True)
+def _put(D, row, gi, gj):
+    for k in range(12):
+        D[row, k] = 0.0
+    D[row, 3], D[row, 4], D[row, 5] = gi[0], gi[1], gi[2]
+    D[row, 9], D[row, 10], D[row, 11] = gj[0], gj[1], gj[2]
+
+
+@njit(cache=True)
+def n1_row(A, i, j, wi, wj, ai_, aj_, D, phi, gam, row):
+    """a_i . a_j = 0 for body-fixed a'_i on i and a'_j on j."""
+    ai, aj = mv(A, i, ai_), mv(A, j, aj_)
+    phi[row] = dot(ai, aj)
+    _put(D, row, cross(ai_, mtv(A, i, aj)), cross(aj_, mtv(A, j, ai)))
+    adi, adj = mv(A, i, cross(wi, ai_)), mv(A, j, cross(wj, aj_))
+    gam[row] = -(dot(_acc0(A, i, wi, ai_), aj) + dot(ai, _acc0(A, j, wj, aj_)) + 2.0 * dot(adi, adj))
+
+
+@njit(cache=True)
+def n2_row(A, i, j, ri, rj, vi, vj, wi, wj, ai_, sp_, sq_, D, phi, gam, row):
+    """a_i . d = 0, d = r_j + A_j s'_Q - r_i - A_i s'_P."""
+    ai = mv(A, i, ai_)
+    d = sub(add(rj, mv(A, j, sq_)), add(ri, mv(A, i, sp_)))
+    phi[row] = dot(ai, d)
+    gwi = sub(cross(ai_, mtv(A, i, d)), cross(sp_, ai_))
+    gwj = cross(sq_, mtv(A, j, ai))
+    _put(D, row, gwi, gwj)
+    D[row, 0], D[row, 1], D[row, 2] = -ai[0], -ai[1], -ai[2]
+    D[row, 6], D[row, 7], D[row, 8] = ai[0], ai[1], ai[2]
+    adi = mv(A, i, cross(wi, ai_))
+    dd = sub(add(vj, mv(A, j, cross(wj, sq_))), add(vi, mv(A, i, cross(wi, sp_))))
+    sdd = sub(_acc0(A, j, wj, sq_), _acc0(A, i, wi, sp_))
+    gam[row] = -(dot(_acc0(A, i, wi, ai_), d) + 2.0 * dot(adi, dd) + dot(ai, sdd))
+
+
+@njit(cache=True)
+def sph_rows(A, i, j, ri, rj, wi, wj, sp_, sq_, D, phi, gam, row):
+    """d = 0 (three rows)."""
+    d = sub(add(rj, mv(A, j, sq_)), add(ri, mv(A, i, sp_)))
+    sdd = sub(_acc0(A, j, wj, sq_), _acc0(A, i, wi, sp_))
+    for k in range(3):
+        e = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+        _put(D, row + k, scale(-1.0, cross(sp_, mtv(A, i, e))), cross(sq_, mtv(A, j, e)))
+        D[row + k, k] = -1.0
+        D[row + k, 6 + k] = 1.0
+        phi[row + k] = d[k]
+        gam[row + k] = -sdd[k]
+
+
+@njit(cache=True)
+def joint_rows(J, A, R, V, W, D, phi, gam, rowb, ispos, row):
+    """Rows of one joint (J: its table row) from `row` on; returns the next free row.
+    R, V: (nb, 3) positions and global velocities; W: (nb, 3) body-fixed angular velocities."""
+    t = int(J[J_TYPE])
+    i, j = int(J[J_I]), int(J[J_J])
+    ri, rj = (R[i, 0], R[i, 1], R[i, 2]), (R[j, 0], R[j, 1], R[j, 2])
+    vi, vj = (V[i, 0], V[i, 1], V[i, 2]), (V[j, 0], V[j, 1], V[j, 2])
+    wi, wj = (W[i, 0], W[i, 1], W[i, 2]), (W[j, 0], W[j, 1], W[j, 2])
+    sp, sq = _v3(J, J_SP), _v3(J, J_SQ)
+    xi, yi, zj, xj = _v3(J, J_XI), _v3(J, J_YI), _v3(J, J_ZJ), _v3(J, J_XJ)
+    r0 = row
+    if t == SPHERICAL or t == REVOLUTE or t == REVOLUTE_LOCKED:
+        sph_rows(A, i, j, ri, rj, wi, wj, sp, sq, D, phi, gam, row)
+        for k in range(3):
+            ispos[row + k] = True
+        row += 3
+    if t != SPHERICAL:
+        n1_row(A, i, j, wi, wj, xi, zj, D, phi, gam, row)
+        n1_row(A, i, j, wi, wj, yi, zj, D, phi, gam, row + 1)
+        ispos[row] = False
+        ispos[row + 1] = False
+        row += 2
+    if t == CYLINDRICAL or t == TRANSLATIONAL:
+        n2_row(A, i, j, ri, rj, vi, vj, wi, wj, xi, sp, sq, D, phi, gam, row)
+        n2_row(A, i, j, ri, rj, vi, vj, wi, wj, yi, sp, sq, D, phi, gam, row + 1)
+        ispos[row] = True
+        ispos[row + 1] = True
+        row += 2
+    if t == TRANSLATIONAL or t == REVOLUTE_LOCKED:
+        n1_row(A, i, j, wi, wj, yi, xj, D, phi, gam, row)
+        ispos[row] = False
+        row += 1
+    for k in range(r0, row):
+        rowb[k, 0] = i
+        rowb[k, 1] = j
+    return row

@@ -1,0 +1,240 @@
+"""Model `multibody`: the thesis's 3D multibody vehicle (chapter 2) driving on a flat road.
+
+Vehicle-vehicle contact is issue 5: when two planar outlines first overlap, the run stops exactly at
+contact onset and returns outcome_ok False with a warning (never passes through silently).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from crashlab.model import CollisionModel
+from crashlab.outcome import Outcome
+
+from . import integrator as I
+from .equations import (C_ALPHA, C_ATOL, C_BETA, C_DAMPING, C_FRICTION, C_G, C_H0, C_HMAX, C_MU,
+                        C_ONSET_TOL, C_REC_DT, C_RTOL, C_STOP_AT_REST, C_T_SLEEP, C_TEND, C_V_REST, C_W_REST,
+                        N_CFG, energy, sizes)
+from .euler_parameters import from_matrix
+from .tyre import LOCKED, MODES, T_R1, T_R2, deflection
+from .vehicle_build import NB, NW, build, initial_local, joints, steer_angles, tyres_for
+
+G = 9.81
+CONTACT_WARNING = "vehicle contact not implemented yet (issue 5)"
+
+
+def _rot_z(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _matrix(p):
+    e0, e1, e2, e3 = p
+    return np.array([[e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3, 2 * (e1 * e2 - e0 * e3), 2 * (e1 * e3 + e0 * e2)],
+                     [2 * (e1 * e2 + e0 * e3), e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3, 2 * (e2 * e3 - e0 * e1)],
+                     [2 * (e1 * e3 - e0 * e2), 2 * (e2 * e3 + e0 * e1), e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3]])
+
+
+class MultibodyModel(CollisionModel):
+    """3D multibody vehicles (9 bodies each), UA tyres, Lagrange multipliers with Baumgarte.
+
+    Options (documented defaults, the same for every scene):
+      rtol = 1e-6, atol = 1e-7   Dormand-Prince 5(4) error tolerances (positions on an absolute 1 m scale)
+      baumgarte = 10.0           alpha = beta [1/s] (critically damped constraint error, README)
+      h_max = 0.05 s             largest step
+      record_dt = 0.01 s         trajectory sampling (at accepted steps, at least this far apart)
+      v_rest = 0.01 m/s, w_rest = 0.01 rad/s, t_sleep = 0.2 s   a vehicle still this long goes to sleep
+      onset_tol = 0.001 m        contact onset located until the outlines overlap by at most this
+      settle_time = 3.0 s        static settling of each vehicle before the run (cached per vehicle)
+      damping = True             test switch: False removes every damper (suspension, tyre radial/tread)
+      friction = True            test switch: False removes the tyre's in-plane forces and moments
+    """
+
+    name = "multibody"
+
+    def __init__(self, rtol=1e-6, atol=1e-7, baumgarte=10.0, h_max=0.05, record_dt=0.01, v_rest=0.01,
+                 w_rest=0.01, t_sleep=0.2, onset_tol=1e-3, settle_time=3.0, damping=True, friction=True):
+        if not (0 < rtol < 1 and 0 < atol and baumgarte >= 0 and h_max > 0 and record_dt >= 0 and v_rest > 0
+                and w_rest > 0 and t_sleep >= 0 and onset_tol > 0 and settle_time >= 0):
+            raise ValueError("multibody model: invalid option value")
+        self.opts = dict(rtol=float(rtol), atol=float(atol), baumgarte=float(baumgarte), h_max=float(h_max),
+                         record_dt=float(record_dt), v_rest=float(v_rest), w_rest=float(w_rest),
+                         t_sleep=float(t_sleep), onset_tol=float(onset_tol), settle_time=float(settle_time),
+                         damping=bool(damping), friction=bool(friction))
+        self._settled = {}
+
+    def get_options(self):
+        return dict(self.opts)
+
+    # ------------------------------------------------------------------ set-up
+    def _cfg(self, mu, t_end, stop_at_rest):
+        o = self.opts
+        cfg = np.zeros(N_CFG)
+        cfg[C_G], cfg[C_MU], cfg[C_ALPHA], cfg[C_BETA] = G, mu, o["baumgarte"], o["baumgarte"]
+        cfg[C_DAMPING], cfg[C_FRICTION] = float(o["damping"]), float(o["friction"])
+        cfg[C_RTOL], cfg[C_ATOL], cfg[C_HMAX], cfg[C_H0] = o["rtol"], o["atol"], o["h_max"], 1e-3
+        cfg[C_TEND], cfg[C_STOP_AT_REST] = t_end, float(stop_at_rest)
+        cfg[C_V_REST], cfg[C_W_REST], cfg[C_T_SLEEP] = o["v_rest"], o["w_rest"], o["t_sleep"]
+        cfg[C_REC_DT], cfg[C_ONSET_TOL] = o["record_dt"], o["onset_tol"]
+        return cfg
+
+    def settled(self, veh):
+        """Static equilibrium of a vehicle in its own frame (wheels locked, 0.8 friction, dampers on)."""
+        key = (veh.BODY.tobytes(), veh.SPR.tobytes(), veh.TYR.tobytes())
+        if key not in self._settled:
+            modes = [LOCKED] * NW
+            cfg = self._cfg(0.8, self.opts["settle_time"], False)
+            cfg[C_DAMPING] = 1.0
+            cfg[C_FRICTION] = 1.0
+            Y = initial_local(veh)[None, :].copy()
+            nslip = 2 * NW
+            diag = np.zeros(I.N_DIAG)
+            I.simulate(Y, veh.BODY[None], joints(veh, modes, np.zeros(NW))[None], veh.SPR[None],
+                       tyres_for(veh, modes)[None], np.zeros((1, 3)), np.zeros((0, 5)), cfg, nslip,
+                       np.zeros((0, 1, I.N_REC)), diag, np.zeros(1), np.zeros((1, 4)), np.zeros((1, 4)), False)
+            y = Y[0]
+            nq, nvq, _ = sizes(NB, NW)
+            y[nq:] = 0.0
+            self._settled[key] = y.copy()
+        return self._settled[key].copy()
+
+    def place(self, veh, ys, vs, deltas, modes):
+        """The settled state moved to the scene's start pose and speed (velocity-consistent)."""
+        nq, nvq, ny = sizes(NB, NW)
+        y = ys.copy()
+        m = veh.BODY[:, 0]
+        r = np.array([ys[7 * b:7 * b + 3] for b in range(NB)])
+        cg = (m[:, None] * r).sum(0) / m.sum()
+        Rz = _rot_z(vs.heading)
+        omega = np.array([0.0, 0.0, vs.yaw_rate])
+        vel = vs.speed * np.array([math.cos(vs.heading), math.sin(vs.heading), 0.0])
+        for b in range(NB):
+            rl = r[b] - np.array([cg[0], cg[1], 0.0])
+            rg = Rz @ rl
+            y[7 * b:7 * b + 3] = rg + np.array([vs.x, vs.y, 0.0])
+            A = Rz @ _matrix(ys[7 * b + 3:7 * b + 7])
+            k = (b - 1) % NW
+            if b >= 1:
+                A = A @ _rot_z(deltas[k])
+            y[7 * b + 3:7 * b + 7] = from_matrix(A)
+            rel = rg - np.array([0.0, 0.0, rg[2]]) + np.array([0.0, 0.0, cg[2]]) * 0.0
+            vb = vel + np.cross(omega, np.array([rel[0], rel[1], 0.0]))
+            w = A.T @ omega
+            if b >= 5 and modes[k] != LOCKED:
+                xc = A @ np.array([1.0, 0.0, 0.0])
+                Tw = veh.TYR[k]
+                d = max(self._deflection_of(ys, veh, k), 0.0)
+                w = w + np.array([0.0, float(vb @ xc) / (Tw[T_R1] + Tw[T_R2] - d / 3.0), 0.0])
+            y[nq + 6 * b:nq + 6 * b + 3] = vb
+            y[nq + 6 * b + 3:nq + 6 * b + 6] = w
+        y[nvq:] = 0.0
+        return y
+
+    @staticmethod
+    def _deflection_of(ys, veh, k):
+        A = np.zeros((NB, 3, 3))
+        R = np.zeros((NB, 3))
+        for b in range(NB):
+            A[b] = _matrix(ys[7 * b + 3:7 * b + 7])
+            R[b] = ys[7 * b:7 * b + 3]
+        return deflection(veh.TYR[k], A, R)[0]
+
+    # ------------------------------------------------------------------ running
+    def simulate(self, scene) -> Outcome:
+        t0 = time.perf_counter()
+        return self.run(scene, self.prepare(scene), t0)
+
+    def prepare(self, scene) -> dict:
+        """The packed arrays of a scene (start state Y, parameters, cfg); `run` integrates them."""
+        names = scene.vehicle_names
+        nv = len(names)
+        vehs, Ys, Js, Ts, Os = [], [], [], [], []
+        for vs in scene.vehicles:
+            veh = build(vs.spec)
+            modes = [MODES["rolling"] if vs.wheels == "locked_after_impact" else MODES[vs.wheels]] * NW
+            deltas = steer_angles(veh, vs.steer)
+            vehs.append(veh)
+            Ys.append(self.place(veh, self.settled(veh), vs, deltas, modes))
+            Js.append(joints(veh, modes, deltas))
+            Ts.append(tyres_for(veh, modes))
+            Os.append(veh.outline)
+        Y = np.array(Ys)
+        BODY = np.array([v.BODY for v in vehs])
+        SPR = np.array([v.SPR for v in vehs])
+        JNT, TYR, OUTL = np.array(Js), np.array(Ts), np.array(Os, dtype=float)
+        BAR = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
+        cfg = self._cfg(scene.road.friction, scene.duration, scene.stop_at_rest)
+        return {"Y": Y, "BODY": BODY, "SPR": SPR, "JNT": JNT, "TYR": TYR, "OUTL": OUTL, "BAR": BAR, "cfg": cfg,
+                "vehicles": vehs}
+
+    def run(self, scene, prep, t0=None) -> Outcome:
+        t0 = time.perf_counter() if t0 is None else t0
+        names = scene.vehicle_names
+        nv = len(names)
+        Y, BODY, SPR, JNT, TYR = prep["Y"].copy(), prep["BODY"], prep["SPR"], prep["JNT"], prep["TYR"]
+        OUTL, BAR, cfg, vehs = prep["OUTL"], prep["BAR"], prep["cfg"], prep["vehicles"]
+        nq, nvq, ny = sizes(NB, NW)
+        e_start = [self._energy(Y[v], BODY[v], SPR[v], TYR[v]) for v in range(nv)]
+        rec = self.opts["record_dt"]
+        n_rec = int(scene.duration / rec) + 3 if rec > 0 else 2
+        traj = np.zeros((n_rec, nv, I.N_REC))
+        diag = np.zeros(I.N_DIAG)
+        head = np.array([vs.heading for vs in scene.vehicles])
+        fz0, fz1 = np.zeros((nv, 4)), np.zeros((nv, 4))
+        I.simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, 2 * NW, traj, diag, head, fz0, fz1, True)
+        nr = int(diag[I.D_NREC])
+        status = int(diag[I.D_STATUS])
+        warnings, ok = [], True
+        if status == I.STATUS_CONTACT:
+            ok = False
+            j = int(diag[I.D_PAIR_J])
+            other = names[j] if j < nv else f"barrier {j - nv}"
+            warnings.append(f"{CONTACT_WARNING}: {names[int(diag[I.D_PAIR_I])]} and {other} touch at "
+                            f"t = {diag[I.D_CONTACT_T]:.4f} s")
+        elif status == I.STATUS_NAN:
+            ok, warnings = False, ["the state became NaN"]
+        elif status == I.STATUS_STEP:
+            ok, warnings = False, ["step size underflow"]
+        rest = np.zeros((nv, 3))
+        final = np.zeros((nv, 3))
+        contact = np.full((nv, 4), np.nan)
+        trajectories = {}
+        e_end, w_nc = [], []
+        for v, n in enumerate(names):
+            p = I.pose(Y[v], BODY[v], NB)
+            rest[v] = [p[0], p[1], head[v]]
+            final[v] = [p[6], p[7], p[8]]
+            if status == I.STATUS_CONTACT:
+                contact[v] = [p[0], p[1], head[v], math.hypot(p[6], p[7])]
+            tr = traj[:nr, v]
+            trajectories[n] = {"t": tr[:, I.R_T].copy(), "x": tr[:, I.R_X].copy(), "y": tr[:, I.R_Y].copy(),
+                               "heading": tr[:, I.R_HEAD].copy(), "vx": tr[:, I.R_VX].copy(),
+                               "vy": tr[:, I.R_VY].copy(), "yaw_rate": tr[:, I.R_YAW_RATE].copy(),
+                               "z": tr[:, I.R_Z].copy(), "roll": tr[:, I.R_ROLL].copy(),
+                               "pitch": tr[:, I.R_PITCH].copy(), "wheel_loads": tr[:, I.R_FZ:I.R_FZ + 4].copy()}
+            e_end.append(self._energy(Y[v], BODY[v], SPR[v], TYR[v]))
+            w_nc.append(float(Y[v, ny - 1]))
+        balance = [(e_end[v] - e_start[v] - w_nc[v]) / max(abs(e_start[v]), 1.0) for v in range(nv)]
+        diagnostics = {
+            "steps": int(diag[I.D_STEPS]), "rejected_steps": int(diag[I.D_REJECTED]),
+            "rhs_evaluations": int(diag[I.D_NFEV]), "t_end": float(diag[I.D_T_END]),
+            "h_min": float(diag[I.D_H_MIN]), "h_max": float(diag[I.D_H_MAX]),
+            "max_constraint_drift": float(diag[I.D_MAX_DRIFT_POS]),
+            "max_constraint_drift_angular": float(diag[I.D_MAX_DRIFT_ANG]),
+            "max_euler_norm_error": float(diag[I.D_MAX_NORM_ERR]),
+            "wheel_loads_static": {n: fz0[v].tolist() for v, n in enumerate(names)},
+            "wheel_loads_final": {n: fz1[v].tolist() for v, n in enumerate(names)},
+            "energy_start": e_start, "energy_end": e_end, "work_nonconservative": w_nc,
+            "energy_balance": balance,
+            "vehicle_notes": {n: vehs[v].notes for v, n in enumerate(names)},
+            "wheel_order": ["FL", "FR", "RL", "RR"],
+        }
+        return Outcome(names, rest, final, contact, float(diag[I.D_CONTACT_T]), trajectories, (), diagnostics,
+                       warnings, ok, self.name, time.perf_counter() - t0)
+
+    def _energy(self, y, BODY, SPR, TYR):
+        A = np.zeros((NB, 3, 3))
+        R, V, W = np.zeros((NB, 3)), np.zeros((NB, 3)), np.zeros((NB, 3))
+        return float(energy(y, BODY, SPR, TYR, G, A, R, V, W))

@@ -1,0 +1,58 @@
+"""Translational spring-damper with a bump stop (FORMULAS.md §7.4).
+
+d = r_j^Q - r_i^P, l = |d|, u = d/l, l_dot = u . d_dot
+f = k (l - l0) + c l_dot - k_b max(0, l_b - l)     (tension positive; the bump stop is a linear stop
+                                                    that engages when the spring is shorter than l_b)
+F_i = f u at P, F_j = -f u at Q.
+Row layout (S_* indices): i, j, s'_P, s'_Q, k, c, l0, l_b, k_b.
+"""
+import math
+
+from numba import njit
+
+from .euler_parameters import add, cross, dot, mtv, mv, scale, sub
+
+S_I, S_J, S_P, S_Q, S_K, S_C, S_L0, S_LB, S_KB = 0, 1, 2, 5, 8, 9, 10, 11, 12
+N_S = 13
+
+
+@njit(cache=True, inline="always")
+def apply_force(A, Q, b, s_, F):
+    """A global force F at body-fixed point s' of body b: adds to f and to the body moment n'."""
+    Q[b, 0] += F[0]
+    Q[b, 1] += F[1]
+    Q[b, 2] += F[2]
+    n = cross(s_, mtv(A, b, F))
+    Q[b, 3] += n[0]
+    Q[b, 4] += n[1]
+    Q[b, 5] += n[2]
+
+
+@njit(cache=True)
+def spring_damper(S, A, R, V, W, Q, damping_on):
+    """Adds the element's forces to Q; returns (power dissipated by the damper, length)."""
+    i, j = int(S[S_I]), int(S[S_J])
+    sp, sq = (S[S_P], S[S_P + 1], S[S_P + 2]), (S[S_Q], S[S_Q + 1], S[S_Q + 2])
+    P = add((R[i, 0], R[i, 1], R[i, 2]), mv(A, i, sp))
+    Qp = add((R[j, 0], R[j, 1], R[j, 2]), mv(A, j, sq))
+    d = sub(Qp, P)
+    l = math.sqrt(dot(d, d))
+    u = scale(1.0 / l, d)
+    vP = add((V[i, 0], V[i, 1], V[i, 2]), mv(A, i, cross((W[i, 0], W[i, 1], W[i, 2]), sp)))
+    vQ = add((V[j, 0], V[j, 1], V[j, 2]), mv(A, j, cross((W[j, 0], W[j, 1], W[j, 2]), sq)))
+    ldot = dot(u, sub(vQ, vP))
+    c = S[S_C] * damping_on
+    f = S[S_K] * (l - S[S_L0]) + c * ldot
+    if l < S[S_LB]:
+        f -= S[S_KB] * (S[S_LB] - l)
+    apply_force(A, Q, i, sp, scale(f, u))
+    apply_force(A, Q, j, sq, scale(-f, u))
+    return c * ldot * ldot, l
+
+
+@njit(cache=True)
+def spring_energy(S, l):
+    e = 0.5 * S[S_K] * (l - S[S_L0]) ** 2
+    if l < S[S_LB]:
+        e += 0.5 * S[S_KB] * (S[S_LB] - l) ** 2
+    return e

@@ -1,0 +1,148 @@
+"""University of Arizona (UA) tyre, Gim & Nikravesh (1990/91), as FORMULAS.md §6, with the smoothing
+and the transient-slip states described in README.md.
+
+Per wheel: torus geometry (r1 = radius of the carcass-centre circle, r2 = carcass radius), flat road
+z = 0 with normal k. State per wheel: the transient slips (s, a) = (longitudinal slip ratio, tangent of
+the lateral slip angle), relaxing towards the UA slips with relaxation lengths sigma_s, sigma_a:
+
+    sigma_s ds/dt = V_sx - V_ref s        sigma_a da/dt = V_y - V_ref a,   V_ref = max(|V_x|, |V_c|)
+
+whose steady states are exactly the UA definitions in braking (V_sx/V_x, V_y/V_x) and traction
+(V_sx/V_c, (1-S) tan(alpha) = V_y/V_c) (§6.2). With V_ref in the relaxation rate instead of a divisor there
+is no singularity at standstill (§6 pitfall 2): there the states are tread deflections (springs K/sigma).
+
+Forces (§6.4, comprehensive slip, brush form): X = K_s s, Y = K_a a_eq (a_eq = a + (K_g/K_a) sin(gamma),
+camber as an equivalent slip), S_c = |(X, Y)|, l_n = max(0, 1 - S_c/(3 mu F_z)),
+    F = (X, Y) l_n^2 + mu F_z e_slide (1 - 3 l_n^2 + 2 l_n^3),  e_slide = (s, a_eq)/|(s, a_eq)|
+i.e. the adhesion part follows the stiffness-weighted slip and the sliding part the sliding-velocity
+direction (for a locked wheel F = mu F_z against the sliding velocity). The law is C1 across the
+adhesion/sliding boundary, so the UA case switches (I/II/III, adhesion/sliding) never jump.
+Self-aligning torque T_z = (l/6) Y l_n^3, contact length l = sqrt(8 R delta).
+Rolling resistance: moment -f_r F_z h tanh(Omega/Omega_reg) about the spin axis (f_r dimensionless, h the
+hub-to-contact distance, so that it equals a resistance force f_r F_z).
+Braked wheel (ABS-like): brake torque eta mu F_z R_e against the wheel's spin relative to its knuckle.
+"""
+import math
+
+from numba import njit
+
+from .euler_parameters import add, cross, dot, mtv, mv, scale, sub
+
+(T_WHEEL, T_KNUCKLE, T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR, T_SIG_S, T_SIG_A, T_CS, T_CA,
+ T_MODE, T_ETA) = range(16)
+N_T = 16
+ROLLING, LOCKED, LOCKED_AFTER_IMPACT, BRAKED = 0, 1, 2, 3
+MODES = {"rolling": ROLLING, "locked": LOCKED, "locked_after_impact": LOCKED_AFTER_IMPACT, "braked": BRAKED}
+
+V_EPS = 0.01        # m/s: smooths V_ref = max(|V_x|, |V_c|) at standstill
+DELTA_RAMP = 1e-3   # m: radial damping fades in over the first mm of deflection (no jump at touchdown)
+OMEGA_RR = 0.5      # rad/s: rolling-resistance moment reaches its full value above this spin rate
+OMEGA_BRAKE = 1.0   # rad/s: same for the brake torque
+SAT_BAND = 0.05     # the slip states stop growing once S_c exceeds 3 mu F_z by this fraction
+
+
+@njit(cache=True)
+def deflection(Tw, A, R):
+    """(delta, C, w): tyre deflection, carcass-circle centre below the hub, spin axis (global)."""
+    bw = int(Tw[T_WHEEL])
+    w = mv(A, bw, (0.0, 1.0, 0.0))
+    kz = w[2]
+    t = (-kz * w[0], -kz * w[1], 1.0 - kz * w[2])
+    nt = math.sqrt(dot(t, t))
+    if nt < 1e-9:
+        return -1.0, (R[bw, 0], R[bw, 1], R[bw, 2]), w
+    C = add((R[bw, 0], R[bw, 1], R[bw, 2]), scale(-Tw[T_R1] / nt, t))
+    return Tw[T_R2] - C[2], C, w
+
+
+@njit(cache=True)
+def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
+    """Adds the road's force on one wheel (and a brake's torque on wheel and knuckle) to Q; writes the
+    slip-state derivatives into dslip[0:2]; returns (F_z, power of the non-conservative parts)."""
+    bw, bk = int(Tw[T_WHEEL]), int(Tw[T_KNUCKLE])
+    delta, C, w = deflection(Tw, A, R)
+    c = (R[bw, 0], R[bw, 1], R[bw, 2])
+    vw = (V[bw, 0], V[bw, 1], V[bw, 2])
+    om = mv(A, bw, (W[bw, 0], W[bw, 1], W[bw, 2]))
+    spin = dot(om, w)
+    hx = math.sqrt(w[0] * w[0] + w[1] * w[1])
+    xc = (w[1] / hx, -w[0] / hx, 0.0)        # heading: w x k
+    yc = (-xc[1], xc[0], 0.0)                # k x heading
+    vx, vy = dot(vw, xc), dot(vw, yc)
+    Rfree = Tw[T_R1] + Tw[T_R2]
+    Re = Rfree - max(delta, 0.0) / 3.0       # effective rolling radius [U]
+    vc = spin * Re
+    vsx = vx - vc
+    vref = math.sqrt(max(vx * vx, vc * vc) + V_EPS * V_EPS)
+    ds = (vsx - vref * s) / Tw[T_SIG_S]
+    da = (vy - vref * a) / Tw[T_SIG_A]
+    if delta <= 0.0:
+        dslip[0], dslip[1] = ds, da
+        return 0.0, 0.0
+    # normal force (§6.1): elastic + radial damping faded in over DELTA_RAMP
+    arm = sub(C, c)
+    vC = add(vw, cross(om, arm))
+    ddelta = -vC[2]
+    fz = Tw[T_KZ] * delta + damping_on * Tw[T_CZ] * ddelta * min(1.0, delta / DELTA_RAMP)
+    fz = max(fz, 0.0)
+    ks, ka = Tw[T_KS], Tw[T_KA]
+    fmax = mu * fz * friction_on
+    # saturation: the tread deflection cannot grow beyond full sliding (keeps the direction)
+    X, Y = ks * s, ka * a
+    sc = math.sqrt(X * X + Y * Y)
+    lim = 3.0 * fmax
+    if sc > lim and sc > 0.0:
+        z = 1.0 if lim <= 0.0 else min(1.0, (sc / lim - 1.0) / SAT_BAND)
+        f = z * z * (3.0 - 2.0 * z)
+        rd = (X * ks * ds + Y * ka * da) / sc
+        if rd > 0.0:
+            ds -= f * rd * (X / sc) / ks
+            da -= f * rd * (Y / sc) / ka
+    dslip[0], dslip[1] = ds, da
+    # comprehensive-slip brush law (§6.4)
+    sing = w[2]
+    aeq = a + Tw[T_KG] / ka * sing
+    X, Y = ks * s, ka * aeq
+    sc = math.sqrt(X * X + Y * Y)
+    fxi, feta, tz = 0.0, 0.0, 0.0
+    if sc > 1e-12 and fmax > 0.0:
+        ln = max(0.0, 1.0 - sc / (3.0 * fmax))
+        m = math.sqrt(s * s + aeq * aeq)
+        slide = fmax * (1.0 - 3.0 * ln * ln + 2.0 * ln * ln * ln) / m
+        fxi = X * ln * ln + slide * s
+        feta = Y * ln * ln + slide * aeq
+        tz = math.sqrt(8.0 * Rfree * delta) / 6.0 * Y * ln * ln * ln
+    fx = -fxi - damping_on * Tw[T_CS] * Tw[T_SIG_S] * ds * friction_on
+    fy = -feta - damping_on * Tw[T_CA] * Tw[T_SIG_A] * da * friction_on
+    fh = math.sqrt(fx * fx + fy * fy)
+    if fh > fmax:
+        r = fmax / fh if fh > 0.0 else 0.0
+        fx *= r
+        fy *= r
+    F = (fx * xc[0] + fy * yc[0], fx * xc[1] + fy * yc[1], fz)
+    P = (C[0], C[1], 0.0)
+    sP = sub(P, c)
+    # forces and moments on the wheel body
+    Q[bw, 0] += F[0]
+    Q[bw, 1] += F[1]
+    Q[bw, 2] += F[2]
+    # rolling resistance: moment f_r F_z h (h = hub-to-contact distance), i.e. a resistance force f_r F_z
+    myr = -friction_on * Tw[T_FRR] * fz * math.sqrt(dot(sP, sP)) * math.tanh(spin / OMEGA_RR)
+    Tg = add(cross(sP, F), add((0.0, 0.0, tz), scale(myr, w)))
+    n = mtv(A, bw, Tg)
+    Q[bw, 3] += n[0]
+    Q[bw, 4] += n[1]
+    Q[bw, 5] += n[2]
+    vP = add(vw, cross(om, sP))
+    power = dot(F, vP) + tz * om[2] + myr * spin - Tw[T_KZ] * delta * vP[2]
+    if int(Tw[T_MODE]) == BRAKED:
+        omk = mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2]))
+        rel = spin - dot(omk, w)
+        tb = -friction_on * Tw[T_ETA] * mu * fz * Re * math.tanh(rel / OMEGA_BRAKE)
+        nb = mtv(A, bw, scale(tb, w))
+        nk = mtv(A, bk, scale(-tb, w))
+        for k in range(3):
+            Q[bw, 3 + k] += nb[k]
+            Q[bk, 3 + k] += nk[k]
+        power += tb * rel
+    return fz, power

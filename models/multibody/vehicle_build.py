@@ -1,0 +1,217 @@
+"""The 9-body vehicle (thesis chapter 2, Tables 3.2-3.6) built from a VehicleSpec.
+
+Bodies: 0 chassis, 1-4 knuckles (FL, FR, RL, RR), 5-8 wheels. Joints: chassis-knuckle TRANSLATIONAL
+(the thesis's cylindrical joint with a vertical axis through the wheel centre, plus the steering
+constraint that fixes the knuckle's rotation about that axis at the wheel's steer angle), knuckle-wheel
+REVOLUTE about the spin axis (REVOLUTE_LOCKED for a locked wheel). Suspension: one spring-damper per
+corner from a chassis point to the wheel centre. Tyre: UA (tyre.py) on each wheel.
+
+Data come from the vehicle file's [multibody] sections; what a file lacks gets the documented defaults
+of `defaults()` (scaled from the thesis's Clio where a scale is obvious).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .equations import B_MASS, sizes
+from .joints import J_I, J_J, J_SP, J_SQ, J_TYPE, J_XI, J_XJ, J_YI, J_ZI, J_ZJ, N_J, REVOLUTE, \
+    REVOLUTE_LOCKED, TRANSLATIONAL
+from .spring_damper import N_S, S_C, S_I, S_J, S_K, S_KB, S_L0, S_LB, S_P, S_Q
+from .tyre import (LOCKED, MODES, N_T, T_CA, T_CS, T_ETA, T_FRR, T_KA, T_KG, T_KNUCKLE, T_KS, T_KZ, T_CZ,
+                   T_MODE, T_R1, T_R2, T_SIG_A, T_SIG_S, T_WHEEL)
+
+NB, NW = 9, 4
+CORNERS = ("FL", "FR", "RL", "RR")
+CLIO_R = 0.28
+DEFAULTS = {
+    # wheel + tyre: the Clio's 9 kg and inertias scaled with (R/0.28)^3 (mass) and m R^2 (inertia)
+    "wheel_mass_clio": 9.0, "wheel_inertia_clio": (3.0580e-2, 3.7103e-1, 3.0580e-2),
+    "knuckle_mass": 1.0, "knuckle_inertia": 0.01,          # kg, kg m^2 (the thesis gives no geometry)
+    "ride_frequency": 1.36, "damping_ratio": 0.48,          # Hz, -: the Clio's 17.239 kN/m, 1939.4 N s/m
+    "free_length": 0.25, "joint_z": -0.22,                  # m (Clio)
+    "bump_travel": 0.08,                                    # m of compression beyond static before the stop
+    "bump_stiffness_factor": 10.0,                          # stop stiffness / spring stiffness
+    "radial_stiffness_clio": 200e3, "slip_stiffness_clio": 500e3,   # N/m, N per 980 kg (scaled with mass)
+    "camber_to_cornering": 0.2,                             # K_gamma / K_alpha (Clio 30/150)
+    "radial_damping_ratio": 0.01,                           # FunctionBay UA sample (FORMULAS §12)
+    "relaxation_over_radius": 1.0,                          # sigma_s = sigma_a = R
+    "tread_damping_ratio_spin": 0.5, "tread_damping_ratio_lateral": 0.2,
+    "brake_eta": 0.95,                                      # braked (ABS): brake torque / (mu F_z R_e)
+}
+
+
+@dataclasses.dataclass
+class Vehicle:
+    """Packed parameters of one multibody vehicle (SI) and the geometry needed to place it."""
+
+    name: str
+    BODY: np.ndarray        # (9, 4) mass, Ixx, Iyy, Izz
+    SPR: np.ndarray         # (4, N_S)
+    TYR: np.ndarray         # (4, N_T) (mode set per scene)
+    axle_x: np.ndarray      # (4,) wheel-centre x in the chassis frame
+    axle_y: np.ndarray      # (4,)
+    joint_z: float
+    wheelbase: float
+    outline: tuple          # (front, rear, half width) about the vehicle CG
+    z_chassis0: float       # first estimate of the chassis CG height
+    z_wheel0: np.ndarray    # first estimate of wheel-centre heights
+    notes: list
+
+    @property
+    def mass(self):
+        return float(self.BODY[:, B_MASS].sum())
+
+
+def _get(d, key, default, notes, what):
+    if key in d:
+        return d[key]
+    notes.append(f"{what} = {default!r} (default)")
+    return default
+
+
+def build(spec) -> Vehicle:
+    sec = spec.sections.get("multibody", {}) or {}
+    notes: list[str] = []
+    R = spec.wheel_radius
+    ch, wh, kn = sec.get("chassis", {}), sec.get("wheel", {}), sec.get("knuckle", {})
+    su, ty = sec.get("suspension", {}), sec.get("tyre", {})
+    sc = R / CLIO_R
+    m_w = _get(wh, "mass", DEFAULTS["wheel_mass_clio"] * sc ** 3, notes, "wheel.mass")
+    I_w = _get(wh, "inertia", [i * (m_w / 9.0) * sc ** 2 for i in DEFAULTS["wheel_inertia_clio"]], notes,
+               "wheel.inertia")
+    m_k = _get(kn, "mass", DEFAULTS["knuckle_mass"], notes, "knuckle.mass")
+    I_k = [DEFAULTS["knuckle_inertia"]] * 3
+    m_c = _get(ch, "mass", spec.mass - 4 * (m_w + m_k), notes, "chassis.mass")
+    I_c = _get(ch, "inertia", [spec.roll_inertia, spec.pitch_inertia, spec.yaw_inertia], notes, "chassis.inertia")
+    BODY = np.zeros((NB, 4))
+    BODY[0] = [m_c, *I_c]
+    BODY[1:5] = [m_k, *I_k]
+    BODY[5:9] = [m_w, *I_w]
+    a = spec.cg_to_front_axle
+    b = spec.wheelbase - a
+    t2 = spec.track / 2
+    axle_x = np.array([a, a, -b, -b])
+    axle_y = np.array([t2, -t2, t2, -t2])
+    g = 9.81
+    m_tot = BODY[:, B_MASS].sum()
+    # tyre
+    r2 = _get(ty, "torus_radius_2", 0.0825 * sc, notes, "tyre.torus_radius_2")
+    r1 = _get(ty, "torus_radius_1", R - r2, notes, "tyre.torus_radius_1")
+    kz = _get(ty, "radial_stiffness", DEFAULTS["radial_stiffness_clio"] * m_tot / 980.0, notes,
+              "tyre.radial_stiffness")
+    ks = _get(ty, "longitudinal_slip_stiffness", DEFAULTS["slip_stiffness_clio"] * m_tot / 980.0, notes,
+              "tyre.longitudinal_slip_stiffness")
+    ka = ty.get("cornering_stiffness", spec.cornering_stiffness)
+    kg = _get(ty, "camber_stiffness", DEFAULTS["camber_to_cornering"] * ka, notes, "tyre.camber_stiffness")
+    frr = ty.get("rolling_resistance", spec.rolling_resistance)
+    m_u = m_w + m_k
+    # radial damping: the thesis's 78 kN s/m (zeta ~ 28 on a 10 kg wheel) is not used, see README
+    cz = 2.0 * DEFAULTS["radial_damping_ratio"] * math.sqrt(m_u * kz)
+    sig = DEFAULTS["relaxation_over_radius"] * (r1 + r2)
+    m_spin = I_w[1] / (r1 + r2) ** 2
+    cs = 2.0 * DEFAULTS["tread_damping_ratio_spin"] * math.sqrt(ks / sig * m_spin)
+    ca = 2.0 * DEFAULTS["tread_damping_ratio_lateral"] * math.sqrt(ka / sig * m_tot / 4)
+    TYR = np.zeros((NW, N_T))
+    for k in range(NW):
+        TYR[k, T_WHEEL], TYR[k, T_KNUCKLE] = 5 + k, 1 + k
+        TYR[k, [T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR]] = [r1, r2, kz, cz, ks, ka, kg, frr]
+        TYR[k, [T_SIG_S, T_SIG_A, T_CS, T_CA, T_ETA]] = [sig, sig, cs, ca, DEFAULTS["brake_eta"]]
+    # static estimates: corner loads (from the axle positions), tyre and spring deflections
+    load = np.array([b, b, a, a]) / spec.wheelbase / 2 * m_tot * g
+    z_w = r1 + r2 - load / kz
+    sprung = load - m_u * g
+    l0 = _get(su, "free_length", DEFAULTS["free_length"], notes, "suspension.free_length")
+    if "stiffness" in su:
+        k_s = np.full(4, float(su["stiffness"]))
+        c_s = np.full(4, float(su.get("damping", 0.0)))
+    else:
+        om = 2 * math.pi * DEFAULTS["ride_frequency"]
+        k_s = sprung / g * om ** 2
+        c_s = 2 * DEFAULTS["damping_ratio"] * np.sqrt(k_s * sprung / g)
+        notes.append("suspension stiffness/damping from ride frequency 1.36 Hz, damping ratio 0.48 (default)")
+    l_static = l0 - sprung / k_s
+    if "chassis_points" in su:
+        pts = np.array(su["chassis_points"], dtype=float)
+        # springs vertical: the lower mount is on the knuckle right below the chassis point (see README:
+        # Table 3.5's knuckle point [0, 0, 0] would lay the rear spring almost flat at its static length)
+        zc = float(np.mean(z_w + l_static - pts[:, 2]))
+        notes.append("suspension lower mounts on the knuckles below the chassis points (vertical springs)")
+    else:
+        zc = spec.cg_height
+        pts = np.column_stack([axle_x, axle_y, l_static + z_w - zc])
+        notes.append("suspension mounts above the wheel centres, placed so that the chassis CG rests at "
+                     "cg_height (default)")
+    SPR = np.zeros((NW, N_S))
+    for k in range(NW):
+        SPR[k, S_I], SPR[k, S_J] = 0, 1 + k
+        SPR[k, S_P:S_P + 3] = pts[k]
+        SPR[k, S_Q:S_Q + 3] = [pts[k, 0] - axle_x[k], pts[k, 1] - axle_y[k], 0.0]
+        SPR[k, [S_K, S_C, S_L0]] = [k_s[k], c_s[k], l0]
+        SPR[k, S_LB] = max(l_static[k] - DEFAULTS["bump_travel"], 0.02)
+        SPR[k, S_KB] = DEFAULTS["bump_stiffness_factor"] * k_s[k]
+    return Vehicle(spec.name, BODY, SPR, TYR, axle_x, axle_y, DEFAULTS["joint_z"], spec.wheelbase,
+                   (spec.cg_to_front, spec.cg_to_rear, spec.width / 2), zc, z_w, notes)
+
+
+def steer_angles(veh: Vehicle, steer: float) -> np.ndarray:
+    """Per-wheel steer angle: front wheels on an Ackermann linkage with `steer` at the axle centre
+    (tan d_k = L / (L / tan steer - y_k)), rear wheels 0."""
+    out = np.zeros(NW)
+    if steer == 0.0:
+        return out
+    rr = veh.wheelbase / math.tan(steer)
+    for k in (0, 1):
+        out[k] = math.atan2(veh.wheelbase, rr - veh.axle_y[k]) if rr > 0 else \
+            -math.atan2(veh.wheelbase, -(rr - veh.axle_y[k]))
+    return out
+
+
+def joints(veh: Vehicle, modes, deltas) -> np.ndarray:
+    """Joint table for wheel modes (per wheel, tyre.MODES codes) and steer angles."""
+    J = np.zeros((2 * NW, N_J))
+    for k in range(NW):
+        d = deltas[k]
+        row = J[k]
+        row[J_TYPE], row[J_I], row[J_J] = TRANSLATIONAL, 0, 1 + k
+        row[J_SP:J_SP + 3] = [veh.axle_x[k], veh.axle_y[k], veh.joint_z]
+        row[J_SQ:J_SQ + 3] = 0.0
+        row[J_XI:J_XI + 3] = [math.cos(d), math.sin(d), 0.0]
+        row[J_YI:J_YI + 3] = [-math.sin(d), math.cos(d), 0.0]
+        row[J_ZI:J_ZI + 3] = [0.0, 0.0, 1.0]
+        row[J_XJ:J_XJ + 3] = [1.0, 0.0, 0.0]
+        row[J_ZJ:J_ZJ + 3] = [0.0, 0.0, 1.0]
+        row = J[NW + k]
+        row[J_TYPE] = REVOLUTE_LOCKED if modes[k] == LOCKED else REVOLUTE
+        row[J_I], row[J_J] = 1 + k, 5 + k
+        row[J_XI:J_XI + 3] = [0.0, 0.0, 1.0]
+        row[J_YI:J_YI + 3] = [1.0, 0.0, 0.0]
+        row[J_ZI:J_ZI + 3] = [0.0, 1.0, 0.0]
+        row[J_XJ:J_XJ + 3] = [0.0, 0.0, 1.0]
+        row[J_ZJ:J_ZJ + 3] = [0.0, 1.0, 0.0]
+    return J
+
+
+def tyres_for(veh: Vehicle, modes) -> np.ndarray:
+    T = veh.TYR.copy()
+    T[:, T_MODE] = modes
+    return T
+
+
+def initial_local(veh: Vehicle) -> np.ndarray:
+    """First estimate of the static state in the vehicle frame (chassis CG above the origin)."""
+    nq, nv, ny = sizes(NB, NW)
+    y = np.zeros(ny)
+    y[0:3] = [0.0, 0.0, veh.z_chassis0]
+    for b in range(NB):
+        y[7 * b + 3] = 1.0
+    for k in range(NW):
+        for b in (1 + k, 5 + k):
+            y[7 * b:7 * b + 3] = [veh.axle_x[k], veh.axle_y[k], veh.z_wheel0[k]]
+    return y
+
+
+def mode_codes(wheels: str):
+    return [MODES[wheels]] * NW

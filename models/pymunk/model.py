@@ -1,0 +1,359 @@
+"""Model `pymunk`: a general-purpose 2D rigid-body engine (Chipmunk2D through pymunk) with impulse
+contacts, driven by the same planar tyre/ground forces as the impulse model.
+
+pymunk is imported inside `simulate` only, so listing the models never imports it.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from crashlab.geometry import rect_corners
+from crashlab.model import CollisionModel
+from crashlab.models.impulse.vehicle_motion import (
+    LOCKED,
+    N_PARAMS,
+    P_IZ,
+    P_MASS,
+    P_WHEELS,
+    ROLLING,
+    pack_vehicle,
+)
+from crashlab.outcome import Outcome
+from crashlab.scene import barrier_outline
+
+
+def _check(name, value, kind, ok):
+    if kind is bool:
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"pymunk model: option {name} must be a bool, not {type(value).__name__}")
+        return bool(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"pymunk model: option {name} must be a number, not {type(value).__name__}")
+    if kind is int and value != int(value):
+        raise TypeError(f"pymunk model: option {name} must be an integer, got {value!r}")
+    value = kind(value)
+    if not ok(value):
+        raise ValueError(f"pymunk model: option {name} = {value!r} is out of range")
+    return value
+
+
+class PymunkModel(CollisionModel):
+    """Vehicles and barriers as Chipmunk polygons, SI units, impulse contacts (sequential impulses).
+
+    Options (documented defaults, the same for every scene):
+      dt = 0.00025 s         fixed step of the engine. Two things set it. (1) Chipmunk's friction impulses
+                             act on the two surface points of a penetrating contact, a penetration
+                             (about v dt) apart, so angular momentum is not conserved exactly; on an
+                             oblique car-to-car impact with the road off the error about the system's
+                             centre of mass is 4.1 / 1.8 / 0.64 / 0.17 / 0.08 % at dt = 2 / 1 / 0.5 /
+                             0.25 / 0.1 ms (studies/pymunk/angular_momentum_vs_step.py; with the
+                             impact friction set to 0 it is 10-15 times smaller); 0.25 ms is the
+                             largest step of that series under 0.5 %, with a factor 3 of margin.
+                             (2) The tyre forces are evaluated once per step (semi-implicit Euler): at
+                             0.25 ms the rest poses of the side collision are within 1 cm and 0.1 deg of
+                             those at 0.1 ms.
+      iterations = 100       solver iterations per step. A crash is a handful of contact points, so
+                             the cost is not measurable; the sequential impulses on a two-point
+                             manifold (face-to-face contact) converge to the simultaneous solution by
+                             about 30 sweeps (Chipmunk's default 10 leaves 0.1 deg/s differences in the
+                             yaw-rate change of the side collision); 100 leaves margin.
+      collision_slop = 1e-4 m  penetration allowed without positional correction. Chipmunk's default
+                             (0.1) is meant for pixels; in metres it would let the cars sink 10 cm into
+                             each other. 0.1 mm is far below any crush depth yet above round-off.
+      collision_bias = 0.0018  fraction of a penetration left after one second (Chipmunk's default,
+                             (1 - 0.1)^60). The correction is a split impulse: it moves positions only
+                             and never changes the velocities, so it adds no momentum or energy.
+      record_dt = 0.01 s     trajectory sampling (0: none)
+      v_rest = 0.03          m/s and rad/s below which a vehicle out of contact is at rest (as impulse)
+      ground_forces = True   tyre/road forces on; False leaves only the contacts (momentum checks)
+
+    The pair's restitution and friction are set exactly from the scene's [impact] on the arbiter in
+    every pre-solve (Chipmunk would otherwise multiply the per-shape coefficients). A given impact point
+    and contact plane are ignored: the engine finds its own contacts (a warning says so).
+
+    Impacts: one contact episode (begin .. separate of a pair) is one impact. Its delta-V and yaw-rate
+    change are the velocity jumps the contact caused, i.e. the change of velocity over the steps of the
+    episode minus the part of the tyre forces (known exactly: Chipmunk adds F dt / m); the energy is the
+    kinetic energy the contact impulses removed. The point is the middle of the contact points and the
+    plane the tangent of the contact normal at the episode's first step.
+
+    What differs from the impulse model by construction: when two flat faces meet (a bumper on a
+    door), Chipmunk's contact has two points, one at each end of the contact segment, and both get the
+    restitution target. The normal relative velocity is then uniform along the segment after the impact,
+    i.e. the relative rotation is stopped: the two cars leave a face-to-face impact with the same yaw
+    rate, where a single-point impulse (PC-Crash, model `impulse`) lets them spin apart. This is the
+    main source of the different rest poses in the side collision.
+    """
+
+    name = "pymunk"
+
+    def __init__(self, dt=0.00025, iterations=100, collision_slop=1e-4, collision_bias=0.0017970074436457143,
+                 record_dt=0.01, v_rest=0.03, ground_forces=True):
+        self.dt = _check("dt", dt, float, lambda v: 0.0 < v <= 0.01)
+        self.iterations = _check("iterations", iterations, int, lambda v: 1 <= v <= 10000)
+        self.collision_slop = _check("collision_slop", collision_slop, float, lambda v: 0.0 <= v <= 0.1)
+        self.collision_bias = _check("collision_bias", collision_bias, float, lambda v: 0.0 <= v <= 1.0)
+        self.record_dt = _check("record_dt", record_dt, float, lambda v: v >= 0.0 and math.isfinite(v))
+        self.v_rest = _check("v_rest", v_rest, float, lambda v: 0.0 < v < 10.0)
+        self.ground_forces = _check("ground_forces", ground_forces, bool, None)
+
+    def get_options(self):
+        return {"dt": self.dt, "iterations": self.iterations, "collision_slop": self.collision_slop,
+                "collision_bias": self.collision_bias, "record_dt": self.record_dt, "v_rest": self.v_rest,
+                "ground_forces": self.ground_forces}
+
+    # ------------------------------------------------------------------ running
+    def simulate(self, scene) -> Outcome:
+        t0 = time.perf_counter()
+        try:
+            return _Run(self, scene).run(t0)
+        except ImportError as err:
+            return Outcome.failed(scene.vehicle_names, f"pymunk is not installed ({err})", self.name,
+                                  time.perf_counter() - t0)
+
+
+class _Episode:
+    """One contact episode of a pair (vehicle i, vehicle or barrier k)."""
+
+    __slots__ = ("dv", "energy", "i", "k", "plane", "px", "py", "t", "weight")
+
+    def __init__(self, t, i, k, px, py, plane):
+        self.t, self.i, self.k, self.px, self.py, self.plane = t, i, k, px, py, plane
+        self.dv = np.zeros((2, 3))  # contact velocity jump of i and (if a vehicle) k: vx, vy, r
+        self.energy = 0.0  # kinetic energy removed by the contact impulses [J]
+        self.weight = 0.0  # impulse of this step [N s], to share a vehicle's jump between contacts
+
+
+class _Run:
+    """The state of one simulation: the pymunk space and the bookkeeping of contacts."""
+
+    def __init__(self, model: PymunkModel, scene):
+        import pymunk
+
+        from .ground import ground_forces
+        self.pymunk, self.ground = pymunk, ground_forces
+        self.m, self.scene = model, scene
+        self.nv = len(scene.vehicles)
+        self.P = np.array([pack_vehicle(v.spec, v.wheels, v.steer) for v in scene.vehicles]).reshape(-1, N_PARAMS)
+        self.wheels = [v.wheels for v in scene.vehicles]
+        self.modes = np.array([ROLLING if w == "locked_after_impact" else int(self.P[i, P_WHEELS])
+                               for i, w in enumerate(self.wheels)], dtype=np.int64)
+        space = pymunk.Space()
+        space.gravity = (0.0, 0.0)  # plan view: the road's reaction is in the tyre forces
+        space.damping = 1.0
+        space.iterations = model.iterations
+        space.collision_slop = model.collision_slop
+        space.collision_bias = model.collision_bias
+        self.space = space
+        self.bodies, self.owner = [], {}
+        for i, v in enumerate(scene.vehicles):
+            s = v.spec
+            body = pymunk.Body(s.mass, s.yaw_inertia)  # body origin = centre of gravity
+            body.position = (v.x, v.y)
+            body.angle = v.heading
+            body.velocity = (v.speed * math.cos(v.heading), v.speed * math.sin(v.heading))
+            body.angular_velocity = v.yaw_rate
+            shape = pymunk.Poly(body, [tuple(c) for c in rect_corners(0.0, 0.0, 0.0, s.cg_to_front,
+                                                                       s.cg_to_rear, s.width / 2)])
+            space.add(body, shape)
+            self.bodies.append(body)
+            self.owner[shape] = i
+        for k, b in enumerate(scene.barriers):
+            shape = pymunk.Poly(space.static_body, [tuple(c) for c in barrier_outline(b)])
+            space.add(shape)
+            self.owner[shape] = self.nv + k
+        space.on_collision(begin=self._begin, pre_solve=self._pre_solve, post_solve=self._post_solve,
+                           separate=self._separate)
+        self.open = {}  # (i, k) -> open _Episode
+        self.episodes = []
+        self.touching = np.zeros(self.nv, bool)
+        self.hit = np.zeros(self.nv, bool)
+        self.contact = np.full((self.nv, 4), np.nan)
+        self.contact_t = math.nan
+        self.t = 0.0
+        self.max_depth = 0.0
+
+    # ------------------------------------------------------------------ collision callbacks
+    def _pair(self, arb):
+        a, b = arb.shapes
+        i, k = self.owner[a], self.owner[b]
+        return (i, k, 1.0) if i < k else (k, i, -1.0)
+
+    def _begin(self, arb, space, data):
+        i, k, sgn = self._pair(arb)
+        if math.isnan(self.contact_t):
+            self.contact_t = self.t + self.m.dt
+            for q, body in enumerate(self.bodies):  # positions at touch, velocities before the impulses
+                v = body.velocity
+                self.contact[q] = (body.position.x, body.position.y, body.angle, math.hypot(v.x, v.y))
+        cps = arb.contact_point_set
+        pts = cps.points
+        px = sum(0.5 * (p.point_a.x + p.point_b.x) for p in pts) / max(len(pts), 1)
+        py = sum(0.5 * (p.point_a.y + p.point_b.y) for p in pts) / max(len(pts), 1)
+        nx, ny = sgn * cps.normal.x, sgn * cps.normal.y  # from i to k
+        ep = _Episode(self.t + self.m.dt, i, k, px, py, math.atan2(nx, -ny))
+        self.open[(i, k)] = ep
+        self.episodes.append(ep)
+        for q in (i, k):
+            if q < self.nv and not self.hit[q]:
+                self.hit[q] = True
+                if self.wheels[q] == "locked_after_impact":
+                    self.modes[q] = LOCKED
+
+    def _pre_solve(self, arb, space, data):
+        imp = self.scene.impact
+        arb.restitution = imp.restitution  # exactly the pair's values, not a product of per-shape ones
+        arb.friction = imp.friction
+        i, k, _ = self._pair(arb)
+        for q in (i, k):
+            if q < self.nv:
+                self.touching[q] = True
+        for p in arb.contact_point_set.points:
+            self.max_depth = max(self.max_depth, -p.distance)
+
+    def _post_solve(self, arb, space, data):
+        i, k, _ = self._pair(arb)
+        ep = self.open.get((i, k))
+        if ep is not None:
+            j = arb.total_impulse
+            ep.weight += math.hypot(j.x, j.y)
+
+    def _separate(self, arb, space, data):
+        i, k, _ = self._pair(arb)
+        self.open.pop((i, k), None)
+
+    # ------------------------------------------------------------------ the time loop
+    def _read(self, S):
+        for q, b in enumerate(self.bodies):
+            p, v = b.position, b.velocity
+            S[q, 0], S[q, 1], S[q, 2], S[q, 3], S[q, 4], S[q, 5] = p.x, p.y, b.angle, v.x, v.y, b.angular_velocity
+
+    def run(self, t_start) -> Outcome:
+        m, scene, nv, P = self.m, self.scene, self.nv, self.P
+        dt, rec_dt = m.dt, m.record_dt
+        mu = scene.road.friction
+        warnings = []
+        if scene.impact.point is not None:
+            warnings.append("pymunk ignores the given impact point and plane_angle: the engine finds its "
+                            "own contacts")
+        S, S1 = np.empty((nv, 6)), np.empty((nv, 6))
+        F = np.zeros((nv, 3))
+        acc = np.zeros((nv, 2))
+        self._read(S)
+        self.awake = np.array([not (math.hypot(S[q, 3], S[q, 4]) < m.v_rest and abs(S[q, 5]) < m.v_rest)
+                               for q in range(nv)])
+        for q in range(nv):
+            if not self.awake[q]:
+                self.bodies[q].velocity, self.bodies[q].angular_velocity = (0.0, 0.0), 0.0
+        self._read(S)
+        mass, iz = P[:, P_MASS], P[:, P_IZ]
+        ke0 = float(np.sum(0.5 * mass * (S[:, 3] ** 2 + S[:, 4] ** 2) + 0.5 * iz * S[:, 5] ** 2))
+        n_rec = int(scene.duration / rec_dt) + 3 if rec_dt > 0 else 0
+        traj = np.zeros((n_rec, nv, 7))
+        nr, next_rec = 0, 0.0
+        steps, ok, e_contact = 0, True, 0.0
+        n_steps = math.ceil(scene.duration / dt - 1e-9)
+        while steps < n_steps:
+            if rec_dt > 0 and self.t >= next_rec - 1e-12 and nr < n_rec - 1:
+                traj[nr, :, 0], traj[nr, :, 1:7] = self.t, S
+                nr += 1
+                next_rec += rec_dt
+            if m.ground_forces:
+                self.ground(P, S, self.modes, self.awake, mu, acc, F)
+            for q, b in enumerate(self.bodies):
+                b.force = (F[q, 0], F[q, 1])  # global frame; Chipmunk clears it after the step
+                b.torque = F[q, 2]
+            self.touching[:] = False
+            for ep in self.open.values():
+                ep.weight = 0.0
+            self.space.step(dt)
+            steps += 1
+            self.t = steps * dt
+            self._read(S1)
+            if self.touching.any():
+                # contact velocity jump of each vehicle this step: total change minus the tyre part
+                # F dt / m (Chipmunk integrates v += F / m dt, no damping, no gravity)
+                jump = S1[:, 3:6] - S[:, 3:6] - F * (dt / np.column_stack((mass, mass, iz)))
+                self._book(S1, jump, mass, iz)
+                e_contact += self._step_energy(S1, jump, mass, iz, range(nv))
+            S, S1 = S1, S
+            if not math.isfinite(S.sum()):
+                ok = False
+                warnings.append("the state became NaN")
+                break
+            # rest: a vehicle out of contact that has (almost) stopped is put to sleep
+            for q in range(nv):
+                moving = math.hypot(S[q, 3], S[q, 4]) >= m.v_rest or abs(S[q, 5]) >= m.v_rest
+                if self.awake[q]:
+                    if not self.touching[q] and not moving:
+                        self.awake[q] = False
+                        self.bodies[q].velocity, self.bodies[q].angular_velocity = (0.0, 0.0), 0.0
+                        S[q, 3:6] = 0.0
+                elif moving:  # struck while at rest
+                    self.awake[q] = True
+            if not self.awake.any() and not self.touching.any():
+                if not scene.stop_at_rest:
+                    self.t = scene.duration  # everything at rest and nothing touches: the state is final
+                break
+        if rec_dt > 0 and nr < n_rec:
+            traj[nr, :, 0], traj[nr, :, 1:7] = self.t, S
+            nr += 1
+        return self._outcome(S, traj[:nr], steps, ke0, e_contact, warnings, ok, time.perf_counter() - t_start)
+
+    @staticmethod
+    def _step_energy(S1, jump, mass, iz, vehicles):
+        """Kinetic energy the contact impulses added this step (negative: dissipated)."""
+        de = 0.0
+        for q in vehicles:
+            v, dv = S1[q, 3:6], jump[q]
+            w = v - dv
+            de += 0.5 * mass[q] * (v[0] ** 2 + v[1] ** 2 - w[0] ** 2 - w[1] ** 2) + 0.5 * iz[q] * (v[2] ** 2 - w[2] ** 2)
+        return de
+
+    def _book(self, S1, jump, mass, iz):
+        """Share each vehicle's contact jump of this step among its contact episodes (by impulse)."""
+        active = list(self.open.values())  # an episode that separated this step had no impulse in it
+        if not active:
+            return
+        for q in range(self.nv):
+            mine = [(ep, 0 if ep.i == q else 1) for ep in active if ep.i == q or ep.k == q]
+            if not mine:
+                continue
+            total = sum(ep.weight for ep, _ in mine)
+            for ep, side in mine:
+                share = ep.weight / total if total > 0 else 1.0 / len(mine)
+                ep.dv[side] += share * jump[q]
+                ep.energy -= share * self._step_energy(S1, jump, mass, iz, (q,))
+
+    # ------------------------------------------------------------------ results
+    def _outcome(self, S, traj, steps, ke0, e_contact, warnings, ok, wall) -> Outcome:
+        scene, nv, P = self.scene, self.nv, self.P
+        names = scene.vehicle_names
+        rows = []
+        for ep in self.episodes:
+            other_k = names[ep.k] if ep.k < nv else f"barrier{ep.k - nv}"
+            inv = [1.0 / P[ep.i, P_MASS], 1.0 / P[ep.k, P_MASS] if ep.k < nv else 0.0]
+            for side, (q, other) in enumerate(((ep.i, other_k), (ep.k, names[ep.i]))):
+                if q >= nv:
+                    continue
+                dvx, dvy, dr = ep.dv[side]
+                e_q = max(ep.energy, 0.0) * inv[side] / sum(inv)
+                h = self.contact[q, 2] if not math.isnan(self.contact[q, 2]) else S[q, 2]
+                ang = math.atan2(-dvy, -dvx) - h  # the force on q comes from -dv
+                rows.append({"t": ep.t, "vehicle": names[q], "other": other, "dvx": dvx, "dvy": dvy,
+                             "d_yaw_rate": dr, "energy": ep.energy, "ees": math.sqrt(2.0 * e_q / P[q, P_MASS]),
+                             "pdof": math.atan2(math.sin(ang), math.cos(ang)), "kind": "continuous",
+                             "point_x": ep.px, "point_y": ep.py, "plane_angle": ep.plane})
+        if not self.episodes:
+            warnings.append("no contact between the vehicles")
+        diagnostics = {"steps": steps, "impacts": len(self.episodes), "t_end": self.t,
+                       "max_penetration": self.max_depth, "kinetic_energy_start": ke0,
+                       "energy_dissipated_impacts": -e_contact, "dt": self.m.dt,
+                       "iterations": self.m.iterations}
+        trajectories = {n: {"t": traj[:, i, 0], "x": traj[:, i, 1], "y": traj[:, i, 2], "heading": traj[:, i, 3],
+                            "vx": traj[:, i, 4], "vy": traj[:, i, 5], "yaw_rate": traj[:, i, 6]}
+                        for i, n in enumerate(names)}
+        return Outcome(names, S[:, 0:3].copy(), S[:, 3:6].copy(), self.contact.copy(), self.contact_t,
+                       trajectories, rows, diagnostics, warnings, ok, self.m.name, wall)

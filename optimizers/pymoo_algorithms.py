@@ -1,0 +1,153 @@
+"""pymoo's multi-objective algorithms behind one factory, looked up by name.
+
+``make_algorithm(name, **options)`` builds ``NSGA2``, ``NSGA3``, ``MOEAD``, ``SMSEMOA`` or
+``AGEMOEA``; the module-level names ``nsga2``, ``nsga3``, ``moead``, ``sms_emoa`` and ``age_moea``
+are partials of it (these are the ``crashlab.optimizers`` entry points).
+
+Options common to all of them (keywords only):
+
+pop_size        population size (pymoo's default if omitted). For MOEA/D the population size is
+                the number of reference directions.
+repair          pymoo Repair handed to the algorithm.
+eta_c, crossover_prob
+                build ``SBX(eta=eta_c, prob=crossover_prob)`` (cannot be combined with ``crossover=``).
+eta_m, mutation_prob_var
+                build ``PM(eta=eta_m, prob_var=mutation_prob_var)`` (cannot be combined with ``mutation=``).
+any other keyword the pymoo class or its base classes accept (``sampling``, ``eliminate_duplicates``,
+``seed``, ``termination``, ``n_neighbors``, ...).
+
+NSGA-III and MOEA/D also take ``n_obj`` (default 2) and ``ref_dirs``. Without ``ref_dirs`` the
+directions are pymoo's Das-Dennis directions with the largest number of partitions whose
+direction count does not exceed ``pop_size`` (100 if omitted); for two objectives that is exactly
+``pop_size`` directions. Unknown keywords raise ``TypeError``.
+
+pymoo is imported only when a factory is called, so loading the entry points is cheap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from functools import partial
+from math import comb
+
+from ._options import init_parameter_names, reject_unknown_options
+
+# name -> (module, class, uses reference directions)
+ALGORITHMS: dict[str, tuple[str, str, bool]] = {
+    "nsga2": ("pymoo.algorithms.moo.nsga2", "NSGA2", False),
+    "nsga3": ("pymoo.algorithms.moo.nsga3", "NSGA3", True),
+    "moead": ("pymoo.algorithms.moo.moead", "MOEAD", True),
+    "sms-emoa": ("pymoo.algorithms.moo.sms", "SMSEMOA", False),
+    "age-moea": ("pymoo.algorithms.moo.age", "AGEMOEA", False),
+}
+
+DEFAULT_N_OBJ = 2
+DEFAULT_REF_DIR_BUDGET = 100
+_OPERATOR_OPTIONS = {"eta_c", "crossover_prob", "eta_m", "mutation_prob_var"}
+_NOT_OPTIONS = {"kwargs"}
+
+
+def algorithm_class(name: str) -> type:
+    """The pymoo class registered under ``name``."""
+    try:
+        module, cls, _ = ALGORITHMS[name]
+    except KeyError:
+        raise ValueError(f"unknown pymoo algorithm {name!r}; known: {', '.join(ALGORITHMS)}") from None
+    return getattr(importlib.import_module(module), cls)
+
+
+def das_dennis_partitions(n_obj: int, max_directions: int) -> int:
+    """Largest number of partitions p with C(p + n_obj - 1, n_obj - 1) <= max_directions (at least 1)."""
+    if n_obj < 1:
+        raise ValueError(f"n_obj must be >= 1, got {n_obj}")
+    p = 1
+    while comb(p + 1 + n_obj - 1, n_obj - 1) <= max_directions:
+        p += 1
+        if n_obj == 1:
+            break
+    return p
+
+
+def reference_directions(n_obj: int, max_directions: int):
+    """Das-Dennis reference directions, as many as possible but no more than ``max_directions``."""
+    from pymoo.util.ref_dirs import get_reference_directions
+
+    return get_reference_directions(
+        "das-dennis", n_obj, n_partitions=das_dennis_partitions(n_obj, max_directions)
+    )
+
+
+def _operators(options: dict) -> dict:
+    """Turn the SBX / PM shorthand options into pymoo operator objects."""
+    out = {}
+    cross = {k: options.pop(k) for k in ("eta_c", "crossover_prob") if k in options}
+    mut = {k: options.pop(k) for k in ("eta_m", "mutation_prob_var") if k in options}
+    if cross:
+        if "crossover" in options:
+            raise TypeError("give either crossover= or eta_c/crossover_prob, not both")
+        from pymoo.operators.crossover.sbx import SBX
+
+        sbx = {"eta": cross.get("eta_c", 15)}
+        if "crossover_prob" in cross:
+            sbx["prob"] = cross["crossover_prob"]
+        out["crossover"] = SBX(**sbx)
+    if mut:
+        if "mutation" in options:
+            raise TypeError("give either mutation= or eta_m/mutation_prob_var, not both")
+        from pymoo.operators.mutation.pm import PM
+
+        out["mutation"] = PM(eta=mut.get("eta_m", 20), prob_var=mut.get("mutation_prob_var"))
+    return out
+
+
+def make_algorithm(name: str, /, **options):
+    """Build the pymoo algorithm ``name`` (a key of ``ALGORITHMS``) from keyword options."""
+    cls = algorithm_class(name)
+    uses_ref_dirs = ALGORITHMS[name][2]
+    allowed = (init_parameter_names(cls) - _NOT_OPTIONS) | _OPERATOR_OPTIONS | {"pop_size", "repair"}
+    if uses_ref_dirs:
+        allowed |= {"n_obj", "ref_dirs"}
+    reject_unknown_options(name, options, allowed)
+
+    options = dict(options)
+    options.update(_operators(options))
+    if uses_ref_dirs:
+        _set_reference_directions(name, options)
+    return cls(**options)
+
+
+def _set_reference_directions(name: str, options: dict) -> None:
+    """Fill ``options["ref_dirs"]`` from ``n_obj``/``pop_size`` and check they agree."""
+    n_obj = options.pop("n_obj", None)
+    pop_size = options.get("pop_size")
+    ref_dirs = options.get("ref_dirs")
+    if ref_dirs is None:
+        ref_dirs = reference_directions(
+            DEFAULT_N_OBJ if n_obj is None else int(n_obj),
+            DEFAULT_REF_DIR_BUDGET if pop_size is None else int(pop_size),
+        )
+        options["ref_dirs"] = ref_dirs
+    else:
+        if n_obj is not None and ref_dirs.shape[1] != n_obj:
+            raise ValueError(f"ref_dirs have {ref_dirs.shape[1]} objectives but n_obj={n_obj}")
+        if name == "moead" and pop_size is not None and pop_size != len(ref_dirs):
+            raise ValueError(
+                f"MOEA/D uses one individual per reference direction: pop_size={pop_size} "
+                f"but {len(ref_dirs)} ref_dirs were given"
+            )
+    if name == "moead":
+        # pymoo's MOEAD takes no pop_size: it is len(ref_dirs), chosen above from pop_size
+        options.pop("pop_size", None)
+
+
+def _factory(name: str):
+    f = partial(make_algorithm, name)
+    f.__doc__ = f"Build pymoo's {ALGORITHMS[name][1]} from keyword options (see crashlab.optimizers.pymoo_algorithms)."
+    return f
+
+
+nsga2 = _factory("nsga2")
+nsga3 = _factory("nsga3")
+moead = _factory("moead")
+sms_emoa = _factory("sms-emoa")
+age_moea = _factory("age-moea")

@@ -1,0 +1,13 @@
+"""Benchmark (issue 4): 5 s of the Clio braking with locked wheels from 50 km/h. Goal <= 0.2 s wall."""
+from crashlab.scene import scene_from_dict
+from crashlab.models.multibody import MultibodyModel
+
+
+def test_bench_multibody_clio_braking_50(benchmark):
+    sc = scene_from_dict({"duration": 5.0, "road": {"friction": 0.8}, "vehicles": [
+        {"name": "V1", "vehicle": "clio", "speed": 50.0, "wheels": "locked"}]})
+    model = MultibodyModel()
+    model.simulate(sc)                      # compile (numba cache) and settle the vehicle once
+    out = benchmark(model.simulate, sc)
+    assert out.outcome_ok
+    assert abs(out.rest_si[0, 0] / 12.29 - 1.0) < 0.02

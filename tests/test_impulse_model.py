@@ -1,0 +1,291 @@
+"""The `impulse` model end to end: planar vehicle motion (FORMULAS §10), impacts in a simulation
+(§9), the PC-Crash cases of the thesis, the Outcome contract (DESIGN.md)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import crashlab
+from crashlab.models.impulse.laws import KUDLICH_SLIBAR, collision_impulse, impact_matrix
+from crashlab.outcome import IMPACT_COLUMNS
+from crashlab.units import G, wrap_deg
+
+KMH = 1 / 3.6
+
+
+@pytest.fixture(scope="module")
+def model():
+    return crashlab.get_model("impulse")
+
+
+@pytest.fixture(scope="module")
+def case1(pc_crash_dir):
+    return crashlab.load_scene(pc_crash_dir / "head_on.toml")
+
+
+@pytest.fixture(scope="module")
+def case2(pc_crash_dir):
+    return crashlab.load_scene(pc_crash_dir / "offset.toml")
+
+
+@pytest.fixture(scope="module")
+def case3(pc_crash_dir):
+    return crashlab.load_scene(pc_crash_dir / "side.toml")
+
+
+def kinetic(spec, vx, vy, r):
+    return 0.5 * spec.mass * (vx * vx + vy * vy) + 0.5 * spec.yaw_inertia * r * r
+
+
+# ---------------------------------------------------------------- vehicle motion (§10)
+@pytest.mark.parametrize("speed_kmh", [50.0, 100.0])
+def test_locked_wheel_skid_distance(model, make_scene, speed_kmh):
+    """Locked wheels: s = v²/(2 mu g) within 1 %, stopping time v/(mu g) within 2 %, and the car is at
+    rest (zero velocity) when the run ends early."""
+    mu = 0.8
+    scene = make_scene([{"speed": speed_kmh, "wheels": "locked", "overrides": {"rolling_resistance": 0.013}}],
+                       road={"friction": mu}, duration=20.0)
+    out = model.simulate(scene)
+    v = speed_kmh * KMH
+    distance = out.rest.at["V1", "x"]
+    assert distance == pytest.approx(v * v / (2 * mu * G), rel=0.01)
+    assert abs(out.rest.at["V1", "y"]) < 1e-9 and abs(out.rest.at["V1", "heading"]) < 1e-9
+    # comes to rest and ends the run (stop_at_rest)
+    assert out.diagnostics["t_end"] == pytest.approx(v / (mu * G), rel=0.02)
+    assert np.all(out.final_si == 0.0)
+
+
+def test_free_rolling_without_resistance_keeps_speed(model, make_scene):
+    scene = make_scene([{"speed": 50.0, "overrides": {"rolling_resistance": 0.0}}], duration=5.0)
+    out = model.simulate(scene)
+    tr = out.trajectory("V1")
+    assert np.allclose(tr["vx"], 50.0, rtol=1e-9, atol=0) and np.allclose(tr["vy"], 0.0, atol=1e-9)
+    assert out.rest.at["V1", "x"] == pytest.approx(50 * KMH * 5.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("f_rr", [0.01, 0.015, 0.03])
+def test_rolling_resistance_deceleration(model, make_scene, f_rr):
+    """Free rolling with rolling resistance f: deceleration f g (within 2 %)."""
+    scene = make_scene([{"speed": 50.0, "overrides": {"rolling_resistance": f_rr}}], duration=5.0)
+    tr = model.simulate(scene).trajectory("V1")
+    sel = (tr.t > 0.5) & (tr.t < 4.5)
+    slope = np.polyfit(tr.t[sel], tr.vx[sel] * KMH, 1)[0]
+    assert -slope == pytest.approx(f_rr * G, rel=0.02)
+
+
+# ---------------------------------------------------------------- PC-Crash cases (thesis §3.5)
+def test_case1_post_impact_speeds(model, case1):
+    """Head-on into a stopped car, e = 0.1: PC-Crash 22.50 and 27.50 km/h (= 50 (1 -/+ e) / 2)."""
+    out = model.simulate(case1)
+    fin = out.final
+    for name, ref in (("V1", 22.50), ("V2", 27.50)):
+        assert fin.at[name, "vx"] == pytest.approx(ref, rel=0.005)
+        assert abs(fin.at[name, "vy"]) < 1e-3
+        row = out.impacts.set_index("vehicle").loc[name]
+        assert row.delta_v == pytest.approx(27.50, rel=0.005)
+
+
+@pytest.mark.parametrize("case", ["case1", "case2"])
+def test_rest_poses_match_pc_crash(model, case, request):
+    """Rest positions within 0.5 m and headings within 10 deg of the PC-Crash rows."""
+    scene = request.getfixturevalue(case)
+    out = model.simulate(scene)
+    assert out.outcome_ok
+    for name, ref in scene.references["pc_crash"].items():
+        rest = out.rest.loc[name]
+        assert math.hypot(rest.x - ref["x"], rest.y - ref["y"]) <= 0.5, (name, rest.to_dict(), ref)
+        assert abs(wrap_deg(rest.heading - ref["heading"])) <= 10.0
+
+
+def test_case_impact_conserves_momentum(model, case1, case2, case3):
+    """In every impact between two cars, m1 dv1 + m2 dv2 = 0 and the energy dissipated is >= 0 and
+    equals the kinetic energy lost (the energy bookkeeping of the diagnostics)."""
+    for scene in (case1, case2, case3):
+        out = model.simulate(scene)
+        imp = out.impacts
+        assert len(imp) >= 2
+        m = {v.name: v.spec.mass for v in scene.vehicles}
+        for t, rows in imp.groupby("t"):
+            a, b = rows.iloc[0], rows.iloc[1]
+            px = m[a.vehicle] * a.dvx + m[b.vehicle] * b.dvx
+            py = m[a.vehicle] * a.dvy + m[b.vehicle] * b.dvy
+            assert math.hypot(px, py) <= 1e-9 * m[a.vehicle] * a.delta_v
+            assert a.energy > 0
+        assert out.diagnostics["energy_dissipated_impacts"] == pytest.approx(
+            imp.drop_duplicates("t").energy.sum(), rel=1e-12)
+        assert out.diagnostics["energy_dissipated_impacts"] < out.diagnostics["kinetic_energy_start"]
+
+
+# ---------------------------------------------------------------- barrier
+def test_rigid_barrier_rebound(model, make_scene):
+    """Head-on into a rigid barrier at 50 km/h with e = 0.1: rebound at 5 km/h (within 1 %)."""
+    scene = make_scene([{"speed": 50.0, "overrides": {"rolling_resistance": 0.0}}],
+                       impact={"restitution": 0.1, "friction": 0.3},
+                       barriers=[{"x": 5.0, "y": 0.0, "heading": 0.0, "length": 1.0, "width": 4.0}],
+                       duration=1.0)
+    out = model.simulate(scene)
+    imp = out.impacts
+    assert len(imp) == 1 and imp.other.iloc[0].startswith("barrier")
+    assert imp.dvx.iloc[0] == pytest.approx(-55.0, rel=0.01)
+    assert out.final.at["V1", "vx"] == pytest.approx(-5.0, rel=0.01)
+    assert imp.energy.iloc[0] == pytest.approx(0.5 * 980.0 * (50 * KMH) ** 2 * (1 - 0.1 ** 2), rel=0.01)
+    # rebounded away from the barrier (front face at 4.5 m)
+    assert out.rest.at["V1", "x"] < 4.5 - 1.8875
+
+
+def _impact_states(out, spec):
+    """Per impact of vehicle V1: (row, pre (vx, vy, r), post (vx, vy, r), CG (x, y)). The trajectory
+    recorded at every step holds the post-impact state at the impact time; pre = post - delta."""
+    tr = out._trajectories["V1"]  # SI arrays
+    result = []
+    for _, row in out.impacts[out.impacts.vehicle == "V1"].iterrows():
+        k = int(np.flatnonzero(tr["t"] == row.t)[0])
+        post = np.array([tr["vx"][k], tr["vy"][k], tr["yaw_rate"][k]])
+        delta = np.array([row.dvx * KMH, row.dvy * KMH, math.radians(row.d_yaw_rate)])
+        result.append((row, post - delta, post, np.array([tr["x"][k], tr["y"][k]])))
+    return result
+
+
+def test_second_impact_against_barrier_bookkeeping(make_scene):
+    """Oblique (20 deg) impact against a wall: the front corner strikes, the car yaws, and its rear
+    swings into the wall: a second impact while the outlines still approach. Every impact is checked
+    on its own: normal restitution at the point (g'_n = -e g_n), angular momentum about the point
+    conserved, kinetic energy lost = energy recorded > 0, the impulse inside the friction cone (sliding:
+    on its edge); between impacts the tyres only dissipate."""
+    e, mu = 0.1, 0.3
+    scene = make_scene([{"speed": 50.0, "heading": 20.0, "wheels": "locked_after_impact"}],
+                       impact={"restitution": e, "friction": mu},
+                       barriers=[{"x": 10.0, "y": 2.25, "heading": 0.0, "length": 60.0, "width": 0.5}],
+                       duration=3.0)
+    model = crashlab.get_model("impulse", record_dt=1e-4)  # record every step
+    out = model.simulate(scene)
+    assert out.outcome_ok
+    spec = scene.vehicles[0].spec
+    states = _impact_states(out, spec)
+    assert len(states) >= 2, "a second impact"
+    ke_prev = kinetic(spec, 50 * KMH * math.cos(math.radians(20)), 50 * KMH * math.sin(math.radians(20)), 0)
+    local_x = []
+    for row, pre, post, cg in states:
+        p = np.array([row.point_x, row.point_y])
+        th = math.radians(row.plane_angle)
+        n = np.array([math.sin(th), -math.cos(th)])  # from the vehicle into the barrier
+        t = np.array([-n[1], n[0]])
+        r = p - cg
+        # point velocity of the car; the barrier is at rest: g = -v_P
+        vp = lambda s: np.array([s[0] - s[2] * r[1], s[1] + s[2] * r[0]])  # noqa: E731
+        gn0, gn1 = -vp(pre) @ n, -vp(post) @ n
+        assert gn0 < 0, "approaching at the impact"
+        assert abs(gn1 + e * gn0) <= 1e-9 * np.abs(pre).sum() * 3, "g'_n = -e g_n"
+        dv = post - pre
+        L = spec.yaw_inertia * dv[2] - spec.mass * (r[0] * dv[1] - r[1] * dv[0])  # about P
+        assert abs(L) <= 1e-9 * spec.mass * np.linalg.norm(r) * np.linalg.norm(dv[:2])
+        impulse = spec.mass * dv[:2]  # on the car: -Π
+        pn, pt = -(impulse @ n), -(impulse @ t)
+        assert pn > 0
+        if row.kind == "sliding":
+            assert abs(abs(pt) - mu * pn) <= 1e-9 * pn
+        else:
+            assert abs(pt) <= mu * pn * (1 + 1e-9)
+        ke0, ke1 = kinetic(spec, *pre), kinetic(spec, *post)
+        assert ke0 - ke1 == pytest.approx(row.energy, rel=1e-9) and row.energy > 0
+        assert ke0 <= ke_prev * (1 + 1e-9), "tyres between impacts only dissipate"
+        ke_prev = ke1
+        local_x.append(r @ np.array([math.cos(math.radians(20)), math.sin(math.radians(20))]))
+    # the first impact is at the front of the car, the second at its rear; the yaw reverses
+    assert local_x[0] > 1.0 and local_x[1] < -1.0
+    assert states[0][0].d_yaw_rate < 0 < states[1][0].d_yaw_rate
+    assert states[1][0].t > states[0][0].t + 0.1
+
+
+# ---------------------------------------------------------------- given point of impact
+def _overlapping_pair(**impact):
+    return [{"x": 0.0, "speed": 50.0}, {"x": 3.7, "heading": 180.0, "speed": 0.0}], impact
+
+
+def test_given_point_of_impact_applies_at_t0(model, make_scene):
+    """[impact] point and plane_angle: the scene is at its collision position, the impulse applies at
+    t = 0 at that point, with the §9 impulse computed there."""
+    vehicles, _ = _overlapping_pair()
+    e, mu = 0.1, 0.3
+    scene = make_scene(vehicles, impact={"restitution": e, "friction": mu, "point": [1.85, 0.4],
+                                         "plane_angle": 90.0}, duration=2.0)
+    out = model.simulate(scene)
+    assert out.outcome_ok
+    imp = out.impacts
+    first = imp[imp.t == imp.t.min()]
+    assert (first.t == 0.0).all() and len(first) == 2
+    assert np.allclose(first.point_x, 1.85, rtol=0, atol=1e-12)
+    assert np.allclose(first.point_y, 0.4, rtol=0, atol=1e-12)
+    assert np.allclose(first.plane_angle % 180.0, 90.0, atol=1e-9)
+    # the expected impulse at that point: n = +x (from V1 to V2)
+    s1, s2 = scene.vehicles[0].spec, scene.vehicles[1].spec
+    r1, r2 = (1.85, 0.4), (1.85 - 3.7, 0.4)
+    k = impact_matrix(1 / s1.mass, 1 / s1.yaw_inertia, 1 / s2.mass, 1 / s2.yaw_inertia, *r1, *r2, 1.0, 0.0)
+    pn, pt, _ = collision_impulse(*k, -50 * KMH, 0.0, e, mu, KUDLICH_SLIBAR)
+    v1 = first.set_index("vehicle").loc["V1"]
+    v2 = first.set_index("vehicle").loc["V2"]
+    assert v1.dvx == pytest.approx(-pn / s1.mass / KMH, rel=1e-9)
+    assert v2.dvx == pytest.approx(pn / s2.mass / KMH, rel=1e-9)
+    assert v1.dvy == pytest.approx(-pt / s1.mass / KMH, rel=1e-9, abs=1e-9)
+    assert math.radians(v1.d_yaw_rate) == pytest.approx(-(r1[0] * pt - r1[1] * pn) / s1.yaw_inertia, rel=1e-9)
+    assert math.radians(v2.d_yaw_rate) == pytest.approx((r2[0] * pt - r2[1] * pn) / s2.yaw_inertia, rel=1e-9)
+    assert v1.d_yaw_rate != 0.0, "an eccentric point gives yaw"
+
+
+def test_overlap_without_point_is_rejected(make_scene):
+    vehicles, _ = _overlapping_pair()
+    with pytest.raises(crashlab.InputError, match="overlap") as err:
+        make_scene(vehicles)
+    assert err.value.key == "vehicles"
+
+
+def test_given_point_not_approaching_fails_cleanly(model, make_scene):
+    scene = make_scene([{"x": 0.0, "speed": 0.0}, {"x": 3.7, "heading": 180.0, "speed": 0.0}],
+                       impact={"point": [1.85, 0.0], "plane_angle": 90.0}, duration=1.0)
+    out = model.simulate(scene)
+    assert not out.outcome_ok and any("approach" in w for w in out.warnings)
+
+
+# ---------------------------------------------------------------- Outcome contract
+def test_outcome_tables(model, case3):
+    out = model.simulate(case3)
+    assert out.outcome_ok
+    assert list(out.rest.columns) == ["x", "y", "heading"] and list(out.rest.index) == ["V1", "V2"]
+    assert out.rest.index.name == "vehicle"
+    tr = out.trajectory("V1")
+    assert list(tr.columns[:7]) == ["t", "x", "y", "heading", "vx", "vy", "yaw_rate"]
+    assert tr.t.iloc[0] == 0.0 and np.all(np.diff(tr.t) > 0)
+    assert tr.vx.iloc[0] == pytest.approx(50.0) and tr.heading.iloc[0] == 0.0  # km/h, deg at the start
+    assert tr.x.iloc[-1] == pytest.approx(out.rest.at["V1", "x"], abs=1e-12)
+    assert list(out.impacts.columns) == IMPACT_COLUMNS
+    for col in ("t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate", "energy", "kind",
+                "point_x", "point_y", "plane_angle"):
+        assert col in out.impacts.columns
+    assert set(out.impacts.kind) <= {"full", "sliding"}
+    assert np.allclose(out.impacts.delta_v, np.hypot(out.impacts.dvx, out.impacts.dvy))
+
+
+def test_simulate_batch_equals_simulate(model, case3):
+    variants = [case3,
+                case3.with_vehicle("V1", speed=case3.vehicle("V1").speed * 1.1),
+                case3.with_vehicle("V1", speed=case3.vehicle("V1").speed * 0.8, heading=math.radians(5)),
+                case3.with_vehicle("V2", x=3.3, speed=case3.vehicle("V2").speed * 1.3),
+                case3.with_vehicle("V2", y=-0.5, yaw_rate=0.2)]
+    batch = model.simulate_batch(variants)
+    assert len(batch) == len(variants)
+    rests = []
+    for scene, b in zip(variants, batch):
+        single = model.simulate(scene)
+        assert b.outcome_ok and single.outcome_ok
+        assert np.allclose(b.rest_si, single.rest_si, rtol=0, atol=1e-9)
+        assert np.allclose(b.final_si, single.final_si, rtol=0, atol=1e-9)
+        assert len(b.impacts) == len(single.impacts)
+        rests.append(b.rest_si)
+    assert not np.allclose(rests[0], rests[1]), "the variants differ"
+
+
+def test_check_collision_model(model):
+    testing = pytest.importorskip("crashlab.testing")
+    testing.check_collision_model(model)

@@ -1,0 +1,249 @@
+"""Model `pymunk` (Chipmunk2D through pymunk): physics checks with stated tolerances.
+
+* PC-Crash case 1 (head-on with a stopped car, e = 0.1, equal masses): post-impact speeds 22.5 and
+  27.5 km/h (thesis Table 3.10) within 3 %.
+* With the ground forces off (`ground_forces=False`; the scene schema requires road friction > 0, so the
+  road is switched off in the model, not faked with a tiny friction) only the contacts act:
+  linear momentum is conserved within 0.1 %, angular momentum within 0.5 % at the default step
+  (relative to the angular momentum about the system's centre of mass, the strictest reference).
+* The pair's restitution and friction are exactly the scene's (not Chipmunk's product of per-shape
+  values): a car into a barrier rebounds at e v.
+* The tyre forces are the impulse model's: a car braking with locked wheels stops within 1 % of
+  v^2 / (2 mu g) and within 2 cm of the impulse model's rest position.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import crashlab
+import numpy as np
+import pytest
+from crashlab.scene import load_scene, scene_from_dict
+from crashlab.units import G
+
+pytest.importorskip("pymunk")
+
+PC_CRASH = Path(__file__).resolve().parent.parent / "studies" / "pc_crash"
+
+
+def model(**options):
+    return crashlab.get_model("pymunk", **options)
+
+
+def oblique_scene(duration=0.5):
+    """An oblique, eccentric car-to-car impact (the same scene as studies/pymunk/angular_momentum_vs_step.py)."""
+    return scene_from_dict({
+        "name": "oblique car-to-car", "duration": duration, "stop_at_rest": False,
+        "road": {"friction": 0.8}, "impact": {"restitution": 0.1, "friction": 0.3},
+        "vehicles": [
+            {"name": "V1", "vehicle": "clio", "x": 0.0, "y": 0.0, "heading": 0.0, "speed": 50.0},
+            {"name": "V2", "vehicle": "clio", "x": 6.5, "y": -3.0, "heading": 120.0, "speed": 40.0},
+        ]})
+
+
+def start_states(scene):
+    return np.array([[v.x, v.y, v.heading, v.speed * math.cos(v.heading), v.speed * math.sin(v.heading),
+                      v.yaw_rate] for v in scene.vehicles])
+
+
+def momenta(scene, states):
+    """Linear momentum (2,) and angular momentum about the origin of states (n, 6): x, y, psi, vx, vy, r."""
+    p, L = np.zeros(2), 0.0
+    for v, s in zip(scene.vehicles, states):
+        m, iz = v.spec.mass, v.spec.yaw_inertia
+        p += m * s[3:5]
+        L += m * (s[0] * s[4] - s[1] * s[3]) + iz * s[5]
+    return p, L
+
+
+def momentum_errors(scene, **options):
+    out = model(ground_forces=False, **options).simulate(scene)
+    s0, s1 = start_states(scene), np.column_stack([out.rest_si, out.final_si])
+    p0, L0 = momenta(scene, s0)
+    p1, L1 = momenta(scene, s1)
+    mass = sum(v.spec.mass for v in scene.vehicles)
+    cm = sum(v.spec.mass * s0[i, 0:2] for i, v in enumerate(scene.vehicles)) / mass
+    L0_cm = L0 - (cm[0] * p0[1] - cm[1] * p0[0])
+    return np.linalg.norm(p1 - p0) / np.linalg.norm(p0), abs(L1 - L0) / abs(L0_cm), out
+
+
+# ---------------------------------------------------------------- PC-Crash case 1
+@pytest.fixture(scope="module")
+def head_on():
+    scene = load_scene(PC_CRASH / "head_on.toml")
+    return scene, model().simulate(scene)
+
+
+def test_case1_post_impact_speeds_within_3_percent(head_on):
+    scene, out = head_on
+    assert out.outcome_ok, out.warnings
+    # right after the contact (0.05 s after first touch) and at the end of the run (free rolling, f_rr = 0)
+    for name, ref in (("V1", 22.5), ("V2", 27.5)):
+        tr = out.trajectory(name)
+        after = tr[tr.t >= out.contact_time + 0.05].iloc[0]
+        assert math.hypot(after.vx, after.vy) == pytest.approx(ref, rel=0.03)
+        assert math.hypot(out.final.at[name, "vx"], out.final.at[name, "vy"]) == pytest.approx(ref, rel=0.03)
+    # the reference rows of the scene file are PC-Crash's
+    assert scene.references["pc_crash"]["V1"]["vx"] == 22.5
+
+
+def test_case1_impact_rows(head_on):
+    _, out = head_on
+    imp = out.impacts
+    assert len(imp) == 2 and set(imp.kind) == {"continuous"}
+    v1, v2 = imp.set_index("vehicle").loc["V1"], imp.set_index("vehicle").loc["V2"]
+    assert v1.dvx == pytest.approx(-27.5, rel=0.03) and v2.dvx == pytest.approx(27.5, rel=0.03)
+    # energy dissipated: (1 - e^2) m1 m2 / (2 (m1 + m2)) v^2 for a central impact
+    m, v = 980.0, 50 / 3.6
+    assert v1.energy == pytest.approx((1 - 0.1 ** 2) * m / 4 * v ** 2, rel=0.01)
+    # first contact: V1's bumper (1.8875 m ahead of its CG) meets V2's at x = 5 - 1.8875 m
+    assert out.contact_si[0, 0] + 1.8875 == pytest.approx(5.0 - 1.8875, abs=0.01)
+    assert out.contact_si[0, 3] == pytest.approx(v, rel=1e-6)
+
+
+# ---------------------------------------------------------------- conservation with the road off
+def test_linear_momentum_conserved_within_0_1_percent():
+    err_p, _, out = momentum_errors(oblique_scene())
+    assert out.outcome_ok and len(out.impacts) >= 2, "the cars collide"
+    assert err_p < 1e-3
+
+
+def test_angular_momentum_error_below_half_percent_at_default_step():
+    _, err_L, out = momentum_errors(oblique_scene())
+    assert out.diagnostics["dt"] == 0.00025
+    assert err_L < 5e-3
+
+
+def test_impact_rows_exchange_momentum_and_account_for_the_energy():
+    scene = oblique_scene()
+    out = model(ground_forces=False).simulate(scene)
+    imp = out.impacts
+    first = imp[imp.t == imp.t.min()].set_index("vehicle")
+    # equal masses: dv_1 + dv_2 = 0 (km/h); 1e-6 of the delta-V
+    assert abs(first.dvx.sum()) < 1e-6 * first.delta_v.max()
+    assert abs(first.dvy.sum()) < 1e-6 * first.delta_v.max()
+    # every joule the cars lost went into the contacts (each impact listed once per vehicle row)
+    s0, s1 = start_states(scene), np.column_stack([out.rest_si, out.final_si])
+    ke = [sum(0.5 * v.spec.mass * (s[q, 3] ** 2 + s[q, 4] ** 2) + 0.5 * v.spec.yaw_inertia * s[q, 5] ** 2
+              for q, v in enumerate(scene.vehicles)) for s in (s0, s1)]
+    dissipated = imp.drop_duplicates(["t", "energy"]).energy.sum()
+    assert dissipated == pytest.approx(ke[0] - ke[1], rel=1e-6)
+    assert out.diagnostics["energy_dissipated_impacts"] == pytest.approx(ke[0] - ke[1], rel=1e-6)
+
+
+# ---------------------------------------------------------------- coefficients set on the arbiter
+@pytest.mark.parametrize("e", [0.1, 0.4])
+def test_barrier_rebound_uses_the_scene_restitution_exactly(e):
+    scene = scene_from_dict({
+        "duration": 0.5, "stop_at_rest": False, "impact": {"restitution": e, "friction": 0.3},
+        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 50.0}],
+        "barriers": [{"x": 4.0, "y": 0.3, "heading": 90.0, "length": 6.0, "width": 0.5}]})
+    out = model(ground_forces=False).simulate(scene)
+    # Chipmunk's product of per-shape values would give e^2 or e * 1; the arbiter gets e itself
+    assert out.final.at["V1", "vx"] == pytest.approx(-e * 50.0, rel=1e-3)
+    row = out.impacts.iloc[0]
+    assert row.other == "barrier0" and row.vehicle == "V1"
+    assert row.delta_v == pytest.approx((1 + e) * 50.0, rel=1e-3)
+
+
+def test_tangential_impulse_limited_by_the_scene_friction():
+    """A glancing blow on a barrier, sliding all through the contact: |P_t| = mu P_n."""
+    mu = 0.3
+    scene = scene_from_dict({
+        "duration": 0.5, "stop_at_rest": False, "impact": {"restitution": 0.0, "friction": mu},
+        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 50.0, "heading": 10.0}],
+        "barriers": [{"x": 0.0, "y": 1.5, "heading": 0.0, "length": 40.0, "width": 0.4}]})
+    out = model(ground_forces=False).simulate(scene)
+    rows = out.impacts
+    dv_n = rows.dvy.sum()  # normal: -y (the barrier's face is along x)
+    dv_t = rows.dvx.sum()
+    assert dv_n < 0 and dv_t < 0
+    # sliding friction: the tangential impulse is mu times the normal impulse (on the CG, both / m)
+    assert abs(dv_t) == pytest.approx(mu * abs(dv_n), rel=0.02)
+
+
+# ---------------------------------------------------------------- tyre forces shared with impulse
+def test_locked_wheels_stop_in_the_coulomb_distance_and_agree_with_impulse():
+    mu, v0 = 0.8, 50.0 / 3.6
+    scene = scene_from_dict({
+        "duration": 5.0, "road": {"friction": mu},
+        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 50.0, "wheels": "locked",
+                      "overrides": {"rolling_resistance": 0.0}}]})
+    out = model().simulate(scene)
+    ref = crashlab.get_model("impulse").simulate(scene)
+    assert out.rest.at["V1", "x"] == pytest.approx(v0 ** 2 / (2 * mu * G), rel=0.01)
+    assert abs(out.rest.at["V1", "x"] - ref.rest.at["V1", "x"]) < 0.02
+    assert out.diagnostics["t_end"] < 5.0, "rest detection ends the run"
+    assert out.warnings == ["no contact between the vehicles"]
+
+
+def test_wheels_lock_at_the_first_contact():
+    """Side collision (case 3, locked_after_impact): before contact the cars roll freely (f_rr = 0, so
+    constant speed), after it they slide to rest in about the Coulomb time."""
+    scene = load_scene(PC_CRASH / "side.toml")
+    out = model().simulate(scene)
+    assert out.outcome_ok
+    tr = out.trajectory("V1")
+    before = tr[tr.t < out.contact_time - 1e-9]
+    assert np.allclose(np.hypot(before.vx, before.vy), 50.0, rtol=1e-9)
+    # all at rest well before the 10 s run ends; a rolling car would still run at ~25 km/h
+    assert out.diagnostics["t_end"] < 3.0
+    assert np.all(out.final_si == 0.0)
+
+
+# ---------------------------------------------------------------- interface
+def test_conformance():
+    from crashlab.testing import check_collision_model
+    check_collision_model(model())
+
+
+def test_given_impact_point_is_ignored_with_a_warning():
+    scene = scene_from_dict({
+        "duration": 0.3, "impact": {"point": [1.9, 0.0], "plane_angle": 90.0},
+        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 50.0},
+                     {"name": "V2", "vehicle": "clio", "x": 3.8, "heading": 180.0}]})
+    out = model().simulate(scene)
+    assert any("ignores the given impact point" in w for w in out.warnings)
+
+
+@pytest.mark.parametrize("bad, exc", [({"dt": 0.0}, ValueError), ({"dt": "1e-3"}, TypeError),
+                                      ({"iterations": 0}, ValueError), ({"iterations": 2.5}, TypeError),
+                                      ({"collision_slop": -1.0}, ValueError), ({"v_rest": 0.0}, ValueError),
+                                      ({"ground_forces": "no"}, TypeError), ({"record_dt": -0.1}, ValueError),
+                                      ({"unknown": 1}, TypeError)])
+def test_bad_options(bad, exc):
+    with pytest.raises(exc):
+        model(**bad)
+
+
+def test_options_round_trip():
+    m = model(dt=0.0005, iterations=30, ground_forces=False)
+    assert m.get_options()["dt"] == 0.0005 and m.get_options()["ground_forces"] is False
+    assert type(model(**m.get_options())).__name__ == "PymunkModel"
+
+
+def test_listing_and_constructing_do_not_import_pymunk():
+    code = ("import sys, crashlab; crashlab.available_models(); crashlab.get_model('pymunk'); "
+            "assert 'pymunk' not in sys.modules, 'pymunk imported early'")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# ---------------------------------------------------------------- step-size study
+@pytest.mark.slow
+def test_angular_momentum_error_against_step_size(capsys):
+    """The table of the final report: the error shrinks with the step, below 0.5 % from 0.25 ms."""
+    rows = []
+    for dt in (2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4):
+        err_p, err_L, out = momentum_errors(oblique_scene(), dt=dt)
+        rows.append((dt, err_p, err_L, out.diagnostics["max_penetration"]))
+    with capsys.disabled():
+        print("\ndt [s]     |dP|/|P0|   |dL|/|L0_cm|   max penetration [mm]")
+        for dt, ep, el, pen in rows:
+            print(f"{dt:<10g} {ep:<11.1e} {100 * el:8.3f} %     {1e3 * pen:8.2f}")
+    assert all(r[1] < 1e-9 for r in rows)
+    errs = [r[2] for r in rows]
+    assert errs[0] > errs[2] > errs[4], "the error shrinks with the step"
+    assert all(e < 5e-3 for dt, _, e, _ in rows if dt <= 2.5e-4)

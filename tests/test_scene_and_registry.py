@@ -1,0 +1,143 @@
+"""Scene files, vehicle overrides, validation errors, the plugin registry (DESIGN.md contracts)."""
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+
+import pytest
+
+import crashlab
+from crashlab.registry import UnknownPluginError
+from crashlab.units import kmh_to_ms
+
+
+def write(tmp_path, text, name="scene.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+BASE = """
+name = "t"
+duration = 2.0
+[[vehicles]]
+name = "V1"
+vehicle = "{vehicle}"
+x = 0.0
+speed = 50.0
+{extra}
+"""
+
+
+def test_load_scene_converts_to_si(pc_crash_dir):
+    s = crashlab.load_scene(pc_crash_dir / "side.toml")
+    v2 = s.vehicle("V2")
+    assert v2.heading == pytest.approx(1.5707963267948966, rel=1e-15)
+    assert v2.speed == pytest.approx(kmh_to_ms(30.0), rel=1e-15)
+    assert v2.wheels == "locked_after_impact" and v2.spec.rolling_resistance == 0.0
+    assert s.references["pc_crash"]["V1"]["x"] == 6.66
+    assert s.source.endswith("side.toml")
+
+
+def test_override_changes_the_vehicle(make_scene):
+    plain = make_scene([{}]).vehicles[0].spec
+    heavy = make_scene([{"overrides": {"mass": 1500.0, "yaw_inertia": 2000.0}}]).vehicles[0].spec
+    assert plain.mass == 980.0 and heavy.mass == 1500.0 and heavy.yaw_inertia == 2000.0
+    assert heavy.length == plain.length, "the other properties stay"
+
+
+def test_override_changes_the_physics(make_scene):
+    """A heavier striking car pushes the stopped one faster: v2' = (1+e) m1 v / (m1 + m2)."""
+    model = crashlab.get_model("impulse")
+    outs = []
+    for m1 in (980.0, 1960.0):
+        s = make_scene([{"speed": 50.0, "overrides": {"mass": m1, "rolling_resistance": 0.0}},
+                        {"x": 5.0, "heading": 180.0, "overrides": {"rolling_resistance": 0.0}}],
+                       impact={"restitution": 0.1}, duration=1.0)
+        outs.append(model.simulate(s).final.at["V2", "vx"])
+    assert outs[0] == pytest.approx(1.1 * 50.0 * 980 / 1960, rel=1e-6)
+    assert outs[1] == pytest.approx(1.1 * 50.0 * 1960 / 2940, rel=1e-6)
+
+
+def test_negative_mass_names_file_and_key(tmp_path):
+    p = write(tmp_path, BASE.format(vehicle="clio", extra="[vehicles.overrides]\nmass = -5.0\n"))
+    with pytest.raises(crashlab.InputError) as err:
+        crashlab.load_scene(p)
+    msg = str(err.value)
+    assert str(p) in msg and "vehicles.0.overrides.mass" in msg
+    assert err.value.key == "vehicles.0.overrides.mass"
+
+
+def test_unknown_vehicle_did_you_mean(tmp_path):
+    p = write(tmp_path, BASE.format(vehicle="cleo", extra=""))
+    with pytest.raises(crashlab.InputError, match="did you mean 'clio'") as err:
+        crashlab.load_scene(p)
+    assert str(p) in str(err.value) and err.value.key == "vehicles.0"
+
+
+@pytest.mark.parametrize("extra, key", [("sped = 50.0", "vehicles.0.sped"),
+                                        ("wheels = \"blocked\"", "vehicles.0.wheels"),
+                                        ("speed = -3.0", "vehicles.0.speed")])
+def test_bad_keys_named(tmp_path, extra, key):
+    text = BASE.format(vehicle="clio", extra=extra).replace("speed = 50.0\n", "")
+    with pytest.raises(crashlab.InputError) as err:
+        crashlab.load_scene(write(tmp_path, text))
+    assert err.value.key == key
+
+
+def test_point_without_plane_angle_rejected(make_scene):
+    with pytest.raises(crashlab.InputError) as err:
+        make_scene([{}], impact={"point": [1.0, 0.0]})
+    assert err.value.key == "impact.plane_angle"
+
+
+def test_scene_is_immutable(pc_crash_dir):
+    s = crashlab.load_scene(pc_crash_dir / "side.toml")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.name = "other"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.vehicles[0].speed = 1.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.vehicles[0].spec.mass = 1.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.impact.restitution = 0.5
+
+
+def test_with_vehicle_makes_a_copy(pc_crash_dir):
+    s = crashlab.load_scene(pc_crash_dir / "side.toml")
+    v = s.with_vehicle("V1", speed=20.0)
+    assert v.vehicle("V1").speed == 20.0 and s.vehicle("V1").speed == pytest.approx(kmh_to_ms(50.0))
+    assert v.vehicle("V2") is s.vehicle("V2")
+    assert s.replace(duration=1.0).duration == 1.0 and s.duration == 10.0
+    with pytest.raises(KeyError):
+        s.with_vehicle("V9", speed=1.0)
+
+
+def test_available_models_lists_impulse():
+    assert "impulse" in crashlab.available_models()
+
+
+def test_unknown_model_did_you_mean():
+    with pytest.raises(UnknownPluginError, match="did you mean 'impulse'"):
+        crashlab.get_model("impuls")
+    with pytest.raises(KeyError):
+        crashlab.get_model("no-such-model-at-all")
+
+
+def test_model_options_validated():
+    assert crashlab.get_model("impulse", dt=0.001).get_options()["dt"] == 0.001
+    with pytest.raises(TypeError):
+        crashlab.get_model("impulse", no_such_option=1)
+    with pytest.raises(ValueError):
+        crashlab.get_model("impulse", dt=-1.0)
+
+
+def test_listing_models_imports_nothing_heavy():
+    code = ("import sys, crashlab; names = crashlab.available_models(); "
+            "assert 'impulse' in names, names; "
+            "heavy = [m for m in ('crashlab.models.impulse.kernel', 'crashlab.models.impulse', 'numba', "
+            "'pymunk', 'exudyn') if m in sys.modules]; print(heavy)")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "[]", f"imported by listing: {res.stdout}"
