@@ -10,7 +10,8 @@ from .units import wrap_deg
 
 def comparison_table(scene, outcomes: dict) -> pd.DataFrame:
     """One row per (source, vehicle): rest pose and final velocity of each model and each reference,
-    with the differences of every model row to every reference (distance [m], wrapped heading [deg])."""
+    with the differences of every model row to every reference (distance [m], wrapped heading [deg]);
+    a failed run (ok False) shows where it stopped and no differences."""
     rows = []
     for model, out in outcomes.items():
         rest, fin = out.rest, out.final
@@ -27,7 +28,7 @@ def comparison_table(scene, outcomes: dict) -> pd.DataFrame:
         ref = df[df.source == src].set_index("vehicle")
         d_pos, d_head = [], []
         for _, r in df.iterrows():
-            if r.source in outcomes and r.vehicle in ref.index:
+            if r.source in outcomes and outcomes[r.source].outcome_ok and r.vehicle in ref.index:
                 q = ref.loc[r.vehicle]
                 d_pos.append(math.hypot(r.x - q.x, r.y - q.y))
                 d_head.append(wrap_deg(r.heading - q.heading))
