@@ -8,7 +8,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.distance import pdist, squareform
 
-DEFAULT_EPSILON = 0.01
+# Srinivas & Deb (1994) only ask that the next front's dummy fitness be "smaller than the minimum
+# shared dummy fitness of the previous front"; the size of the gap is left free. A small gap (0.01)
+# makes all fronts nearly equally fit, so proportionate selection has almost no pressure (ZDT1,
+# 30 variables, 200 generations: HV 0.25). A gap of 0.8 (each front worth at most 0.2 of the one
+# before) was measured best over seeds 1-10 together with eta_c 5 and stochastic remainder
+# selection (mean HV 0.841 over seeds 1-10); any value 0.6-0.9 is within noise.
+DEFAULT_EPSILON = 0.8
 
 
 def deb_sigma_share(n_var: int, n_optima: int = 10) -> float:

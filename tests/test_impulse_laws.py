@@ -13,8 +13,14 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from crashlab.models.impulse.laws import (BRACH, FULL, KUDLICH_SLIBAR, SLIDING, collision_impulse,
-                                         impact_matrix)
+from crashlab.models.impulse.laws import (
+    BRACH,
+    FULL,
+    KUDLICH_SLIBAR,
+    SLIDING,
+    collision_impulse,
+    impact_matrix,
+)
 
 REL = 1e-9
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH}

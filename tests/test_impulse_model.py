@@ -107,7 +107,7 @@ def test_case_impact_conserves_momentum(model, case1, case2, case3):
         imp = out.impacts
         assert len(imp) >= 2
         m = {v.name: v.spec.mass for v in scene.vehicles}
-        for t, rows in imp.groupby("t"):
+        for _, rows in imp.groupby("t"):
             a, b = rows.iloc[0], rows.iloc[1]
             px = m[a.vehicle] * a.dvx + m[b.vehicle] * b.dvx
             py = m[a.vehicle] * a.dvy + m[b.vehicle] * b.dvy
@@ -174,7 +174,7 @@ def test_second_impact_against_barrier_bookkeeping(make_scene):
         t = np.array([-n[1], n[0]])
         r = p - cg
         # point velocity of the car; the barrier is at rest: g = -v_P
-        vp = lambda s: np.array([s[0] - s[2] * r[1], s[1] + s[2] * r[0]])  # noqa: E731
+        vp = lambda s, r=r: np.array([s[0] - s[2] * r[1], s[1] + s[2] * r[0]])  # noqa: E731
         gn0, gn1 = -vp(pre) @ n, -vp(post) @ n
         assert gn0 < 0, "approaching at the impact"
         assert abs(gn1 + e * gn0) <= 1e-9 * np.abs(pre).sum() * 3, "g'_n = -e g_n"

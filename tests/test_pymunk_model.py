@@ -18,9 +18,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-import crashlab
 import numpy as np
 import pytest
+
+import crashlab
 from crashlab.scene import load_scene, scene_from_dict
 from crashlab.units import G
 

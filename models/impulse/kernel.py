@@ -18,8 +18,18 @@ from crashlab.geometry import overlap_centroid, penetration, rect_corners
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
-from .vehicle_motion import (LOCKED, LOCKED_AFTER_IMPACT, P_FRONT, P_HALFW, P_IZ, P_MASS, P_REAR,
-                             P_STEER, P_WHEELS, vehicle_derivative)
+from .vehicle_motion import (
+    LOCKED,
+    LOCKED_AFTER_IMPACT,
+    P_FRONT,
+    P_HALFW,
+    P_IZ,
+    P_MASS,
+    P_REAR,
+    P_STEER,
+    P_WHEELS,
+    vehicle_derivative,
+)
 
 # configuration vector
 (C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
@@ -27,8 +37,8 @@ from .vehicle_motion import (LOCKED, LOCKED_AFTER_IMPACT, P_FRONT, P_HALFW, P_IZ
 N_CFG = 16
 # impact record
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
- I_PY, I_PLANE) = range(16)
-N_IMP = 16
+ I_PY, I_PLANE, I_HEAD_I, I_HEAD_J) = range(18)
+N_IMP = 18
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
  D_E_IMPACT, D_SLEEP_SKIPS) = range(12)
@@ -134,6 +144,8 @@ def _record_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, kind, energy, px, p
         imp[n, I_DR_J] = S[j, 5] - S_before[j, 5]
     imp[n, I_ENERGY], imp[n, I_PN], imp[n, I_PT], imp[n, I_KIND] = energy, pn, pt, kind
     imp[n, I_PX], imp[n, I_PY], imp[n, I_PLANE] = px, py, math.atan2(nx, -ny)  # tangent t = k x n
+    imp[n, I_HEAD_I] = S[i, 2]
+    imp[n, I_HEAD_J] = S[j, 2] if j < nv else 0.0
 
 
 @njit(cache=True)

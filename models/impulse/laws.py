@@ -5,7 +5,6 @@ r1, r2 lead from each CG to the point of impact; g = relative velocity of 2 with
 point (g_n < 0: approaching); the impulse P = Pn n + Pt t acts on vehicle 2 and -P on vehicle 1.
 Inverse masses and inertias allow a rigid barrier (w = iI = 0).
 """
-import math
 
 from numba.extending import register_jitable
 

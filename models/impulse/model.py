@@ -117,28 +117,22 @@ class ImpulseModel(CollisionModel):
         for n in range(int(diag[K.D_IMPACTS])):
             r = imp[n]
             i, j = int(r[K.I_I]), int(r[K.I_J])
-            other_j = names[j] if j < nv else f"barrier{j - nv}"
-            ke_total = r[K.I_ENERGY]
-            # deformation energy split assuming crush stiffness proportional to mass (equal force:
-            # E_k proportional to 1 / m_k); a barrier takes none
-            inv = [1.0 / P[i, 0], 1.0 / P[j, 0] if j < nv else 0.0]
             pn, pt, plane = r[K.I_PN], r[K.I_PT], r[K.I_PLANE]
             nx, ny = math.sin(plane), -math.cos(plane)
-            ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j
-            for side, (q, other, sgn) in enumerate(((i, other_j, -1.0), (j, names[i], 1.0))):
-                if q >= nv:
-                    continue
-                dvx, dvy = (r[K.I_DVX_I], r[K.I_DVY_I]) if side == 0 else (r[K.I_DVX_J], r[K.I_DVY_J])
-                e_q = ke_total * inv[side] / sum(inv)
-                head = rest[q, 2]  # placeholder replaced below by heading at the impact
-                rows.append({"t": r[K.I_T], "vehicle": names[q], "other": other, "dvx": dvx, "dvy": dvy,
-                             "d_yaw_rate": r[K.I_DR_I] if side == 0 else r[K.I_DR_J], "energy": ke_total,
-                             "ees": math.sqrt(2.0 * e_q / P[q, 0]), "_fx": sgn * ix, "_fy": sgn * iy,
-                             "_q": q, "_head": head,
+            ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
+            # deformation energy split assuming crush stiffness proportional to mass (equal force:
+            # E_k proportional to 1 / m_k); a barrier takes none
+            inv_i, inv_j = 1.0 / P[i, 0], (1.0 / P[j, 0] if j < nv else 0.0)
+            sides = [(i, names[j] if j < nv else f"barrier{j - nv}", -1.0, K.I_DVX_I, K.I_DR_I, K.I_HEAD_I, inv_i)]
+            if j < nv:
+                sides.append((j, names[i], 1.0, K.I_DVX_J, K.I_DR_J, K.I_HEAD_J, inv_j))
+            for q, other, sgn, c_dv, c_dr, c_head, inv_q in sides:
+                e_q = r[K.I_ENERGY] * inv_q / (inv_i + inv_j)
+                rows.append({"t": r[K.I_T], "vehicle": names[q], "other": other, "dvx": r[c_dv],
+                             "dvy": r[c_dv + 1], "d_yaw_rate": r[c_dr], "energy": r[K.I_ENERGY],
+                             "ees": math.sqrt(2.0 * e_q / P[q, 0]), "pdof": _pdof(sgn * ix, sgn * iy, r[c_head]),
                              "kind": "full" if int(r[K.I_KIND]) == FULL else "sliding",
                              "point_x": r[K.I_PX], "point_y": r[K.I_PY], "plane_angle": plane})
-        for row in rows:
-            row["pdof"] = _pdof(row.pop("_fx"), row.pop("_fy"), row.pop("_head"), row.pop("_q"), contact)
         diagnostics = {"steps": int(diag[K.D_STEPS]), "coarse_steps": int(diag[K.D_COARSE]),
                        "bisections": int(diag[K.D_BISECT]), "impacts": int(diag[K.D_IMPACTS]),
                        "t_end": diag[K.D_T_END], "max_penetration": diag[K.D_MAX_DEPTH],
@@ -149,9 +143,8 @@ class ImpulseModel(CollisionModel):
                        diagnostics, warnings, ok, self.name, wall)
 
 
-def _pdof(fx, fy, head, q, contact):
-    """Principal direction of force on a vehicle [rad]: where the force comes from, in the vehicle frame,
-    0 = from straight ahead, counter-clockwise positive (the heading at first contact is used)."""
-    h = contact[q, 2] if not math.isnan(contact[q, 2]) else head
-    ang = math.atan2(-fy, -fx) - h
+def _pdof(fx, fy, heading):
+    """Principal direction of force on a vehicle [rad]: where the force comes from, in the vehicle frame
+    at the impact, 0 = from straight ahead, counter-clockwise positive."""
+    ang = math.atan2(-fy, -fx) - heading
     return math.atan2(math.sin(ang), math.cos(ang))

@@ -17,9 +17,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .euler_parameters import cross, mv, p_dot, rotation_into
+from .euler_parameters import cross, p_dot, rotation_into
 from .joints import J_TYPE, REVOLUTE_LOCKED, SPHERICAL, TRANSLATIONAL, joint_rows
-from .spring_damper import S_LB, spring_damper, spring_energy
+from .spring_damper import spring_damper, spring_energy
 from .tyre import T_KZ, deflection, tyre
 
 B_MASS, B_IXX, B_IYY, B_IZZ = 0, 1, 2, 3

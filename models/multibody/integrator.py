@@ -16,9 +16,26 @@ from numba import njit
 
 from crashlab.geometry import penetration, rect_corners
 
-from .equations import (AUX_DRIFT_ANG, AUX_DRIFT_POS, AUX_FZ, B_MASS, C_ATOL, C_H0, C_HMAX, C_ONSET_TOL,
-                        C_REC_DT, C_RTOL, C_STOP_AT_REST, C_T_SLEEP, C_TEND, C_V_REST, C_W_REST, MAX_ROWS,
-                        N_AUX, rhs)
+from .equations import (
+    AUX_DRIFT_ANG,
+    AUX_DRIFT_POS,
+    AUX_FZ,
+    B_MASS,
+    C_ATOL,
+    C_H0,
+    C_HMAX,
+    C_ONSET_TOL,
+    C_REC_DT,
+    C_RTOL,
+    C_STOP_AT_REST,
+    C_T_SLEEP,
+    C_TEND,
+    C_V_REST,
+    C_W_REST,
+    MAX_ROWS,
+    N_AUX,
+    rhs,
+)
 
 # Dormand-Prince 5(4) tableau
 _C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
@@ -142,8 +159,6 @@ def pose(y, BODY, nb):
     pitch = math.asin(max(-1.0, min(1.0, -a20)))
     roll = math.atan2(a21, a22)
     # yaw rate = (A w')_z
-    a02 = 2 * (e1 * e3 + e0 * e2)
-    a12 = 2 * (e2 * e3 - e0 * e1)
     w = y[nq + 3:nq + 6]
     r = a20 * w[0] + a21 * w[1] + a22 * w[2]
     return (c[0] / m, c[1] / m, c[2] / m, yaw, roll, pitch, c[3] / m, c[4] / m, r)
@@ -267,7 +282,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, nslip, traj, diag, head, fz
                 hprev = head.copy()
                 lo, hi = 0.0, h
                 Yc = Y.copy()
-                for it in range(60):
+                for _ in range(60):
                     if depth <= tol:
                         break
                     mid = 0.5 * (lo + hi)

@@ -14,9 +14,28 @@ from crashlab.model import CollisionModel
 from crashlab.outcome import Outcome
 
 from . import integrator as I
-from .equations import (C_ALPHA, C_ATOL, C_BETA, C_DAMPING, C_FRICTION, C_G, C_H0, C_HMAX, C_MU,
-                        C_ONSET_TOL, C_REC_DT, C_RTOL, C_STOP_AT_REST, C_T_SLEEP, C_TEND, C_V_REST, C_W_REST,
-                        N_CFG, energy, sizes)
+from .equations import (
+    C_ALPHA,
+    C_ATOL,
+    C_BETA,
+    C_DAMPING,
+    C_FRICTION,
+    C_G,
+    C_H0,
+    C_HMAX,
+    C_MU,
+    C_ONSET_TOL,
+    C_REC_DT,
+    C_RTOL,
+    C_STOP_AT_REST,
+    C_T_SLEEP,
+    C_TEND,
+    C_V_REST,
+    C_W_REST,
+    N_CFG,
+    energy,
+    sizes,
+)
 from .euler_parameters import from_matrix
 from .tyre import LOCKED, MODES, T_R1, T_R2, deflection
 from .vehicle_build import NB, NW, build, initial_local, joints, steer_angles, tyres_for
@@ -148,8 +167,6 @@ class MultibodyModel(CollisionModel):
 
     def prepare(self, scene) -> dict:
         """The packed arrays of a scene (start state Y, parameters, cfg); `run` integrates them."""
-        names = scene.vehicle_names
-        nv = len(names)
         vehs, Ys, Js, Ts, Os = [], [], [], [], []
         for vs in scene.vehicles:
             veh = build(vs.spec)

@@ -17,11 +17,44 @@ import math
 import numpy as np
 
 from .equations import B_MASS, sizes
-from .joints import J_I, J_J, J_SP, J_SQ, J_TYPE, J_XI, J_XJ, J_YI, J_ZI, J_ZJ, N_J, REVOLUTE, \
-    REVOLUTE_LOCKED, TRANSLATIONAL
+from .joints import (
+    J_I,
+    J_J,
+    J_SP,
+    J_SQ,
+    J_TYPE,
+    J_XI,
+    J_XJ,
+    J_YI,
+    J_ZI,
+    J_ZJ,
+    N_J,
+    REVOLUTE,
+    REVOLUTE_LOCKED,
+    TRANSLATIONAL,
+)
 from .spring_damper import N_S, S_C, S_I, S_J, S_K, S_KB, S_L0, S_LB, S_P, S_Q
-from .tyre import (LOCKED, MODES, N_T, T_CA, T_CS, T_ETA, T_FRR, T_KA, T_KG, T_KNUCKLE, T_KS, T_KZ, T_CZ,
-                   T_MODE, T_R1, T_R2, T_SIG_A, T_SIG_S, T_WHEEL)
+from .tyre import (
+    LOCKED,
+    MODES,
+    N_T,
+    T_CA,
+    T_CS,
+    T_CZ,
+    T_ETA,
+    T_FRR,
+    T_KA,
+    T_KG,
+    T_KNUCKLE,
+    T_KS,
+    T_KZ,
+    T_MODE,
+    T_R1,
+    T_R2,
+    T_SIG_A,
+    T_SIG_S,
+    T_WHEEL,
+)
 
 NB, NW = 9, 4
 CORNERS = ("FL", "FR", "RL", "RR")

@@ -3,8 +3,9 @@ implementation of the planar wheel forces (crashlab.models.impulse.vehicle_motio
 and turns its accelerations into the force [N, global] and yaw moment [N m] applied to each body.
 """
 import numpy as np
-from crashlab.models.impulse.vehicle_motion import P_IZ, P_MASS, vehicle_derivative
 from numba import njit
+
+from crashlab.models.impulse.vehicle_motion import P_IZ, P_MASS, vehicle_derivative
 
 
 @njit(cache=True)

@@ -9,6 +9,7 @@ import math
 import time
 
 import numpy as np
+
 from crashlab.geometry import rect_corners
 from crashlab.model import CollisionModel
 from crashlab.models.impulse.vehicle_motion import (
@@ -309,7 +310,8 @@ class _Run:
         for q in vehicles:
             v, dv = S1[q, 3:6], jump[q]
             w = v - dv
-            de += 0.5 * mass[q] * (v[0] ** 2 + v[1] ** 2 - w[0] ** 2 - w[1] ** 2) + 0.5 * iz[q] * (v[2] ** 2 - w[2] ** 2)
+            de += (0.5 * mass[q] * (v[0] ** 2 + v[1] ** 2 - w[0] ** 2 - w[1] ** 2)
+                   + 0.5 * iz[q] * (v[2] ** 2 - w[2] ** 2))
         return de
 
     def _book(self, S1, jump, mass, iz):
