@@ -1,9 +1,9 @@
 """crashlab: vehicle collision models compared, and accidents reconstructed by multi-objective search."""
 from .errors import InputError
+from .model import CollisionModel
 from .outcome import Outcome
 from .registry import available_models, available_optimizers, get_model, get_optimizer
 from .scene import Scene, load_scene
-from .model import CollisionModel
 
 __all__ = ["InputError", "Outcome", "Scene", "CollisionModel", "load_scene", "simulate",
            "available_models", "available_optimizers", "get_model", "get_optimizer", "load_study"]

@@ -63,24 +63,52 @@ def repair_poses(poses, dims, movable, max_shift, t_max):
                     continue
                 for _ in range(2):
                     # 1. back off along the heading until apart
-                    for _it in range(60):
-                        d = _depth(P, dims, i, j)[0]
-                        if d <= 0.0:
-                            break
-                        step = d + CLEARANCE
-                        P[mover, 0] -= step * math.cos(P[mover, 2])
-                        P[mover, 1] -= step * math.sin(P[mover, 2])
+                    if _back_off(P, dims, i, j, mover):
                         changed[c] = 1
-                    # 2. a near miss is brought onto a collision course
+                    # 2. a near miss is brought onto a collision course; when the least separation is
+                    #    at the start (the outlines only move apart) a shift would only make them overlap
                     best, nx, ny, t = _least_separation(P, dims, i, j, t_max, 0.01)
-                    if best > 0.0 or -best > max_shift:
+                    if best > 0.0 or -best > max_shift or t <= 0.0:
                         break
                     s = -best + 0.05
                     sign = 1.0 if mover == i else -1.0  # move i towards j (along n) or j towards i
                     P[mover, 0] += sign * s * nx
                     P[mover, 1] += sign * s * ny
                     changed[c] = 1
+                # the last shift must not leave the outlines overlapping at the start
+                if _back_off(P, dims, i, j, mover):
+                    changed[c] = 1
     return changed
+
+
+@njit(cache=True)
+def _back_off(P, dims, i, j, mover):
+    """Move `mover` back along its heading until the outlines of i and j are apart (1 cm clearance);
+    True if moved. The overlapping back-off distances form an interval starting at 0 (a line through the
+    convex Minkowski difference), so bisection between 0 and a distance that clears the outlines along
+    the heading finds its end, however the outlines are turned."""
+    if _depth(P, dims, i, j)[0] <= 0.0:
+        return False
+    other = j if mover == i else i
+    hx, hy = math.cos(P[mover, 2]), math.sin(P[mover, 2])
+    cm = rect_corners(P[mover, 0], P[mover, 1], P[mover, 2], dims[mover, 0], dims[mover, 1], dims[mover, 2])
+    co = rect_corners(P[other, 0], P[other, 1], P[other, 2], dims[other, 0], dims[other, 1], dims[other, 2])
+    hi_m, lo_o = -1e300, 1e300
+    for k in range(4):
+        hi_m = max(hi_m, cm[k, 0] * hx + cm[k, 1] * hy)
+        lo_o = min(lo_o, co[k, 0] * hx + co[k, 1] * hy)
+    x0, y0 = P[mover, 0], P[mover, 1]
+    lo, hi = 0.0, max(hi_m - lo_o, 0.0) + CLEARANCE  # overlapping at lo, apart at hi
+    for _it in range(50):
+        mid = 0.5 * (lo + hi)
+        P[mover, 0], P[mover, 1] = x0 - mid * hx, y0 - mid * hy
+        if _depth(P, dims, i, j)[0] > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    s = min(hi + CLEARANCE, max(hi_m - lo_o, 0.0) + CLEARANCE)
+    P[mover, 0], P[mover, 1] = x0 - s * hx, y0 - s * hy
+    return True
 
 
 class CollisionRepair(Repair):

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import crashlab
-from crashlab.scene import scene_from_dict
 from crashlab.models.multibody import MultibodyModel
 from crashlab.models.multibody.spring_damper import S_K, S_L0, S_P, S_Q
 from crashlab.models.multibody.vehicle_build import NB
+from crashlab.scene import scene_from_dict
 
 G = 9.81
 

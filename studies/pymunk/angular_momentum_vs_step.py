@@ -14,6 +14,7 @@ magnitude any reference point gives, so the strictest relative error).
 import math
 
 import numpy as np
+
 from crashlab.models.pymunk import PymunkModel
 from crashlab.scene import scene_from_dict
 

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import crashlab
 import pytest
+
+import crashlab
 
 pytest.importorskip("pymunk")
 
