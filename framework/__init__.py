@@ -1,4 +1,5 @@
 """crashlab: vehicle collision models compared, and accidents reconstructed by multi-objective search."""
+from . import numba_cache  # noqa: F401  (keys numba's cache directory before numba loads)
 from .errors import InputError
 from .model import CollisionModel
 from .outcome import Outcome
