@@ -18,7 +18,7 @@ from crashlab.geometry import overlap_centroid, penetration, rect_corners
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
-from .vehicle_motion import (
+from .vehicle_motion import (stiffest_rate, 
     LOCKED,
     LOCKED_AFTER_IMPACT,
     P_FRONT,
@@ -228,8 +228,12 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             traj[n_rec, :, 1:7] = S
             n_rec += 1
             next_rec += rec_dt
-        # ---- step size: coarse while every moving vehicle runs straight and nothing can touch
+        # ---- step size: the fine step within the tyre forces' stability limit, coarse while every
+        # moving vehicle runs straight and nothing can touch
         h = dt
+        for i in range(nv):
+            if not asleep[i]:
+                h = min(h, 1.0 / stiffest_rate(P[i], mu, modes[i]))
         quiet = True
         for i in range(nv):
             if not asleep[i]:
@@ -253,7 +257,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                         closing += math.hypot(S[k, 3], S[k, 4])
                     if closing > 0.0:
                         h_gap = min(h_gap, 0.5 * gap / closing)
-            if h_gap > dt:
+            if h_gap > h:
                 h = h_gap
                 diag[D_COARSE] += 1
         h = min(h, duration - t)

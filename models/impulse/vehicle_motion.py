@@ -97,6 +97,22 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
     out[5] = mz / iz
 
 
+@register_jitable
+def stiffest_rate(p, mu, mode):
+    """Largest decay rate [1/s] of the regularised tyre forces of one vehicle (lateral and yaw modes):
+    an explicit step must stay below about 1 / rate (Heun is stable up to 2 / rate)."""
+    m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
+    if mode == LOCKED:
+        # Coulomb regularised over V_REG: force mu N v / V_REG per wheel
+        rho2 = 0.5 * (a * a + b * b) + 0.25 * track * track
+        return mu * G / V_REG * max(1.0, m * rho2 / iz)
+    c = p[P_CALPHA]  # cornering stiffness per tyre, slip angle floored at V_LOW
+    rate = max(4.0 * c / (m * V_LOW), 2.0 * c * (a * a + b * b) / (iz * V_LOW))
+    if mode == BRAKED:
+        rate = max(rate, mu * G / V_REG)
+    return rate
+
+
 def pack_vehicle(spec, wheels: str, steer: float) -> np.ndarray:
     """The parameter vector of one vehicle (SI)."""
     p = np.empty(N_PARAMS)
