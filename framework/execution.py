@@ -46,7 +46,7 @@ def evaluate_scenes(model_name: str, options_items: tuple, scenes: list, single_
             continue
         ok[k] = True
         rest[k], contact[k] = o.rest_si, o.contact_si
-        n_imp[k] = len(o.impact_rows)
+        n_imp[k] = o.diagnostics["impacts"] if "impacts" in o.diagnostics else len(o.impact_rows)
     return ok, rest, contact, n_imp
 
 
@@ -61,8 +61,11 @@ class Executor:
 
     def __enter__(self):
         if self.backend == "processes":
+            import multiprocessing
             from concurrent.futures import ProcessPoolExecutor
-            self._pool = ProcessPoolExecutor(self.workers)
+            # spawn, as Dask does: a forked child of a process whose numba kernels already ran on
+            # GNU OpenMP threads aborts ("fork() called from a process already using GNU OpenMP")
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
         elif self.backend == "dask":
             from dask.distributed import Client, LocalCluster
             if self.scheduler:

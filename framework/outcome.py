@@ -21,7 +21,8 @@ class Outcome:
     rest_si: (n, 3) x [m], y [m], heading [rad] (continuous), final_si: (n, 3) vx, vy [m/s], yaw rate
     [rad/s]; contact_si: (n, 4) x, y, heading, speed at first contact (NaN without contact);
     trajectories: name -> dict of SI arrays (t, x, y, heading, vx, vy, yaw_rate, optional z, roll, pitch);
-    impact_rows: list of dicts in SI (see `impacts`).
+    impact_rows: list of dicts in SI (see `impacts`), or a picklable callable returning it (built on
+    first access, so batch runs that only need rest poses do not pay for it).
     """
 
     def __init__(self, names, rest_si, final_si=None, contact_si=None, contact_time=math.nan,
@@ -34,7 +35,7 @@ class Outcome:
         self.contact_si = np.full((n, 4), np.nan) if contact_si is None else np.asarray(contact_si, float)
         self.contact_time = contact_time
         self._trajectories = trajectories or {}
-        self.impact_rows = list(impact_rows)
+        self._impact_rows = impact_rows if callable(impact_rows) else list(impact_rows)
         self.diagnostics = dict(diagnostics or {})
         self.warnings = list(warnings)
         self.outcome_ok = bool(ok)
@@ -46,6 +47,12 @@ class Outcome:
         n = len(names)
         return cls(names, np.full((n, 3), np.nan), ok=False, warnings=[reason], model=model,
                    wall_time_s=wall_time_s)
+
+    @property
+    def impact_rows(self) -> list:
+        if callable(self._impact_rows):
+            self._impact_rows = list(self._impact_rows())
+        return self._impact_rows
 
     # ---------------------------------------------------------------- public tables
     @property

@@ -1,6 +1,7 @@
 """Model `impulse`: planar impulse-momentum collisions (PC-Crash style) with 3-DOF vehicle motion."""
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -115,26 +116,7 @@ class ImpulseModel(CollisionModel):
         status = int(diag[K.D_STATUS])
         warnings = [STATUS_TEXT[status]] if status != K.STATUS_OK else []
         ok = status in (K.STATUS_OK, K.STATUS_IMPACT_CAP)
-        rows = []
-        for n in range(int(diag[K.D_IMPACTS])):
-            r = imp[n]
-            i, j = int(r[K.I_I]), int(r[K.I_J])
-            pn, pt, plane = r[K.I_PN], r[K.I_PT], r[K.I_PLANE]
-            nx, ny = math.sin(plane), -math.cos(plane)
-            ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
-            # deformation energy split assuming crush stiffness proportional to mass (equal force:
-            # E_k proportional to 1 / m_k); a barrier takes none
-            inv_i, inv_j = 1.0 / P[i, 0], (1.0 / P[j, 0] if j < nv else 0.0)
-            sides = [(i, names[j] if j < nv else f"barrier{j - nv}", -1.0, K.I_DVX_I, K.I_DR_I, K.I_HEAD_I, inv_i)]
-            if j < nv:
-                sides.append((j, names[i], 1.0, K.I_DVX_J, K.I_DR_J, K.I_HEAD_J, inv_j))
-            for q, other, sgn, c_dv, c_dr, c_head, inv_q in sides:
-                e_q = r[K.I_ENERGY] * inv_q / (inv_i + inv_j)
-                rows.append({"t": r[K.I_T], "vehicle": names[q], "other": other, "dvx": r[c_dv],
-                             "dvy": r[c_dv + 1], "d_yaw_rate": r[c_dr], "energy": r[K.I_ENERGY],
-                             "ees": math.sqrt(2.0 * e_q / P[q, 0]), "pdof": _pdof(sgn * ix, sgn * iy, r[c_head]),
-                             "kind": "full" if int(r[K.I_KIND]) == FULL else "sliding",
-                             "point_x": r[K.I_PX], "point_y": r[K.I_PY], "plane_angle": plane})
+        rows = functools.partial(_impact_rows, names, P[:, 0].copy(), imp[:int(diag[K.D_IMPACTS])].copy())
         diagnostics = {"steps": int(diag[K.D_STEPS]), "coarse_steps": int(diag[K.D_COARSE]),
                        "bisections": int(diag[K.D_BISECT]), "impacts": int(diag[K.D_IMPACTS]),
                        "t_end": diag[K.D_T_END], "max_penetration": diag[K.D_MAX_DEPTH],
@@ -143,6 +125,31 @@ class ImpulseModel(CollisionModel):
             warnings.append("no contact between the vehicles")
         return Outcome(names, rest.copy(), final.copy(), contact.copy(), diag[K.D_CONTACT_T], None, rows,
                        diagnostics, warnings, ok, self.name, wall)
+
+
+def _impact_rows(names, mass, imp):
+    """Impact table rows (SI) of the recorded impulses, one per vehicle per impact."""
+    nv = len(names)
+    rows = []
+    for r in imp:
+        i, j = int(r[K.I_I]), int(r[K.I_J])
+        pn, pt, plane = r[K.I_PN], r[K.I_PT], r[K.I_PLANE]
+        nx, ny = math.sin(plane), -math.cos(plane)
+        ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
+        # deformation energy split assuming crush stiffness proportional to mass (equal force:
+        # E_k proportional to 1 / m_k); a barrier takes none
+        inv_i, inv_j = 1.0 / mass[i], (1.0 / mass[j] if j < nv else 0.0)
+        sides = [(i, names[j] if j < nv else f"barrier{j - nv}", -1.0, K.I_DVX_I, K.I_DR_I, K.I_HEAD_I, inv_i)]
+        if j < nv:
+            sides.append((j, names[i], 1.0, K.I_DVX_J, K.I_DR_J, K.I_HEAD_J, inv_j))
+        for q, other, sgn, c_dv, c_dr, c_head, inv_q in sides:
+            e_q = r[K.I_ENERGY] * inv_q / (inv_i + inv_j)
+            rows.append({"t": r[K.I_T], "vehicle": names[q], "other": other, "dvx": r[c_dv],
+                         "dvy": r[c_dv + 1], "d_yaw_rate": r[c_dr], "energy": r[K.I_ENERGY],
+                         "ees": math.sqrt(2.0 * e_q / mass[q]), "pdof": _pdof(sgn * ix, sgn * iy, r[c_head]),
+                         "kind": "full" if int(r[K.I_KIND]) == FULL else "sliding",
+                         "point_x": r[K.I_PX], "point_y": r[K.I_PY], "plane_angle": plane})
+    return rows
 
 
 def _pdof(fx, fy, heading):
