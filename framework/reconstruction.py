@@ -349,7 +349,7 @@ def pareto_table(problem: ReconstructionProblem, arch: dict):
 
 def _status(problem, hv_ref):
     from pymoo.indicators.hv import HV
-    F, G = problem.archive["F"][-1], problem.archive["G"][-1]
+    G = problem.archive["G"][-1]
     feas = np.all(G <= 0, axis=1)
     allF = np.concatenate(problem.archive["F"])
     allfeas = np.all(np.concatenate(problem.archive["G"]) <= 0, axis=1)
@@ -374,9 +374,7 @@ def _atomic_pickle(path: Path, obj):
     tmp = path.with_suffix(path.suffix + ".tmp")
     with open(tmp, "wb") as fh:
         pickle.dump(obj, fh, protocol=pickle.HIGHEST_PROTOCOL)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    os.replace(tmp, path)  # atomic: a kill leaves the previous or the new checkpoint, never half of one
 
 
 def write_outputs(study: Study, result: ReconstructionResult, arch: dict, out_dir: Path):
@@ -450,14 +448,10 @@ def load_study(path) -> Study:
     except ValidationError as err:
         raise pydantic_error(path, err) from None
     if spec.model not in available_models():
-        import difflib
-        close = difflib.get_close_matches(spec.model, available_models(), n=1)
-        raise InputError(path, "model", f"unknown model {spec.model!r}" + (f"; did you mean {close[0]!r}?" if close else ""))
+        raise InputError(path, "model", str(UnknownPluginError("model", spec.model, available_models())))
     if spec.optimizer.name not in available_optimizers():
-        import difflib
-        close = difflib.get_close_matches(spec.optimizer.name, available_optimizers(), n=1)
-        raise InputError(path, "optimizer.name", f"unknown optimizer {spec.optimizer.name!r}"
-                         + (f"; did you mean {close[0]!r}?" if close else ""))
+        raise InputError(path, "optimizer.name",
+                         str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
     scene_path = path.parent / spec.scene
     if not scene_path.exists():
         raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
@@ -485,8 +479,8 @@ def run_cli(args) -> int:
     import json
     study = load_study(args.study)
     if args.optimizer and args.optimizer not in available_optimizers():
-        from .registry import UnknownPluginError as U
-        raise InputError(args.study, "--optimizer", str(U("optimizer", args.optimizer, available_optimizers())))
+        raise InputError(args.study, "--optimizer",
+                         str(UnknownPluginError("optimizer", args.optimizer, available_optimizers())))
     res = study.run(optimizer=args.optimizer, workers=args.workers, scheduler=args.scheduler,
                     out_dir=args.out, resume=args.resume, progress=not (args.json or args.no_progress))
     if args.json:

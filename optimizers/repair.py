@@ -4,8 +4,9 @@ The thesis re-drew infeasible candidates and proposed a back-off operator as fut
   1. vehicles that overlap at the start: the vehicle whose position is free is moved back along its
      heading until the outlines are apart (1 cm clearance);
   2. a candidate that misses: with straight-line motion at the start speeds, the pose of least
-     separation is found; when moving the free vehicle sideways by at most `max_shift` brings the
-     outlines into contact there, it is moved (and step 1 is re-applied).
+     separation is found; when moving the free vehicle sideways by at most `max_shift` (in all) brings
+     the outlines into contact there, it is moved, and steps 1-2 are repeated (a shift along one
+     separating axis may leave another). Step 1 always comes last.
 Variables stay within their bounds; what cannot be repaired is left to the constraints.
 """
 from __future__ import annotations
@@ -61,16 +62,18 @@ def repair_poses(poses, dims, movable, max_shift, t_max):
                 mover = i if movable[i] else (j if movable[j] else -1)
                 if mover < 0:
                     continue
-                for _ in range(2):
+                shifted = 0.0  # the sideways moves of step 2 add up to at most max_shift
+                for _ in range(6):  # a shift along one axis may leave another separating: repeat
                     # 1. back off along the heading until apart
                     if _back_off(P, dims, i, j, mover):
                         changed[c] = 1
                     # 2. a near miss is brought onto a collision course; when the least separation is
                     #    at the start (the outlines only move apart) a shift would only make them overlap
                     best, nx, ny, t = _least_separation(P, dims, i, j, t_max, 0.01)
-                    if best > 0.0 or -best > max_shift or t <= 0.0:
+                    if best > 0.0 or -best > max_shift - shifted or t <= 0.0:
                         break
                     s = -best + 0.05
+                    shifted += s
                     sign = 1.0 if mover == i else -1.0  # move i towards j (along n) or j towards i
                     P[mover, 0] += sign * s * nx
                     P[mover, 1] += sign * s * ny

@@ -18,7 +18,7 @@ from crashlab.geometry import overlap_centroid, penetration, rect_corners
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
-from .vehicle_motion import (stiffest_rate, 
+from .vehicle_motion import (
     LOCKED,
     LOCKED_AFTER_IMPACT,
     P_FRONT,
@@ -28,6 +28,7 @@ from .vehicle_motion import (stiffest_rate,
     P_REAR,
     P_STEER,
     P_WHEELS,
+    stiffest_rate,
     vehicle_derivative,
 )
 

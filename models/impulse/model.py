@@ -112,7 +112,6 @@ class ImpulseModel(CollisionModel):
     # ------------------------------------------------------------------ results
     def _outcome(self, scene, P, rest, final, contact, imp, diag, wall) -> Outcome:
         names = scene.vehicle_names
-        nv = len(names)
         status = int(diag[K.D_STATUS])
         warnings = [STATUS_TEXT[status]] if status != K.STATUS_OK else []
         ok = status in (K.STATUS_OK, K.STATUS_IMPACT_CAP)

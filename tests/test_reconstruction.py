@@ -1,0 +1,407 @@
+"""The reconstruction layer (DESIGN.md, study file and `crashlab reconstruct`): collision repair, the
+objectives and failed evaluations, identical answers on every execution backend, resume after a kill,
+bad study files, the output files, and (slow) the twin experiments. The optimizers themselves are
+tested in test_optimizers.py."""
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import crashlab
+from crashlab import execution
+from crashlab.optimizers.repair import CollisionRepair, _least_separation, repair_poses
+from crashlab.reconstruction import FAILED_OBJECTIVE, ReconstructionProblem, load_study
+
+REPO = Path(__file__).resolve().parent.parent
+STUDIES = REPO / "studies" / "reconstruction"
+SIDE = REPO / "studies" / "pc_crash" / "side.toml"
+POSITION_FIELDS = ("x", "y")
+
+
+def cli(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "crashlab.cli", *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def small_study(tmp_path, name="small.toml", pop_size=12, generations=3, **replace) -> Path:
+    """twin1 (V1.speed, V2.speed free; evidence = the model's own simulation of side.toml) with a small
+    budget and the scene path made absolute; `replace` swaps whole lines 'old' -> 'new'."""
+    text = (STUDIES / "twin1.toml").read_text()
+    text = text.replace('scene = "../pc_crash/side.toml"', f'scene = "{SIDE.as_posix()}"')
+    text = text.replace("pop_size = 75", f"pop_size = {pop_size}")
+    text = text.replace("generations = 20", f"generations = {generations}")
+    for old, new in replace.values():
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def truth_of(study) -> dict:
+    """The base scene's start state in file units, per free variable label (twin truth)."""
+    out = {}
+    for f in study.spec.free:
+        v = next(v for v in study.scene.vehicles if v.name == f.vehicle)
+        out[f.label] = {"x": v.x, "y": v.y, "heading": np.degrees(v.heading), "speed": v.speed * 3.6}[f.field]
+    return out
+
+
+def wrap180(d):
+    return (np.asarray(d) + 180.0) % 360.0 - 180.0
+
+
+# ------------------------------------------------------------------ 1. repair
+def _repair(problem, X, **kw):
+    from pymoo.core.population import Population
+    rep = CollisionRepair(**kw)
+    return rep.do(problem, Population.new(X=X)).get("X"), rep
+
+
+@pytest.mark.parametrize("twin", ["twin3", "twin5"])
+def test_repair_separates_random_candidates_within_bounds(twin):
+    problem = load_study(STUDIES / f"{twin}.toml").make_problem()
+    assert problem.movable.all(), "both vehicles have free x and y"
+    X = np.random.default_rng(7).uniform(problem.xl, problem.xu, (200, problem.n_var))
+    Xr, rep = _repair(problem, X)
+
+    # where the repair wanted the free positions (before clipping to the bounds)
+    poses = problem.start_poses(X)
+    changed = repair_poses(poses, problem.outline_dims, problem.movable, 1.0, 4.0).astype(bool)
+    wanted = X.copy()
+    for (i, field), c in problem.columns.items():
+        if field in POSITION_FIELDS:
+            wanted[:, c] = poses[:, i, POSITION_FIELDS.index(field)]
+    within = np.all((wanted >= problem.xl) & (wanted <= problem.xu), axis=1)
+
+    before, after = problem.start_overlap(X), problem.start_overlap(Xr)
+    print(f"\n{twin}: overlapping at the start {np.sum(before > 0)}/200 before, {np.sum(after > 0)} after; "
+          f"repaired {rep.repaired}; repaired position within bounds {within.sum()}/200")
+    assert np.sum(before > 0) >= 30, "the draw exercises the back-off"
+    assert rep.repaired == changed.sum() >= np.sum(before > 0)
+    assert np.all(after[within] <= 0.0), "no overlap at the start wherever the bounds did not clip"
+    assert within.mean() >= 0.9
+    assert np.all((Xr >= problem.xl) & (Xr <= problem.xu))
+    other = [c for c, f in enumerate(problem.free) if f.field not in POSITION_FIELDS]
+    np.testing.assert_array_equal(Xr[:, other], X[:, other])  # only positions are moved
+    np.testing.assert_array_equal(Xr[~changed], X[~changed])  # untouched candidates are not altered
+
+
+def test_repair_brings_near_misses_onto_a_collision_course():
+    """Start from grazing configurations (V2, heading north, passes just ahead of V1, heading east: V2's
+    rear corner meets V1's left front corner), then shift V2 sideways (+x) by 0.5 m: the straight paths
+    now miss by a little and the impulse model sees no contact. After the repair they collide."""
+    study = load_study(STUDIES / "twin3.toml")
+    problem = study.make_problem()
+    assert [f.label for f in problem.free] == ["V1.x", "V1.y", "V2.x", "V2.y"]
+    front, rear, half_w = problem.outline_dims[0]
+    v1, v2 = study.scene.vehicles[0].speed, study.scene.vehicles[1].speed
+    rows = []
+    for x1 in (-2.0, -1.0, 0.0):
+        for x2 in (3.0, 4.0, 5.0, 6.0):
+            t = (x2 - half_w - (x1 + front)) / v1  # V1's front reaches V2's left side
+            y1 = -rear + v2 * t - half_w           # ... just as V2's rear clears V1's left side
+            rows.append([x1, y1, x2 + 0.5, 0.0])
+    X = np.array(rows)
+    assert np.all((X >= problem.xl) & (X <= problem.xu))
+    gaps = np.array([_least_separation(problem.start_poses(x)[0], problem.outline_dims, 0, 1, 4.0, 0.01)[0]
+                     for x in X])
+    assert np.all((gaps < -0.1) & (gaps > -0.5)), "straight paths miss by 0.1-0.5 m"
+
+    def impacts(X):
+        return execution.evaluate_scenes("impulse", (), [problem.scene_for(x) for x in X])[3]
+
+    assert np.all(impacts(X) == 0), "no contact before the repair"
+    Xr, rep = _repair(problem, X, max_shift=1.0)
+    n_imp = impacts(Xr)
+    shift = np.linalg.norm(Xr - X, axis=1)
+    print(f"\nnear misses: {len(X)}, repaired {rep.repaired}, colliding after {np.sum(n_imp > 0)}; "
+          f"position change {shift.min():.3f}-{shift.max():.3f} m")
+    assert np.all(n_imp > 0), "every near miss collides after the repair"
+    assert np.all(problem.start_overlap(Xr) <= 0.0)
+    assert np.all((Xr >= problem.xl) & (Xr <= problem.xu))
+    assert np.all(shift <= 1.0 + 0.5), "a small move, not a re-draw"
+    G = problem.evaluate(Xr, return_values_of=["G"])
+    assert np.all(G <= 0), "feasible for the optimizer"
+
+
+# ------------------------------------------------------------------ 2. objectives and failures
+@pytest.mark.parametrize("name", ["case1", "twin3"])
+def test_objective_is_the_rest_position_distance(name):
+    study = load_study(STUDIES / f"{name}.toml")
+    problem = study.make_problem()
+    X = np.random.default_rng(3).uniform(problem.xl, problem.xu, (8, problem.n_var))
+    F = problem.evaluate(X, return_values_of=["F"])
+    for x, f in zip(X, F):
+        scene = problem.scene_for(x)
+        for field, val in zip(problem.free, x):  # the scene carries the candidate (file units -> SI)
+            v = next(v for v in scene.vehicles if v.name == field.vehicle)
+            got = {"x": v.x, "y": v.y, "heading": np.degrees(v.heading), "speed": v.speed * 3.6}[field.field]
+            assert got == pytest.approx(val, abs=1e-9)
+        rest = crashlab.simulate(scene, model="impulse").rest
+        expected = [np.hypot(rest.loc[n, "x"] - ex, rest.loc[n, "y"] - ey)
+                    for n, (ex, ey, _) in study.evidence.items()]
+        np.testing.assert_allclose(f, expected, rtol=0, atol=1e-9)
+
+
+def test_twin_truth_has_zero_objectives():
+    study = load_study(STUDIES / "twin5.toml")
+    problem = study.make_problem()
+    truth = truth_of(study)
+    x = np.array([[truth[f.label] for f in problem.free]])
+    F, G = problem.evaluate(x, return_values_of=["F", "G"])
+    np.testing.assert_allclose(F, 0.0, atol=1e-9)
+    assert np.all(G <= 0)
+
+
+def test_heading_weight_adds_weighted_wrapped_heading_difference():
+    study = load_study(STUDIES / "case1.toml")
+    w = 0.05
+    base = ReconstructionProblem(study.scene, study.spec.free, study.evidence, 0.0, "impulse", {})
+    weighted = ReconstructionProblem(study.scene, study.spec.free, study.evidence, w, "impulse", {})
+    turned = {n: (x, y, h + 360.0 * k) for k, (n, (x, y, h)) in zip((1, -2), study.evidence.items())}
+    weighted_turned = ReconstructionProblem(study.scene, study.spec.free, turned, w, "impulse", {})
+    X = np.random.default_rng(5).uniform(base.xl, base.xu, (10, base.n_var))
+    F0 = base.evaluate(X, return_values_of=["F"])
+    Fw = weighted.evaluate(X, return_values_of=["F"])
+    for x, f0, fw in zip(X, F0, Fw):
+        rest = crashlab.simulate(base.scene_for(x), model="impulse").rest
+        dh = np.array([rest.loc[n, "heading"] - eh for n, (_, _, eh) in study.evidence.items()])
+        np.testing.assert_allclose(fw - f0, w * np.abs(wrap180(dh)), rtol=0, atol=1e-9)
+        assert np.all(fw - f0 <= w * 180.0 + 1e-12)
+    # the evidence heading given one or two turns apart changes nothing (the wrapped difference)
+    np.testing.assert_allclose(weighted_turned.evaluate(X, return_values_of=["F"]), Fw, rtol=0, atol=1e-9)
+
+
+class FlakyModel:
+    """The impulse model, except: V1 faster than 60 km/h raises; V2 slower than 15 km/h returns a failed
+    outcome (outcome_ok False, no rest pose). simulate_batch raises whenever a raising scene is in it."""
+
+    def __init__(self):
+        self.model = crashlab.get_model("impulse")
+
+    @staticmethod
+    def _raises(scene):
+        return scene.vehicles[0].speed * 3.6 > 60.0
+
+    @staticmethod
+    def _fails(scene):
+        return scene.vehicles[1].speed * 3.6 < 15.0
+
+    def simulate(self, scene):
+        if self._raises(scene):
+            raise RuntimeError("solver blew up")
+        if self._fails(scene):
+            return SimpleNamespace(outcome_ok=False, rest_si=np.full((2, 3), np.nan), warnings=["failed"])
+        return self.model.simulate(scene)
+
+    def simulate_batch(self, scenes):
+        if any(self._raises(s) for s in scenes):
+            raise RuntimeError("batch blew up")
+        return [self.simulate(s) for s in scenes]
+
+
+def test_failed_evaluations_are_counted_infeasible_and_do_not_stop_the_run(monkeypatch, tmp_path):
+    monkeypatch.setattr(execution, "_model", lambda name, items: FlakyModel())
+    study = load_study(small_study(tmp_path, pop_size=12, generations=3))
+    problem = study.make_problem()
+    X = np.array([[50.0, 30.0], [65.0, 30.0], [50.0, 12.0], [40.0, 20.0]])
+    F, G = problem.evaluate(X, return_values_of=["F", "G"])
+    assert problem.n_failed == 2
+    np.testing.assert_array_equal(F[1:3], FAILED_OBJECTIVE)
+    assert np.all(G[1:3] > 0) and np.all(G[[0, 3]] <= 0)
+    assert np.all(F[[0, 3]] < 10.0)
+
+    res = study.run()
+    arch = res.problem.archive_arrays()
+    bad = (arch["X"][:, 0] > 60.0) | (arch["X"][:, 1] < 15.0)
+    print(f"\nflaky model: {bad.sum()} of {res.evaluations} evaluations failed")
+    assert res.evaluations == 12 * 3
+    assert bad.sum() > 0 and res.failed == bad.sum()
+    assert np.all(arch["F"][bad] == FAILED_OBJECTIVE) and np.all(np.any(arch["G"][bad] > 0, axis=1))
+    assert not np.any(arch["ok"][bad]) and np.all(arch["ok"][~bad])
+    assert len(res.pareto) > 0
+    assert np.all(res.pareto["V1.speed"] <= 60.0) and np.all(res.pareto["V2.speed"] >= 15.0)
+    assert res.feasible_fraction <= 1.0 - bad.mean() + 1e-12
+
+
+# ------------------------------------------------------------------ 3. the same answer on every backend
+def _short_run(backend, workers=None):
+    study = load_study(STUDIES / "twin1.toml")
+    study.spec.optimizer.pop_size, study.spec.optimizer.generations = 12, 3
+    study.spec.execution.backend = backend
+    t0 = time.perf_counter()
+    res = study.run(workers=workers)
+    print(f"\n{backend}: {time.perf_counter() - t0:.2f} s, {len(res.pareto)} Pareto rows")
+    return res
+
+
+@pytest.fixture(scope="module")
+def serial_run():
+    return _short_run("serial")
+
+
+def _assert_same(a, b):
+    assert list(a.pareto.columns) == list(b.pareto.columns)
+    assert len(a.pareto) > 0
+    assert np.array_equal(a.pareto.to_numpy(float), b.pareto.to_numpy(float))
+    assert a.evaluations == b.evaluations == 36 and a.failed == b.failed == 0
+    fa, fb = a.problem.archive_arrays(), b.problem.archive_arrays()
+    assert np.array_equal(fa["X"], fb["X"]) and np.array_equal(fa["F"], fb["F"])
+
+
+def test_processes_backend_gives_the_serial_answer(serial_run):
+    _assert_same(serial_run, _short_run("processes", workers=2))
+
+
+def test_dask_local_cluster_gives_the_serial_answer(serial_run):
+    pytest.importorskip("dask.distributed")
+    _assert_same(serial_run, _short_run("dask", workers=2))
+
+
+# ------------------------------------------------------------------ 4. resume after a kill
+def test_resume_after_kill_equals_uninterrupted_run(tmp_path):
+    pop, gens = 20, 8
+    study = small_study(tmp_path, pop_size=pop, generations=gens)
+    full, cut = tmp_path / "full", tmp_path / "cut"
+    res = cli("reconstruct", study, "--out", full, "--no-progress", "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["evaluations"] == pop * gens
+
+    ckpt = cut / "checkpoint.pkl"
+    proc = subprocess.Popen([sys.executable, "-m", "crashlab.cli", "reconstruct", str(study), "--out", str(cut),
+                             "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not ckpt.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.001)
+    seen = ckpt.exists()
+    if proc.poll() is None:
+        os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert seen, f"a checkpoint is written after every generation: {proc.stderr.read()!r}"
+    killed = proc.returncode == -signal.SIGKILL
+    with open(ckpt, "rb") as fh:
+        algorithm, _ = pickle.load(fh)
+    done = len(algorithm.problem.archive["X"])
+    print(f"\nkilled={killed}: checkpoint holds {done} of {gens} generations")
+    if killed and done < gens:
+        assert not (cut / "pareto.csv").exists(), "outputs come at the end"
+
+    res = cli("reconstruct", study, "--resume", "--out", cut, "--no-progress", "--json")
+    assert res.returncode == 0, res.stderr
+    data = json.loads(res.stdout)
+    assert data["evaluations"] == pop * gens and data["failed"] == 0
+    assert (cut / "pareto.csv").read_text() == (full / "pareto.csv").read_text()
+
+
+# ------------------------------------------------------------------ 5. bad study files
+BAD = {  # id: (line replacements, key, words in the message)
+    "optimizer-typo": ({"o": ('name = "nsga-sharing"', 'name = "nsga-sharng"')}, "optimizer.name",
+                       ["did you mean 'nsga-sharing'"]),
+    "optimizer-prefix": ({"o": ('name = "nsga-sharing"', 'name = "nsga"')}, "optimizer.name",
+                         ["unknown optimizer 'nsga'", "did you mean"]),
+    "reversed-bounds": ({"l": ("lower = 30.0", "lower = 80.0")}, "free.0", ["lower", "upper", "80"]),
+    "unknown-vehicle": ({"v": ('vehicle = "V2"', 'vehicle = "V3"')}, "free.1.vehicle", ["'V3'"]),
+    "unknown-field-value": ({"f": ('field = "speed"', 'field = "velocity"')}, "free.0.field", ["speed"]),
+    "unknown-key": ({"k": ("upper = 70.0", 'upper = 70.0\ncolour = "red"')}, "free.0.colour", ["unknown key"]),
+    "missing-scene": ({"s": ("side.toml", "no_such_scene.toml")}, "scene", ["not found"]),
+    "unknown-model": ({"m": ('model = "impulse"', 'model = "impluse"')}, "model", ["did you mean 'impulse'"]),
+}
+
+
+def _one_error_line(res, path, key, words):
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr + res.stdout
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert f"{path}: {key}: " in lines[0], lines[0]
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("case", list(BAD), ids=list(BAD))
+def test_bad_study_file_exits_2_with_one_line(tmp_path, case):
+    replace, key, words = BAD[case]
+    path = small_study(tmp_path, name=f"{case}.toml", **replace)
+    _one_error_line(cli("reconstruct", path, "--no-progress"), path, key, words)
+
+
+def test_bad_command_line_options_exit_2(tmp_path):
+    path = small_study(tmp_path)
+    _one_error_line(cli("reconstruct", path, "--optimizer", "nsga-sharng"), path, "--optimizer",
+                    ["did you mean 'nsga-sharing'"])
+    _one_error_line(cli("reconstruct", path, "--resume", "--out", tmp_path / "empty"),
+                    tmp_path / "empty" / "checkpoint.pkl", "--resume", ["no checkpoint"])
+
+
+# ------------------------------------------------------------------ 6. outputs
+def test_outputs_csv_figures_summary_and_json(tmp_path):
+    pop, gens = 12, 3
+    path = small_study(tmp_path, pop_size=pop, generations=gens)
+    out = tmp_path / "out"
+    res = cli("reconstruct", path, "--out", out, "--json")
+    assert res.returncode == 0, res.stderr
+    data = json.loads(res.stdout)
+
+    import pandas as pd
+    table = pd.read_csv(out / "pareto.csv")
+    per_vehicle = [f"{kind}_{n}_{q}" for n in ("V1", "V2")
+                   for kind, qs in (("rest", "x y heading"), ("contact", "x y heading speed")) for q in qs.split()]
+    assert list(table.columns[:4]) == ["V1.speed", "V2.speed", "f_V1", "f_V2"]
+    assert set(table.columns[4:]) == set(per_vehicle) and len(table.columns) == 4 + len(per_vehicle)
+    assert len(table) >= 1
+    assert np.all((table["V1.speed"] >= 30) & (table["V1.speed"] <= 70))
+    assert np.all((table["V2.speed"] >= 10) & (table["V2.speed"] <= 50))
+    # the objectives are the distances of the tabled rest positions from the twin evidence
+    ref = crashlab.simulate(crashlab.load_scene(SIDE), model="impulse").rest
+    for n in ("V1", "V2"):
+        d = np.hypot(table[f"rest_{n}_x"] - ref.loc[n, "x"], table[f"rest_{n}_y"] - ref.loc[n, "y"])
+        np.testing.assert_allclose(table[f"f_{n}"], d, rtol=0, atol=1e-9)
+    # non-dominated among themselves
+    F = table[["f_V1", "f_V2"]].to_numpy()
+    for a in F:
+        assert not np.any(np.all(F <= a, axis=1) & np.any(F < a, axis=1))
+
+    assert (out / "objectives.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    summary = (out / "summary.md").read_text()
+    assert summary.startswith("# Reconstruction") and "Pareto set" in summary
+
+    assert {"pareto", "evaluations", "failed", "wall_time_s"} <= set(data)
+    assert data["evaluations"] == pop * gens and data["failed"] == 0 and data["wall_time_s"] > 0
+    assert len(data["pareto"]) == len(table)
+    for item, (_, row) in zip(data["pareto"], table.iterrows()):
+        assert set(item) == {"start", "objectives", "rest"}
+        assert item["start"] == pytest.approx({"V1.speed": row["V1.speed"], "V2.speed": row["V2.speed"]}, abs=1e-9)
+        assert item["objectives"] == pytest.approx({"f_V1": row["f_V1"], "f_V2": row["f_V2"]}, abs=1e-9)
+        assert set(item["rest"]) == {"V1", "V2"}
+        assert item["rest"]["V2"]["heading"] == pytest.approx(row["rest_V2_heading"], abs=1e-9)
+
+
+# ------------------------------------------------------------------ 7. twin experiments (slow)
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
+def test_twin_experiment_finds_the_evidence(k):
+    study = load_study(STUDIES / f"twin{k}.toml")
+    t0 = time.perf_counter()
+    res = study.run()
+    wall = time.perf_counter() - t0
+    P = res.pareto
+    fcols = [f"f_{n}" for n in study.evidence]
+    best = P.loc[P[fcols].max(axis=1).idxmin()]
+    truth = truth_of(study)
+    off = {c: round(float(best[c] - truth[c]), 3) for c in truth}
+    print(f"\ntwin{k} ({study.spec.optimizer.name} {study.spec.optimizer.pop_size}x"
+          f"{study.spec.optimizer.generations}, {wall:.1f} s): {len(P)} Pareto rows, best max objective "
+          f"{best[fcols].max():.4f} m; its free variables minus the truth: {off}")
+    assert res.evaluations == study.spec.optimizer.pop_size * study.spec.optimizer.generations
+    assert np.any(np.all(P[fcols].to_numpy() <= 0.10, axis=1)), "a solution within 10 cm for both vehicles"
