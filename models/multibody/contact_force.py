@@ -1,0 +1,174 @@
+"""Contact force laws (FORMULAS.md §4, §4.1, §5) — groundwork for vehicle contact (issue 5).
+
+Normal force (continuous, dissipative, Hertz-type):
+    F_N = K delta^n [1 + chi(e) delta_dot / delta_dot0]        clamped to F_N >= 0 (no adhesion)
+delta > 0 penetration, delta_dot its rate (> 0 approaching), delta_dot0 the rate at contact onset,
+recorded once per contact (clamped below by v_min, §4.1 pitfall). Laws (`chi(law, e)`):
+    hertz                 0                   (elastic)
+    hunt-crossley         3(1-e)/2
+    lankarani-nikravesh   3(1-e^2)/4
+    flores                8(1-e)/(5e)
+    gonthier              (1-e^2)/e
+    exact-restitution     root of 1 - chi e = (1 + chi) exp(-chi (1 + e)) in (0, 1/e) (§4.1), brentq,
+                          cached per e: reproduces e exactly with the F_N >= 0 clamp.
+`effective_restitution(law, e)`: the restitution e* the law really produces (§4.1, independent of K,
+n, m*, delta_dot0): root of 1 - chi e* = (1 + chi) exp(-chi (1 + e*)), unique in (0, 1/chi) (the
+left side minus the right side is concave in e*, positive at 0 and negative at 1/chi).
+Flores, Gonthier and the exact law have chi -> inf as e -> 0: e is clamped to [E_MIN, E_MAX] =
+[0.01, 0.999].
+
+Friction (§5), magnitude ratio c(v) with F_T = -mu c(|v_T|) F_N v_T/|v_T|:
+    coulomb     c = v / sqrt(v^2 + v_s^2)                     (regularised Coulomb, §5 pitfall)
+    threlfall   c = 1 - exp(-3 v / v0)                         [U] recalled form, Threlfall 1978,
+                "The inclusion of Coulomb friction in mechanisms programs with particular reference to
+                DRAM", Mech. Mach. Theory 13:475-483 (95 % of mu F_N at v = v0)
+    ambrosio    c = 0 (v <= v0), (v - v0)/(v1 - v0), 1 (v >= v1)   [U] recalled form, Ambrosio 2003,
+                "Impact of rigid and flexible multibody systems: deformation description and contact
+                models", in Virtual Nonlinear Multibody Systems (NATO ASI, Kluwer), pp. 57-81
+All three: c(0) = 0, c -> 1 for v >> tolerance, non-decreasing in v (tests). Ambrosio has no static
+friction (c = 0 below v0: contacts creep, §5 pitfall). Default tolerances are vehicle-scale
+(v_s = v0 = 0.01 m/s, v1 = 0.1 m/s, §5 [R]), not the 1e-4/1e-3 m/s of the papers.
+"""
+import math
+from functools import lru_cache
+
+import numpy as np
+from numba import njit
+from scipy.optimize import brentq
+
+E_MIN = 0.01
+E_MAX = 0.999
+LAWS = ("hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier", "exact-restitution")
+FRICTION_LAWS = ("coulomb", "threlfall", "ambrosio")
+
+
+def _norm_law(law):
+    k = law.lower().replace("_", "-").replace(" ", "-")
+    aliases = {"hunt": "hunt-crossley", "lankarani": "lankarani-nikravesh", "nikravesh": "lankarani-nikravesh",
+               "flores-machado": "flores", "exact": "exact-restitution"}
+    k = aliases.get(k, k)
+    if k not in LAWS:
+        raise ValueError(f"unknown normal force law {law!r}; known: {', '.join(LAWS)}")
+    return k
+
+
+def _clamp_e(e):
+    return min(max(float(e), E_MIN), E_MAX)
+
+
+def _relation(chi, e):
+    """1 - chi e - (1 + chi) exp(-chi (1 + e)), written with expm1 for small chi."""
+    x = chi * (1.0 + e)
+    return -chi * e - math.expm1(-x) - chi * math.exp(-x)
+
+
+@lru_cache(maxsize=1024)
+def exact_chi(e):
+    """chi that reproduces the target restitution e exactly (§4.1), root in (0, 1/e) by brentq."""
+    e = _clamp_e(e)
+    hi = 1.0 / e
+    lo = 1e-6
+    while _relation(lo, e) <= 0.0 and lo > 1e-12:  # tiny root for e -> 1: move the bracket down
+        lo *= 0.1
+    return brentq(_relation, lo, hi, args=(e,), xtol=1e-14, rtol=1e-14, maxiter=200)
+
+
+def chi(law, e):
+    """Hysteresis damping factor chi of a normal law at restitution coefficient e (§4 table)."""
+    law = _norm_law(law)
+    if law == "hertz":
+        return 0.0
+    e = _clamp_e(e)
+    if law == "hunt-crossley":
+        return 1.5 * (1.0 - e)
+    if law == "lankarani-nikravesh":
+        return 0.75 * (1.0 - e * e)
+    if law == "flores":
+        return 8.0 * (1.0 - e) / (5.0 * e)
+    if law == "gonthier":
+        return (1.0 - e * e) / e
+    return exact_chi(e)
+
+
+def restitution_from_chi(c):
+    """e* produced by F_N = K delta^n (1 + c delta_dot/delta_dot0), F_N >= 0 (§4.1)."""
+    if c <= 0.0:
+        return 1.0
+    return brentq(lambda es: _relation(c, es), 0.0, 1.0 / c, xtol=1e-14, rtol=1e-14, maxiter=200)
+
+
+def effective_restitution(law, e):
+    """Restitution the law actually produces for the target e (§4.1 table)."""
+    return restitution_from_chi(chi(law, e))
+
+
+def hertz_stiffness(E1, nu1, R1, E2=None, nu2=None, R2=None):
+    """K = 4/3 E* sqrt(R*) (§4). E2=None: rigid body 2; R2=None: plane (R* = R1)."""
+    inv_E = (1 - nu1 ** 2) / E1 + (0.0 if E2 is None else (1 - nu2 ** 2) / E2)
+    Rs = R1 if R2 is None else R1 * R2 / (R1 + R2)
+    return 4.0 / 3.0 / inv_E * math.sqrt(Rs)
+
+
+@njit(cache=True)
+def normal_force_chi(delta, delta_dot, delta_dot0, K, chi_, n=1.5, v_min=1e-3):
+    """F_N = K delta^n (1 + chi delta_dot / max(delta_dot0, v_min)), 0 for delta <= 0, clamped >= 0."""
+    if delta <= 0.0:
+        return 0.0
+    f = K * delta ** n * (1.0 + chi_ * delta_dot / max(delta_dot0, v_min))
+    return f if f > 0.0 else 0.0
+
+
+def normal_force(law, delta, delta_dot, delta_dot0, K, e=1.0, n=1.5, v_min=1e-3):
+    """Normal force of a named law (see module docstring); F_N >= 0. Hertz uses n = 1.5 by definition
+    of the law, the others take n (1.5 for Hertzian contact, 1 for a linear stiffness)."""
+    law = _norm_law(law)
+    return normal_force_chi(float(delta), float(delta_dot), float(delta_dot0), float(K), chi(law, e),
+                            1.5 if law == "hertz" else float(n), float(v_min))
+
+
+# ----------------------------------------------------------------------------------------------------
+# friction (§5)
+# ----------------------------------------------------------------------------------------------------
+@njit(cache=True)
+def friction_ratio_code(code, v, v0, v1, vs):
+    """c(|v_T|) for code 0 coulomb (regularised), 1 threlfall, 2 ambrosio."""
+    v = abs(v)
+    if code == 0:
+        return v / math.sqrt(v * v + vs * vs) if vs > 0.0 else (1.0 if v > 0.0 else 0.0)
+    if code == 1:
+        return -math.expm1(-3.0 * v / v0)
+    if v <= v0:
+        return 0.0
+    if v >= v1:
+        return 1.0
+    return (v - v0) / (v1 - v0)
+
+
+def _fcode(law):
+    k = law.lower()
+    if k not in FRICTION_LAWS:
+        raise ValueError(f"unknown friction law {law!r}; known: {', '.join(FRICTION_LAWS)}")
+    return FRICTION_LAWS.index(k)
+
+
+def friction_ratio(law, v, v0=0.01, v1=0.1, v_s=0.01):
+    """Vectorised c(|v_T|) in [0, 1] of a friction law (F_T magnitude / (mu F_N))."""
+    code = _fcode(law)
+    if law == "threlfall" and v0 <= 0:
+        raise ValueError("threlfall needs v0 > 0")
+    if law == "ambrosio" and not v1 > v0 >= 0:
+        raise ValueError("ambrosio needs v1 > v0 >= 0")
+    v = np.asarray(v, float)
+    out = np.vectorize(lambda x: friction_ratio_code(code, x, v0, v1, v_s), otypes=[float])(v)
+    return out if out.ndim else float(out)
+
+
+def friction_force(law, v_rel, normal, F_N, mu, v0=0.01, v1=0.1, v_s=0.01):
+    """F_T = -mu c(|v_T|) F_N v_T/|v_T| with v_T = v_rel - (v_rel.n) n (§5); zero for v_T = 0."""
+    v_rel = np.asarray(v_rel, float)
+    n = np.asarray(normal, float)
+    vT = v_rel - (v_rel @ n) * n
+    s = float(np.linalg.norm(vT))
+    if s == 0.0 or F_N <= 0.0:
+        return np.zeros(3)
+    return -mu * friction_ratio(law, s, v0, v1, v_s) * F_N * vT / s
