@@ -427,16 +427,8 @@ def write_outputs(study: Study, result: ReconstructionResult, arch: dict, out_di
         f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
     if len(result.pareto):
         show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names]].head(15)
-        lines.append(show.to_markdown(index=False, floatfmt=".3f") if _has_tabulate() else show.to_string())
+        lines.append(show.to_markdown(index=False, floatfmt=".3f"))
     (out_dir / "summary.md").write_text("\n".join(lines) + "\n")
-
-
-def _has_tabulate():
-    try:
-        import tabulate  # noqa: F401
-        return True
-    except ImportError:
-        return False
 
 
 # ---------------------------------------------------------------- loading and CLI
