@@ -35,14 +35,8 @@ def model(**options):
 
 
 def oblique_scene(duration=0.5):
-    """An oblique, eccentric car-to-car impact (the same scene as studies/pymunk/angular_momentum_vs_step.py)."""
-    return scene_from_dict({
-        "name": "oblique car-to-car", "duration": duration, "stop_at_rest": False,
-        "road": {"friction": 0.8}, "impact": {"restitution": 0.1, "friction": 0.3},
-        "vehicles": [
-            {"name": "V1", "vehicle": "clio", "x": 0.0, "y": 0.0, "heading": 0.0, "speed": 50.0},
-            {"name": "V2", "vehicle": "clio", "x": 6.5, "y": -3.0, "heading": 120.0, "speed": 40.0},
-        ]})
+    """An oblique, eccentric car-to-car impact (studies/pymunk/oblique.toml)."""
+    return crashlab.load_scene(PC_CRASH.parent / "pymunk" / "oblique.toml").replace(duration=duration)
 
 
 def start_states(scene):

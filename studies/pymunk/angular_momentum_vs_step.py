@@ -12,23 +12,18 @@ magnitude any reference point gives, so the strictest relative error).
     python studies/pymunk/angular_momentum_vs_step.py
 """
 import math
+from pathlib import Path
 
 import numpy as np
 
 from crashlab.models.pymunk import PymunkModel
-from crashlab.scene import scene_from_dict
+from crashlab.scene import load_scene
 
 STEPS = (2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4)
 
 
 def oblique_scene(duration=0.5):
-    return scene_from_dict({
-        "name": "oblique car-to-car", "duration": duration, "stop_at_rest": False,
-        "road": {"friction": 0.8}, "impact": {"restitution": 0.1, "friction": 0.3},
-        "vehicles": [
-            {"name": "V1", "vehicle": "clio", "x": 0.0, "y": 0.0, "heading": 0.0, "speed": 50.0},
-            {"name": "V2", "vehicle": "clio", "x": 6.5, "y": -3.0, "heading": 120.0, "speed": 40.0},
-        ]})
+    return load_scene(Path(__file__).resolve().parent / "oblique.toml").replace(duration=duration)
 
 
 def momenta(scene, states):
