@@ -302,7 +302,7 @@ class Study:
             problem.executor = None
         if bar is not None:
             bar.close()
-        info = {"optimizer": name, "generations": int(algorithm.n_iter or 0) - 1 if algorithm.n_iter else 0,
+        info = {"optimizer": name, "generations": int(algorithm.n_gen or 1) - 1,
                 "pop_size": self.spec.optimizer.pop_size}
         if getattr(algorithm, "sigma_share", None) is not None:
             info["sigma_share"] = float(algorithm.sigma_share)
