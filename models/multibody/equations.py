@@ -26,7 +26,10 @@ B_MASS, B_IXX, B_IYY, B_IZZ = 0, 1, 2, 3
 # configuration vector (per run)
 (C_G, C_MU, C_ALPHA, C_BETA, C_DAMPING, C_FRICTION, C_RTOL, C_ATOL, C_HMAX, C_H0, C_TEND, C_STOP_AT_REST,
  C_V_REST, C_W_REST, C_T_SLEEP, C_REC_DT, C_ONSET_TOL) = range(17)
-N_CFG = 17
+# vehicle contact (contact.py): exponent n, hysteresis chi, vehicle/vehicle friction mu and law code,
+# friction tolerances v0, v1, v_s, smallest onset approach velocity
+(C_NEXP, C_CHI, C_MU_C, C_FCODE, C_FV0, C_FV1, C_FVS, C_VMIN) = range(17, 25)
+N_CFG = 25
 # aux outputs of one evaluation (per vehicle)
 AUX_FZ, AUX_DRIFT_POS, AUX_DRIFT_ANG = 0, 4, 5
 N_AUX = 6
@@ -61,7 +64,9 @@ def unpack(y, nb, A, R, V, W):
 
 
 @njit(cache=True)
-def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, aux):
+def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, aux, fext):
+    """fext: external load on the chassis (body 0): global force [0:3], global moment about its CG [3:6],
+    its power [6] (added to the non-conservative work)."""
     nb, nw = BODY.shape[0], TYR.shape[0]
     nq, nvq = 7 * nb, 13 * nb
     unpack(y, nb, A, R, V, W)
@@ -77,7 +82,11 @@ def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos
         h = cross(w, (BODY[b, B_IXX] * w[0], BODY[b, B_IYY] * w[1], BODY[b, B_IZZ] * w[2]))
         Q[b, 0], Q[b, 1], Q[b, 2] = 0.0, 0.0, -BODY[b, B_MASS] * g
         Q[b, 3], Q[b, 4], Q[b, 5] = -h[0], -h[1], -h[2]
-    pnc = 0.0
+    # external (contact) load on the chassis
+    for k in range(3):
+        Q[0, k] += fext[k]
+        Q[0, 3 + k] += A[0, 0, k] * fext[3] + A[0, 1, k] * fext[4] + A[0, 2, k] * fext[5]
+    pnc = fext[6]
     for s in range(SPR.shape[0]):
         diss, _ = spring_damper(SPR[s], A, R, V, W, Q, cfg[C_DAMPING])
         pnc -= diss

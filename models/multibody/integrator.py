@@ -3,27 +3,78 @@ vehicles of a scene at once (one step size, error norm over the awake vehicles).
 
 Scene awareness: step sizes grow up to h_max while nothing happens; a vehicle whose chassis has been
 still (speed < v_rest, angular speed < w_rest) for t_sleep goes to sleep (velocities zeroed, no more
-force evaluations); the run ends when every vehicle sleeps (stop_at_rest) or at t_end. Events: after
-each accepted step the planar outlines of every pair of vehicles (and vehicle/barrier) are tested
-(crashlab.geometry.penetration); on overlap the step is bisected (re-integrated from its start) until
-the overlap is in (0, onset_tol], so the run stops exactly at contact onset (the hook for issue 5).
-Euler parameters are renormalised after every accepted step.
+force evaluations); the run ends when every vehicle sleeps (stop_at_rest) or at t_end.
+Vehicle contact (contact.py) is evaluated in every stage. First-contact control (Flores & Ambrosio 2010,
+FORMULAS §8): a trial step that passes the error test but ends with a pair not yet in contact
+penetrating deeper than onset_tol is bisected (re-integrated from its start) until the new penetration
+is in (0, onset_tol]; the pair is then active and its approach velocity delta_dot0 is stored until the
+pair separates (penetration <= 0 at the end of a step), which closes the contact episode (impulse, peak
+force, work, max penetration, delta-V, recorded in IMP). Euler parameters are renormalised after every
+accepted step.
 """
 import math
 
 import numpy as np
 from numba import njit
 
-from crashlab.geometry import penetration, rect_corners
-
+from .contact import (
+    G_DDOT,
+    G_DEL,
+    G_FN,
+    G_FX,
+    G_FY,
+    G_FZ,
+    G_POW,
+    G_PX,
+    G_PY,
+    G_TH,
+    I_DD0,
+    I_DD1,
+    I_DVI,
+    I_DVJ,
+    I_ENERGY,
+    I_I,
+    I_J,
+    I_JX,
+    I_MAXPEN,
+    I_OPEN,
+    I_PEAK,
+    I_PX,
+    I_PY,
+    I_T0,
+    I_T1,
+    I_TH,
+    P_I,
+    P_J,
+    S_ACT,
+    S_DD0,
+    S_JX,
+    S_MAXPEN,
+    S_PEAK,
+    S_PTH,
+    S_PX,
+    S_PY,
+    S_T0,
+    S_VI,
+    S_VJ,
+    S_WORK,
+    contacts,
+)
 from .equations import (
     AUX_DRIFT_ANG,
     AUX_DRIFT_POS,
     AUX_FZ,
     B_MASS,
     C_ATOL,
+    C_CHI,
+    C_FCODE,
+    C_FV0,
+    C_FV1,
+    C_FVS,
     C_H0,
     C_HMAX,
+    C_MU_C,
+    C_NEXP,
     C_ONSET_TOL,
     C_REC_DT,
     C_RTOL,
@@ -31,11 +82,14 @@ from .equations import (
     C_T_SLEEP,
     C_TEND,
     C_V_REST,
+    C_VMIN,
     C_W_REST,
     MAX_ROWS,
     N_AUX,
     rhs,
 )
+from .euler_parameters import rotation_into
+from .joints import J_I, J_J, J_TYPE, J_XI, J_XJ, REVOLUTE, REVOLUTE_LOCKED
 
 # Dormand-Prince 5(4) tableau
 _C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
@@ -51,8 +105,8 @@ _E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 52
 
 STATUS_OK, STATUS_CONTACT, STATUS_NAN, STATUS_STEP = 0, 1, 2, 3
 (D_STEPS, D_REJECTED, D_NFEV, D_T_END, D_STATUS, D_CONTACT_T, D_PAIR_I, D_PAIR_J, D_MAX_DRIFT_POS,
- D_MAX_DRIFT_ANG, D_MAX_NORM_ERR, D_NREC, D_H_MIN, D_H_MAX) = range(14)
-N_DIAG = 14
+ D_MAX_DRIFT_ANG, D_MAX_NORM_ERR, D_NREC, D_H_MIN, D_H_MAX, D_NIMP, D_MAX_ONSET, D_ONSET_BISECT) = range(17)
+N_DIAG = 17
 # trajectory record columns
 (R_T, R_X, R_Y, R_Z, R_HEAD, R_ROLL, R_PITCH, R_VX, R_VY, R_YAW_RATE) = range(10)
 R_FZ = 10
@@ -72,18 +126,24 @@ def make_work(nv, nb):
 
 
 @njit(cache=True)
-def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux):
+def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
     A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam = wk
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX = CT
+    if PP.shape[0] > 0:
+        contacts(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, cfg[C_NEXP], cfg[C_CHI],
+                 cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN])
+    else:
+        FX[:, :] = 0.0
     for v in range(Y.shape[0]):
         if awake[v]:
             rhs(Y[v], K[s, v], BODY[v], JNT[v], SPR[v], TYR[v], cfg, A[v], R[v], V[v], W[v], Q[v], D[v],
-                phi[v], gam[v], rowb[v], ispos[v], S[v], lam[v], aux[v])
+                phi[v], gam[v], rowb[v], ispos[v], S[v], lam[v], aux[v], FX[v])
         else:
             K[s, v, :] = 0.0
 
 
 @njit(cache=True)
-def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux):
+def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
     """One Dormand-Prince step from Y (K[0] = f(Y) given); fills Ynew and K[1..6] (K[6] = f(Ynew))."""
     nv, ny = Y.shape
     for s in range(1, 7):
@@ -100,7 +160,7 @@ def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux):
             for v in range(nv):
                 if not awake[v]:
                     Ynew[v] = Y[v]
-        eval_all(Ytmp, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux)
+        eval_all(Ytmp, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
 
 
 @njit(cache=True)
@@ -165,31 +225,6 @@ def pose(y, BODY, nb):
 
 
 @njit(cache=True)
-def _outline(Y, v, BODY, OUTL, head):
-    p = pose(Y[v], BODY[v], BODY.shape[1])
-    return rect_corners(p[0], p[1], head[v], OUTL[v, 0], OUTL[v, 1], OUTL[v, 2])
-
-
-@njit(cache=True)
-def max_overlap(Y, BODY, OUTL, BAR, head):
-    """Largest overlap of the planar outlines over all pairs (and barriers); returns (depth, i, j)."""
-    nv = Y.shape[0]
-    best, bi, bj = -1e300, -1, -1
-    for i in range(nv):
-        ci = _outline(Y, i, BODY, OUTL, head)
-        for j in range(i + 1, nv):
-            d = penetration(ci, _outline(Y, j, BODY, OUTL, head))[0]
-            if d > best:
-                best, bi, bj = d, i, j
-        for k in range(BAR.shape[0]):
-            cb = rect_corners(BAR[k, 0], BAR[k, 1], BAR[k, 2], BAR[k, 3], BAR[k, 3], BAR[k, 4])
-            d = penetration(ci, cb)[0]
-            if d > best:
-                best, bi, bj = d, i, nv + k
-    return best, bi, bj
-
-
-@njit(cache=True)
 def _headings(Y, BODY, hprev, out):
     for v in range(Y.shape[0]):
         p = pose(Y[v], BODY[v], BODY.shape[1])
@@ -214,35 +249,111 @@ def _record(traj, n, t, Y, BODY, head, aux):
 
 
 @njit(cache=True)
-def simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events):
-    """Integrate all vehicles from Y (modified in place) until rest, t_end or contact onset."""
+def lock_wheels(y, JNT, nb):
+    """Lock every free revolute joint of one vehicle (locked_after_impact): the joint becomes
+    REVOLUTE_LOCKED with its reference axis set to the current relative orientation (zero violation),
+    and the wheel's spin relative to its knuckle is removed (an impulsive lock). Returns True if changed."""
+    nq = 7 * nb
+    A = np.empty((nb, 3, 3))
+    changed = False
+    for jn in range(JNT.shape[0]):
+        row = JNT[jn]
+        if int(row[J_TYPE]) != REVOLUTE:
+            continue
+        bk, bw = int(row[J_I]), int(row[J_J])
+        for b in (bk, bw):
+            rotation_into(y[7 * b + 3], y[7 * b + 4], y[7 * b + 5], y[7 * b + 6], A, b)
+        # reference: the knuckle's local axis x_i' = row[J_XI] (perpendicular to the spin axis and to
+        # y_i') expressed in the wheel frame, so that n1(y_i, x_j) = 0 now
+        xg = np.zeros(3)
+        for k in range(3):
+            xg[k] = A[bk, k, 0] * row[J_XI] + A[bk, k, 1] * row[J_XI + 1] + A[bk, k, 2] * row[J_XI + 2]
+        for k in range(3):
+            row[J_XJ + k] = A[bw, 0, k] * xg[0] + A[bw, 1, k] * xg[1] + A[bw, 2, k] * xg[2]
+        row[J_TYPE] = REVOLUTE_LOCKED
+        wk = y[nq + 6 * bk + 3:nq + 6 * bk + 6]
+        wg = np.zeros(3)
+        for k in range(3):
+            wg[k] = A[bk, k, 0] * wk[0] + A[bk, k, 1] * wk[1] + A[bk, k, 2] * wk[2]
+        for k in range(3):
+            y[nq + 6 * bw + 3 + k] = A[bw, 0, k] * wg[0] + A[bw, 1, k] * wg[1] + A[bw, 2, k] * wg[2]
+        changed = True
+    return changed
+
+
+@njit(cache=True)
+def _new_penetration(PST, PSG6):
+    """Largest penetration at the end of a trial step among pairs not yet in contact."""
+    best = -1e300
+    for p in range(PST.shape[0]):
+        if PST[p, S_ACT] == 0.0 and PSG6[p, G_DEL] > best:
+            best = PSG6[p, G_DEL]
+    return best
+
+
+@njit(cache=True)
+def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
+    n = int(diag[D_NIMP])
+    nv = Y.shape[0]
+    nb = BODY.shape[1]
+    if n < IMP.shape[0]:
+        i, j = int(PP[p, P_I]), int(PP[p, P_J])
+        r = IMP[n]
+        r[I_I], r[I_J], r[I_T0], r[I_T1] = i, j, PST[p, S_T0], t
+        for k in range(3):
+            r[I_JX + k] = PST[p, S_JX + k]
+        r[I_PEAK], r[I_MAXPEN], r[I_ENERGY] = PST[p, S_PEAK], PST[p, S_MAXPEN], -PST[p, S_WORK]
+        r[I_PX], r[I_PY], r[I_TH] = PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH]
+        pi = pose(Y[i], BODY[i], nb)
+        r[I_DVI], r[I_DVI + 1], r[I_DVI + 2] = pi[6] - PST[p, S_VI], pi[7] - PST[p, S_VI + 1], pi[8] - PST[p, S_VI + 2]
+        if j < nv:
+            pj = pose(Y[j], BODY[j], nb)
+            r[I_DVJ], r[I_DVJ + 1], r[I_DVJ + 2] = (pj[6] - PST[p, S_VJ], pj[7] - PST[p, S_VJ + 1],
+                                                    pj[8] - PST[p, S_VJ + 2])
+        r[I_DD0], r[I_DD1], r[I_OPEN] = PST[p, S_DD0], PSG6[p, G_DDOT], is_open
+        diag[D_NIMP] = n + 1
+    PST[p, S_ACT] = 0.0
+    for k in range(S_JX, S_WORK + 1):
+        PST[p, k] = 0.0
+
+
+@njit(cache=True)
+def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events,
+             IMP, CONT):
+    """Integrate all vehicles from Y (modified in place) until rest or t_end, with vehicle contact
+    (contact.py): first-contact control (no step ends with a new contact deeper than onset_tol),
+    per-pair contact episodes recorded in IMP, state at first contact in CONT."""
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX = CT
+    npair = PP.shape[0]
     wk = make_work(nv, nb)
     K = np.zeros((7, nv, ny))
     Ytmp, Ynew, Y0 = np.empty_like(Y), np.empty_like(Y), np.empty_like(Y)
     aux = np.zeros((nv, N_AUX))
     awake = np.ones(nv, np.bool_)
+    locked = np.zeros(nv, np.bool_)
     still = np.zeros(nv)
     hnew = np.empty(nv)
     rtol, atol, hmax = cfg[C_RTOL], cfg[C_ATOL], cfg[C_HMAX]
-    t_end, rec_dt = cfg[C_TEND], cfg[C_REC_DT]
+    t_end, rec_dt, tol = cfg[C_TEND], cfg[C_REC_DT], cfg[C_ONSET_TOL]
     diag[:] = 0.0
     diag[D_CONTACT_T] = math.nan
     diag[D_H_MIN] = 1e300
     diag[D_MAX_NORM_ERR] = normalise(Y, nb)
     _headings(Y, BODY, head, head)
-    eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux)
+    eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
     fz_start[:, :] = aux[:, AUX_FZ:AUX_FZ + 4]
     nfev = 1
     nrec = _record(traj, 0, 0.0, Y, BODY, head, aux)
     t_rec = rec_dt
     t, h = 0.0, cfg[C_H0]
     status = STATUS_OK
+    bw = _A[6]
     while t < t_end * (1 - 1e-12):
         h = min(h, hmax, t_end - t)
-        dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux)
+        dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
         nfev += 6
         err = error_norm(Y, Ynew, K, h, awake, nq, nvq, nslip, rtol, atol)
         if not (err == err):
@@ -259,6 +370,30 @@ def simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, nslip, traj, diag, head, fz
                 status = STATUS_STEP
                 break
             continue
+        # first-contact control (FORMULAS §8): a step may not end with a new contact deeper than tol
+        if check_events and npair > 0 and _new_penetration(PST, PSG[6]) > tol:
+            lo, hi = 0.0, h
+            found = False
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                dp_step(Y, mid, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+                nfev += 6
+                dm = _new_penetration(PST, PSG[6])
+                if dm > tol:
+                    hi = mid
+                elif dm > 0.0:
+                    h = mid
+                    found = True
+                    break
+                else:
+                    lo = mid
+                if hi - lo < 1e-12:
+                    break
+            if not found:
+                h = hi
+                dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+                nfev += 6
+            diag[D_ONSET_BISECT] += 1
         # accepted
         Y0[:, :] = Y
         Y[:, :] = Ynew
@@ -274,39 +409,70 @@ def simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, nslip, traj, diag, head, fz
         K[0] = K[6]
         _headings(Y, BODY, head, hnew)
         head[:] = hnew
-        # contact onset
-        if check_events:
-            depth, bi, bj = max_overlap(Y, BODY, OUTL, BAR, head)
-            if depth > 0.0:
-                tol = cfg[C_ONSET_TOL]
-                hprev = head.copy()
-                lo, hi = 0.0, h
-                Yc = Y.copy()
-                for _ in range(60):
-                    if depth <= tol:
-                        break
-                    mid = 0.5 * (lo + hi)
-                    K[0] = 0.0
-                    eval_all(Y0, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux)
-                    dp_step(Y0, mid, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux)
-                    nfev += 7
-                    normalise(Ynew, nb)
-                    _headings(Ynew, BODY, hprev, hnew)
-                    dm, _, _ = max_overlap(Ynew, BODY, OUTL, BAR, hnew)
-                    if dm > 0.0:
-                        hi = mid
-                        depth = dm
-                        Yc[:, :] = Ynew
-                        head[:] = hnew
-                    else:
-                        lo = mid
-                t = t - h + hi
-                Y[:, :] = Yc
-                diag[D_CONTACT_T] = t
-                diag[D_PAIR_I], diag[D_PAIR_J] = bi, bj
-                status = STATUS_CONTACT
-                break
-        # rest: a vehicle still for t_sleep goes to sleep
+        # contact episodes: accumulate (DP weights), then open / close
+        need_k0 = False
+        for p in range(npair):
+            for s in range(7):
+                if s < 6:
+                    w = h * bw[s]
+                    PST[p, S_JX] += w * PSG[s, p, G_FX]
+                    PST[p, S_JX + 1] += w * PSG[s, p, G_FY]
+                    PST[p, S_JX + 2] += w * PSG[s, p, G_FZ]
+                    PST[p, S_WORK] += w * PSG[s, p, G_POW]
+                if PSG[s, p, G_FN] > PST[p, S_PEAK]:
+                    PST[p, S_PEAK] = PSG[s, p, G_FN]
+                    PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH] = PSG[s, p, G_PX], PSG[s, p, G_PY], PSG[s, p, G_TH]
+                if PSG[s, p, G_DEL] > PST[p, S_MAXPEN]:
+                    PST[p, S_MAXPEN] = PSG[s, p, G_DEL]
+            d6 = PSG[6, p, G_DEL]
+            i, j = int(PP[p, P_I]), int(PP[p, P_J])
+            if PST[p, S_ACT] == 0.0:
+                if d6 > 0.0:
+                    PST[p, S_ACT] = 1.0
+                    PST[p, S_DD0] = max(PSG[6, p, G_DDOT], cfg[C_VMIN])
+                    PST[p, S_T0] = t
+                    diag[D_MAX_ONSET] = max(diag[D_MAX_ONSET], d6)
+                    pi = pose(Y[i], BODY[i], nb)
+                    PST[p, S_VI], PST[p, S_VI + 1], PST[p, S_VI + 2] = pi[6], pi[7], pi[8]
+                    if j < nv:
+                        pj = pose(Y[j], BODY[j], nb)
+                        PST[p, S_VJ], PST[p, S_VJ + 1], PST[p, S_VJ + 2] = pj[6], pj[7], pj[8]
+                    if not (diag[D_CONTACT_T] == diag[D_CONTACT_T]):
+                        diag[D_CONTACT_T] = t
+                        diag[D_PAIR_I], diag[D_PAIR_J] = i, j
+                        for v in range(nv):
+                            pv = pose(Y[v], BODY[v], nb)
+                            CONT[v, 0], CONT[v, 1], CONT[v, 2] = pv[0], pv[1], head[v]
+                            CONT[v, 3] = math.sqrt(pv[6] ** 2 + pv[7] ** 2)
+                    for v in (i, j):
+                        if v >= nv:
+                            continue
+                        if LOCK[v] and not locked[v]:
+                            locked[v] = True
+                            if lock_wheels(Y[v], JNT[v], nb):
+                                need_k0 = True
+                        if not awake[v]:
+                            awake[v] = True
+                            still[v] = 0.0
+                            need_k0 = True
+                else:
+                    for k in range(S_JX, S_WORK + 1):
+                        PST[p, k] = 0.0
+            elif d6 <= 0.0:
+                _close(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, 0.0)
+            if PST[p, S_ACT] > 0.0:
+                for v in (i, j):
+                    if v < nv and not awake[v]:
+                        awake[v] = True
+                        still[v] = 0.0
+                        need_k0 = True
+        for p in range(npair):
+            for k in range(PSG.shape[2]):
+                PSG[0, p, k] = PSG[6, p, k]
+        if need_k0:
+            eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+            nfev += 1
+        # rest: a vehicle still for t_sleep goes to sleep (not while it is in contact)
         for v in range(nv):
             if not awake[v]:
                 continue
@@ -327,6 +493,9 @@ def simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, nslip, traj, diag, head, fz
         if cfg[C_STOP_AT_REST] > 0 and not awake.any():
             break
         h *= min(5.0, max(0.2, 0.9 * err ** -0.2)) if err > 0 else 5.0
+    for p in range(npair):
+        if PST[p, S_ACT] > 0.0:
+            _close(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, 1.0)
     for v in range(nv):
         if awake[v]:
             fz_end[v, :] = aux[v, AUX_FZ:AUX_FZ + 4]

@@ -1,7 +1,5 @@
-"""Model `multibody`: the thesis's 3D multibody vehicle (chapter 2) driving on a flat road.
-
-Vehicle-vehicle contact is issue 5: when two planar outlines first overlap, the run stops exactly at
-contact onset and returns outcome_ok False with a warning (never passes through silently).
+"""Model `multibody`: the thesis's 3D multibody vehicle (chapter 2) driving on a flat road, with
+continuous vehicle-vehicle and vehicle-barrier contact (issue 5, contact.py).
 """
 from __future__ import annotations
 
@@ -13,17 +11,26 @@ import numpy as np
 from crashlab.model import CollisionModel
 from crashlab.outcome import Outcome
 
+from . import contact as C
 from . import integrator as I
+from .contact_force import _fcode, chi
 from .equations import (
     C_ALPHA,
     C_ATOL,
     C_BETA,
+    C_CHI,
     C_DAMPING,
+    C_FCODE,
     C_FRICTION,
+    C_FV0,
+    C_FV1,
+    C_FVS,
     C_G,
     C_H0,
     C_HMAX,
     C_MU,
+    C_MU_C,
+    C_NEXP,
     C_ONSET_TOL,
     C_REC_DT,
     C_RTOL,
@@ -31,6 +38,7 @@ from .equations import (
     C_T_SLEEP,
     C_TEND,
     C_V_REST,
+    C_VMIN,
     C_W_REST,
     N_CFG,
     energy,
@@ -41,7 +49,8 @@ from .tyre import LOCKED, MODES, T_R1, T_R2, deflection
 from .vehicle_build import NB, NW, build, initial_local, joints, steer_angles, tyres_for
 
 G = 9.81
-CONTACT_WARNING = "vehicle contact not implemented yet (issue 5)"
+# Friction tolerances of the vehicle/vehicle friction laws (contact_force.py defaults, vehicle scale)
+FRICTION_V0, FRICTION_V1, FRICTION_VS = 0.01, 0.1, 0.01
 
 
 def _rot_z(a):
@@ -65,7 +74,11 @@ class MultibodyModel(CollisionModel):
       h_max = 0.05 s             largest step
       record_dt = 0.01 s         trajectory sampling (at accepted steps, at least this far apart)
       v_rest = 0.01 m/s, w_rest = 0.01 rad/s, t_sleep = 0.2 s   a vehicle still this long goes to sleep
-      onset_tol = 0.001 m        contact onset located until the outlines overlap by at most this
+      onset_tol = 0.001 m        first-contact control: a new contact starts with at most this penetration
+      contact_stiffness = 1.35e6 N/m^1.5   K of one vehicle against a rigid barrier; car-to-car pairs use
+                                 K_eff = (K1^(-1/n) + K2^(-1/n))^(-n) (README: crush-energy derivation)
+      contact_exponent = 1.5     n of F_N = K delta^n (1 + chi delta_dot / delta_dot0)
+      v_min = 0.001 m/s          smallest approach velocity delta_dot0 stored at onset
       settle_time = 3.0 s        static settling of each vehicle before the run (cached per vehicle)
       damping = True             test switch: False removes every damper (suspension, tyre radial/tread)
       friction = True            test switch: False removes the tyre's in-plane forces and moments
@@ -74,14 +87,18 @@ class MultibodyModel(CollisionModel):
     name = "multibody"
 
     def __init__(self, rtol=1e-6, atol=1e-7, baumgarte=10.0, h_max=0.05, record_dt=0.01, v_rest=0.01,
-                 w_rest=0.01, t_sleep=0.2, onset_tol=1e-3, settle_time=3.0, damping=True, friction=True):
+                 w_rest=0.01, t_sleep=0.2, onset_tol=1e-3, settle_time=3.0, damping=True, friction=True,
+                 contact_stiffness=1.35e6, contact_exponent=1.5, v_min=1e-3):
         if not (0 < rtol < 1 and 0 < atol and baumgarte >= 0 and h_max > 0 and record_dt >= 0 and v_rest > 0
-                and w_rest > 0 and t_sleep >= 0 and onset_tol > 0 and settle_time >= 0):
+                and w_rest > 0 and t_sleep >= 0 and onset_tol > 0 and settle_time >= 0
+                and contact_stiffness > 0 and contact_exponent >= 1 and v_min > 0):
             raise ValueError("multibody model: invalid option value")
         self.opts = dict(rtol=float(rtol), atol=float(atol), baumgarte=float(baumgarte), h_max=float(h_max),
                          record_dt=float(record_dt), v_rest=float(v_rest), w_rest=float(w_rest),
                          t_sleep=float(t_sleep), onset_tol=float(onset_tol), settle_time=float(settle_time),
-                         damping=bool(damping), friction=bool(friction))
+                         damping=bool(damping), friction=bool(friction),
+                         contact_stiffness=float(contact_stiffness), contact_exponent=float(contact_exponent),
+                         v_min=float(v_min))
         self._settled = {}
 
     def get_options(self):
@@ -97,6 +114,8 @@ class MultibodyModel(CollisionModel):
         cfg[C_TEND], cfg[C_STOP_AT_REST] = t_end, float(stop_at_rest)
         cfg[C_V_REST], cfg[C_W_REST], cfg[C_T_SLEEP] = o["v_rest"], o["w_rest"], o["t_sleep"]
         cfg[C_REC_DT], cfg[C_ONSET_TOL] = o["record_dt"], o["onset_tol"]
+        cfg[C_NEXP], cfg[C_VMIN] = o["contact_exponent"], o["v_min"]
+        cfg[C_FV0], cfg[C_FV1], cfg[C_FVS] = FRICTION_V0, FRICTION_V1, FRICTION_VS
         return cfg
 
     def settled(self, veh):
@@ -111,8 +130,10 @@ class MultibodyModel(CollisionModel):
             nslip = 2 * NW
             diag = np.zeros(I.N_DIAG)
             I.simulate(Y, veh.BODY[None], joints(veh, modes, np.zeros(NW))[None], veh.SPR[None],
-                       tyres_for(veh, modes)[None], np.zeros((1, 3)), np.zeros((0, 5)), cfg, nslip,
-                       np.zeros((0, 1, I.N_REC)), diag, np.zeros(1), np.zeros((1, 4)), np.zeros((1, 4)), False)
+                       tyres_for(veh, modes)[None], _contact_arrays(np.zeros((1, 7)), np.zeros((0, C.N_PP)),
+                                                                    np.zeros((0, 5)), 1),
+                       np.zeros(1, np.bool_), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
+                       np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, C.N_IMP)), np.zeros((1, 4)))
             y = Y[0]
             nq, nvq, _ = sizes(NB, NW)
             y[nq:] = 0.0
@@ -183,15 +204,25 @@ class MultibodyModel(CollisionModel):
         JNT, TYR, OUTL = np.array(Js), np.array(Ts), np.array(Os, dtype=float)
         BAR = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
         cfg = self._cfg(scene.road.friction, scene.duration, scene.stop_at_rest)
+        imp = scene.impact
+        cfg[C_CHI] = chi(imp.force_law, imp.restitution)
+        cfg[C_MU_C], cfg[C_FCODE] = imp.friction, _fcode(imp.friction_law)
+        CSH = np.array([v.chassis_shape for v in vehs])
+        nv = len(vehs)
+        Kv, n = self.opts["contact_stiffness"], self.opts["contact_exponent"]
+        pairs = [(i, j, (Kv ** (-1 / n) + Kv ** (-1 / n)) ** (-n)) for i in range(nv) for j in range(i + 1, nv)]
+        pairs += [(i, nv + k, Kv) for i in range(nv) for k in range(len(scene.barriers))]
+        PP = np.array(pairs, dtype=float).reshape(-1, C.N_PP)
+        LOCK = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles], dtype=np.bool_)
         return {"Y": Y, "BODY": BODY, "SPR": SPR, "JNT": JNT, "TYR": TYR, "OUTL": OUTL, "BAR": BAR, "cfg": cfg,
-                "vehicles": vehs}
+                "vehicles": vehs, "CSH": CSH, "PP": PP, "LOCK": LOCK}
 
     def run(self, scene, prep, t0=None) -> Outcome:
         t0 = time.perf_counter() if t0 is None else t0
         names = scene.vehicle_names
         nv = len(names)
-        Y, BODY, SPR, JNT, TYR = prep["Y"].copy(), prep["BODY"], prep["SPR"], prep["JNT"], prep["TYR"]
-        OUTL, BAR, cfg, vehs = prep["OUTL"], prep["BAR"], prep["cfg"], prep["vehicles"]
+        Y, BODY, SPR, JNT, TYR = prep["Y"].copy(), prep["BODY"], prep["SPR"], prep["JNT"].copy(), prep["TYR"]
+        BAR, cfg, vehs = prep["BAR"], prep["cfg"], prep["vehicles"]
         nq, nvq, ny = sizes(NB, NW)
         e_start = [self._energy(Y[v], BODY[v], SPR[v], TYR[v]) for v in range(nv)]
         rec = self.opts["record_dt"]
@@ -200,31 +231,27 @@ class MultibodyModel(CollisionModel):
         diag = np.zeros(I.N_DIAG)
         head = np.array([vs.heading for vs in scene.vehicles])
         fz0, fz1 = np.zeros((nv, 4)), np.zeros((nv, 4))
-        I.simulate(Y, BODY, JNT, SPR, TYR, OUTL, BAR, cfg, 2 * NW, traj, diag, head, fz0, fz1, True)
+        CT = _contact_arrays(prep["CSH"], prep["PP"], BAR, nv)
+        IMP = np.zeros((C.MAX_IMP, C.N_IMP))
+        CONT = np.full((nv, 4), np.nan)
+        I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["LOCK"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
+                   CONT)
         nr = int(diag[I.D_NREC])
         status = int(diag[I.D_STATUS])
         warnings, ok = [], True
-        if status == I.STATUS_CONTACT:
-            ok = False
-            j = int(diag[I.D_PAIR_J])
-            other = names[j] if j < nv else f"barrier {j - nv}"
-            warnings.append(f"{CONTACT_WARNING}: {names[int(diag[I.D_PAIR_I])]} and {other} touch at "
-                            f"t = {diag[I.D_CONTACT_T]:.4f} s")
-        elif status == I.STATUS_NAN:
+        if status == I.STATUS_NAN:
             ok, warnings = False, ["the state became NaN"]
         elif status == I.STATUS_STEP:
             ok, warnings = False, ["step size underflow"]
         rest = np.zeros((nv, 3))
         final = np.zeros((nv, 3))
-        contact = np.full((nv, 4), np.nan)
+        contact = CONT
         trajectories = {}
         e_end, w_nc = [], []
         for v, n in enumerate(names):
             p = I.pose(Y[v], BODY[v], NB)
             rest[v] = [p[0], p[1], head[v]]
             final[v] = [p[6], p[7], p[8]]
-            if status == I.STATUS_CONTACT:
-                contact[v] = [p[0], p[1], head[v], math.hypot(p[6], p[7])]
             tr = traj[:nr, v]
             trajectories[n] = {"t": tr[:, I.R_T].copy(), "x": tr[:, I.R_X].copy(), "y": tr[:, I.R_Y].copy(),
                                "heading": tr[:, I.R_HEAD].copy(), "vx": tr[:, I.R_VX].copy(),
@@ -247,11 +274,80 @@ class MultibodyModel(CollisionModel):
             "energy_balance": balance,
             "vehicle_notes": {n: vehs[v].notes for v, n in enumerate(names)},
             "wheel_order": ["FL", "FR", "RL", "RR"],
+            "contact_episodes": int(diag[I.D_NIMP]),
+            "max_onset_penetration": float(diag[I.D_MAX_ONSET]),
+            "onset_bisections": int(diag[I.D_ONSET_BISECT]),
         }
-        return Outcome(names, rest, final, contact, float(diag[I.D_CONTACT_T]), trajectories, (), diagnostics,
+        if diag[I.D_NIMP] >= C.MAX_IMP:
+            warnings.append(f"more than {C.MAX_IMP} contact episodes: only the first {C.MAX_IMP} are reported")
+        heads = [(traj[:nr, v, I.R_T].copy(), traj[:nr, v, I.R_HEAD].copy()) for v in range(nv)]
+        rows = impact_rows(names, BODY[:, :, 0].sum(1), IMP[:int(diag[I.D_NIMP])].copy(), heads)
+        if any(r["open"] for r in rows):
+            warnings.append("a contact was still active at the end of the run")
+        return Outcome(names, rest, final, contact, float(diag[I.D_CONTACT_T]), trajectories, rows, diagnostics,
                        warnings, ok, self.name, time.perf_counter() - t0)
 
     def _energy(self, y, BODY, SPR, TYR):
         A = np.zeros((NB, 3, 3))
         R, V, W = np.zeros((NB, 3)), np.zeros((NB, 3)), np.zeros((NB, 3))
         return float(energy(y, BODY, SPR, TYR, G, A, R, V, W))
+
+
+def _contact_arrays(CSH, PP, BAR, nv):
+    """The contact tuple of the integrator: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX (fresh pair state)."""
+    nbar = BAR.shape[0]
+    BOXR = np.zeros((nbar, 3))
+    BOXA = np.zeros((nbar, 3, 3))
+    BOXE = np.zeros((nbar, 3))
+    for k in range(nbar):
+        BOXR[k] = [BAR[k, 0], BAR[k, 1], C.BARRIER_HALF_HEIGHT]
+        BOXA[k] = _rot_z(BAR[k, 2])
+        BOXE[k] = [BAR[k, 3], BAR[k, 4], C.BARRIER_HALF_HEIGHT]
+    npair = PP.shape[0]
+    return (np.ascontiguousarray(CSH, dtype=float), BOXR, BOXA, BOXE, np.ascontiguousarray(PP, dtype=float),
+            np.zeros((npair, C.N_PST)), np.zeros((7, npair, C.N_PSG)), np.zeros((nv, 7)))
+
+
+def _pdof(fx, fy, heading):
+    """Principal direction of force on a vehicle [rad] (as the impulse model): where the force comes from,
+    in the vehicle frame, 0 = from straight ahead, counter-clockwise positive."""
+    ang = math.atan2(-fy, -fx) - heading
+    return math.atan2(math.sin(ang), math.cos(ang))
+
+
+def impact_rows(names, mass, imp, heads=None):
+    """Impact table rows (SI), one per vehicle per contact episode (kind "continuous"). Keys as the impulse
+    model (t = episode start, dvx, dvy, d_yaw_rate = CG velocity / yaw-rate change over the episode,
+    energy = work dissipated by the contact forces over the episode (whole pair), ees from that energy split
+    in proportion to 1/mass, pdof from the impulse on the vehicle, point_x/y = contact point at peak force,
+    plane_angle = tangent of the contact plane at peak force) plus: peak_force [N] (normal), duration [s],
+    impulse [N s] (magnitude of the contact impulse on the vehicle) and its global components impulse_x,
+    impulse_y, impulse_z, max_penetration [m],
+    approach_speed / separation_speed [m/s] (relative normal velocity at the contact point at onset and at
+    separation; restitution = separation/approach), open (contact still active when the run ended)."""
+    nv = len(names)
+    rows = []
+    for r in imp:
+        i, j = int(r[C.I_I]), int(r[C.I_J])
+        Jx, Jy, Jz = r[C.I_JX], r[C.I_JX + 1], r[C.I_JX + 2]
+        inv_i, inv_j = 1.0 / mass[i], (1.0 / mass[j] if j < nv else 0.0)
+        plane = r[C.I_TH] + math.pi / 2
+        dd0, dd1 = r[C.I_DD0], r[C.I_DD1]
+        sides = [(i, names[j] if j < nv else f"barrier{j - nv}", 1.0, C.I_DVI, inv_i)]
+        if j < nv:
+            sides.append((j, names[i], -1.0, C.I_DVJ, inv_j))
+        for q, other, sgn, c_dv, inv_q in sides:
+            e_q = max(r[C.I_ENERGY], 0.0) * inv_q / (inv_i + inv_j)
+            dvx, dvy = r[c_dv], r[c_dv + 1]
+            heading = float(np.interp(r[C.I_T0], heads[q][0], heads[q][1])) if heads is not None else 0.0
+            rows.append({"t": r[C.I_T0], "vehicle": names[q], "other": other, "dvx": dvx, "dvy": dvy,
+                         "d_yaw_rate": r[c_dv + 2], "energy": r[C.I_ENERGY],
+                         "ees": math.sqrt(2.0 * e_q / mass[q]),
+                         "pdof": _pdof(sgn * Jx, sgn * Jy, heading),
+                         "kind": "continuous", "point_x": r[C.I_PX], "point_y": r[C.I_PY], "plane_angle": plane,
+                         "peak_force": r[C.I_PEAK], "duration": r[C.I_T1] - r[C.I_T0],
+                         "impulse": math.sqrt(Jx * Jx + Jy * Jy + Jz * Jz), "impulse_x": sgn * Jx,
+                         "impulse_y": sgn * Jy, "impulse_z": sgn * Jz, "max_penetration": r[C.I_MAXPEN],
+                         "approach_speed": dd0, "separation_speed": -dd1,
+                         "restitution": (-dd1 / dd0) if dd0 > 0 else math.nan, "open": bool(r[C.I_OPEN])})
+    return rows

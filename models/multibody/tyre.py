@@ -98,6 +98,10 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
         if rd > 0.0:
             ds -= f * rd * (X / sc) / ks
             da -= f * rd * (Y / sc) / ka
+    if friction_on == 0.0:
+        # no in-plane tyre forces: the slip states act on nothing and are frozen (their saturated
+        # dynamics at fmax = 0 only chatter and throttle the step size)
+        ds, da = 0.0, 0.0
     dslip[0], dslip[1] = ds, da
     # comprehensive-slip brush law (§6.4)
     sing = w[2]

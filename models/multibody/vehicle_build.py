@@ -92,6 +92,7 @@ class Vehicle:
     z_chassis0: float       # first estimate of the chassis CG height
     z_wheel0: np.ndarray    # first estimate of wheel-centre heights
     notes: list
+    chassis_shape: np.ndarray = None   # (7,) contact superellipsoid a, b, c, eps1, eps2, x_off, z_off
 
     @property
     def mass(self):
@@ -139,7 +140,12 @@ def build(spec) -> Vehicle:
               "tyre.longitudinal_slip_stiffness")
     ka = ty.get("cornering_stiffness", spec.cornering_stiffness)
     kg = _get(ty, "camber_stiffness", DEFAULTS["camber_to_cornering"] * ka, notes, "tyre.camber_stiffness")
-    frr = ty.get("rolling_resistance", spec.rolling_resistance)
+    # the top-level rolling_resistance is the parameter's home (a scene override must reach the tyre); the
+    # [multibody.tyre] copy is only reported when it disagrees
+    frr = spec.rolling_resistance
+    if "rolling_resistance" in ty and float(ty["rolling_resistance"]) != frr:
+        notes.append(f"tyre.rolling_resistance {ty['rolling_resistance']} of [multibody.tyre] ignored: "
+                     f"the vehicle's rolling_resistance {frr} is used")
     m_u = m_w + m_k
     # radial damping: the thesis's 78 kN s/m (zeta ~ 28 on a 10 kg wheel) is not used, see README
     cz = 2.0 * DEFAULTS["radial_damping_ratio"] * math.sqrt(m_u * kz)
@@ -186,7 +192,25 @@ def build(spec) -> Vehicle:
         SPR[k, S_LB] = max(l_static[k] - DEFAULTS["bump_travel"], 0.02)
         SPR[k, S_KB] = DEFAULTS["bump_stiffness_factor"] * k_s[k]
     return Vehicle(spec.name, BODY, SPR, TYR, axle_x, axle_y, DEFAULTS["joint_z"], spec.wheelbase,
-                   (spec.cg_to_front, spec.cg_to_rear, spec.width / 2), zc, z_w, notes)
+                   (spec.cg_to_front, spec.cg_to_rear, spec.width / 2), zc, z_w, notes,
+                   chassis_shape(spec, ch, notes))
+
+
+def chassis_shape(spec, ch, notes) -> np.ndarray:
+    """Contact superellipsoid of the chassis [a, b, c, eps1, eps2, x_off, z_off] (chassis frame).
+    [multibody.chassis] semi_axes / shape_exponents (read as 2/eps, the thesis's column) when given, centred
+    on the chassis CG; otherwise a = length/2 centred between the bumpers, b = width/2, c = 0.25 m scaled
+    with height/1.42 (the Clio's slab), 2/eps = 4."""
+    if "semi_axes" in ch:
+        a, b, c = (float(x) for x in ch["semi_axes"])
+        xo = 0.0
+    else:
+        a, b = spec.length / 2, spec.width / 2
+        c = 0.25 * spec.height / 1.42
+        xo = (spec.cg_to_front - spec.cg_to_rear) / 2
+        notes.append("chassis contact shape from length/width/height, 2/eps = 4 (default)")
+    ex = ch.get("shape_exponents", [4.0, 4.0])
+    return np.array([a, b, c, 2.0 / float(ex[0]), 2.0 / float(ex[1]), xo, 0.0])
 
 
 def steer_angles(veh: Vehicle, steer: float) -> np.ndarray:
