@@ -122,6 +122,11 @@ def test_locked_after_impact_locks_wheels(model):
     assert np.all(np.abs(out.final_si) < 0.05)
     assert np.all(np.isfinite(out.rest_si))
     assert out.contact_time == pytest.approx(0.83 / kmh_to_ms(50.0), abs=0.01)
+    # the broad phase accounts for every pair evaluation, and its cheap stages do remove pairs
+    bp = out.diagnostics["broad_phase"]
+    assert bp["pair_evaluations"] == (bp["removed_by_circle"] + bp["removed_by_height"] + bp["removed_by_obb"]
+                                      + bp["narrow_phase"])
+    assert bp["removed_by_circle"] > 0 and bp["removed_by_obb"] > 0 and bp["narrow_phase"] > 0
 
 
 @pytest.mark.slow

@@ -31,6 +31,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi
 from .superellipsoid import support_global, support_value_global
 
@@ -52,6 +53,10 @@ MAX_IMP = 64
 N_SCAN = 72
 GOLDEN_IT = 40
 WARM_HALF = 0.15
+# broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
+# by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
+B_PAIRS, B_CIRCLE, B_HEIGHT, B_OBB, B_NARROW = range(5)
+N_BPC = 5
 # barrier: a rigid box standing on the road, 1.5 m tall
 BARRIER_HALF_HEIGHT = 0.75
 
@@ -141,10 +146,13 @@ def _zrange(kind, sh, r, A):
 
 
 @njit(cache=True)
-def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
              cfg_v1, cfg_vs, cfg_vmin):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
-    CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH]."""
+    CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
+    Broad phase (§2), cheapest first: plan bounding circles, height ranges, oriented boxes (a
+    superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
+    also measures its separation speed); BPC counts what each stage removed."""
     nv = Y.shape[0]
     FX[:, :] = 0.0
     A1 = np.empty((3, 3))
@@ -155,6 +163,7 @@ def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, cfg_n, cfg_chi, cfg
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
         psg[p, :] = 0.0
         psg[p, G_DEL] = -1.0
+        BPC[B_PAIRS] += 1
         r1, v1, om1 = chassis_pose(Y[i], nq, A1)
         sh1 = CSH[i]
         for k in range(3):
@@ -183,11 +192,18 @@ def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, cfg_n, cfg_chi, cfg
         dx, dy = rc2[0] - rc1[0], rc2[1] - rc1[1]
         if dx * dx + dy * dy > (R1 + R2 + 0.05) ** 2:
             PST[p, S_THOK] = 0.0
+            BPC[B_CIRCLE] += 1
             continue
         z1a, z1b = _zrange(0, sh1, rc1, A1)
         z2a, z2b = _zrange(k2, sh2, rc2, A2)
         if z1a > z2b or z2a > z1b:
+            BPC[B_HEIGHT] += 1
             continue
+        if PST[p, S_ACT] == 0.0 and not obb_overlap(rc1, A1, sh1[:3], rc2, A2, sh2[:3]):
+            PST[p, S_THOK] = 0.0
+            BPC[B_OBB] += 1
+            continue
+        BPC[B_NARROW] += 1
         warm = PST[p, S_THOK] > 0.0 and PST[p, S_ACT] > 0.0
         th, g = horizontal_gap(PST[p, S_TH], warm, k2, sh1, rc1, A1, sh2, rc2, A2)
         PST[p, S_TH] = th

@@ -128,9 +128,9 @@ def make_work(nv, nb):
 @njit(cache=True)
 def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
     A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam = wk
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
     if PP.shape[0] > 0:
-        contacts(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, cfg[C_NEXP], cfg[C_CHI],
+        contacts(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, cfg[C_NEXP], cfg[C_CHI],
                  cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN])
     else:
         FX[:, :] = 0.0
@@ -326,7 +326,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
     npair = PP.shape[0]
     wk = make_work(nv, nb)
     K = np.zeros((7, nv, ny))

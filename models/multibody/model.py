@@ -277,6 +277,8 @@ class MultibodyModel(CollisionModel):
             "contact_episodes": int(diag[I.D_NIMP]),
             "max_onset_penetration": float(diag[I.D_MAX_ONSET]),
             "onset_bisections": int(diag[I.D_ONSET_BISECT]),
+            "broad_phase": dict(zip(("pair_evaluations", "removed_by_circle", "removed_by_height",
+                                     "removed_by_obb", "narrow_phase"), CT[8].tolist())),
         }
         if diag[I.D_NIMP] >= C.MAX_IMP:
             warnings.append(f"more than {C.MAX_IMP} contact episodes: only the first {C.MAX_IMP} are reported")
@@ -294,7 +296,8 @@ class MultibodyModel(CollisionModel):
 
 
 def _contact_arrays(CSH, PP, BAR, nv):
-    """The contact tuple of the integrator: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX (fresh pair state)."""
+    """The contact tuple of the integrator: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC (fresh pair state,
+    broad-phase counters)."""
     nbar = BAR.shape[0]
     BOXR = np.zeros((nbar, 3))
     BOXA = np.zeros((nbar, 3, 3))
@@ -305,7 +308,8 @@ def _contact_arrays(CSH, PP, BAR, nv):
         BOXE[k] = [BAR[k, 3], BAR[k, 4], C.BARRIER_HALF_HEIGHT]
     npair = PP.shape[0]
     return (np.ascontiguousarray(CSH, dtype=float), BOXR, BOXA, BOXE, np.ascontiguousarray(PP, dtype=float),
-            np.zeros((npair, C.N_PST)), np.zeros((7, npair, C.N_PSG)), np.zeros((nv, 7)))
+            np.zeros((npair, C.N_PST)), np.zeros((7, npair, C.N_PSG)), np.zeros((nv, 7)),
+            np.zeros(C.N_BPC, np.int64))
 
 
 def _pdof(fx, fy, heading):
