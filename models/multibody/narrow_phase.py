@@ -42,6 +42,8 @@ from .superellipsoid import (
     G_global,
     G_local,
     grad_G_local,
+    mat_t_vec,
+    mat_vec,
     normal_global,
     normal_local,
     radial_project,
@@ -63,20 +65,6 @@ SEED_DIRS = _fibonacci(200)
 # ----------------------------------------------------------------------------------------------------
 # numba kernels
 # ----------------------------------------------------------------------------------------------------
-@njit(cache=True, inline="always")
-def _mv(A, x0, x1, x2):
-    return (A[0, 0] * x0 + A[0, 1] * x1 + A[0, 2] * x2,
-            A[1, 0] * x0 + A[1, 1] * x1 + A[1, 2] * x2,
-            A[2, 0] * x0 + A[2, 1] * x1 + A[2, 2] * x2)
-
-
-@njit(cache=True, inline="always")
-def _mtv(A, x0, x1, x2):
-    return (A[0, 0] * x0 + A[1, 0] * x1 + A[2, 0] * x2,
-            A[0, 1] * x0 + A[1, 1] * x1 + A[2, 1] * x2,
-            A[0, 2] * x0 + A[1, 2] * x1 + A[2, 2] * x2)
-
-
 @njit(cache=True)
 def householder_tb(n0, n1, n2, sgn):
     """Tangent t = H[:,1], binormal b = H[:,2] of H = I - 2hh^T/h^Th, h = n + sgn |n| e_x (§3.2)."""
@@ -93,10 +81,10 @@ def householder_tb(n0, n1, n2, sgn):
 def _residual(q, sh1, r1, A1, sh2, r2, A2, sgn, out):
     nPl = normal_local(q[0], q[1], q[2], sh1)
     nQl = normal_local(q[3], q[4], q[5], sh2)
-    nP = _mv(A1, nPl[0], nPl[1], nPl[2])
-    nQ = _mv(A2, nQl[0], nQl[1], nQl[2])
-    P = _mv(A1, q[0], q[1], q[2])
-    Q = _mv(A2, q[3], q[4], q[5])
+    nP = mat_vec(A1, nPl[0], nPl[1], nPl[2])
+    nQ = mat_vec(A2, nQl[0], nQl[1], nQl[2])
+    P = mat_vec(A1, q[0], q[1], q[2])
+    Q = mat_vec(A2, q[3], q[4], q[5])
     d0 = r2[0] + Q[0] - r1[0] - P[0]
     d1 = r2[1] + Q[1] - r1[1] - P[1]
     d2 = r2[2] + Q[2] - r1[2] - P[2]
@@ -207,8 +195,8 @@ def newton_common_normal(q0, sh1, r1, A1, sh2, r2, A2, maxit=150, tol=1e-10):
 
 @njit(cache=True)
 def _g_dir(d0, d1, d2, sh1, r1, A1, sh2, r2, A2):
-    l1 = _mtv(A1, d0, d1, d2)
-    l2 = _mtv(A2, -d0, -d1, -d2)
+    l1 = mat_t_vec(A1, d0, d1, d2)
+    l2 = mat_t_vec(A2, -d0, -d1, -d2)
     h1 = d0 * r1[0] + d1 * r1[1] + d2 * r1[2] + support_value_local(l1[0], l1[1], l1[2], sh1)
     h2 = -(d0 * r2[0] + d1 * r2[1] + d2 * r2[2]) + support_value_local(l2[0], l2[1], l2[2], sh2)
     return -(h1 + h2)
@@ -253,8 +241,8 @@ def seed(sh1, r1, A1, sh2, r2, A2, dirs, levels=8):
                     e0, e1, e2 = c0, c1, c2
         d0, d1, d2 = e0, e1, e2
         w *= 0.5
-    l1 = _mtv(A1, d0, d1, d2)
-    l2 = _mtv(A2, -d0, -d1, -d2)
+    l1 = mat_t_vec(A1, d0, d1, d2)
+    l2 = mat_t_vec(A2, -d0, -d1, -d2)
     s1 = support_local(l1[0], l1[1], l1[2], sh1)
     s2 = support_local(l2[0], l2[1], l2[2], sh2)
     q0 = np.empty(6)
@@ -269,15 +257,15 @@ def evaluate(q, sh1, r1, A1, sh2, r2, A2):
     (gap, n (3,), P (3,), Q (3,), ok)."""
     P = np.empty(3)
     Q = np.empty(3)
-    p = _mv(A1, q[0], q[1], q[2])
-    s = _mv(A2, q[3], q[4], q[5])
+    p = mat_vec(A1, q[0], q[1], q[2])
+    s = mat_vec(A2, q[3], q[4], q[5])
     for i in range(3):
         P[i] = r1[i] + p[i]
         Q[i] = r2[i] + s[i]
     nPl = normal_local(q[0], q[1], q[2], sh1)
     nQl = normal_local(q[3], q[4], q[5], sh2)
-    nPt = _mv(A1, nPl[0], nPl[1], nPl[2])
-    nQt = _mv(A2, nQl[0], nQl[1], nQl[2])
+    nPt = mat_vec(A1, nPl[0], nPl[1], nPl[2])
+    nQt = mat_vec(A2, nQl[0], nQl[1], nQl[2])
     n = np.empty(3)
     for i in range(3):
         n[i] = nPt[i]

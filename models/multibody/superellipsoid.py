@@ -175,14 +175,16 @@ def support_value_local(dx, dy, dz, sh):
 # global-frame kernels (pose r (3,), A (3,3): x = r + A xi)
 # ----------------------------------------------------------------------------------------------------
 @njit(cache=True, inline="always")
-def _mv(A, x0, x1, x2):
+def mat_vec(A, x0, x1, x2):
+    """A x for a 3x3 A and x given by components."""
     return (A[0, 0] * x0 + A[0, 1] * x1 + A[0, 2] * x2,
             A[1, 0] * x0 + A[1, 1] * x1 + A[1, 2] * x2,
             A[2, 0] * x0 + A[2, 1] * x1 + A[2, 2] * x2)
 
 
 @njit(cache=True, inline="always")
-def _mtv(A, x0, x1, x2):
+def mat_t_vec(A, x0, x1, x2):
+    """A^T x for a 3x3 A and x given by components."""
     return (A[0, 0] * x0 + A[1, 0] * x1 + A[2, 0] * x2,
             A[0, 1] * x0 + A[1, 1] * x1 + A[2, 1] * x2,
             A[0, 2] * x0 + A[1, 2] * x1 + A[2, 2] * x2)
@@ -191,30 +193,30 @@ def _mtv(A, x0, x1, x2):
 @njit(cache=True)
 def support_global(d0, d1, d2, sh, r, A):
     """Global support point r + A sigma(A^T d)."""
-    l = _mtv(A, d0, d1, d2)
+    l = mat_t_vec(A, d0, d1, d2)
     s = support_local(l[0], l[1], l[2], sh)
-    g = _mv(A, s[0], s[1], s[2])
+    g = mat_vec(A, s[0], s[1], s[2])
     return (r[0] + g[0], r[1] + g[1], r[2] + g[2])
 
 
 @njit(cache=True)
 def support_value_global(d0, d1, d2, sh, r, A):
     """Global support value d . r + h(A^T d)."""
-    l = _mtv(A, d0, d1, d2)
+    l = mat_t_vec(A, d0, d1, d2)
     return d0 * r[0] + d1 * r[1] + d2 * r[2] + support_value_local(l[0], l[1], l[2], sh)
 
 
 @njit(cache=True)
 def G_global(x0, x1, x2, sh, r, A):
-    l = _mtv(A, x0 - r[0], x1 - r[1], x2 - r[2])
+    l = mat_t_vec(A, x0 - r[0], x1 - r[1], x2 - r[2])
     return G_local(l[0], l[1], l[2], sh)
 
 
 @njit(cache=True)
 def normal_global(x0, x1, x2, sh, r, A):
-    l = _mtv(A, x0 - r[0], x1 - r[1], x2 - r[2])
+    l = mat_t_vec(A, x0 - r[0], x1 - r[1], x2 - r[2])
     n = normal_local(l[0], l[1], l[2], sh)
-    return _mv(A, n[0], n[1], n[2])
+    return mat_vec(A, n[0], n[1], n[2])
 
 
 # ----------------------------------------------------------------------------------------------------
