@@ -33,7 +33,7 @@ def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
     model = get_model(model_name)
     model.simulate(scene)  # compile / warm up
     model.simulate_batch([scene] * 2)
-    n_single = 50
+    n_single = max(1, min(50, batch))
     best_single = min(_time(lambda: [model.simulate(scene) for _ in range(n_single)]) for _ in range(repeat))
     scenes = [scene.with_vehicle("V1", speed=scene.vehicle("V1").speed * (0.9 + 0.2 * k / batch))
               for k in range(batch)]
