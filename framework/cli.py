@@ -12,10 +12,6 @@ from .errors import InputError
 from .registry import UnknownPluginError
 
 
-def _model_options(args):
-    return {}
-
-
 def cmd_models(args):
     from .registry import available_models, available_optimizers
     print("models:     " + ", ".join(available_models()))

@@ -7,7 +7,6 @@ with `Scene.with_vehicle` / `Scene.replace`.
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 from typing import Literal
 
@@ -228,6 +227,3 @@ def load_scene(path: str | Path) -> Scene:
     path = Path(path)
     return scene_from_dict(read_toml(path, "scene"), source=path, base_dir=path.parent)
 
-
-def initial_velocity(v: VehicleState) -> tuple[float, float]:
-    return v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)

@@ -4,7 +4,6 @@ from __future__ import annotations
 import dataclasses
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 import tomllib
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -142,6 +141,3 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
         core["cg_to_front"] = spec.length / 2
     return VehicleSpec(**core, sections=sections)
 
-
-def spec_replace(spec: VehicleSpec, **changes: Any) -> VehicleSpec:
-    return dataclasses.replace(spec, **changes)
