@@ -17,6 +17,7 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pymoo.core.problem import Problem
 
 from .errors import InputError
 from .registry import UnknownPluginError, available_models, available_optimizers
@@ -102,12 +103,7 @@ class StudyFile(_Strict):
 
 
 # ---------------------------------------------------------------- the problem
-def _problem_base():
-    from pymoo.core.problem import Problem
-    return Problem
-
-
-class ReconstructionProblem(_problem_base()):
+class ReconstructionProblem(Problem):
     """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
 
     def __init__(self, scene: Scene, free: list[FreeVariable], evidence: dict, heading_weight: float,
