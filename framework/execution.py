@@ -13,6 +13,8 @@ import numpy as np
 
 @functools.lru_cache(maxsize=8)
 def _model(name: str, options_items: tuple):
+    """One model instance per worker process and options, kept across generations: a model may cache
+    per-vehicle preparation (the multibody model settles each vehicle statically once)."""
     from .registry import get_model
     return get_model(name, **dict(options_items))
 
