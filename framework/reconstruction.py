@@ -285,7 +285,7 @@ class Study:
             out_dir.mkdir(parents=True, exist_ok=True)
         bar = _progress(self.spec.optimizer.generations, progress)
         if bar is not None and algorithm.n_iter:
-            bar.update(algorithm.n_iter)
+            bar.update(algorithm.n_iter - 1)  # generations done before a resume
         with Executor(backend, workers or ex.workers, scheduler or ex.scheduler) as executor:
             problem.executor = executor
             while algorithm.has_next():
