@@ -176,7 +176,11 @@ class ReconstructionProblem(Problem):
         return np.clip(X, self.xl, self.xu)
 
     def start_overlap(self, X) -> np.ndarray:
+        """Largest outline overlap at the start per candidate (<= 0: none). A scene at its collision
+        position (a given point of impact) overlaps by design: no constraint then."""
         from crashlab.optimizers.repair import _depth
+        if self.scene.impact.point is not None:
+            return np.full(len(np.atleast_2d(X)), -1.0)
         poses = self.start_poses(X)
         nv = len(self.names)
         out = np.full(len(poses), -1.0)
@@ -248,7 +252,7 @@ class Study:
         o = self.spec.optimizer
         name = optimizer or o.name
         opts = dict(o.options)
-        if self.spec.repair.enabled:
+        if self.spec.repair.enabled and self.scene.impact.point is None:
             from crashlab.optimizers.repair import CollisionRepair
             opts["repair"] = CollisionRepair(max_shift=self.spec.repair.max_shift)
         try:

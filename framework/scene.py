@@ -159,6 +159,38 @@ def barrier_outline(b: Barrier):
     return rect_corners(b.x, b.y, b.heading, b.length / 2, b.length / 2, b.width / 2)
 
 
+def _distance_to_outline(px, py, corners) -> float:
+    """Distance from a point to a convex outline (corners counter-clockwise); 0 inside."""
+    best, inside = float("inf"), True
+    for k in range(4):
+        ax, ay = corners[k]
+        bx, by = corners[(k + 1) % 4]
+        ex, ey = bx - ax, by - ay
+        if ex * (py - ay) - ey * (px - ax) < 0.0:
+            inside = False
+        t = min(max(((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        best = min(best, ((px - ax - t * ex) ** 2 + (py - ay - t * ey) ** 2) ** 0.5)
+    return 0.0 if inside else best
+
+
+GIVEN_POINT_TOLERANCE = 0.5  # m: the given point of impact lies within this of both outlines it joins
+
+
+def given_pair(scene: Scene) -> tuple[int, int]:
+    """The pair that meets at the given point of impact: (vehicle index, index of the other vehicle, or
+    number of vehicles + barrier index), the one whose two outlines lie nearest the point.
+    Raises ValueError when no pair lies within GIVEN_POINT_TOLERANCE of it."""
+    px, py = scene.impact.point
+    nv = len(scene.vehicles)
+    outlines = [vehicle_outline(v) for v in scene.vehicles] + [barrier_outline(b) for b in scene.barriers]
+    dist = [_distance_to_outline(px, py, c) for c in outlines]
+    pairs = [(max(dist[i], dist[k]), i, k) for i in range(nv) for k in range(i + 1, len(outlines))]
+    if not pairs or min(pairs)[0] > GIVEN_POINT_TOLERANCE:
+        raise ValueError(f"no two outlines meet within {GIVEN_POINT_TOLERANCE} m of the point")
+    _, i, k = min(pairs)
+    return i, k
+
+
 def start_overlaps(scene: Scene) -> list[tuple[str, str]]:
     """Pairs (vehicle, vehicle or barrier#k) whose outlines overlap in the start state."""
     from .geometry import penetration
@@ -213,7 +245,12 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
         for vname in rows:
             if vname not in names:
                 raise InputError(source, f"reference.{src}.{vname}", "no vehicle of that name")
-    if imp.point is None:
+    if imp.point is not None:
+        try:
+            given_pair(scene)
+        except ValueError as err:
+            raise InputError(source, "impact.point", str(err)) from None
+    else:
         hits = start_overlaps(scene)
         if hits:
             a, b = hits[0]

@@ -34,8 +34,8 @@ from .vehicle_motion import (
 
 # configuration vector
 (C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
- C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS) = range(16)
-N_CFG = 16
+ C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J) = range(18)
+N_CFG = 18
 # impact record
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J) = range(18)
@@ -196,31 +196,31 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
 
     # impact at t = 0 at a given point of impact and contact plane (PC-Crash style)
     if cfg[C_GIVEN] > 0.5 and nk >= 2:
-        j = 1
+        i0, j = int(cfg[C_GIVEN_I]), int(cfg[C_GIVEN_J])  # the pair touching at the point
         px, py, th = cfg[C_PX], cfg[C_PY], cfg[C_PLANE]
         nx, ny = math.sin(th), -math.cos(th)
         cjx, cjy = _centre(S, B, j, nv)
-        if nx * (cjx - S[0, 0]) + ny * (cjy - S[0, 1]) < 0.0:
+        if nx * (cjx - S[i0, 0]) + ny * (cjy - S[i0, 1]) < 0.0:
             nx, ny = -nx, -ny
         for i in range(nv):
             contact[i, 0], contact[i, 1], contact[i, 2] = S[i, 0], S[i, 1], S[i, 2]
             contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
         diag[D_CONTACT_T] = 0.0
         S_before[:] = S
-        pn, pt, kind, energy, gn = _apply_impulse(P, S, 0, j, nv, px, py, nx, ny, e, mu_imp, law)
+        pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, e, mu_imp, law)
         if kind < 0:
             status = STATUS_NOT_APPROACHING
         else:
-            _record_impact(imp, 0, 0.0, 0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+            _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
             n_imp = 1
             diag[D_E_IMPACT] += energy
-            for q in (0, j):
+            for q in (i0, j):
                 if q < nv:
                     hit[q] = True
                     asleep[q] = False
                     if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
                         modes[q] = LOCKED
-            in_contact[0, j] = True
+            in_contact[i0, j] = True
 
     steps = 0
     while t < duration - 1e-12:

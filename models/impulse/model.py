@@ -9,6 +9,7 @@ import numpy as np
 
 from crashlab.model import CollisionModel
 from crashlab.outcome import Outcome
+from crashlab.scene import given_pair
 
 from . import kernel as K
 from .laws import BRACH, FULL, KUDLICH_SLIBAR
@@ -69,6 +70,7 @@ class ImpulseModel(CollisionModel):
         cfg[K.C_LAW], cfg[K.C_DURATION], cfg[K.C_STOP_AT_REST] = LAWS[imp.law], scene.duration, scene.stop_at_rest
         if imp.point is not None:
             cfg[K.C_GIVEN], cfg[K.C_PX], cfg[K.C_PY], cfg[K.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
+            cfg[K.C_GIVEN_I], cfg[K.C_GIVEN_J] = given_pair(scene)
         cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
         cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
         return P, S0, B, cfg
@@ -145,7 +147,7 @@ def _impact_rows(names, mass, imp):
             e_q = r[K.I_ENERGY] * inv_q / (inv_i + inv_j)
             rows.append({"t": r[K.I_T], "vehicle": names[q], "other": other, "dvx": r[c_dv],
                          "dvy": r[c_dv + 1], "d_yaw_rate": r[c_dr], "energy": r[K.I_ENERGY],
-                         "ees": math.sqrt(2.0 * e_q / mass[q]), "pdof": _pdof(sgn * ix, sgn * iy, r[c_head]),
+                         "ees": math.sqrt(max(2.0 * e_q / mass[q], 0.0)), "pdof": _pdof(sgn * ix, sgn * iy, r[c_head]),
                          "kind": "full" if int(r[K.I_KIND]) == FULL else "sliding",
                          "point_x": r[K.I_PX], "point_y": r[K.I_PY], "plane_angle": plane})
     return rows

@@ -63,7 +63,8 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
     u = c * s[3] + sn * s[4]  # body-frame velocity
     v = -sn * s[3] + c * s[4]
     r = s[5]
-    # axle loads with longitudinal transfer, then lateral transfer per axle (§10, pycrash style)
+    # axle loads with longitudinal transfer m a_x h / L, then lateral transfer m a_y h / track per side,
+    # shared between the axles as the static loads (§10, pycrash style)
     nf = m * (G * b - acc_body[0] * h) / wb
     nr = m * (G * a + acc_body[0] * h) / wb
     dlat = m * acc_body[1] * h / track
@@ -76,7 +77,7 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
         yw = 0.5 * track if left else -0.5 * track
         nax = nf if front else nr
         share = b / wb if front else a / wb
-        normal = 0.5 * nax + (-0.5 if left else 0.5) * dlat * share
+        normal = 0.5 * nax + (-1.0 if left else 1.0) * dlat * share  # side transfer m a_y h / track
         vx_w = u - r * yw
         vy_w = v + r * xw
         if front and steer != 0.0:
