@@ -35,7 +35,8 @@ def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
     model.simulate_batch([scene] * 2)
     n_single = max(1, min(50, batch))
     best_single = min(_time(lambda: [model.simulate(scene) for _ in range(n_single)]) for _ in range(repeat))
-    scenes = [scene.with_vehicle("V1", speed=scene.vehicle("V1").speed * (0.9 + 0.2 * k / batch))
+    first = scene.vehicles[0]
+    scenes = [scene.with_vehicle(first.name, speed=first.speed * (0.9 + 0.2 * k / batch))
               for k in range(batch)]
     best_batch = min(_time(lambda: model.simulate_batch(scenes)) for _ in range(repeat))
     print(f"machine: {machine()}")

@@ -34,7 +34,10 @@ def cmd_simulate(args):
     out = model.simulate(scene)
     if args.plot:
         from .plotting import top_view
-        top_view(scene, out, args.plot)
+        try:
+            top_view(scene, out, args.plot)
+        except (OSError, ValueError) as err:
+            raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
     if args.json:
         print(json.dumps(out.to_json_dict(), indent=2))
         return 0
@@ -79,6 +82,9 @@ def cmd_compare(args):
 
 def cmd_bench(args):
     from .bench import run_bench
+    _get_model(args.model, args.scene or "crashlab bench")
+    if args.batch < 1 or args.repeat < 1:
+        raise InputError("crashlab bench", "--batch/--repeat", "must be at least 1")
     run_bench(args.model, args.scene, args.batch, args.repeat)
     return 0
 

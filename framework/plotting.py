@@ -35,6 +35,9 @@ def top_view(scene, outcome, path, title=None, measured=None):
             ax.plot(tr["x"], tr["y"], "-", color=c, lw=0.8, alpha=0.6)
         if measured and v.name in measured:
             mx, my, mh = measured[v.name]
+            if mh is None:  # a measured position without heading: a cross
+                ax.plot([mx], [my], "x", color="0.4", ms=10, mew=2, label=f"{v.name} measured")
+                continue
             poly = vehicle_outline(v, mx, my, deg_to_rad(mh))
             poly = np.vstack([poly, poly[:1]])
             ax.plot(poly[:, 0], poly[:, 1], "-", color="0.5", lw=2, alpha=0.6, label=f"{v.name} measured")

@@ -32,7 +32,7 @@ FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluatio
 
 # ---------------------------------------------------------------- study file
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class OptimizerSection(_Strict):
@@ -55,6 +55,11 @@ class FreeVariable(_Strict):
             raise ValueError(f"lower ({self.lower}) must be below upper ({self.upper})")
         if self.field in VEHICLE_FIELDS and self.vehicle is None:
             raise ValueError(f"field {self.field!r} needs a vehicle")
+        if self.field in IMPACT_FIELDS:
+            if self.vehicle is not None:
+                raise ValueError(f"field {self.field!r} belongs to the impact: give no vehicle")
+            if self.lower < 0 or (self.field == "restitution" and self.upper > 1):
+                raise ValueError("restitution lies in [0, 1] and friction is not negative")
         return self
 
     @property
@@ -65,7 +70,7 @@ class FreeVariable(_Strict):
 class RestPose(_Strict):
     x: float
     y: float
-    heading: float = 0.0
+    heading: float | None = None  # deg; without it the heading term is left out for this vehicle
 
 
 class Evidence(_Strict):
@@ -197,7 +202,7 @@ class ReconstructionProblem(Problem):
         for col, (name, (ex, ey, eh)) in enumerate(self.evidence.items()):
             i = self.names.index(name)
             F[:, col] = np.hypot(rest[:, i, 0] - ex, rest[:, i, 1] - ey)
-            if self.heading_weight:
+            if self.heading_weight and eh is not None:
                 F[:, col] += self.heading_weight * np.abs(wrap_deg(np.degrees(rest[:, i, 2]) - eh))
         return F
 
@@ -255,11 +260,15 @@ class Study:
         if self.spec.repair.enabled and self.scene.impact.point is None:
             from crashlab.optimizers.repair import CollisionRepair
             opts["repair"] = CollisionRepair(max_shift=self.spec.repair.max_shift)
+        if name == "moead":  # pymoo's MOEA/D takes no constraints; ours are overlap and collision
+            raise InputError(self.path, "optimizer.name", "moead handles no constraints; choose another optimizer")
+        if name == "nsga3" and "n_obj" not in opts:  # its reference directions need the objective count
+            opts["n_obj"] = len(self.evidence)
         try:
             return name, get_optimizer(name, pop_size=o.pop_size, **opts)
         except UnknownPluginError as err:
             raise InputError(self.path, "optimizer.name", str(err)) from None
-        except TypeError as err:
+        except (TypeError, ValueError) as err:
             raise InputError(self.path, "optimizer.options", str(err)) from None
 
     def run(self, optimizer: str | None = None, workers: int | None = None, scheduler: str | None = None,
@@ -286,7 +295,10 @@ class Study:
             algorithm.setup(problem, termination=("n_gen", self.spec.optimizer.generations),
                             seed=self.spec.optimizer.seed, verbose=False)
         if out_dir:
-            out_dir.mkdir(parents=True, exist_ok=True)
+            try:
+                out_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as err:
+                raise InputError(out_dir, "--out", err.strerror or str(err)) from None
         bar = _progress(self.spec.optimizer.generations, progress)
         if bar is not None and algorithm.n_iter:
             bar.update(algorithm.n_iter - 1)  # generations done before a resume
@@ -423,7 +435,8 @@ def write_outputs(study: Study, result: ReconstructionResult, arch: dict, out_di
         if key in result.algorithm_info:
             lines.append(f"- {key}: {result.algorithm_info[key]}")
     lines += ["", "Evidence (measured rest poses): " + "; ".join(
-        f"{n} ({x:.2f}, {y:.2f}, {h:.1f} deg)" for n, (x, y, h) in problem.evidence.items()), "",
+        f"{n} ({x:.2f}, {y:.2f}" + (f", {h:.1f} deg)" if h is not None else ")")
+        for n, (x, y, h) in problem.evidence.items()), "",
         f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
     if len(result.pareto):
         show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names]].head(15)
@@ -444,6 +457,11 @@ def load_study(path) -> Study:
     if spec.optimizer.name not in available_optimizers():
         raise InputError(path, "optimizer.name",
                          str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
+    from .registry import get_model
+    try:
+        get_model(spec.model, **spec.model_options)
+    except (TypeError, ValueError) as err:
+        raise InputError(path, "model_options", str(err)) from None
     scene_path = path.parent / spec.scene
     if not scene_path.exists():
         raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
@@ -453,7 +471,6 @@ def load_study(path) -> Study:
         if f.vehicle is not None and f.vehicle not in names:
             raise InputError(path, f"free.{k}.vehicle", f"no vehicle {f.vehicle!r} in the scene ({', '.join(names)})")
     if spec.evidence.twin:
-        from .registry import get_model
         out = get_model(spec.model, **spec.model_options).simulate(scene)
         evidence = {n: (out.rest_si[i, 0], out.rest_si[i, 1], math.degrees(out.rest_si[i, 2]))
                     for i, n in enumerate(names)}

@@ -22,7 +22,7 @@ WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
 
 # ---------------------------------------------------------------- file schema (file units)
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class RoadFile(_Strict):

@@ -96,6 +96,10 @@ def read_toml(path: Path, what: str = "file") -> dict:
         raise InputError(path, what, "file not found") from None
     except tomllib.TOMLDecodeError as err:
         raise InputError(path, "(syntax)", f"malformed TOML: {err}") from None
+    except UnicodeDecodeError:
+        raise InputError(path, "(encoding)", "not a UTF-8 text file") from None
+    except OSError as err:
+        raise InputError(path, what, err.strerror or str(err)) from None
 
 
 def pydantic_error(file, err: ValidationError, prefix: str = "") -> InputError:
@@ -126,13 +130,22 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
             raise InputError(scene_file, where, f"unknown vehicle {ref!r}{hint}")
         path = Path(str(resources.files("crashlab").joinpath("vehicles", ref + ".toml")))
     data = read_toml(path, "vehicle")
-    if overrides:
-        data = _deep_merge(data, overrides)
-    try:
+    try:  # the file itself first, so its own errors are blamed on it
         spec = VehicleFile.model_validate(data)
     except ValidationError as err:
-        file = scene_file if overrides else path
-        raise pydantic_error(file, err, prefix=f"{where}.overrides." if overrides else "") from None
+        raise pydantic_error(path, err) from None
+    if overrides:
+        known = set(VehicleFile.model_fields) | set(data)
+        for key, val in overrides.items():
+            if key not in known:
+                raise InputError(scene_file, f"{where}.overrides.{key}", "unknown vehicle key")
+            if isinstance(data.get(key), dict) != isinstance(val, dict):
+                raise InputError(scene_file, f"{where}.overrides.{key}",
+                                 "a table is overridden by a table, a value by a value")
+        try:
+            spec = VehicleFile.model_validate(_deep_merge(data, overrides))
+        except ValidationError as err:
+            raise pydantic_error(scene_file, err, prefix=f"{where}.overrides.") from None
     fields = spec.model_dump()
     sections = {k: v for k, v in fields.items() if k not in VehicleSpec.__dataclass_fields__}
     core = {k: v for k, v in fields.items() if k in VehicleSpec.__dataclass_fields__}
