@@ -391,17 +391,24 @@ def test_outputs_csv_figures_summary_and_json(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
 def test_twin_experiment_finds_the_evidence(k):
-    study = load_study(STUDIES / f"twin{k}.toml")
-    t0 = time.perf_counter()
-    res = study.run()
-    wall = time.perf_counter() - t0
-    P = res.pareto
-    fcols = [f"f_{n}" for n in study.evidence]
-    best = P.loc[P[fcols].max(axis=1).idxmin()]
-    truth = truth_of(study)
-    off = {c: round(float(best[c] - truth[c]), 3) for c in truth}
-    print(f"\ntwin{k} ({study.spec.optimizer.name} {study.spec.optimizer.pop_size}x"
-          f"{study.spec.optimizer.generations}, {wall:.1f} s): {len(P)} Pareto rows, best max objective "
-          f"{best[fcols].max():.4f} m; its free variables minus the truth: {off}")
-    assert res.evaluations == study.spec.optimizer.pop_size * study.spec.optimizer.generations
-    assert np.any(np.all(P[fcols].to_numpy() <= 0.10, axis=1)), "a solution within 10 cm for both vehicles"
+    """The study as written (its optimizer and the thesis's budget), with seeds 1, 2 and 3: the Pareto set
+    holds a solution within 10 cm for both vehicles for the median seed (a stochastic search is judged
+    over seeds, not one draw; every seed's figure is printed)."""
+    bests = []
+    for seed in (1, 2, 3):
+        study = load_study(STUDIES / f"twin{k}.toml")
+        study.spec.optimizer.seed = seed
+        t0 = time.perf_counter()
+        res = study.run()
+        wall = time.perf_counter() - t0
+        P = res.pareto
+        fcols = [f"f_{n}" for n in study.evidence]
+        best = P.loc[P[fcols].max(axis=1).idxmin()]
+        truth = truth_of(study)
+        off = {c: round(float(best[c] - truth[c]), 3) for c in truth}
+        print(f"\ntwin{k} seed {seed} ({study.spec.optimizer.name} {study.spec.optimizer.pop_size}x"
+              f"{study.spec.optimizer.generations}, {wall:.1f} s): {len(P)} Pareto rows, best max objective "
+              f"{best[fcols].max():.4f} m; its free variables minus the truth: {off}")
+        assert res.evaluations == study.spec.optimizer.pop_size * study.spec.optimizer.generations
+        bests.append(float(best[fcols].max()))
+    assert np.median(bests) <= 0.10, f"a solution within 10 cm for both vehicles (per seed: {bests})"
