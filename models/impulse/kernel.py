@@ -2,7 +2,8 @@
 
 Everything per scene runs inside one numba function (no Python loop over time steps); a batch of
 scenes runs in parallel with `prange`. Step-size policy:
-  * fine steps `dt` (Heun, 2nd order) whenever a tyre force can change quickly or vehicles are close;
+  * fine steps (Heun, 2nd order) of at most `dt`, and below 1 / (fastest decay rate of the regularised
+    tyre forces) (vehicle_motion.stiffest_rate), whenever a tyre force can change or vehicles are close;
   * while every moving vehicle runs straight and no pair can touch within the step, the step grows up
     to `coarse_dt` (straight running has constant forces, Heun is exact for it);
   * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it;
