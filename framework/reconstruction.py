@@ -27,6 +27,7 @@ from .vehicle import pydantic_error, read_toml
 
 VEHICLE_FIELDS = ("x", "y", "heading", "speed")
 IMPACT_FIELDS = ("restitution", "friction")
+POLISH_SPACING = 0.1  # least distance between polish starts, normalised decision space
 FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluation
 
 
@@ -94,6 +95,12 @@ class RepairSection(_Strict):
     max_shift: float = Field(default=1.0, ge=0)
 
 
+class PolishSection(_Strict):
+    """Least-squares polish after the search (optimizers/polish.py); 0 evaluations: off."""
+    evaluations: int = Field(default=0, ge=0)
+    step: float = Field(default=0.01, gt=0, lt=0.5)  # forward-difference step, fraction of each bound range
+
+
 class StudyFile(_Strict):
     name: str = ""
     scene: str
@@ -105,6 +112,7 @@ class StudyFile(_Strict):
     objective: ObjectiveSection = ObjectiveSection()
     execution: ExecutionSection = ExecutionSection()
     repair: RepairSection = RepairSection()
+    polish: PolishSection = PolishSection()
 
 
 # ---------------------------------------------------------------- the problem
@@ -206,6 +214,25 @@ class ReconstructionProblem(Problem):
                 F[:, col] += self.heading_weight * np.abs(wrap_deg(np.degrees(rest[:, i, 2]) - eh))
         return F
 
+    def residuals(self, rest: np.ndarray) -> np.ndarray:
+        """rest (n, nv, 3) SI -> (n, m) residual vector whose parts make the objectives: dx, dy per
+        vehicle [m], and heading_weight * wrapped heading error [m] where the heading counts."""
+        parts = []
+        for name, (ex, ey, eh) in self.evidence.items():
+            i = self.names.index(name)
+            parts += [rest[:, i, 0] - ex, rest[:, i, 1] - ey]
+            if self.heading_weight and eh is not None:
+                parts.append(self.heading_weight * wrap_deg(np.degrees(rest[:, i, 2]) - eh))
+        return np.column_stack(parts)
+
+    def evaluate_residuals(self, X) -> np.ndarray:
+        """Evaluate X (recorded in the archive like any evaluation) -> residuals; a failed or
+        infeasible candidate gets FAILED_OBJECTIVE in every component."""
+        F, G, rest = self.evaluate(np.atleast_2d(X), return_values_of=["F", "G", "rest"])
+        R = self.residuals(rest)
+        R[np.any(G > 0, axis=1) | ~np.isfinite(R).all(axis=1)] = FAILED_OBJECTIVE
+        return R
+
     def _evaluate(self, X, out, *args, **kwargs):
         from .execution import Executor
         scenes = [self.scene_for(x) for x in X]
@@ -218,7 +245,7 @@ class ReconstructionProblem(Problem):
         self.n_failed += int((~ok).sum())
         for key, val in (("X", X), ("F", F), ("G", G), ("rest", rest), ("contact", contact), ("ok", ok)):
             self.archive[key].append(np.asarray(val))
-        out["F"], out["G"] = F, G
+        out["F"], out["G"], out["rest"] = F, G, rest
 
     def archive_arrays(self) -> dict:
         return {k: np.concatenate(v) if v else np.empty(0) for k, v in self.archive.items()}
@@ -311,11 +338,22 @@ class Study:
                 if bar is not None:
                     bar.set_postfix_str(_status(problem, self.spec.objective.hv_reference))
                     bar.update(1)
+            n_search = sum(len(x) for x in problem.archive["X"])
+            if self.spec.polish.evaluations:
+                repair = None
+                if self.spec.repair.enabled and self.scene.impact.point is None:
+                    from crashlab.optimizers.repair import CollisionRepair
+                    repair = CollisionRepair(max_shift=self.spec.repair.max_shift)
+                polish_archive(problem, self.spec.polish, repair)
+                if bar is not None:
+                    bar.set_postfix_str("polished: " + _status(problem, self.spec.objective.hv_reference))
             problem.executor = None
         if bar is not None:
             bar.close()
         info = {"optimizer": name, "generations": int(algorithm.n_gen or 1) - 1,
-                "pop_size": self.spec.optimizer.pop_size}
+                "pop_size": self.spec.optimizer.pop_size, "search_evaluations": n_search}
+        if self.spec.polish.evaluations:
+            info["polish_evaluations"] = sum(len(x) for x in problem.archive["X"]) - n_search
         if getattr(algorithm, "sigma_share", None) is not None:
             info["sigma_share"] = float(algorithm.sigma_share)
         repair = getattr(algorithm, "repair", None)
@@ -330,6 +368,36 @@ class Study:
         if out_dir:
             write_outputs(self, result, arch, out_dir)
         return result
+
+
+def spaced_starts(X, xl, xu, spacing: float = POLISH_SPACING) -> np.ndarray:
+    """The rows of X (best first) that lie at least `spacing` (normalised decision space) from every
+    earlier pick: one start per basin rather than several in the best one."""
+    Z = (X - xl) / (xu - xl)
+    picked: list[int] = []
+    for k in range(len(Z)):
+        if not picked or np.min(np.linalg.norm(Z[picked] - Z[k], axis=1)) >= spacing:
+            picked.append(k)
+    return X[picked]
+
+
+def polish_archive(problem: ReconstructionProblem, spec: PolishSection, repair=None):
+    """Least-squares polish (optimizers/polish.py) from the best feasible candidates so far, ranked
+    by their worse objective and spaced apart, until the budget is spent; every polish evaluation
+    enters the archive. With a repair, each point
+    is repaired before it is evaluated: the back-off makes the residual continuous across the
+    start-overlap boundary, where the search's repaired candidates sit."""
+    from crashlab.optimizers.polish import polish
+    arch = problem.archive_arrays()
+    feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
+    if len(feasible) == 0:
+        return
+    order = feasible[np.argsort(arch["F"][feasible].max(axis=1), kind="stable")]
+    starts = spaced_starts(arch["X"][order], problem.xl, problem.xu)
+    def residuals(X):
+        return problem.evaluate_residuals(X if repair is None else repair.apply(problem, X))
+
+    polish(residuals, starts, problem.xl, problem.xu, spec.evaluations, spec.step)
 
 
 def pareto_table(problem: ReconstructionProblem, arch: dict):
@@ -431,7 +499,7 @@ def write_outputs(study: Study, result: ReconstructionResult, arch: dict, out_di
              f"- study: `{study.path}`; model `{problem.model}`; optimizer `{result.algorithm_info['optimizer']}`",
              f"- evaluations {result.evaluations}, failed {result.failed}, feasible fraction "
              f"{result.feasible_fraction:.1%}, wall time {result.wall_time_s:.1f} s"]
-    for key in ("sigma_share", "repaired"):
+    for key in ("sigma_share", "repaired", "search_evaluations", "polish_evaluations"):
         if key in result.algorithm_info:
             lines.append(f"- {key}: {result.algorithm_info[key]}")
     lines += ["", "Evidence (measured rest poses): " + "; ".join(

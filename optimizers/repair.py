@@ -124,6 +124,10 @@ class CollisionRepair(Repair):
         self.seen = 0
 
     def _do(self, problem, X, **kwargs):
+        return self.apply(problem, X)
+
+    def apply(self, problem, X) -> np.ndarray:
+        """Repaired copy of the candidates X (n, n_var) of a ReconstructionProblem."""
         X = np.array(X, dtype=float, copy=True)
         poses = problem.start_poses(X)
         changed = repair_poses(poses, problem.outline_dims, problem.movable, self.max_shift, self.horizon)

@@ -391,11 +391,12 @@ def test_outputs_csv_figures_summary_and_json(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
 def test_twin_experiment_finds_the_evidence(k):
-    """The study as written (its optimizer and the thesis's budget), with seeds 1, 2 and 3: the Pareto set
-    holds a solution within 10 cm for both vehicles for the median seed (a stochastic search is judged
-    over seeds, not one draw; every seed's figure is printed)."""
+    """The study as written (its optimizer, the thesis's budget, then the least-squares polish), seeds 1-5:
+    every seed's Pareto set holds a solution within 10 cm for both vehicles. Printed per seed: the best
+    after the search alone, after the polish, and how far the best solution's free variables are from
+    the truth."""
     bests = []
-    for seed in (1, 2, 3):
+    for seed in (1, 2, 3, 4, 5):
         study = load_study(STUDIES / f"twin{k}.toml")
         study.spec.optimizer.seed = seed
         t0 = time.perf_counter()
@@ -406,9 +407,16 @@ def test_twin_experiment_finds_the_evidence(k):
         best = P.loc[P[fcols].max(axis=1).idxmin()]
         truth = truth_of(study)
         off = {c: round(float(best[c] - truth[c]), 3) for c in truth}
+        n_search = res.algorithm_info["search_evaluations"]
+        search_best = res.problem.archive_arrays()
+        feasible = np.all(search_best["G"][:n_search] <= 0, axis=1) & search_best["ok"][:n_search]
+        search_best = search_best["F"][:n_search][feasible].max(axis=1).min()
         print(f"\ntwin{k} seed {seed} ({study.spec.optimizer.name} {study.spec.optimizer.pop_size}x"
-              f"{study.spec.optimizer.generations}, {wall:.1f} s): {len(P)} Pareto rows, best max objective "
-              f"{best[fcols].max():.4f} m; its free variables minus the truth: {off}")
-        assert res.evaluations == study.spec.optimizer.pop_size * study.spec.optimizer.generations
+              f"{study.spec.optimizer.generations} + polish {res.algorithm_info['polish_evaluations']}, "
+              f"{wall:.1f} s): best max objective {search_best:.4f} m after the search, "
+              f"{best[fcols].max():.4f} m after the polish; its free variables minus the truth: {off}")
+        assert n_search == study.spec.optimizer.pop_size * study.spec.optimizer.generations
+        assert 0 < res.algorithm_info["polish_evaluations"] <= study.spec.polish.evaluations
+        assert res.evaluations == n_search + res.algorithm_info["polish_evaluations"]
         bests.append(float(best[fcols].max()))
-    assert np.median(bests) <= 0.10, f"a solution within 10 cm for both vehicles (per seed: {bests})"
+    assert max(bests) <= 0.10, f"a solution within 10 cm for both vehicles at every seed (per seed: {bests})"

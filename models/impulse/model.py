@@ -30,7 +30,10 @@ class ImpulseModel(CollisionModel):
                           1 / (fastest decay rate of the regularised tyre forces), e.g. 2.4 ms for
                           the Clio on rolling wheels, 3.5 ms on locked wheels (vehicle_motion.stiffest_rate)
       coarse_dt = 0.05 s  largest step while every vehicle runs straight and nothing can touch
-      onset_tol = 0.001 m contact onset located until the outlines overlap by at most this
+      onset_tol = 1e-5 m  contact onset located until the outlines overlap by at most this; with
+                          1 mm the rest pose jittered by ~3 cm (std of second differences along a
+                          start coordinate, twin 4) as the impact state wandered within the tolerance,
+                          with 0.01 mm by < 0.1 cm, for a few more bisection steps per impact
       record_dt = 0.01 s  trajectory sampling of `simulate` (batch runs record none)
       v_rest = 0.03       m/s and rad/s below which a vehicle out of contact is at rest
       max_impacts = 20    cap on impulses per run (a warning when reached)
@@ -45,7 +48,7 @@ class ImpulseModel(CollisionModel):
 
     name = "impulse"
 
-    def __init__(self, dt=0.005, coarse_dt=0.05, onset_tol=0.001, record_dt=0.01, v_rest=0.03,
+    def __init__(self, dt=0.005, coarse_dt=0.05, onset_tol=1e-5, record_dt=0.01, v_rest=0.03,
                  max_impacts=20):
         if not (0 < dt <= 0.05 and coarse_dt >= dt and onset_tol > 0 and record_dt >= 0 and v_rest > 0
                 and max_impacts >= 1):

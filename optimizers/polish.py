@@ -1,0 +1,92 @@
+"""Local polish of a search result: bounded nonlinear least squares from the best candidates.
+
+A population search finds the basin of a good reconstruction quickly and closes in on its bottom
+slowly (the thesis's NSGA has no elitism and shares fitness to keep the population spread). The
+polish takes the best few candidates and runs ``scipy.optimize.least_squares`` (trust-region
+reflective, inside the bounds) on the residual vector from each, until an evaluation budget is
+spent. The Jacobian is a forward difference with a step of ``rel_step`` of every bound range; its
+``n_var`` perturbed points are evaluated as one batch, so a batch-capable model and a parallel
+executor serve the polish as they serve the search. A hybrid of a genetic search with a
+gradient-based local search is the usual memetic scheme (e.g. Deb & Goel 2001, "A hybrid
+multi-objective evolutionary approach to engineering shape design").
+
+The step is coarse on purpose: a simulated rest pose is piecewise smooth in the start with a
+small-scale roughness from time stepping; a step of 1 % of the range sees through it where
+1e-4 stalls (twin experiment, case 4: stalled at 0.13 m with 1e-4, 2e-7 m with 1e-2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+DEFAULT_REL_STEP = 0.01
+
+
+class _BudgetSpent(Exception):
+    pass
+
+
+@dataclass
+class PolishResult:
+    evaluations: int  # residual evaluations used (every candidate counted once per evaluation)
+    x: np.ndarray  # (n_starts, n_var) best point reached from each start
+    cost: np.ndarray  # (n_starts,) 0.5 * |r|^2 at those points
+
+
+def polish(residuals, starts, xl, xu, max_evaluations: int, rel_step: float = DEFAULT_REL_STEP) -> PolishResult:
+    """Least-squares polish of ``starts`` within the bounds ``xl``, ``xu``.
+
+    residuals(X) maps a batch (n, n_var) to residual vectors (n, m); it is never asked for more
+    than ``max_evaluations`` points in all. The starts are polished in the order given until the
+    budget is spent.
+    """
+    xl, xu = np.asarray(xl, float), np.asarray(xu, float)
+    span = xu - xl
+    starts = np.atleast_2d(np.asarray(starts, float))
+    used = 0
+    seen: dict[bytes, np.ndarray] = {}
+
+    def batch(Z):  # normalised points -> residuals, within the budget
+        nonlocal used
+        if used + len(Z) > max_evaluations:
+            raise _BudgetSpent
+        used += len(Z)
+        return np.asarray(residuals(xl + Z * span), float)
+
+    best_x, best_cost = starts.copy(), np.full(len(starts), np.inf)
+
+    def remember(k, z, r):
+        cost = 0.5 * float(r @ r)
+        if cost < best_cost[k]:
+            best_x[k], best_cost[k] = xl + z * span, cost
+
+    for k, x0 in enumerate(starts):
+        seen.clear()
+
+        def fun(z, k=k):
+            key = z.tobytes()
+            if key not in seen:
+                seen[key] = batch(z[None])[0]
+                remember(k, z, seen[key])
+            return seen[key]
+
+        def jac(z, k=k):
+            r0 = fun(z)
+            h = np.where(z + rel_step <= 1.0, rel_step, -rel_step)  # stay inside the bounds
+            Z = z[None, :] + np.diag(h)
+            R = batch(Z)
+            for zi, ri in zip(Z, R):
+                remember(k, zi, ri)
+            return ((R - r0[None, :]) / h[:, None]).T
+
+        z0 = np.clip((x0 - xl) / span, 0.0, 1.0)
+        try:
+            least_squares(fun, z0, jac=jac, bounds=(0.0, 1.0), method="trf")
+        except _BudgetSpent:
+            break
+        if used + 1 + len(z0) > max_evaluations:
+            break
+    return PolishResult(used, best_x, best_cost)
