@@ -4,7 +4,9 @@ A study file names a base scene, a model, an optimizer, the free variables with 
 measured rest poses. The problem is a pymoo Problem evaluated a population at a time through the
 model's `simulate_batch` (serially, in processes or on Dask: crashlab.execution). Objectives, one per
 vehicle (thesis eqs 4.13-4.14, 5.4-5.8): f_k = |r_k - r_k*| + heading_weight * |wrap(psi_k - psi_k*)|.
-Constraints: g1 = overlap depth at the start <= 0, g2 = 0 when the vehicles collide, 1 when they miss.
+Constraints: g1 = overlap depth at the start <= 0, g2 = 0 when the vehicles collide, 1 when they miss
+(added to the objectives as a penalty for an optimizer without constraint handling). After the search an
+optional least-squares polish ([polish], optimizers/polish.py) refines the best candidates.
 """
 from __future__ import annotations
 
@@ -120,7 +122,7 @@ class ReconstructionProblem(Problem):
     """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
 
     def __init__(self, scene: Scene, free: list[FreeVariable], evidence: dict, heading_weight: float,
-                 model: str, model_options: dict):
+                 model: str, model_options: dict, constraints_as_penalty: bool = False):
         self.scene, self.free, self.evidence = scene, free, evidence  # evidence: name -> (x, y, heading deg)
         self.heading_weight, self.model, self.model_options = heading_weight, model, model_options
         self.names = scene.vehicle_names
@@ -138,7 +140,9 @@ class ReconstructionProblem(Problem):
                 self.columns[(self.names.index(f.vehicle), f.field)] = c
         for i in range(nv):
             self.movable[i] = (i, "x") in self.columns and (i, "y") in self.columns
-        super().__init__(n_var=len(free), n_obj=len(evidence), n_ieq_constr=2,
+        # for an optimizer without constraint handling the violation is added to every objective
+        self.constraints_as_penalty = constraints_as_penalty
+        super().__init__(n_var=len(free), n_obj=len(evidence), n_ieq_constr=0 if constraints_as_penalty else 2,
                          xl=np.array([f.lower for f in free]), xu=np.array([f.upper for f in free]))
 
     def __getstate__(self):
@@ -228,7 +232,7 @@ class ReconstructionProblem(Problem):
     def evaluate_residuals(self, X) -> np.ndarray:
         """Evaluate X (recorded in the archive like any evaluation) -> residuals; a failed or
         infeasible candidate gets FAILED_OBJECTIVE in every component."""
-        F, G, rest = self.evaluate(np.atleast_2d(X), return_values_of=["F", "G", "rest"])
+        G, rest = self.evaluate(np.atleast_2d(X), return_values_of=["constraints", "rest"])
         R = self.residuals(rest)
         R[np.any(G > 0, axis=1) | ~np.isfinite(R).all(axis=1)] = FAILED_OBJECTIVE
         return R
@@ -245,7 +249,11 @@ class ReconstructionProblem(Problem):
         self.n_failed += int((~ok).sum())
         for key, val in (("X", X), ("F", F), ("G", G), ("rest", rest), ("contact", contact), ("ok", ok)):
             self.archive[key].append(np.asarray(val))
-        out["F"], out["G"], out["rest"] = F, G, rest
+        out["constraints"], out["rest"] = G, rest
+        if self.constraints_as_penalty:
+            out["F"] = F + FAILED_OBJECTIVE * np.maximum(G, 0.0).sum(axis=1, keepdims=True)
+        else:
+            out["F"], out["G"] = F, G
 
     def archive_arrays(self) -> dict:
         return {k: np.concatenate(v) if v else np.empty(0) for k, v in self.archive.items()}
@@ -275,24 +283,23 @@ class Study:
     def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict):
         self.path, self.spec, self.scene, self.evidence = path, spec, scene, evidence
 
-    def make_problem(self) -> ReconstructionProblem:
+    def make_problem(self, constraints_as_penalty: bool = False) -> ReconstructionProblem:
         return ReconstructionProblem(self.scene, self.spec.free, self.evidence, self.spec.objective.heading_weight,
-                                     self.spec.model, self.spec.model_options)
+                                     self.spec.model, self.spec.model_options, constraints_as_penalty)
 
     def make_algorithm(self, optimizer: str | None = None):
-        from .registry import get_optimizer
+        from .registry import OPTIMIZERS, load
         o = self.spec.optimizer
         name = optimizer or o.name
         opts = dict(o.options)
         if self.spec.repair.enabled and self.scene.impact.point is None:
             from crashlab.optimizers.repair import CollisionRepair
             opts["repair"] = CollisionRepair(max_shift=self.spec.repair.max_shift)
-        if name == "moead":  # pymoo's MOEA/D takes no constraints; ours are overlap and collision
-            raise InputError(self.path, "optimizer.name", "moead handles no constraints; choose another optimizer")
-        if name == "nsga3" and "n_obj" not in opts:  # its reference directions need the objective count
-            opts["n_obj"] = len(self.evidence)
         try:
-            return name, get_optimizer(name, pop_size=o.pop_size, **opts)
+            factory = load(OPTIMIZERS, name)
+            if getattr(factory, "takes_n_obj", False):  # conventions: optimizers/pymoo_algorithms.py
+                opts.setdefault("n_obj", len(self.evidence))
+            return name, factory(pop_size=o.pop_size, **opts)
         except UnknownPluginError as err:
             raise InputError(self.path, "optimizer.name", str(err)) from None
         except (TypeError, ValueError) as err:
@@ -318,7 +325,7 @@ class Study:
             problem = algorithm.problem
         else:
             name, algorithm = self.make_algorithm(optimizer)
-            problem = self.make_problem()
+            problem = self.make_problem(constraints_as_penalty=not getattr(algorithm, "handles_constraints", True))
             algorithm.setup(problem, termination=("n_gen", self.spec.optimizer.generations),
                             seed=self.spec.optimizer.seed, verbose=False)
         if out_dir:

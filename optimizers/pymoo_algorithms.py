@@ -16,6 +16,11 @@ eta_m, mutation_prob_var
 any other keyword the pymoo class or its base classes accept (``sampling``, ``eliminate_duplicates``,
 ``seed``, ``termination``, ``n_neighbors``, ...).
 
+Conventions a caller (crashlab.reconstruction) reads, and a plugin optimizer may follow: a factory
+with ``takes_n_obj = True`` is given the objective count as ``n_obj``; an algorithm with
+``handles_constraints = False`` (pymoo's MOEA/D) is given an unconstrained problem whose objectives
+carry the constraint violation as a penalty.
+
 NSGA-III and MOEA/D also take ``n_obj`` (default 2) and ``ref_dirs``. Without ``ref_dirs`` the
 directions are pymoo's Das-Dennis directions with the largest number of partitions whose
 direction count does not exceed ``pop_size`` (100 if omitted); for two objectives that is exactly
@@ -32,13 +37,13 @@ from math import comb
 
 from ._options import init_parameter_names, reject_unknown_options
 
-# name -> (module, class, uses reference directions)
-ALGORITHMS: dict[str, tuple[str, str, bool]] = {
-    "nsga2": ("pymoo.algorithms.moo.nsga2", "NSGA2", False),
-    "nsga3": ("pymoo.algorithms.moo.nsga3", "NSGA3", True),
-    "moead": ("pymoo.algorithms.moo.moead", "MOEAD", True),
-    "sms-emoa": ("pymoo.algorithms.moo.sms", "SMSEMOA", False),
-    "age-moea": ("pymoo.algorithms.moo.age", "AGEMOEA", False),
+# name -> (module, class, uses reference directions, handles constraints)
+ALGORITHMS: dict[str, tuple[str, str, bool, bool]] = {
+    "nsga2": ("pymoo.algorithms.moo.nsga2", "NSGA2", False, True),
+    "nsga3": ("pymoo.algorithms.moo.nsga3", "NSGA3", True, True),
+    "moead": ("pymoo.algorithms.moo.moead", "MOEAD", True, False),  # pymoo asserts an unconstrained problem
+    "sms-emoa": ("pymoo.algorithms.moo.sms", "SMSEMOA", False, True),
+    "age-moea": ("pymoo.algorithms.moo.age", "AGEMOEA", False, True),
 }
 
 DEFAULT_N_OBJ = 2
@@ -50,7 +55,7 @@ _NOT_OPTIONS = {"kwargs"}
 def algorithm_class(name: str) -> type:
     """The pymoo class registered under ``name``."""
     try:
-        module, cls, _ = ALGORITHMS[name]
+        module, cls = ALGORITHMS[name][:2]
     except KeyError:
         raise ValueError(f"unknown pymoo algorithm {name!r}; known: {', '.join(ALGORITHMS)}") from None
     return getattr(importlib.import_module(module), cls)
@@ -113,7 +118,9 @@ def make_algorithm(name: str, /, **options):
     options.update(_operators(options))
     if uses_ref_dirs:
         _set_reference_directions(name, options)
-    return cls(**options)
+    algorithm = cls(**options)
+    algorithm.handles_constraints = ALGORITHMS[name][3]
+    return algorithm
 
 
 def _set_reference_directions(name: str, options: dict) -> None:
@@ -143,6 +150,7 @@ def _set_reference_directions(name: str, options: dict) -> None:
 def _factory(name: str):
     f = partial(make_algorithm, name)
     f.__doc__ = f"Build pymoo's {ALGORITHMS[name][1]} from keyword options (see crashlab.optimizers.pymoo_algorithms)."
+    f.takes_n_obj = ALGORITHMS[name][2]  # its reference directions need the objective count
     return f
 
 

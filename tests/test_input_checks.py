@@ -107,12 +107,12 @@ def test_bad_study_values(tmp_path, free, extra, key):
     one_line_error(cli("reconstruct", f, "--no-progress"), f, key)
 
 
-def test_moead_is_refused_and_nsga3_takes_the_objective_count(tmp_path):
+def test_nsga3_and_moead_take_the_objective_count(tmp_path):
     f = tmp_path / "study.toml"
     f.write_text(STUDY.format(free=FREE_SPEED, extra=""))
-    one_line_error(cli("reconstruct", f, "--optimizer", "moead", "--no-progress"), f, "optimizer.name")
-    res = crashlab.load_study(f).run(optimizer="nsga3")  # one evidence vehicle: one objective
-    assert res.evaluations == 16 and list(res.pareto.columns).count("f_V1") == 1
+    for name in ("nsga3", "moead"):  # one evidence vehicle: one objective, one reference direction
+        res = crashlab.load_study(f).run(optimizer=name)
+        assert res.evaluations > 0 and list(res.pareto.columns).count("f_V1") == 1
 
 
 def test_evidence_without_heading_has_no_heading_term(tmp_path):

@@ -474,3 +474,52 @@ def test_zdt1_nsga_sharing_hypervolume_target(nsga_sharing_zdt1_hv):
 def test_zdt1_nsga_sharing_makes_progress(nsga_sharing_zdt1_hv):
     # the random initial population has HV 0 (all f2 > 1.1); the run must get onto the box
     assert nsga_sharing_zdt1_hv > 0.1
+
+
+# ------------------------------------------------------------------ least-squares polish
+def _himmelblau_residuals(calls):
+    """Residuals of Himmelblau's function, zero at (3, 2), (-2.805118, 3.131312), ...; `calls` collects
+    every batch size asked for."""
+    def residuals(X):
+        calls.append(len(X))
+        x, y = X[:, 0], X[:, 1]
+        return np.column_stack([x**2 + y - 11.0, x + y**2 - 7.0])
+    return residuals
+
+
+def test_polish_reaches_the_zero_of_an_analytic_residual_within_its_budget():
+    from crashlab.optimizers.polish import polish
+    calls = []
+    res = polish(_himmelblau_residuals(calls), [[1.0, 1.0]], xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=100)
+    assert res.x[0] == pytest.approx([3.0, 2.0], abs=1e-6)  # the zero inside the bounds
+    assert res.cost[0] < 1e-12
+    assert res.evaluations == sum(calls) <= 100
+    assert set(calls) <= {1, 2}  # single points and one batch of n_var points per Jacobian
+
+
+def test_polish_never_exceeds_its_budget_and_goes_through_the_starts_in_order():
+    from crashlab.optimizers.polish import polish
+    calls = []
+    starts = [[1.0, 1.0], [4.5, 0.5], [0.5, 4.5]]
+    res = polish(_himmelblau_residuals(calls), starts, xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=25)
+    assert res.evaluations == sum(calls) <= 25
+    assert np.isfinite(res.cost[0]) and res.cost[0] < 0.5 * (5.0**2 + 5.0**2)  # improved on the start
+    calls.clear()
+    res = polish(_himmelblau_residuals(calls), starts, xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=1000)
+    assert np.all(res.cost < 1e-12)  # every start polished when the budget allows
+    assert np.all(res.x >= 0.0) and np.all(res.x <= 5.0)
+
+
+def test_polish_stays_inside_the_bounds_when_the_zero_lies_outside():
+    """r = x - 2 on [0, 1]: the bounded least-squares optimum is the bound x = 1."""
+    from crashlab.optimizers.polish import polish
+    seen = []
+
+    def residuals(X):
+        seen.append(X.copy())
+        return X - 2.0
+
+    res = polish(residuals, [[0.2]], xl=[0.0], xu=[1.0], max_evaluations=60)
+    assert res.x[0, 0] == pytest.approx(1.0, abs=1e-6)
+    X = np.concatenate(seen)
+    assert X.min() >= 0.0 and X.max() <= 1.0  # the forward differences turn back at the upper bound

@@ -31,9 +31,9 @@ class ImpulseModel(CollisionModel):
                           the Clio on rolling wheels, 3.5 ms on locked wheels (vehicle_motion.stiffest_rate)
       coarse_dt = 0.05 s  largest step while every vehicle runs straight and nothing can touch
       onset_tol = 1e-5 m  contact onset located until the outlines overlap by at most this; with
-                          1 mm the rest pose jittered by ~3 cm (std of second differences along a
-                          start coordinate, twin 4) as the impact state wandered within the tolerance,
-                          with 0.01 mm by < 0.1 cm, for a few more bisection steps per impact
+                          1 mm the rest position jittered by 2-3 cm (std of second differences along
+                          a start coordinate of a side collision) as the impact state wandered within
+                          the tolerance, with 0.01 mm by ~0.1 cm, for a few more bisection steps
       record_dt = 0.01 s  trajectory sampling of `simulate` (batch runs record none)
       v_rest = 0.03       m/s and rad/s below which a vehicle out of contact is at rest
       max_impacts = 20    cap on impulses per run (a warning when reached)
