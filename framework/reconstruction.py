@@ -287,14 +287,21 @@ class Study:
         return ReconstructionProblem(self.scene, self.spec.free, self.evidence, self.spec.objective.heading_weight,
                                      self.spec.model, self.spec.model_options, constraints_as_penalty)
 
+    def make_repair(self):
+        """The study's CollisionRepair, or None (switched off, or a scene at its collision position)."""
+        if not self.spec.repair.enabled or self.scene.impact.point is not None:
+            return None
+        from crashlab.optimizers.repair import CollisionRepair
+        return CollisionRepair(max_shift=self.spec.repair.max_shift)
+
     def make_algorithm(self, optimizer: str | None = None):
         from .registry import OPTIMIZERS, load
         o = self.spec.optimizer
         name = optimizer or o.name
         opts = dict(o.options)
-        if self.spec.repair.enabled and self.scene.impact.point is None:
-            from crashlab.optimizers.repair import CollisionRepair
-            opts["repair"] = CollisionRepair(max_shift=self.spec.repair.max_shift)
+        repair = self.make_repair()
+        if repair is not None:
+            opts["repair"] = repair
         try:
             factory = load(OPTIMIZERS, name)
             if getattr(factory, "takes_n_obj", False):  # conventions: optimizers/pymoo_algorithms.py
@@ -347,11 +354,7 @@ class Study:
                     bar.update(1)
             n_search = sum(len(x) for x in problem.archive["X"])
             if self.spec.polish.evaluations:
-                repair = None
-                if self.spec.repair.enabled and self.scene.impact.point is None:
-                    from crashlab.optimizers.repair import CollisionRepair
-                    repair = CollisionRepair(max_shift=self.spec.repair.max_shift)
-                polish_archive(problem, self.spec.polish, repair)
+                polish_archive(problem, self.spec.polish, self.make_repair())
                 if bar is not None:
                     bar.set_postfix_str("polished: " + _status(problem, self.spec.objective.hv_reference))
             problem.executor = None
@@ -391,9 +394,8 @@ def spaced_starts(X, xl, xu, spacing: float = POLISH_SPACING) -> np.ndarray:
 def polish_archive(problem: ReconstructionProblem, spec: PolishSection, repair=None):
     """Least-squares polish (optimizers/polish.py) from the best feasible candidates so far, ranked
     by their worse objective and spaced apart, until the budget is spent; every polish evaluation
-    enters the archive. With a repair, each point
-    is repaired before it is evaluated: the back-off makes the residual continuous across the
-    start-overlap boundary, where the search's repaired candidates sit."""
+    enters the archive. With a repair, each point is repaired before it is evaluated: the back-off
+    makes the residual continuous across the start-overlap boundary, where repaired candidates sit."""
     from crashlab.optimizers.polish import polish
     arch = problem.archive_arrays()
     feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
@@ -401,6 +403,7 @@ def polish_archive(problem: ReconstructionProblem, spec: PolishSection, repair=N
         return
     order = feasible[np.argsort(arch["F"][feasible].max(axis=1), kind="stable")]
     starts = spaced_starts(arch["X"][order], problem.xl, problem.xu)
+
     def residuals(X):
         return problem.evaluate_residuals(X if repair is None else repair.apply(problem, X))
 

@@ -1,5 +1,6 @@
 """Benchmark: the whole `crashlab reconstruct` process on thesis case 5 (250 x 40 = 10,000 impulse-model
-simulations, then a 250-evaluation least-squares polish), as a user runs it. The thesis needed 53 h for 40 x 40 with its multibody model.
+simulations, then a 250-evaluation least-squares polish), as a user runs it. The thesis needed 53 h for
+40 x 40 with its multibody model.
 Run: python -m pytest tests/benchmarks/test_bench_reconstruct.py --benchmark-only"""
 import json
 import subprocess
