@@ -112,3 +112,19 @@ def overlap_centroid(c1, c2):
     if abs(area) < 1e-9:
         return mx / n, my / n, abs(area)
     return cx / (6.0 * area), cy / (6.0 * area), abs(area)
+
+
+@register_jitable
+def contact_zone_centroid(c1, c2, nx, ny, depth):
+    """Middle of the contact zone of two touching outlines: the centroid of their overlap once outline 2
+    is pushed `depth` further along -n (n unit, from 1 to 2, e.g. `penetration`'s axis), moved back by
+    depth / 2 along n so it lies between the two crush zones. For parallel faces this is the middle of
+    the common face segment, as `overlap_centroid` at first touch; for faces at an angle theta it moves
+    smoothly from the touching corner (depth 0) to inside a zone of length ~depth / tan(theta), so the
+    point of impact no longer jumps when theta passes through zero. Returns (x, y, area)."""
+    moved = c2.copy()
+    for i in range(moved.shape[0]):
+        moved[i, 0] -= depth * nx
+        moved[i, 1] -= depth * ny
+    x, y, area = overlap_centroid(c1, moved)
+    return x + 0.5 * depth * nx, y + 0.5 * depth * ny, area

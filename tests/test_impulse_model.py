@@ -310,3 +310,23 @@ def test_rest_pose_is_smooth_in_the_start_position(case3):
     print(f"\nrest-position roughness: {default * 100:.3f} cm (onset_tol 0.01 mm), {coarse * 100:.3f} cm (1 mm)")
     assert default < 0.005
     assert coarse > 0.015  # the measure sees the jitter it guards against
+
+
+def test_contact_zone_point_of_impact_is_continuous_through_parallel_faces(case3):
+    """Thesis case 3 has V1's front exactly parallel to V2's side. The first-touch point of impact jumps
+    from the middle of the face to a corner as V1's heading passes through 0 deg (rest heading 53 deg at
+    0, about -3 or 105 deg at +-0.05 deg); with crush_time > 0 the point is the middle of the zone the
+    approach will crush, and the rest pose moves continuously. Parallel faces give the same result."""
+    headings = np.radians([-0.5, -0.05, 0.0, 0.05, 0.5])
+    scenes = [case3.with_vehicle("V1", heading=h) for h in headings]
+
+    def rest_headings(model):
+        return np.array([math.degrees(out.rest_si[0, 2]) for out in model.simulate_batch(scenes)])
+
+    first_touch = rest_headings(crashlab.get_model("impulse"))
+    zone = rest_headings(crashlab.get_model("impulse", crush_time=0.036))
+    print(f"\nV1 rest heading [deg] at V1 heading -0.5 .. 0.5 deg: first touch {np.round(first_touch, 1)}, "
+          f"contact zone {np.round(zone, 1)}")
+    assert zone[2] == pytest.approx(first_touch[2], abs=1e-6)  # parallel faces: the same point
+    assert np.max(np.abs(np.diff(zone))) < 2.0
+    assert np.max(np.abs(np.diff(first_touch))) > 30.0  # the jump the option removes

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from crashlab.geometry import overlap_centroid, penetration, rect_corners
+from crashlab.geometry import contact_zone_centroid, overlap_centroid, penetration, rect_corners
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
@@ -35,8 +35,8 @@ from .vehicle_motion import (
 
 # configuration vector
 (C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
- C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J) = range(18)
-N_CFG = 18
+ C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME) = range(19)
+N_CFG = 19
 # impact record
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J) = range(18)
@@ -311,11 +311,15 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                 px, py, area = overlap_centroid(ci, ck)
                 if math.isnan(px):
                     continue
-                if in_contact[i, k]:
-                    v1x, v1y = _point_velocity(S, i, nv, px, py)
-                    v2x, v2y = _point_velocity(S, k, nv, px, py)
-                    if (v2x - v1x) * nx + (v2y - v1y) * ny > -V_APPROACH:
-                        continue
+                v1x, v1y = _point_velocity(S, i, nv, px, py)
+                v2x, v2y = _point_velocity(S, k, nv, px, py)
+                approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
+                if in_contact[i, k] and approach < V_APPROACH:
+                    continue
+                # the point of impact: the middle of the contact zone the approach will crush
+                zx, zy, _ = contact_zone_centroid(ci, ck, nx, ny, cfg[C_CRUSH_TIME] * max(approach, 0.0))
+                if not math.isnan(zx):
+                    px, py = zx, zy
                 if n_imp >= max_imp:
                     status = STATUS_IMPACT_CAP
                     in_contact[i, k] = True
