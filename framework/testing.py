@@ -16,9 +16,9 @@ def _probe_scene(speed_kmh: float = 40.0):
         "name": "conformance probe", "duration": 4.0,
         "vehicles": [
             {"name": "A", "vehicle": "clio", "x": 0.0, "y": 0.0, "heading": 0.0, "speed": speed_kmh,
-             "wheels": "locked_after_impact"},
+             "wheels": "rolling"},
             {"name": "B", "vehicle": "clio", "x": 6.0, "y": 0.3, "heading": 180.0, "speed": 0.0,
-             "wheels": "locked_after_impact"},
+             "wheels": "rolling"},
         ]}, source="<conformance probe>")
 
 
@@ -42,10 +42,12 @@ def check_collision_model(model: CollisionModel, rest_tolerance: float = 1e-9) -
     assert out.rest_si[1, 0] > 6.0, "the struck vehicle is pushed along the impact direction"
     a = imp[imp.vehicle == "A"].iloc[0]
     b = imp[imp.vehicle == "B"].iloc[0]
-    # momentum exchanged at the first impact: m_A dv_A + m_B dv_B = 0 (equal masses here), 2 % slack
-    # for models with continuous contact where tyre forces act during the impact
+    # momentum exchanged at the first impact: m_A dv_A + m_B dv_B = 0 (equal masses here), 5 % slack
+    # for models with continuous contact where the road acts during the impact: free-rolling wheels
+    # are spun up or down by tyre forces (I_w / R^2 is about 1 % of the car's mass per wheel); measured
+    # multibody 1.4 %, exudyn 1.8 %, impulse and pymunk 0
     dv = math.hypot(a.dvx + b.dvx, a.dvy + b.dvy)
-    assert dv <= 0.02 * max(abs(a.delta_v), 1e-9), "momentum is exchanged, not created"
+    assert dv <= 0.05 * max(abs(a.delta_v), 1e-9), "momentum is exchanged, not created"
     batch = model.simulate_batch([scene, scene.with_vehicle("A", speed=scene.vehicle("A").speed * 1.1)])
     assert len(batch) == 2 and all(isinstance(o, Outcome) for o in batch), "simulate_batch returns Outcomes"
     assert np.allclose(batch[0].rest_si, out.rest_si, atol=rest_tolerance, rtol=0), \

@@ -144,3 +144,9 @@ def test_no_nan_over_speeds_and_angles(model, speed):
                                                                         "peak_force", "impulse")])
                                               for r in out.impact_rows]
         assert all(np.all(np.isfinite(v)) for v in vals), (speed, angle)
+
+
+def test_check_collision_model(model):
+    """The plugin conformance check (crashlab.testing) on the multibody model."""
+    from crashlab.testing import check_collision_model
+    check_collision_model(model)

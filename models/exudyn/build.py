@@ -1,0 +1,141 @@
+"""The multibody model's 9-body vehicle built in exudyn (imported only by this package, lazily).
+
+All vehicle data come from `crashlab.models.multibody.vehicle_build.build(spec)` (one home): body masses and
+principal inertias (BODY), wheel-centre positions (axle_x, axle_y), the static estimates of the chassis and
+wheel heights (z_chassis0, z_wheel0), the suspension rows (SPR: chassis point, knuckle point, k, c, free
+length) and the tyre rows (TYR: r1 + r2 = radius, K_z, C_z). Items per vehicle:
+
+* chassis, 4 knuckles, 4 wheels: `mbs.CreateRigidBody` (Euler-parameter nodes, principal inertia at the CG,
+  gravity on every body);
+* chassis-knuckle: `CreatePrismaticJoint` along the chassis z axis through the wheel centre (all rotations
+  fixed, so a knuckle built at its steer angle keeps it: the multibody model's TRANSLATIONAL joint);
+* knuckle-wheel: `CreateRevoluteJoint` about the knuckle's y axis; a `locked` wheel gets a
+  `CreateGenericJoint` with all six axes constrained instead; a `locked_after_impact` wheel gets the revolute
+  joint plus an inactive generic joint that constrains only the spin rotation (activated at first contact,
+  see `lock`);
+* suspension: `CreateSpringDamper` from the chassis point to the knuckle point (free length, k, c of SPR);
+  the multibody model's bump stop is not built (see README);
+* tyre: `CreateRollingDiscPenalty` between ground (the road plane z = 0) and the wheel;
+* contact loads: one global `CreateForce` and one global `CreateTorque` at the chassis CG, whose load
+  vectors the model sets before every step.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from exudyn.utilities import RigidBodyInertia
+
+from crashlab.models.multibody.spring_damper import S_C, S_K, S_L0, S_P, S_Q
+from crashlab.models.multibody.tyre import T_CZ, T_KZ, T_R1, T_R2
+from crashlab.models.multibody.vehicle_build import NW, steer_angles
+
+G = 9.81
+
+
+def rot_z(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _body(mbs, row, pos, A, vel, omega):
+    m, ixx, iyy, izz = row
+    # the tensor is set after construction: the thesis's wheel (I_yy > I_xx + I_zz) violates the triangle
+    # inequality, which RigidBodyInertia reports on every construction; the data's home is vehicle_build
+    inertia = RigidBodyInertia(mass=float(m), inertiaTensor=np.eye(3))
+    inertia.inertiaTensor = np.diag([ixx, iyy, izz])
+    return mbs.CreateRigidBody(inertia=inertia,
+                               referencePosition=pos, referenceRotationMatrix=A, initialVelocity=vel,
+                               initialAngularVelocity=omega, gravity=[0.0, 0.0, -G], returnDict=True)
+
+
+def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
+    """Create one vehicle of the scene (`veh` from vehicle_build.build, `vs` the scene's VehicleState) at
+    its start pose and speed. Returns a dict of item indices (see keys below)."""
+    Rz = rot_z(vs.heading)
+    origin = np.array([vs.x, vs.y, 0.0])
+    vel0 = vs.speed * np.array([math.cos(vs.heading), math.sin(vs.heading), 0.0])
+    om0 = np.array([0.0, 0.0, vs.yaw_rate])
+    deltas = steer_angles(veh, vs.steer)
+    m = veh.BODY[:, 0]
+    # start positions in the vehicle frame (the static estimates of vehicle_build); the vehicle CG is put on
+    # the scene's (x, y)
+    local = [np.array([0.0, 0.0, veh.z_chassis0])]
+    for k in range(NW):
+        local.append(np.array([veh.axle_x[k], veh.axle_y[k], veh.z_wheel0[k]]))
+    local += local[1:5]
+    cg = sum(mb * p for mb, p in zip(m, local)) / m.sum()
+    shift = np.array([cg[0], cg[1], 0.0])
+    pos = [origin + Rz @ (p - shift) for p in local]
+
+    def v_at(p):
+        r = p - origin
+        return vel0 + np.cross(om0, np.array([r[0], r[1], 0.0]))
+
+    chassis = _body(mbs, veh.BODY[0], pos[0], Rz, v_at(pos[0]), om0)
+    knuckles, wheels, discs, locks = [], [], [], []
+    for k in range(NW):
+        Ak = Rz @ rot_z(deltas[k])
+        kn = _body(mbs, veh.BODY[1 + k], pos[1 + k], Ak, v_at(pos[1 + k]), om0)
+        vw = v_at(pos[5 + k])
+        radius = veh.TYR[k, T_R1] + veh.TYR[k, T_R2]
+        rolling = vs.wheels in ("rolling", "locked_after_impact")
+        spin = float(vw @ Ak[:, 0]) / radius if rolling else 0.0
+        wh = _body(mbs, veh.BODY[5 + k], pos[5 + k], Ak, vw, om0 + spin * Ak[:, 1])
+        knuckles.append(kn)
+        wheels.append(wh)
+        mbs.CreatePrismaticJoint(itemNumbers=[chassis["bodyNumber"], kn["bodyNumber"]], position=pos[1 + k],
+                                 axis=Rz[:, 2], useGlobalFrame=True, show=False)
+        if vs.wheels == "locked":
+            mbs.CreateGenericJoint(itemNumbers=[kn["bodyNumber"], wh["bodyNumber"]], position=pos[5 + k],
+                                   rotationMatrixAxes=Ak, constrainedAxes=[1, 1, 1, 1, 1, 1], useGlobalFrame=True,
+                                   show=False)
+        else:
+            mbs.CreateRevoluteJoint(itemNumbers=[kn["bodyNumber"], wh["bodyNumber"]], position=pos[5 + k],
+                                    axis=Ak[:, 1], useGlobalFrame=True, show=False)
+        if vs.wheels == "locked_after_impact":
+            lk = mbs.CreateGenericJoint(itemNumbers=[kn["bodyNumber"], wh["bodyNumber"]], position=pos[5 + k],
+                                        rotationMatrixAxes=Ak, constrainedAxes=[0, 0, 0, 0, 1, 0],
+                                        useGlobalFrame=True, show=False)
+            mbs.SetObjectParameter(lk, "activeConnector", False)
+            locks.append(lk)
+        # suspension: chassis point SPR[S_P] (chassis frame) to knuckle point SPR[S_Q] (knuckle frame)
+        S = veh.SPR[k]
+        mbs.CreateSpringDamper(itemNumbers=[chassis["bodyNumber"], kn["bodyNumber"]],
+                               localPosition0=S[S_P:S_P + 3].tolist(), localPosition1=S[S_Q:S_Q + 3].tolist(),
+                               referenceLength=float(S[S_L0]), stiffness=float(S[S_K]), damping=float(S[S_C]),
+                               show=False)
+        T = veh.TYR[k]
+        discs.append(mbs.CreateRollingDiscPenalty(
+            bodyNumbers=[ground, wh["bodyNumber"]], axisPosition=[0.0, 0.0, 0.0], axisVector=[0.0, 1.0, 0.0],
+            discRadius=float(radius), planePosition=[0.0, 0.0, 0.0], planeNormal=[0.0, 0.0, 1.0],
+            contactStiffness=float(T[T_KZ]), contactDamping=float(T[T_CZ]), dryFriction=[mu, mu],
+            dryFrictionProportionalZone=friction_zone, useLinearProportionalZone=linear_zone, show=False))
+    force = mbs.CreateForce(itemNumber=chassis["bodyNumber"], loadVector=[0.0, 0.0, 0.0], bodyFixed=False,
+                            show=False)
+    torque = mbs.CreateTorque(itemNumber=chassis["bodyNumber"], loadVector=[0.0, 0.0, 0.0], bodyFixed=False,
+                              show=False)
+    return {"chassis": chassis, "knuckles": knuckles, "wheels": wheels, "discs": discs, "locks": locks,
+            "force": force, "torque": torque,
+            "nodes": [chassis["nodeNumber"]] + [b["nodeNumber"] for b in knuckles + wheels],
+            "mass": m.copy()}
+
+
+def lock(mbs, items):
+    """Activate the spin locks of a `locked_after_impact` vehicle. Each lock's wheel-side frame is set to the
+    current relative orientation (A_k R0 = A_w R1 with R the marker frames, so the constraint starts without
+    violation); the wheel's spin relative to the knuckle is then removed by the constraint within the next
+    steps."""
+    import exudyn as exu
+    for k, lk in enumerate(items["locks"]):
+        nk, nw = items["knuckles"][k]["nodeNumber"], items["wheels"][k]["nodeNumber"]
+        Ak = np.asarray(mbs.GetNodeOutput(nk, exu.OutputVariableType.RotationMatrix)).reshape(3, 3)
+        Aw = np.asarray(mbs.GetNodeOutput(nw, exu.OutputVariableType.RotationMatrix)).reshape(3, 3)
+        m0, m1 = mbs.GetObject(lk)["markerNumbers"]
+        R0 = np.asarray(mbs.GetMarkerParameter(m0, "localHT"))[:3, :3] @ np.asarray(
+            mbs.GetObjectParameter(lk, "rotationMarker0"))
+        R1m = np.asarray(mbs.GetObjectParameter(lk, "rotationMarker1"))
+        HT1 = np.array(mbs.GetMarkerParameter(m1, "localHT"), dtype=float)
+        HT1[:3, :3] = Aw.T @ Ak @ R0 @ R1m.T          # marker frame (localHT) x rotationMarker1 = Aw^T Ak R0
+        mbs.SetMarkerParameter(m1, "localHT", HT1)
+        mbs.SetObjectParameter(lk, "activeConnector", True)
