@@ -164,3 +164,26 @@ def test_compare_with_multibody(pc_outcomes):
         d = np.hypot(*(out.rest_si[:, :2] - ref.rest_si[:, :2]).T)
         print(f"\n{case}: exudyn - multibody rest distance {d.round(3)} m")
         assert d.max() <= tol
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", [5.0, 60.0, 150.0])
+def test_no_nan_over_speeds_and_angles(model, speed):
+    """Stress: the multibody model's sweep at three speeds: every run ends finite, with the contact
+    impulses on the two chassis equal and opposite; a run exudyn's Newton cannot finish is reported as
+    failed (ok False, a warning), never as numbers."""
+    for angle in (0.0, 45.0, 90.0, 135.0, 180.0):
+        sc = scene_from_dict({"duration": 3.0, "vehicles": [
+            {"name": "A", "vehicle": "clio", "x": 0.0, "speed": speed, "wheels": "rolling"},
+            {"name": "B", "vehicle": "clio", "x": 4.8, "heading": angle, "speed": speed / 2,
+             "wheels": "locked_after_impact"}]})
+        out = model.simulate(sc)
+        print(f"\n{speed:.0f} km/h, {angle:.0f} deg: ok {out.outcome_ok}, {len(out.impact_rows) // 2} contact "
+              f"episodes, {out.wall_time_s:.1f} s")
+        if not out.outcome_ok:
+            assert out.warnings, (speed, angle)
+            continue
+        assert out.impact_rows, (speed, angle)
+        assert np.all(np.isfinite(out.rest_si)) and np.all(np.isfinite(out.final_si)), (speed, angle)
+        for a, b in zip(out.impact_rows[0::2], out.impact_rows[1::2]):
+            assert abs(a["impulse_x"] + b["impulse_x"]) <= 1e-9 * max(abs(a["impulse_x"]), 1.0), (speed, angle)
