@@ -59,10 +59,17 @@ def test_options_are_checked():
         ExudynModel(no_such_option=1)
 
 
-def test_braked_is_refused_with_a_reason(model):
-    out = model.simulate(_single(50.0, "braked", 2.0))
-    assert not out.outcome_ok
-    assert "braked" in out.warnings[0]
+def test_braked_stopping_distance(model):
+    """ABS-like braking from 50 km/h: the brake moment is 0.95 of the locking torque mu F_z R (the multibody
+    model's UA tyre), so the wheels keep turning and the car decelerates at 0.95 mu g: distance
+    v^2 / (2 * 0.95 mu g) = 12.94 m within 3 %."""
+    out = model.simulate(_single(50.0, "braked", 4.0))
+    assert out.outcome_ok, out.warnings
+    d = out.rest_si[0, 0] - out.trajectory("A")["x"].iloc[0]
+    ref = (50 / 3.6) ** 2 / (2 * 0.95 * 0.8 * G)
+    print(f"\nbraked: {d:.3f} m, v^2/(2 eta mu g) {ref:.3f} m, error {100 * (d / ref - 1):+.2f} %")
+    assert abs(d / ref - 1) <= 0.03
+    assert d > (50 / 3.6) ** 2 / (2 * 0.8 * G), "no shorter than on locked wheels: the brake does not exceed mu"
 
 
 def test_static_equilibrium(model):

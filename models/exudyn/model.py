@@ -16,11 +16,9 @@ from crashlab.models.multibody import contact as C
 from crashlab.models.multibody.contact_force import _fcode, chi
 from crashlab.models.multibody.euler_parameters import from_matrix
 from crashlab.models.multibody.model import FRICTION_V0, FRICTION_V1, FRICTION_VS, _contact_arrays, impact_rows
-from crashlab.models.multibody.tyre import T_R1, T_R2
+from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T_R2
 from crashlab.models.multibody.vehicle_build import NW, build
 from crashlab.outcome import Outcome
-
-OMEGA_RR = 0.5   # rad/s: the rolling-resistance moment reaches its full value above this spin rate (as tyre.py)
 
 
 class ExudynModel(CollisionModel):
@@ -64,10 +62,12 @@ class ExudynModel(CollisionModel):
     sliding limit. For a locked or sliding wheel both give mu F_z against the sliding velocity. Rolling
     resistance (the vehicle's rolling_resistance f_r, 0 in the PC-Crash scenes) is a moment
     f_r F_z R tanh(omega_rel / 0.5 rad/s) between wheel and knuckle (as our UA tyre), applied as a torque pair
-    updated before every step.
+    updated before every step; `braked` (ABS-like) adds the UA tyre's brake moment
+    eta mu F_z R tanh(omega_rel / 1 rad/s), eta = 0.95 of the locking torque, the same way.
 
     Wheels: rolling (revolute joint), locked (generic joint, all six axes), locked_after_impact (revolute
-    joint + a spin-lock generic joint activated at the vehicle's first contact), braked: refused (ok False).
+    joint + a spin-lock generic joint activated at the vehicle's first contact), braked (revolute joint +
+    the brake moment above).
     Steer: the knuckles are built at the Ackermann angles of vehicle_build.steer_angles (constant).
 
     Contact: each step, before exudyn integrates it, the chassis poses are read and the multibody model's
@@ -100,11 +100,6 @@ class ExudynModel(CollisionModel):
     def simulate(self, scene) -> Outcome:
         t0 = time.perf_counter()
         names = scene.vehicle_names
-        braked = [vs.name for vs in scene.vehicles if vs.wheels == "braked"]
-        if braked:
-            return Outcome.failed(names, f"exudyn model: wheels = 'braked' is not supported (vehicle "
-                                         f"{', '.join(braked)}); use the multibody model", self.name,
-                                  time.perf_counter() - t0)
         try:
             return _Run(self.opts, scene).run(t0)
         except Exception as e:  # exudyn raises RuntimeError/ValueError when Newton fails or a state blows up
@@ -130,18 +125,21 @@ class _Run:
         self.vehs = [build(vs.spec) for vs in scene.vehicles]
         self.items = [build_vehicle(mbs, ground, veh, vs, scene.road.friction, opts["friction_zone"], True)
                       for veh, vs in zip(self.vehs, scene.vehicles)]
-        # rolling resistance: a torque pair wheel/knuckle per rolling wheel (only when f_r > 0)
-        self.rr = []
+        # rolling resistance and brake: a torque pair wheel/knuckle per wheel that turns (when either acts)
+        self.wheel_torques = []
         for v, (veh, vs) in enumerate(zip(self.vehs, scene.vehicles)):
             fr = float(vs.spec.rolling_resistance)
-            if fr > 0.0 and vs.wheels != "locked":
+            braked = vs.wheels == "braked"
+            if (fr > 0.0 or braked) and vs.wheels != "locked":
                 it = self.items[v]
                 for k in range(NW):
                     tw = mbs.CreateTorque(itemNumber=it["wheels"][k]["bodyNumber"], loadVector=[0.0, 0.0, 0.0],
                                           bodyFixed=False, show=False)
                     tk = mbs.CreateTorque(itemNumber=it["knuckles"][k]["bodyNumber"], loadVector=[0.0, 0.0, 0.0],
                                           bodyFixed=False, show=False)
-                    self.rr.append((v, k, fr * (veh.TYR[k, T_R1] + veh.TYR[k, T_R2]), tw, tk))
+                    radius = veh.TYR[k, T_R1] + veh.TYR[k, T_R2]
+                    fb = veh.TYR[k, T_ETA] * scene.road.friction if braked else 0.0
+                    self.wheel_torques.append((v, k, fr * radius, fb * radius, tw, tk))
         # contact arrays, exactly as the multibody model prepares them
         imp = scene.impact
         self.cchi, self.mu_c, self.fcode = chi(imp.force_law, imp.restitution), imp.friction, _fcode(imp.friction_law)
@@ -211,19 +209,21 @@ class _Run:
             it = self.items[v]
             mbs.SetLoadParameter(it["force"], "loadVector", FX[v, 0:3].tolist())
             mbs.SetLoadParameter(it["torque"], "loadVector", FX[v, 3:6].tolist())
-        self._rolling_resistance(mbs)
+        self._wheel_torques(mbs)
         self._episodes(s, h)
         if s >= self.t_rec - 1e-12:
             self._record(s)
             self.t_rec = s + self.o["record_dt"]
         return self._awake(s)
 
-    def _rolling_resistance(self, mbs):
-        if not self.rr:
+    def _wheel_torques(self, mbs):
+        """Rolling resistance f_r F_z R tanh(w / OMEGA_RR) and brake eta mu F_z R tanh(w / OMEGA_BRAKE) against
+        the wheel's spin w relative to its knuckle (multibody tyre.py), held over the step."""
+        if not self.wheel_torques:
             return
         out = self.exu.OutputVariableType
         g = self.mbs.GetNodeOutput
-        for v, k, fr_r, tw, tk in self.rr:
+        for v, k, fr_r, fb_r, tw, tk in self.wheel_torques:
             it = self.items[v]
             if self.locked[v]:
                 M = np.zeros(3)
@@ -234,7 +234,7 @@ class _Run:
                 w_rel = float((np.asarray(g(nw, out.AngularVelocity)) - np.asarray(g(nk, out.AngularVelocity)))
                               @ axis)
                 fz = max(float(mbs.GetObjectOutput(it["discs"][k], out.ForceLocal)[2]), 0.0)
-                M = -fr_r * fz * math.tanh(w_rel / OMEGA_RR) * axis
+                M = -fz * (fr_r * math.tanh(w_rel / OMEGA_RR) + fb_r * math.tanh(w_rel / OMEGA_BRAKE)) * axis
             mbs.SetLoadParameter(tw, "loadVector", M.tolist())
             mbs.SetLoadParameter(tk, "loadVector", (-M).tolist())
 
