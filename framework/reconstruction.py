@@ -250,7 +250,7 @@ class ReconstructionProblem(Problem):
         for key, val in (("X", X), ("F", F), ("G", G), ("rest", rest), ("contact", contact), ("ok", ok)):
             self.archive[key].append(np.asarray(val))
         out["constraints"], out["rest"] = G, rest
-        if self.constraints_as_penalty:
+        if getattr(self, "constraints_as_penalty", False):  # absent in checkpoints of earlier versions
             out["F"] = F + FAILED_OBJECTIVE * np.maximum(G, 0.0).sum(axis=1, keepdims=True)
         else:
             out["F"], out["G"] = F, G
@@ -361,7 +361,8 @@ class Study:
         if bar is not None:
             bar.close()
         info = {"optimizer": name, "generations": int(algorithm.n_gen or 1) - 1,
-                "pop_size": self.spec.optimizer.pop_size, "search_evaluations": n_search}
+                "pop_size": int(getattr(algorithm, "pop_size", None) or self.spec.optimizer.pop_size),
+                "search_evaluations": n_search}
         if self.spec.polish.evaluations:
             info["polish_evaluations"] = sum(len(x) for x in problem.archive["X"]) - n_search
         if getattr(algorithm, "sigma_share", None) is not None:
@@ -380,15 +381,15 @@ class Study:
         return result
 
 
-def spaced_starts(X, xl, xu, spacing: float = POLISH_SPACING) -> np.ndarray:
+def spaced_starts(X, xl, xu, spacing: float = POLISH_SPACING):
     """The rows of X (best first) that lie at least `spacing` (normalised decision space) from every
-    earlier pick: one start per basin rather than several in the best one."""
+    earlier pick, and their indices: one start per basin rather than several in the best one."""
     Z = (X - xl) / (xu - xl)
     picked: list[int] = []
     for k in range(len(Z)):
         if not picked or np.min(np.linalg.norm(Z[picked] - Z[k], axis=1)) >= spacing:
             picked.append(k)
-    return X[picked]
+    return X[picked], np.array(picked, dtype=int)
 
 
 def polish_archive(problem: ReconstructionProblem, spec: PolishSection, repair=None):
@@ -402,12 +403,13 @@ def polish_archive(problem: ReconstructionProblem, spec: PolishSection, repair=N
     if len(feasible) == 0:
         return
     order = feasible[np.argsort(arch["F"][feasible].max(axis=1), kind="stable")]
-    starts = spaced_starts(arch["X"][order], problem.xl, problem.xu)
+    starts, picked = spaced_starts(arch["X"][order], problem.xl, problem.xu)
 
     def residuals(X):
         return problem.evaluate_residuals(X if repair is None else repair.apply(problem, X))
 
-    polish(residuals, starts, problem.xl, problem.xu, spec.evaluations, spec.step)
+    polish(residuals, starts, problem.xl, problem.xu, spec.evaluations, spec.step,
+           start_residuals=problem.residuals(arch["rest"][order[picked]]))
 
 
 def pareto_table(problem: ReconstructionProblem, arch: dict):

@@ -38,12 +38,13 @@ class PolishResult:
     cost: np.ndarray  # (n_starts,) 0.5 * |r|^2 at those points
 
 
-def polish(residuals, starts, xl, xu, max_evaluations: int, rel_step: float = DEFAULT_REL_STEP) -> PolishResult:
+def polish(residuals, starts, xl, xu, max_evaluations: int, rel_step: float = DEFAULT_REL_STEP,
+           start_residuals=None) -> PolishResult:
     """Least-squares polish of ``starts`` within the bounds ``xl``, ``xu``.
 
     residuals(X) maps a batch (n, n_var) to residual vectors (n, m); it is never asked for more
     than ``max_evaluations`` points in all. The starts are polished in the order given until the
-    budget is spent.
+    budget is spent. ``start_residuals`` (n_starts, m), when known, saves evaluating the starts again.
     """
     xl, xu = np.asarray(xl, float), np.asarray(xu, float)
     span = xu - xl
@@ -85,6 +86,9 @@ def polish(residuals, starts, xl, xu, max_evaluations: int, rel_step: float = DE
             return ((R - r0[None, :]) / h[:, None]).T
 
         z0 = np.clip((x0 - xl) / span, 0.0, 1.0)
+        if start_residuals is not None:
+            seen[z0.tobytes()] = np.asarray(start_residuals[k], float)
+            remember(k, z0, seen[z0.tobytes()])
         try:
             least_squares(fun, z0, jac=jac, bounds=(0.0, 1.0), method="trf")
         except _BudgetSpent:

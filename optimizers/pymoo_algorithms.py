@@ -126,6 +126,8 @@ def make_algorithm(name: str, /, **options):
 def _set_reference_directions(name: str, options: dict) -> None:
     """Fill ``options["ref_dirs"]`` from ``n_obj``/``pop_size`` and check they agree."""
     n_obj = options.pop("n_obj", None)
+    if name == "moead" and n_obj is not None and n_obj < 2:
+        raise ValueError(f"MOEA/D decomposes two or more objectives; this problem has {n_obj}")
     pop_size = options.get("pop_size")
     ref_dirs = options.get("ref_dirs")
     if ref_dirs is None:

@@ -38,14 +38,15 @@ def _single(speed_kmh, wheels, duration, rr=0.0, stop_at_rest=True):
 
 
 def test_conformance(model):
-    """The plugin conformance check, and on its probe: the contact impulses on the two chassis are equal
-    and opposite (the loads are applied in pairs), a faster striking car pushes the struck car further."""
+    """The plugin conformance check, and on its probe (free-rolling cars): the contact impulse recorded from
+    the applied loads equals each car's momentum change m dv (from its CG velocities) within 3 % (the road
+    spins the wheels up or down meanwhile); a faster striking car pushes the struck car further."""
     check_collision_model(model)
     from crashlab.testing import _probe_scene
     scene = _probe_scene()
     out = model.simulate(scene)
-    a, b = out.impact_rows[0], out.impact_rows[1]
-    assert abs(a["impulse_x"] + b["impulse_x"]) < 1e-9 * abs(a["impulse_x"]), "contact impulses equal, opposite"
+    for row, vs in zip(out.impact_rows[:2], scene.vehicles):
+        assert row["impulse_x"] == pytest.approx(vs.spec.mass * row["dvx"], rel=0.03), row["vehicle"]
     faster = model.simulate(scene.with_vehicle("A", speed=scene.vehicle("A").speed * 1.1))
     assert faster.rest_si[1, 0] > out.rest_si[1, 0], "a faster striking car pushes the struck car further"
 
@@ -112,11 +113,10 @@ def test_locked_wheel_braking_distance(model):
 
 def test_head_on_momentum_and_post_impact_speeds(pc_outcomes):
     """Case 1: x momentum of the two cars just before first contact and just after separation agrees within
-    0.5 % of the pre-impact momentum (the contact forces are equal and opposite; only the tyres, rolling freely
-    with rolling resistance 0, act on the pair during the 0.24 s contact: their longitudinal forces come
-    from the pitch/wheel-spin transients of the crash and are a few hundred N at most, 0.1-0.3 % of the
-    13.6 kN s exchanged). Post-impact speeds: PC-Crash 22.50 / 27.50 km/h, the multibody model 22.50 /
-    27.50 km/h (README): within 0.3 km/h."""
+    1e-4 of the pre-impact momentum (measured 2e-6: the contact forces are equal and opposite, and the
+    free-rolling tyres with rolling resistance 0 add next to nothing along x in the 0.24 s contact).
+    Post-impact speeds: PC-Crash 22.50 / 27.50 km/h, the multibody model 22.50 / 27.50 km/h (README):
+    within 0.3 km/h."""
     sc, out = pc_outcomes["head_on"]
     assert out.outcome_ok, out.warnings
     row = out.impact_rows[0]
@@ -133,7 +133,7 @@ def test_head_on_momentum_and_post_impact_speeds(pc_outcomes):
     v1, v2 = (math.hypot(*out.final_si[k, :2]) * 3.6 for k in range(2))
     print(f"\nmomentum before {p[0]:.1f}, after {p[1]:.1f} N s, relative error {err:.2e}; post-impact speeds "
           f"{v1:.2f} / {v2:.2f} km/h (PC-Crash 22.50 / 27.50, multibody 22.50 / 27.50)")
-    assert err <= 5e-3
+    assert err <= 1e-4
     assert abs(v1 - 22.50) <= 0.3 and abs(v2 - 27.50) <= 0.3
     assert abs(row["restitution"] - 0.1) <= 0.01, "exact-restitution law: e* = 0.1"
 
@@ -176,9 +176,8 @@ def test_compare_with_multibody(pc_outcomes):
 @pytest.mark.slow
 @pytest.mark.parametrize("speed", [5.0, 60.0, 150.0])
 def test_no_nan_over_speeds_and_angles(model, speed):
-    """Stress: the multibody model's sweep at three speeds: every run ends finite, with the contact
-    impulses on the two chassis equal and opposite; a run exudyn's Newton cannot finish is reported as
-    failed (ok False, a warning), never as numbers."""
+    """Stress: the multibody model's sweep at three speeds: every run ends ok, with finite rest poses,
+    velocities and impact records."""
     for angle in (0.0, 45.0, 90.0, 135.0, 180.0):
         sc = scene_from_dict({"duration": 3.0, "vehicles": [
             {"name": "A", "vehicle": "clio", "x": 0.0, "speed": speed, "wheels": "rolling"},
@@ -187,10 +186,9 @@ def test_no_nan_over_speeds_and_angles(model, speed):
         out = model.simulate(sc)
         print(f"\n{speed:.0f} km/h, {angle:.0f} deg: ok {out.outcome_ok}, {len(out.impact_rows) // 2} contact "
               f"episodes, {out.wall_time_s:.1f} s")
-        if not out.outcome_ok:
-            assert out.warnings, (speed, angle)
-            continue
+        assert out.outcome_ok, (speed, angle, out.warnings)
         assert out.impact_rows, (speed, angle)
         assert np.all(np.isfinite(out.rest_si)) and np.all(np.isfinite(out.final_si)), (speed, angle)
-        for a, b in zip(out.impact_rows[0::2], out.impact_rows[1::2]):
-            assert abs(a["impulse_x"] + b["impulse_x"]) <= 1e-9 * max(abs(a["impulse_x"]), 1.0), (speed, angle)
+        vals = [np.array([r[k] for k in ("dvx", "dvy", "d_yaw_rate", "energy", "peak_force", "impulse")])
+                for r in out.impact_rows]
+        assert all(np.all(np.isfinite(v)) for v in vals), (speed, angle)

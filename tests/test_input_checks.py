@@ -107,12 +107,15 @@ def test_bad_study_values(tmp_path, free, extra, key):
     one_line_error(cli("reconstruct", f, "--no-progress"), f, key)
 
 
-def test_nsga3_and_moead_take_the_objective_count(tmp_path):
+def test_nsga3_takes_the_objective_count_and_moead_needs_two(tmp_path):
+    """One evidence vehicle: one objective. NSGA-III runs (one reference direction, the study's population);
+    MOEA/D, whose population is one per direction, would silently shrink to one: refused in one line."""
     f = tmp_path / "study.toml"
     f.write_text(STUDY.format(free=FREE_SPEED, extra=""))
-    for name in ("nsga3", "moead"):  # one evidence vehicle: one objective, one reference direction
-        res = crashlab.load_study(f).run(optimizer=name)
-        assert res.evaluations > 0 and list(res.pareto.columns).count("f_V1") == 1
+    res = crashlab.load_study(f).run(optimizer="nsga3")
+    assert res.evaluations == 16 and list(res.pareto.columns).count("f_V1") == 1
+    assert res.algorithm_info["pop_size"] == 8
+    one_line_error(cli("reconstruct", f, "--optimizer", "moead", "--no-progress"), f, "optimizer.options")
 
 
 def test_evidence_without_heading_has_no_heading_term(tmp_path):

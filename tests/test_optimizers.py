@@ -497,6 +497,18 @@ def test_polish_reaches_the_zero_of_an_analytic_residual_within_its_budget():
     assert set(calls) <= {1, 2}  # single points and one batch of n_var points per Jacobian
 
 
+def test_polish_reuses_known_start_residuals():
+    """With the starts' residuals given, no start is evaluated again; a budget below n_var (no Jacobian
+    possible) then spends nothing."""
+    from crashlab.optimizers.polish import polish
+    calls = []
+    r0 = _himmelblau_residuals([])(np.array([[1.0, 1.0]]))
+    res = polish(_himmelblau_residuals(calls), [[1.0, 1.0]], xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=1,
+                 start_residuals=r0)
+    assert res.evaluations == sum(calls) == 0
+    assert res.cost[0] == pytest.approx(0.5 * float(r0[0] @ r0[0]))
+
+
 def test_polish_never_exceeds_its_budget_and_goes_through_the_starts_in_order():
     from crashlab.optimizers.polish import polish
     calls = []
