@@ -169,6 +169,17 @@ class ReconstructionProblem(Problem):
             scene = scene.replace(impact=dataclasses.replace(scene.impact, **impact))
         return scene
 
+    def base_values(self) -> np.ndarray:
+        """Each free variable's value in the base scene (file units): the truth of a twin experiment."""
+        out = []
+        for f in self.free:
+            if f.vehicle is None:
+                out.append(getattr(self.scene.impact, f.field))
+                continue
+            v = self.scene.vehicles[self.names.index(f.vehicle)]
+            out.append({"x": v.x, "y": v.y, "heading": rad_to_deg(v.heading), "speed": ms_to_kmh(v.speed)}[f.field])
+        return np.array(out, dtype=float)
+
     def start_poses(self, X) -> np.ndarray:
         """(n, nv, 4): x, y, heading [rad], speed [m/s] of every vehicle at the start."""
         X = np.atleast_2d(X)
@@ -516,8 +527,12 @@ def write_outputs(study: Study, result: ReconstructionResult, arch: dict, out_di
             lines.append(f"- {key}: {result.algorithm_info[key]}")
     lines += ["", "Evidence (measured rest poses): " + "; ".join(
         f"{n} ({x:.2f}, {y:.2f}" + (f", {h:.1f} deg)" if h is not None else ")")
-        for n, (x, y, h) in problem.evidence.items()), "",
-        f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
+        for n, (x, y, h) in problem.evidence.items()), ""]
+    if study.spec.evidence.twin:
+        lines += ["Twin experiment: the evidence is the model's own run of the base scene, whose start is the "
+                  "truth: " + ", ".join(f"{f.label} = {v:.3f}" for f, v in zip(problem.free, problem.base_values())),
+                  ""]
+    lines += [f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
     if len(result.pareto):
         show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names]].head(15)
         lines.append(show.to_markdown(index=False, floatfmt=".3f"))

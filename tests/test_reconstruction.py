@@ -379,6 +379,7 @@ def test_outputs_csv_figures_summary_and_json(tmp_path):
     assert (out / "objectives.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     summary = (out / "summary.md").read_text()
     assert summary.startswith("# Reconstruction") and "Pareto set" in summary
+    assert "V1.speed = 50.000, V2.speed = 30.000" in summary  # the twin's truth: side.toml's start
 
     assert {"pareto", "evaluations", "failed", "wall_time_s"} <= set(data)
     assert data["search_evaluations"] == pop * gens and data["failed"] == 0 and data["wall_time_s"] > 0
