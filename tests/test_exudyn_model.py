@@ -175,20 +175,6 @@ def test_compare_with_multibody(pc_outcomes):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("speed", [5.0, 60.0, 150.0])
-def test_no_nan_over_speeds_and_angles(model, speed):
-    """Stress: the multibody model's sweep at three speeds: every run ends ok, with finite rest poses,
-    velocities and impact records."""
-    for angle in (0.0, 45.0, 90.0, 135.0, 180.0):
-        sc = scene_from_dict({"duration": 3.0, "vehicles": [
-            {"name": "A", "vehicle": "clio", "x": 0.0, "speed": speed, "wheels": "rolling"},
-            {"name": "B", "vehicle": "clio", "x": 4.8, "heading": angle, "speed": speed / 2,
-             "wheels": "locked_after_impact"}]})
-        out = model.simulate(sc)
-        print(f"\n{speed:.0f} km/h, {angle:.0f} deg: ok {out.outcome_ok}, {len(out.impact_rows) // 2} contact "
-              f"episodes, {out.wall_time_s:.1f} s")
-        assert out.outcome_ok, (speed, angle, out.warnings)
-        assert out.impact_rows, (speed, angle)
-        assert np.all(np.isfinite(out.rest_si)) and np.all(np.isfinite(out.final_si)), (speed, angle)
-        vals = [np.array([r[k] for k in ("dvx", "dvy", "d_yaw_rate", "energy", "peak_force", "impulse")])
-                for r in out.impact_rows]
-        assert all(np.all(np.isfinite(v)) for v in vals), (speed, angle)
+def test_no_nan_over_speeds_and_angles(model, speed, stress_sweep):
+    """Stress: the multibody model's sweep at three speeds (conftest._stress_sweep)."""
+    stress_sweep(model, speed)
