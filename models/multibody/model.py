@@ -12,38 +12,9 @@ from crashlab.model import CollisionModel
 from crashlab.outcome import Outcome
 
 from . import contact as C
+from . import equations as E
 from . import integrator as I
 from .contact_force import _fcode, chi
-from .equations import (
-    C_ALPHA,
-    C_ATOL,
-    C_BETA,
-    C_CHI,
-    C_DAMPING,
-    C_FCODE,
-    C_FRICTION,
-    C_FV0,
-    C_FV1,
-    C_FVS,
-    C_G,
-    C_H0,
-    C_HMAX,
-    C_MU,
-    C_MU_C,
-    C_NEXP,
-    C_ONSET_TOL,
-    C_REC_DT,
-    C_RTOL,
-    C_STOP_AT_REST,
-    C_T_SLEEP,
-    C_TEND,
-    C_V_REST,
-    C_VMIN,
-    C_W_REST,
-    N_CFG,
-    energy,
-    sizes,
-)
 from .euler_parameters import from_matrix
 from .tyre import LOCKED, MODES, T_R1, T_R2, deflection
 from .vehicle_build import NB, NW, build, initial_local, joints, steer_angles, tyres_for
@@ -107,15 +78,15 @@ class MultibodyModel(CollisionModel):
     # ------------------------------------------------------------------ set-up
     def _cfg(self, mu, t_end, stop_at_rest):
         o = self.opts
-        cfg = np.zeros(N_CFG)
-        cfg[C_G], cfg[C_MU], cfg[C_ALPHA], cfg[C_BETA] = G, mu, o["baumgarte"], o["baumgarte"]
-        cfg[C_DAMPING], cfg[C_FRICTION] = float(o["damping"]), float(o["friction"])
-        cfg[C_RTOL], cfg[C_ATOL], cfg[C_HMAX], cfg[C_H0] = o["rtol"], o["atol"], o["h_max"], 1e-3
-        cfg[C_TEND], cfg[C_STOP_AT_REST] = t_end, float(stop_at_rest)
-        cfg[C_V_REST], cfg[C_W_REST], cfg[C_T_SLEEP] = o["v_rest"], o["w_rest"], o["t_sleep"]
-        cfg[C_REC_DT], cfg[C_ONSET_TOL] = o["record_dt"], o["onset_tol"]
-        cfg[C_NEXP], cfg[C_VMIN] = o["contact_exponent"], o["v_min"]
-        cfg[C_FV0], cfg[C_FV1], cfg[C_FVS] = FRICTION_V0, FRICTION_V1, FRICTION_VS
+        cfg = np.zeros(E.N_CFG)
+        cfg[E.C_G], cfg[E.C_MU], cfg[E.C_ALPHA], cfg[E.C_BETA] = G, mu, o["baumgarte"], o["baumgarte"]
+        cfg[E.C_DAMPING], cfg[E.C_FRICTION] = float(o["damping"]), float(o["friction"])
+        cfg[E.C_RTOL], cfg[E.C_ATOL], cfg[E.C_HMAX], cfg[E.C_H0] = o["rtol"], o["atol"], o["h_max"], 1e-3
+        cfg[E.C_TEND], cfg[E.C_STOP_AT_REST] = t_end, float(stop_at_rest)
+        cfg[E.C_V_REST], cfg[E.C_W_REST], cfg[E.C_T_SLEEP] = o["v_rest"], o["w_rest"], o["t_sleep"]
+        cfg[E.C_REC_DT], cfg[E.C_ONSET_TOL] = o["record_dt"], o["onset_tol"]
+        cfg[E.C_NEXP], cfg[E.C_VMIN] = o["contact_exponent"], o["v_min"]
+        cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS] = FRICTION_V0, FRICTION_V1, FRICTION_VS
         return cfg
 
     def settled(self, veh):
@@ -124,8 +95,8 @@ class MultibodyModel(CollisionModel):
         if key not in self._settled:
             modes = [LOCKED] * NW
             cfg = self._cfg(0.8, self.opts["settle_time"], False)
-            cfg[C_DAMPING] = 1.0
-            cfg[C_FRICTION] = 1.0
+            cfg[E.C_DAMPING] = 1.0
+            cfg[E.C_FRICTION] = 1.0
             Y = initial_local(veh)[None, :].copy()
             nslip = 2 * NW
             diag = np.zeros(I.N_DIAG)
@@ -135,14 +106,14 @@ class MultibodyModel(CollisionModel):
                        np.zeros(1, np.bool_), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
                        np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, C.N_IMP)), np.zeros((1, 4)))
             y = Y[0]
-            nq, nvq, _ = sizes(NB, NW)
+            nq, nvq, _ = E.sizes(NB, NW)
             y[nq:] = 0.0
             self._settled[key] = y.copy()
         return self._settled[key].copy()
 
     def place(self, veh, ys, vs, deltas, modes):
         """The settled state moved to the scene's start pose and speed (velocity-consistent)."""
-        nq, nvq, ny = sizes(NB, NW)
+        nq, nvq, ny = E.sizes(NB, NW)
         y = ys.copy()
         m = veh.BODY[:, 0]
         r = np.array([ys[7 * b:7 * b + 3] for b in range(NB)])
@@ -205,8 +176,8 @@ class MultibodyModel(CollisionModel):
         BAR = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
         cfg = self._cfg(scene.road.friction, scene.duration, scene.stop_at_rest)
         imp = scene.impact
-        cfg[C_CHI] = chi(imp.force_law, imp.restitution)
-        cfg[C_MU_C], cfg[C_FCODE] = imp.friction, _fcode(imp.friction_law)
+        cfg[E.C_CHI] = chi(imp.force_law, imp.restitution)
+        cfg[E.C_MU_C], cfg[E.C_FCODE] = imp.friction, _fcode(imp.friction_law)
         CSH = np.array([v.chassis_shape for v in vehs])
         nv = len(vehs)
         Kv, n = self.opts["contact_stiffness"], self.opts["contact_exponent"]
@@ -223,7 +194,7 @@ class MultibodyModel(CollisionModel):
         nv = len(names)
         Y, BODY, SPR, JNT, TYR = prep["Y"].copy(), prep["BODY"], prep["SPR"], prep["JNT"].copy(), prep["TYR"]
         BAR, cfg, vehs = prep["BAR"], prep["cfg"], prep["vehicles"]
-        nq, nvq, ny = sizes(NB, NW)
+        nq, nvq, ny = E.sizes(NB, NW)
         e_start = [self._energy(Y[v], BODY[v], SPR[v], TYR[v]) for v in range(nv)]
         rec = self.opts["record_dt"]
         n_rec = int(scene.duration / rec) + 3 if rec > 0 else 2
@@ -292,7 +263,7 @@ class MultibodyModel(CollisionModel):
     def _energy(self, y, BODY, SPR, TYR):
         A = np.zeros((NB, 3, 3))
         R, V, W = np.zeros((NB, 3)), np.zeros((NB, 3)), np.zeros((NB, 3))
-        return float(energy(y, BODY, SPR, TYR, G, A, R, V, W))
+        return float(E.energy(y, BODY, SPR, TYR, G, A, R, V, W))
 
 
 def _contact_arrays(CSH, PP, BAR, nv):
