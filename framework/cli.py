@@ -1,6 +1,7 @@
 """Command line: crashlab models | simulate | compare | reconstruct | bench.
 
-Bad input exits with status 2 and one line naming the file, the key and the problem.
+Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
+failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
 """
 from __future__ import annotations
 
@@ -40,12 +41,21 @@ def cmd_simulate(args):
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
     if args.json:
         print(json.dumps(out.to_json_dict(), indent=2))
+    if not out.outcome_ok:
+        print(f"crashlab: simulation failed: {args.scene}: model {out.model}: {'; '.join(out.warnings)}",
+              file=sys.stderr)
+        return 3
+    if args.json:
         return 0
     import pandas as pd
     with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 160):
         print(f"{scene.name} — model {out.model}, {out.wall_time_s * 1e3:.1f} ms")
-        print("rest pose [m, deg]:")
+        print("end pose [m, deg, km/h]:")
         print(out.rest.to_string())
+        for i, n in enumerate(out.names):
+            if not out.at_rest_mask[i]:
+                print(f"{n}: {out.pose_label(i)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
+                      "not a rest pose")
         print("final velocity [km/h, deg/s]:")
         print(out.final.to_string())
         if len(out.impacts):
@@ -72,7 +82,7 @@ def cmd_compare(args):
         return 0
     with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 200,
                            "display.max_columns", 30):
-        print(f"{scene.name}: rest pose x, y [m], heading [deg]; final velocity vx, vy [km/h]")
+        print(f"{scene.name}: end pose x, y [m], heading [deg], at_rest; final velocity vx, vy [km/h]")
         print(df.to_string(index=False))
     for m, out in outcomes.items():
         for w in out.warnings:

@@ -11,14 +11,15 @@ from .units import wrap_deg
 def comparison_table(scene, outcomes: dict) -> pd.DataFrame:
     """One row per (source, vehicle): rest pose and final velocity of each model and each reference,
     with the differences of every model row to every reference (distance [m], wrapped heading [deg]);
-    a failed run (ok False) shows where it stopped and no differences."""
+    a failed run (ok False) shows where it stopped and no differences; at_rest False marks an end pose of
+    a vehicle still moving when the run ended."""
     rows = []
     for model, out in outcomes.items():
         rest, fin = out.rest, out.final
         for name in out.names:
             rows.append({"source": model, "vehicle": name, "x": rest.at[name, "x"], "y": rest.at[name, "y"],
-                         "heading": rest.at[name, "heading"], "vx": fin.at[name, "vx"], "vy": fin.at[name, "vy"],
-                         "ok": out.outcome_ok})
+                         "heading": rest.at[name, "heading"], "at_rest": bool(rest.at[name, "at_rest"]),
+                         "vx": fin.at[name, "vx"], "vy": fin.at[name, "vy"], "ok": out.outcome_ok})
     for src, per_vehicle in scene.references.items():
         for name, ref in per_vehicle.items():
             rows.append({"source": src, "vehicle": name, **{k: ref.get(k, math.nan)

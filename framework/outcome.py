@@ -11,6 +11,11 @@ import numpy as np
 
 from .units import ms_to_kmh, rad_to_deg
 
+# A vehicle is at rest at the end when its CG moves slower than REST_SPEED and it turns slower than
+# REST_YAW_RATE (docs: 0.1 m/s = 0.36 km/h, well below what a reconstructionist reads off a rest pose)
+REST_SPEED = 0.1  # m/s
+REST_YAW_RATE = 0.1  # rad/s
+
 IMPACT_COLUMNS = ["t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate", "energy", "ees",
                   "pdof", "kind", "point_x", "point_y", "plane_angle"]
 
@@ -20,14 +25,20 @@ class Outcome:
 
     rest_si: (n, 3) x [m], y [m], heading [rad] (continuous), final_si: (n, 3) vx, vy [m/s], yaw rate
     [rad/s]; contact_si: (n, 4) x, y, heading, speed at first contact (NaN without contact);
-    trajectories: name -> dict of SI arrays (t, x, y, heading, vx, vy, yaw_rate, optional z, roll, pitch);
+    trajectories: name -> dict of SI arrays (t, x, y, heading, vx, vy, yaw_rate, optional z, roll, pitch
+    and z_min, the lowest point of a 3D vehicle's body above the road);
     impact_rows: list of dicts in SI (see `impacts`), or a picklable callable returning it (built on
-    first access, so batch runs that only need rest poses do not pay for it).
+    first access, so batch runs that only need rest poses do not pay for it);
+    impact_energy: optional array of the energy dissipated per impact [J] (the guard reads it without
+    building the rows); contact_intervals: optional list of (t_start, t_end) [s] during which any
+    contact acted (an impulse is (t, t)); without it the impact rows' t (+ duration) are used.
+    `violations` lists the kinds of physics-guard violations (crashlab.guard); `rolled_over` the vehicles
+    that end upside down or on their side.
     """
 
     def __init__(self, names, rest_si, final_si=None, contact_si=None, contact_time=math.nan,
                  trajectories=None, impact_rows=(), diagnostics=None, warnings=(), ok=True,
-                 model="", wall_time_s=0.0):
+                 model="", wall_time_s=0.0, contact_intervals=None, impact_energy=None):
         self.names = list(names)
         self.rest_si = np.asarray(rest_si, dtype=float)
         n = len(self.names)
@@ -41,12 +52,23 @@ class Outcome:
         self.outcome_ok = bool(ok)
         self.model = model
         self.wall_time_s = wall_time_s
+        self.contact_intervals = None if contact_intervals is None else [tuple(c) for c in contact_intervals]
+        self._impact_energy = None if impact_energy is None else np.asarray(impact_energy, dtype=float)
+        self.violations: list[str] = []
+        self.rolled_over: list[str] = []
+        self.guarded = False
+
+    def fail(self, kind: str, reason: str) -> None:
+        """Mark the outcome failed by a physics check: outcome_ok False, the reason in warnings."""
+        self.outcome_ok = False
+        self.violations.append(kind)
+        self.warnings.append(f"physics guard: {kind}: {reason}")
 
     @classmethod
     def failed(cls, names, reason: str, model: str = "", wall_time_s: float = 0.0) -> Outcome:
         n = len(names)
-        return cls(names, np.full((n, 3), np.nan), ok=False, warnings=[reason], model=model,
-                   wall_time_s=wall_time_s)
+        return cls(names, np.full((n, 3), np.nan), np.full((n, 3), np.nan), ok=False, warnings=[reason],
+                   model=model, wall_time_s=wall_time_s)
 
     @property
     def impact_rows(self) -> list:
@@ -54,12 +76,49 @@ class Outcome:
             self._impact_rows = list(self._impact_rows())
         return self._impact_rows
 
+    @property
+    def impact_energy(self) -> np.ndarray:
+        """Energy dissipated per impact [J] (one entry per impact, not per vehicle row)."""
+        if self._impact_energy is None:
+            seen, e = set(), []
+            for r in self.impact_rows:
+                key = (r["t"], frozenset((r["vehicle"], r["other"])))
+                if key not in seen:
+                    seen.add(key)
+                    e.append(r["energy"])
+            self._impact_energy = np.asarray(e, dtype=float)
+        return self._impact_energy
+
+    @property
+    def trajectories(self) -> dict:
+        """name -> dict of SI arrays (empty for batch runs that record none)."""
+        return self._trajectories
+
+    @property
+    def end_speed_si(self) -> np.ndarray:
+        """Speed of each vehicle's CG at the end of the run [m/s]."""
+        return np.hypot(self.final_si[:, 0], self.final_si[:, 1])
+
+    @property
+    def at_rest_mask(self) -> np.ndarray:
+        """Per vehicle: at rest at the end (speed <= REST_SPEED and |yaw rate| <= REST_YAW_RATE)."""
+        return (self.end_speed_si <= REST_SPEED) & (np.abs(self.final_si[:, 2]) <= REST_YAW_RATE)
+
+    def pose_label(self, i: int) -> str:
+        """'rest' or 'end pose (moving N km/h)' for vehicle i."""
+        if self.at_rest_mask[i]:
+            return "rest"
+        return f"end pose (moving {ms_to_kmh(self.end_speed_si[i]):.1f} km/h)"
+
     # ---------------------------------------------------------------- public tables
     @property
     def rest(self):
+        """Pose at the end of the run: x, y [m], heading [deg], speed [km/h], at_rest (bool). A vehicle
+        with at_rest False was still moving when the run ended: its row is an end pose, not a rest pose."""
         import pandas as pd
         return pd.DataFrame({"x": self.rest_si[:, 0], "y": self.rest_si[:, 1],
-                             "heading": np.degrees(self.rest_si[:, 2])},
+                             "heading": np.degrees(self.rest_si[:, 2]),
+                             "speed": ms_to_kmh(self.end_speed_si), "at_rest": self.at_rest_mask},
                             index=pd.Index(self.names, name="vehicle"))
 
     @property
@@ -110,10 +169,13 @@ class Outcome:
         def num(v):
             return None if v is None or (isinstance(v, float) and math.isnan(v)) else round(float(v), 6)
         vehicles = {}
+        speed, at_rest = self.end_speed_si, self.at_rest_mask
         for i, n in enumerate(self.names):
             vehicles[n] = {
                 "rest": {"x": num(self.rest_si[i, 0]), "y": num(self.rest_si[i, 1]),
-                         "heading": num(math.degrees(self.rest_si[i, 2]))},
+                         "heading": num(math.degrees(self.rest_si[i, 2])),
+                         "speed": num(ms_to_kmh(speed[i])), "at_rest": bool(at_rest[i])},
+                "pose": self.pose_label(i),
                 "final_velocity": {"vx": num(ms_to_kmh(self.final_si[i, 0])),
                                    "vy": num(ms_to_kmh(self.final_si[i, 1])),
                                    "yaw_rate": num(math.degrees(self.final_si[i, 2]))},
@@ -121,4 +183,5 @@ class Outcome:
         impacts = [{k: (num(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.impacts.to_dict(orient="records")]
         return {"model": self.model, "ok": self.outcome_ok, "vehicles": vehicles, "impacts": impacts,
-                "warnings": self.warnings, "wall_time_s": round(self.wall_time_s, 6)}
+                "warnings": self.warnings, "violations": self.violations, "rolled_over": self.rolled_over,
+                "wall_time_s": round(self.wall_time_s, 6)}

@@ -30,7 +30,9 @@ def check_collision_model(model: CollisionModel, rest_tolerance: float = 1e-9) -
     assert isinstance(out, Outcome), "simulate returns an Outcome"
     assert out.outcome_ok, f"the probe scene runs: {out.warnings}"
     assert list(out.rest.index) == ["A", "B"], "rest is indexed by vehicle name"
-    assert list(out.rest.columns) == ["x", "y", "heading"], "rest columns are x, y, heading"
+    assert list(out.rest.columns) == ["x", "y", "heading", "speed", "at_rest"], \
+        "rest columns are x, y, heading, speed, at_rest"
+    assert out.guarded and not out.violations, f"the probe passes the physics guard: {out.warnings}"
     assert np.all(np.isfinite(out.rest_si)), "rest poses are finite"
     tr = out.trajectory("A")
     for col in ("t", "x", "y", "heading", "vx", "vy", "yaw_rate"):

@@ -27,7 +27,9 @@ def test_simulate_json_shape(pc_crash_dir):
     data = json.loads(res.stdout)
     assert set(data["vehicles"]) == {"V1", "V2"}
     rest = data["vehicles"]["V1"]["rest"]
-    assert set(rest) == {"x", "y", "heading"}
+    assert set(rest) == {"x", "y", "heading", "speed", "at_rest"}
+    # PC-Crash's case 1 compares positions at 5 s of free-rolling cars: an end pose, not a rest pose
+    assert rest["at_rest"] is False and rest["speed"] == pytest.approx(22.5, rel=1e-6)
     assert rest["x"] == pytest.approx(32.14, abs=0.5), "the same result as the Python API"
     assert data["vehicles"]["V2"]["final_velocity"]["vx"] == pytest.approx(27.5, rel=0.005)
     assert isinstance(data["impacts"], list) and len(data["impacts"]) == 2

@@ -1,0 +1,199 @@
+"""The physics guard: every Outcome of every model is checked against physics before anyone reads it.
+
+A model's result that breaks physics is a failure with a reason, never a quiet number. The guard runs on
+the Outcome of every `CollisionModel.simulate` / `simulate_batch` (the base class applies it, so built-in
+and third-party models are checked alike; crashlab.model). A model may declare in `guard_skip` the checks
+that do not apply to it. Checks (docs/physics.md, "Physics guard"):
+
+  energy_overall          the kinetic energy at the end exceeds the kinetic energy at the start
+  energy_outside_contact  a vehicle's mechanical energy (planar kinetic energy, m g z where z is
+                          recorded) rises between two trajectory samples while no contact acts
+  impact_energy           an impact creates energy (dissipated energy below zero)
+  interpenetration        two vehicles, or a vehicle and a barrier, end with their outlines overlapping
+  below_road              a part of a 3D vehicle's body lies below the road (trajectory column z_min)
+
+Tolerance of the energy checks: ENERGY_TOL_J + ENERGY_TOL_REL x the kinetic energy at the start (a 3D
+vehicle's suspension and body motions hold energy the planar balance does not see: a 5 cm heave of a
+1,000 kg car is 0.5 kJ). A vehicle that ends with |roll| or |pitch| above 90 deg is reported as rolled
+over (a warning and `outcome.rolled_over`), not failed: that is what happened to it.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .scene import barrier_outline, vehicle_outline
+from .units import G
+
+CHECKS = ("energy_overall", "energy_outside_contact", "impact_energy", "interpenetration", "below_road")
+ENERGY_TOL_J = 1000.0  # J
+ENERGY_TOL_REL = 0.02  # of the kinetic energy at the start
+PENETRATION_TOL = 0.05  # m of outline overlap left at the end
+ROAD_TOL = 0.05  # m below the road
+ROLLOVER_ANGLE = math.pi / 2  # rad of roll or pitch at the end
+
+
+def check(scene, out, skip=frozenset()) -> None:
+    """Run every check not in `skip` on `out` (in place): a violation calls out.fail(kind, reason)."""
+    check_batch([scene], [out], skip)
+
+
+def check_batch(scenes, outs, skip=frozenset()) -> None:
+    """`check` over a batch; the energy balance and the end-state checks are vectorised (a reconstruction
+    checks thousands of outcomes of one scene composition)."""
+    todo = [(s, o) for s, o in zip(scenes, outs) if not o.guarded]
+    if not todo:
+        return
+    for s, o in todo:
+        o.guarded = True
+    groups: dict = {}
+    for s, o in todo:  # one vectorised pass per vehicle count
+        groups.setdefault(len(s.vehicles), []).append((s, o))
+    for group in groups.values():
+        _check_group(group, skip)
+
+
+def _check_group(group, skip) -> None:
+    mass = np.array([[v.spec.mass for v in s.vehicles] for s, _ in group])
+    iz = np.array([[v.spec.yaw_inertia for v in s.vehicles] for s, _ in group])
+    start = np.array([[(v.speed, v.yaw_rate) for v in s.vehicles] for s, _ in group])
+    final = np.stack([o.final_si for _, o in group])
+    rest = np.stack([o.rest_si for _, o in group])
+    e0 = (0.5 * mass * start[..., 0] ** 2 + 0.5 * iz * start[..., 1] ** 2).sum(1)
+    e1 = (0.5 * mass * (final[..., 0] ** 2 + final[..., 1] ** 2) + 0.5 * iz * final[..., 2] ** 2).sum(1)
+    tol = ENERGY_TOL_J + ENERGY_TOL_REL * e0
+    finite = np.isfinite(rest).all(axis=(1, 2)) & np.isfinite(final).all(axis=(1, 2))
+    near = _near_pairs(group, rest)
+    for k, (scene, out) in enumerate(group):
+        if not out.outcome_ok:
+            continue
+        if not finite[k]:
+            out.fail("non_finite", "the end state is not finite")
+            continue
+        if "energy_overall" not in skip and not e1[k] - e0[k] <= tol[k]:
+            out.fail("energy_overall", f"kinetic energy {e1[k] / 1e3:.1f} kJ at the end, {e0[k] / 1e3:.1f} kJ "
+                     f"at the start (+{(e1[k] - e0[k]) / 1e3:.1f} kJ, tolerance {tol[k] / 1e3:.1f} kJ)")
+        _check_one(scene, out, skip, float(tol[k]), near[k])
+
+
+def _near_pairs(group, rest) -> np.ndarray:
+    """Per outcome: whether any two outlines' bounding circles meet at the end (vehicles and barriers)."""
+    scene = group[0][0]
+    radius = np.array([[math.hypot(max(v.spec.cg_to_front, v.spec.cg_to_rear), v.spec.width / 2)
+                        for v in s.vehicles] + [math.hypot(b.length, b.width) / 2 for b in s.barriers]
+                       for s, _ in group]) if all(len(s.barriers) == len(scene.barriers) for s, _ in group) else None
+    if radius is None:
+        return np.ones(len(group), dtype=bool)
+    bar = np.array([[(b.x, b.y) for b in s.barriers] for s, _ in group]).reshape(len(group), -1, 2)
+    centres = np.concatenate([rest[..., :2], bar], axis=1)
+    nv = rest.shape[1]
+    d = np.linalg.norm(centres[:, :nv, None, :] - centres[:, None, :, :], axis=-1)
+    reach = radius[:, :nv, None] + radius[:, None, :]
+    close = d < reach
+    close[:, np.arange(nv), np.arange(nv)] = False
+    return close.any(axis=(1, 2))
+
+
+def _check_one(scene, out, skip, tol, near) -> None:
+    if "impact_energy" not in skip and (out._impact_energy is not None or out.impact_rows):
+        e_imp = out.impact_energy
+        if e_imp.size and not e_imp.min() >= -tol:
+            k = int(np.argmin(e_imp))
+            out.fail("impact_energy", f"impact {k + 1} creates {-e_imp[k] / 1e3:.1f} kJ "
+                     f"(tolerance {tol / 1e3:.1f} kJ)")
+    trajectories = out.trajectories
+    if trajectories:
+        if "energy_outside_contact" not in skip:
+            _check_free_energy(scene, out, tol)
+        if "below_road" not in skip:
+            _check_road(scene, out)
+        _report_rollover(scene, out)
+    if "interpenetration" not in skip and near:
+        _check_overlap(scene, out)
+
+
+def _contact_intervals(out) -> np.ndarray:
+    if out.contact_intervals is not None:
+        iv = out.contact_intervals
+    else:
+        iv = [(r["t"], r["t"] + r.get("duration", 0.0)) for r in out.impact_rows]
+    return np.asarray(iv, dtype=float).reshape(-1, 2)
+
+
+def _check_free_energy(scene, out, tol) -> None:
+    """Largest rise of each vehicle's energy within a stretch of samples free of contact."""
+    iv = _contact_intervals(out)
+    for i, v in enumerate(scene.vehicles):
+        tr = out.trajectories.get(v.name)
+        if tr is None or len(tr["t"]) < 2:
+            continue
+        t = np.asarray(tr["t"])
+        e = 0.5 * v.spec.mass * (np.square(tr["vx"]) + np.square(tr["vy"])) \
+            + 0.5 * v.spec.yaw_inertia * np.square(tr["yaw_rate"])
+        if "z" in tr:
+            e = e + v.spec.mass * G * (np.asarray(tr["z"]) - tr["z"][0])
+        # step k joins samples k-1 and k; it is in contact when a contact interval touches it
+        touched = np.zeros(len(t) - 1, dtype=bool)
+        for c0, c1 in iv:
+            touched |= (t[1:] >= c0) & (t[:-1] <= c1)
+        rise, worst, t_worst = 0.0, 0.0, math.nan
+        lowest = e[0]
+        for k in range(1, len(t)):
+            if touched[k - 1]:
+                lowest = e[k]
+                continue
+            lowest = min(lowest, e[k - 1])
+            rise = e[k] - lowest
+            if rise > worst:
+                worst, t_worst = rise, t[k]
+        if worst > tol:
+            out.fail("energy_outside_contact", f"{v.name} gains {worst / 1e3:.1f} kJ without contact "
+                     f"(by t = {t_worst:.2f} s; tolerance {tol / 1e3:.1f} kJ)")
+            return
+
+
+def _check_road(scene, out) -> None:
+    for v in scene.vehicles:
+        tr = out.trajectories.get(v.name)
+        if tr is None or "z_min" not in tr or len(tr["z_min"]) == 0:
+            continue
+        z = np.asarray(tr["z_min"])
+        k = int(np.argmin(z))
+        if z[k] < -ROAD_TOL:
+            out.fail("below_road", f"{v.name} reaches {-z[k]:.2f} m below the road at t = {tr['t'][k]:.2f} s")
+            return
+
+
+def _report_rollover(scene, out) -> None:
+    for v in scene.vehicles:
+        tr = out.trajectories.get(v.name)
+        if tr is None or "roll" not in tr or len(tr["roll"]) == 0:
+            continue
+        roll, pitch = float(tr["roll"][-1]), float(tr.get("pitch", [0.0])[-1])
+        # continuous angles: the attitude is upside down or on a side when the wrapped angle exceeds 90 deg
+        roll_w, pitch_w = math.remainder(roll, 2 * math.pi), math.remainder(pitch, 2 * math.pi)
+        if abs(roll_w) > ROLLOVER_ANGLE or abs(pitch_w) > ROLLOVER_ANGLE:
+            out.rolled_over.append(v.name)
+            out.warnings.append(f"{v.name} rolled over (ends at roll {math.degrees(roll_w):.0f} deg, "
+                                f"pitch {math.degrees(pitch_w):.0f} deg)")
+
+
+def _check_overlap(scene, out) -> None:
+    """Outlines at the end overlapping by more than PENETRATION_TOL (bounding circles first)."""
+    from .geometry import penetration  # numba's import only when outlines meet
+    shapes = []
+    for v, (x, y, h) in zip(scene.vehicles, out.rest_si):
+        s = v.spec
+        shapes.append((v.name, x, y, math.hypot(max(s.cg_to_front, s.cg_to_rear), s.width / 2),
+                       lambda v=v, x=x, y=y, h=h: vehicle_outline(v, x, y, h)))
+    others = [(f"barrier {k}", b.x, b.y, math.hypot(b.length, b.width) / 2, lambda b=b: barrier_outline(b))
+              for k, b in enumerate(scene.barriers)]
+    for i, (ni, xi, yi, ri, oi) in enumerate(shapes):
+        for nj, xj, yj, rj, oj in shapes[i + 1:] + others:
+            if math.hypot(xi - xj, yi - yj) >= ri + rj:
+                continue
+            depth = penetration(oi(), oj())[0]
+            if depth > PENETRATION_TOL:
+                out.fail("interpenetration", f"{ni} and {nj} end overlapping by {depth:.2f} m")
+                return

@@ -1,0 +1,216 @@
+"""The physics guard (crashlab.guard): every Outcome of every model, built-in or plugin, is checked;
+a violation is outcome_ok False with the reason, never a quiet number. End poses of moving vehicles
+are reported as such (out.rest speed, at_rest)."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import crashlab
+from crashlab import guard
+from crashlab.model import CollisionModel
+from crashlab.outcome import Outcome
+from crashlab.units import kmh_to_ms
+
+from conftest import build_scene
+
+
+def _two_cars(**kw):
+    return build_scene([{"x": 0.0, "speed": 50.0}, {"x": 10.0, "heading": 180.0}], **kw)
+
+
+class Scripted(CollisionModel):
+    """A plugin that returns whatever outcome a test scripts: the guard must judge it like any model's."""
+
+    name = "scripted"
+
+    def __init__(self, make):
+        self.make = make
+
+    def simulate(self, scene):
+        return self.make(scene)
+
+
+def _outcome(scene, rest, final=None, **kw):
+    return Outcome(scene.vehicle_names, np.array(rest, float), None if final is None else np.array(final, float),
+                   model="scripted", **kw)
+
+
+def _traj(t, vx, **cols):
+    t = np.asarray(t, float)
+    base = {"t": t, "x": np.zeros_like(t), "y": np.zeros_like(t), "heading": np.zeros_like(t),
+            "vx": np.asarray(vx, float), "vy": np.zeros_like(t), "yaw_rate": np.zeros_like(t)}
+    base.update({k: np.asarray(v, float) for k, v in cols.items()})
+    return base
+
+
+def test_energy_from_nowhere_after_last_contact_fails():
+    """A car that slows to 0.1 km/h and then speeds up to 126 km/h without contact (the multibody bug
+    of issue 10) is failed, with the vehicle and the energy named."""
+    scene = _two_cars()
+    t = np.linspace(0, 5, 501)
+    v1 = np.where(t < 1.0, 10.0, np.where(t < 2.0, 0.03, kmh_to_ms(126.0)))
+    traj = {"V1": _traj(t, v1), "V2": _traj(t, np.zeros_like(t))}
+
+    def make(s):
+        return _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj, contact_intervals=[(0.5, 0.6)])
+
+    out = Scripted(make).simulate(scene)
+    assert not out.outcome_ok
+    assert "energy_outside_contact" in out.violations and "energy_overall" not in out.violations
+    assert any("V1 gains" in w for w in out.warnings)
+
+
+def test_energy_change_inside_contact_is_not_a_violation():
+    scene = _two_cars()
+    t = np.linspace(0, 2, 201)
+    v1 = np.where(t < 1.0, 5.0, 12.0)  # a push while in contact: work done by the contact force
+    traj = {"V1": _traj(t, v1), "V2": _traj(t, np.zeros_like(t))}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj,
+                                      contact_intervals=[(0.95, 1.05)])).simulate(scene)
+    assert out.outcome_ok, out.warnings
+
+
+def test_energy_at_the_end_above_the_start_fails_without_trajectories():
+    """Batch runs record no trajectory: the end-to-start balance still catches energy from nowhere."""
+    scene = _two_cars()
+    fast = [[kmh_to_ms(90.0), 0.0, 0.0], [0.0, 0.0, 0.0]]
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], fast)).simulate(scene)
+    assert out.violations == ["energy_overall"]
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]],
+                                      [[kmh_to_ms(49.0), 0, 0], [0, 0, 0]])).simulate(scene)
+    assert out.outcome_ok, "less energy than at the start is fine"
+
+
+def test_impact_creating_energy_fails():
+    scene = _two_cars()
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], impact_energy=[5e3, -58e3])).simulate(scene)
+    assert out.violations == ["impact_energy"] and "impact 2 creates 58.0 kJ" in out.warnings[-1]
+
+
+def test_vehicles_ending_inside_each_other_fail():
+    scene = _two_cars()
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [22, 0.5, 0.3]])).simulate(scene)
+    assert out.violations == ["interpenetration"]
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [24.2, 0, 0]])).simulate(scene)  # 4 cm apart: fine
+    assert out.outcome_ok, out.warnings
+
+
+def test_vehicle_inside_a_barrier_fails():
+    scene = build_scene([{"speed": 50.0}], barriers=[{"x": 10.0, "y": 0.0, "length": 1.0, "width": 4.0}])
+    out = Scripted(lambda s: _outcome(s, [[9.0, 0, 0]])).simulate(scene)
+    assert out.violations == ["interpenetration"] and "barrier 0" in out.warnings[-1]
+
+
+def test_body_below_the_road_fails_and_a_roof_is_reported():
+    scene = _two_cars()
+    t = np.linspace(0, 1, 11)
+    below = {"V1": _traj(t, np.zeros_like(t), z=np.full_like(t, 0.5), z_min=np.linspace(0.1, -0.4, 11)),
+             "V2": _traj(t, np.zeros_like(t))}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=below)).simulate(scene)
+    assert out.violations == ["below_road"] and "0.40 m below the road" in out.warnings[-1]
+    roof = {"V1": _traj(t, np.zeros_like(t), z=np.full_like(t, 0.5), z_min=np.zeros_like(t),
+                        roll=np.linspace(0, math.pi, 11), pitch=np.zeros_like(t)),
+            "V2": _traj(t, np.zeros_like(t))}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=roof)).simulate(scene)
+    assert out.outcome_ok and out.rolled_over == ["V1"] and any("V1 rolled over" in w for w in out.warnings)
+
+
+def test_a_model_may_skip_checks_that_do_not_apply():
+    class Soft(Scripted):
+        name = "soft"
+        guard_skip = frozenset({"interpenetration"})
+
+    scene = _two_cars()
+    out = Soft(lambda s: _outcome(s, [[20, 0, 0], [22, 0.5, 0.3]])).simulate(scene)
+    assert out.outcome_ok and out.guarded
+    with pytest.raises(TypeError, match="unknown guard checks"):
+        type("Bad", (CollisionModel,), {"simulate": lambda self, s: None, "guard_skip": frozenset({"nope"})})
+
+
+def test_batch_is_guarded_like_single_runs():
+    scene = _two_cars()
+    model = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]],
+                                        [[kmh_to_ms(90.0), 0.0, 0.0], [0.0, 0.0, 0.0]]))
+    outs = model.simulate_batch([scene, scene])
+    assert [o.violations for o in outs] == [["energy_overall"]] * 2
+
+
+def test_builtin_impulse_results_are_guarded(pc_crash_dir):
+    scene = crashlab.load_scene(pc_crash_dir / "side.toml")
+    out = crashlab.simulate(scene, model="impulse")
+    assert out.guarded and out.outcome_ok and not out.violations
+    outs = crashlab.get_model("impulse").simulate_batch([scene, scene])
+    assert all(o.guarded and o.outcome_ok for o in outs)
+
+
+# ------------------------------------------------------------------ rest means rest
+def test_moving_vehicle_is_an_end_pose_not_a_rest_pose():
+    """A run cut short by its duration: the car still moves, and out.rest says so (speed, at_rest)."""
+    scene = build_scene([{"speed": 50.0, "wheels": "locked"}], duration=0.5, road={"friction": 0.8})
+    out = crashlab.simulate(scene, model="impulse")
+    rest = out.rest
+    v_expected = 50.0 - 3.6 * 0.8 * 9.81 * 0.5  # km/h after 0.5 s of locked braking
+    assert rest.at["V1", "speed"] == pytest.approx(v_expected, rel=0.02)
+    assert not rest.at["V1", "at_rest"]
+    assert out.pose_label(0) == f"end pose (moving {rest.at['V1', 'speed']:.1f} km/h)"
+    full = crashlab.simulate(scene.replace(duration=5.0), model="impulse")
+    assert full.rest.at["V1", "at_rest"] and full.rest.at["V1", "speed"] < 0.36
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "scene.toml"
+    p.write_text(text)
+    return p
+
+
+MOVING = """name = "cut short"
+duration = 0.5
+[[vehicles]]
+name = "V1"
+vehicle = "clio"
+speed = 50.0
+wheels = "locked"
+"""
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "crashlab.cli", *map(str, args)], capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_cli_says_end_pose_for_a_moving_vehicle(tmp_path):
+    res = _cli("simulate", _write(tmp_path, MOVING))
+    assert res.returncode == 0, res.stderr
+    assert "V1: end pose (moving 35.9 km/h)" in res.stdout
+
+
+NOT_APPROACHING = """name = "moving apart at the given point of impact"
+duration = 2.0
+[impact]
+point = [2.0, 0.0]
+plane_angle = 90.0
+[[vehicles]]
+name = "V1"
+vehicle = "clio"
+x = 0.0
+heading = 180.0
+speed = 20.0
+[[vehicles]]
+name = "V2"
+vehicle = "clio"
+x = 4.0
+speed = 20.0
+"""
+
+
+def test_cli_failed_simulation_exits_3_with_one_line(tmp_path):
+    res = _cli("simulate", _write(tmp_path, NOT_APPROACHING))
+    assert res.returncode == 3, (res.returncode, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("crashlab: simulation failed: ") and "scene.toml" in lines[0]
+    assert res.stdout == ""
