@@ -1,4 +1,4 @@
-"""Command line: crashlab models | simulate | compare | reconstruct | bench.
+"""Command line: crashlab models | simulate | compare | reconstruct | bench | stress.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
@@ -99,6 +99,26 @@ def cmd_bench(args):
     return 0
 
 
+def cmd_stress(args):
+    from . import stress
+    model = _get_model(args.model, "crashlab stress")
+    if args.runs < 0:
+        raise InputError("crashlab stress", "--runs", "must be at least 0")
+    df = stress.sweep(model, stress.random_scenes(args.runs, args.seed) + stress.extreme_scenes())
+    if args.csv:
+        try:
+            df.to_csv(args.csv, index=False)
+        except OSError as err:
+            raise InputError(args.csv, "--csv", str(err)) from None
+    s = stress.summary(df)
+    print(f"model {args.model}: {s['runs']} runs (seed {args.seed}, + {len(stress.extreme_scenes())} extremes), "
+          f"{s['caught']} caught by the guard or failed: {s['by_kind'] or 'none'}; "
+          f"{s['moving_at_end']} with a vehicle moving at the end, {s['rolled_over']} rolled over")
+    for _, r in df[~df.ok].iterrows():
+        print(f"  {r.scene} ({r.speeds_kmh} km/h, {r.masses_kg} kg, {r.wheels}): {r.reason}")
+    return 0
+
+
 def cmd_reconstruct(args):
     from .reconstruction import run_cli
     return run_cli(args)
@@ -125,6 +145,12 @@ def build_parser():
     b.add_argument("--batch", type=int, default=1000)
     b.add_argument("--repeat", type=int, default=3)
     b.set_defaults(fn=cmd_bench)
+    st = sub.add_parser("stress", help="seeded random crashes judged by the physics guard")
+    st.add_argument("--model", default="impulse")
+    st.add_argument("--runs", type=int, default=100)
+    st.add_argument("--seed", type=int, default=1)
+    st.add_argument("--csv", default=None, metavar="FILE", help="one row per run")
+    st.set_defaults(fn=cmd_stress)
     r = sub.add_parser("reconstruct", help="search the pre-impact conditions that explain the evidence")
     r.add_argument("study")
     r.add_argument("--optimizer", default=None)
