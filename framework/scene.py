@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, Strict, ValidationError
 
 from .errors import InputError
 from .units import deg_to_rad, kmh_to_ms
@@ -21,56 +21,91 @@ WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
 
 
 # ---------------------------------------------------------------- file schema (file units)
+# Bounds of a scene file (file units). Every number is finite, a number (true/false are not), and within
+# these ranges; wide enough for any road event a reconstructionist models, narrow enough that the models'
+# arithmetic stays finite (a heading of 1e308 deg has no sine; a car at x = 1e30 m has no outline).
+POSITION_MAX = 1e5  # m: |x|, |y| of vehicles, barriers and the impact point: a local site frame (100 km);
+#                     survey coordinates (UTM, national grids) are shifted to a local origin first
+ANGLE_MAX = 3600.0  # deg: |heading|, |plane_angle|: ten turns (angles count modulo 360)
+SPEED_MAX = 400.0  # km/h
+YAW_RATE_MAX = 720.0  # deg/s: two turns a second; spinning cars after an impact stay below ~400 deg/s
+STEER_MAX = 45.0  # deg at the road wheels (lock of a car ~35-40 deg)
+DURATION_MAX = 120.0  # s
+FRICTION_MAX = 2.0  # road and impact friction; 0 is allowed (ice; an impact isolated from the road)
+BARRIER_SIZE = (0.05, 1000.0)  # m: a post to a kilometre of wall
+
+Real = Annotated[float, Strict()]  # int or float; never a bool or a string (NaN/inf: allow_inf_nan=False)
+Position = Annotated[Real, Field(ge=-POSITION_MAX, le=POSITION_MAX,
+                                 description=f"m; |value| <= {POSITION_MAX:g}")]
+Angle = Annotated[Real, Field(ge=-ANGLE_MAX, le=ANGLE_MAX, description=f"deg; |value| <= {ANGLE_MAX:g}")]
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class RoadFile(_Strict):
-    friction: float = Field(default=0.8, gt=0, le=2.0)
+    friction: Real = Field(default=0.8, ge=0, le=FRICTION_MAX,
+                           description=f"tyre-road friction coefficient; [0, {FRICTION_MAX:g}], 0 = ice")
 
 
 class ImpactFile(_Strict):
-    restitution: float = Field(default=0.1, ge=0, le=1)
-    friction: float = Field(default=0.3, ge=0, le=2.0)
+    restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
+    friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
+                           description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
     law: Literal["kudlich-slibar", "brach"] = "kudlich-slibar"
     force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
                        "exact-restitution"] = "flores"
     friction_law: Literal["coulomb", "threlfall", "ambrosio"] = "ambrosio"
-    point: tuple[float, float] | None = None
-    plane_angle: float | None = None
+    point: tuple[Position, Position] | None = Field(
+        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}")
+    plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")
 
 
 class VehicleEntryFile(_Strict):
     name: str
     vehicle: str
-    x: float = 0.0
-    y: float = 0.0
-    heading: float = 0.0
-    speed: float = Field(default=0.0, ge=0, le=400)
-    yaw_rate: float = 0.0
+    x: Position = 0.0
+    y: Position = 0.0
+    heading: Angle = 0.0
+    speed: Real = Field(default=0.0, ge=0, le=SPEED_MAX, description=f"km/h; [0, {SPEED_MAX:g}]")
+    yaw_rate: Real = Field(default=0.0, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX,
+                           description=f"deg/s; |value| <= {YAW_RATE_MAX:g}")
     wheels: WheelState = "rolling"
-    steer: float = Field(default=0.0, ge=-45, le=45)
-    overrides: dict = Field(default_factory=dict)
+    steer: Real = Field(default=0.0, ge=-STEER_MAX, le=STEER_MAX, description=f"deg; |value| <= {STEER_MAX:g}")
+    overrides: dict = Field(default_factory=dict, description="vehicle-file keys: checked as the vehicle file")
 
 
 class BarrierFile(_Strict):
-    x: float
-    y: float
-    heading: float = 0.0
-    length: float = Field(gt=0)
-    width: float = Field(gt=0)
+    x: Position
+    y: Position
+    heading: Angle = 0.0
+    length: Real = Field(ge=BARRIER_SIZE[0], le=BARRIER_SIZE[1],
+                         description=f"m; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
+    width: Real = Field(ge=BARRIER_SIZE[0], le=BARRIER_SIZE[1],
+                        description=f"m; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
+
+
+class ReferenceFile(_Strict):
+    """A published result for one vehicle: rest pose and velocity at rest/end (file units)."""
+    x: Position | None = None
+    y: Position | None = None
+    heading: Angle | None = None
+    vx: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX, description="km/h")
+    vy: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX, description="km/h")
+    yaw_rate: Real | None = Field(default=None, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX, description="deg/s")
 
 
 class SceneFile(_Strict):
     name: str = "scene"
-    duration: float = Field(default=10.0, gt=0, le=120)
-    stop_at_rest: bool = True
+    duration: Real = Field(default=10.0, gt=0, le=DURATION_MAX, description=f"s; (0, {DURATION_MAX:g}]")
+    stop_at_rest: StrictBool = True
     road: RoadFile = RoadFile()
     impact: ImpactFile = ImpactFile()
     vehicles: list[VehicleEntryFile] = Field(min_length=1)
     barriers: list[BarrierFile] = Field(default_factory=list)
     # published results to compare with: reference.<source>.<vehicle> = {x, y, heading, vx, vy, yaw_rate}
-    reference: dict[str, dict[str, dict[str, float]]] = Field(default_factory=dict)
+    reference: dict[str, dict[str, ReferenceFile]] = Field(default_factory=dict)
 
 
 # ---------------------------------------------------------------- the scene (SI)
@@ -239,7 +274,8 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
         duration=f.duration,
         stop_at_rest=f.stop_at_rest,
         source=str(source),
-        references=f.reference,
+        references={src: {n: r.model_dump(exclude_none=True) for n, r in rows.items()}
+                    for src, rows in f.reference.items()},
     )
     for src, rows in f.reference.items():
         for vname in rows:

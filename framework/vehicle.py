@@ -1,47 +1,180 @@
-"""Vehicle data: the library of vehicle files shipped with crashlab and the validated `VehicleSpec`."""
+"""Vehicle data: the library of vehicle files shipped with crashlab and the validated `VehicleSpec`.
+
+Every number of a vehicle file, and of a scene's vehicle overrides (merged into the file, then checked
+the same way), is a finite number (true/false are not numbers) within the physical range given in each
+field's description: from a pedestrian or bicycle (50 kg, 0.2 m) to a loaded articulated truck (60 t,
+30 m). Bounds that depend on other fields (axles inside the outline, the radii of gyration) are checked
+together after the single fields.
+"""
 from __future__ import annotations
 
 import dataclasses
+import math
 from importlib import resources
 from pathlib import Path
+from typing import Annotated
 
 import tomllib
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 from .errors import InputError
 
-Positive = Field(gt=0)
+# A number: int or float, never a bool or a string; NaN and inf are refused by allow_inf_nan=False.
+Real = Annotated[float, Strict()]
+
+MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
+# radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
+# normal to that axis: no mass distribution inside the box exceeds 1; road vehicles lie at 0.25-0.32
+# (Clio: yaw 0.26, roll 0.27), a standing pedestrian near 0.3; below 0.1 is a unit slip or an inertia left
+# unscaled after a mass override (it also makes the yaw mode stiff enough to stall explicit integrators)
+GYRATION_SHARE = (0.1, 1.0)
+
+
+def _num(lo: float, hi: float, what: str, *, lo_open: bool = False, default=...):
+    """A Field for a number in [lo, hi] ((lo, hi] with lo_open); the bounds are part of its description."""
+    bounds = dict(gt=lo) if lo_open else dict(ge=lo)
+    return Field(default, le=hi, description=f"{what}; {'(' if lo_open else '['}{lo:g}, {hi:g}]", **bounds)
+
+
+class _MultibodyPart(BaseModel):
+    """A [multibody.*] table: the keys the multibody model reads are typed and bounded; other keys are kept
+    (a model may read more) but must be finite numbers where they are numbers (checked in load_vehicle)."""
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+
+
+Positive3 = tuple[Annotated[Real, Field(gt=0, le=1e7)], Annotated[Real, Field(gt=0, le=1e7)],
+                  Annotated[Real, Field(gt=0, le=1e7)]]
+
+
+class MultibodyChassis(_MultibodyPart):
+    semi_axes: tuple[Annotated[Real, Field(gt=0, le=15)], Annotated[Real, Field(gt=0, le=15)],
+                     Annotated[Real, Field(gt=0, le=15)]] | None = Field(
+        None, description="m, contact superellipsoid about the chassis CG; each in (0, 15]")
+    # 2/eps: 2 is an ellipsoid, larger is boxier; below 2 the shape is not convex
+    shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = \
+        Field(None, description="2/eps of the superellipsoid; each in [2, 20] (convex)")
+    mass: Real | None = _num(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
+    inertia: Positive3 | None = Field(None, description="kg m^2: Ixx, Iyy, Izz; each in (0, 1e7]")
+
+
+class MultibodyWheel(_MultibodyPart):
+    semi_axes: tuple[Annotated[Real, Field(gt=0, le=2)], Annotated[Real, Field(gt=0, le=2)],
+                     Annotated[Real, Field(gt=0, le=2)]] | None = None
+    shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = None
+    mass: Real | None = _num(0.0, 2000.0, "kg, one wheel", lo_open=True, default=None)
+    inertia: Positive3 | None = None
+
+
+class MultibodyKnuckle(_MultibodyPart):
+    mass: Real | None = _num(0.0, 2000.0, "kg, one knuckle", lo_open=True, default=None)
+
+
+class MultibodySuspension(_MultibodyPart):
+    chassis_points: tuple[tuple[Annotated[Real, Field(ge=-30, le=30)], ...], ...] | None = Field(
+        None, description="m, four [x, y, z] points in the chassis frame, each coordinate in [-30, 30]")
+    stiffness: Real | None = _num(0.0, 1e8, "N/m per corner", lo_open=True, default=None)
+    damping: Real | None = _num(0.0, 1e7, "N s/m per corner", default=None)
+    free_length: Real | None = _num(0.0, 5.0, "m", lo_open=True, default=None)
+
+    @model_validator(mode="after")
+    def _four_points(self):
+        pts = self.chassis_points
+        if pts is not None and (len(pts) != 4 or any(len(p) != 3 for p in pts)):
+            raise ValueError("chassis_points: four points [x, y, z] (FL, FR, RL, RR)")
+        return self
+
+
+class MultibodyTyre(_MultibodyPart):
+    torus_radius_1: Real | None = _num(0.0, 1.5, "m", lo_open=True, default=None)
+    torus_radius_2: Real | None = _num(0.0, 1.5, "m", lo_open=True, default=None)
+    radial_stiffness: Real | None = _num(0.0, 1e9, "N/m", lo_open=True, default=None)
+    longitudinal_slip_stiffness: Real | None = _num(0.0, 1e9, "N", lo_open=True, default=None)
+    cornering_stiffness: Real | None = _num(0.0, 1e7, "N/rad", lo_open=True, default=None)
+    camber_stiffness: Real | None = _num(0.0, 1e7, "N/rad", default=None)
+    rolling_resistance: Real | None = _num(0.0, 1.0, "-", default=None)
+    radial_damping: Real | None = _num(0.0, 1e8, "N s/m", default=None)
+
+
+class MultibodySection(_MultibodyPart):
+    """[multibody] of a vehicle file (models/multibody/vehicle_build.py reads it; defaults there)."""
+    chassis: MultibodyChassis | None = None
+    wheel: MultibodyWheel | None = None
+    knuckle: MultibodyKnuckle | None = None
+    suspension: MultibodySuspension | None = None
+    tyre: MultibodyTyre | None = None
 
 
 class VehicleFile(BaseModel):
-    """Schema of a vehicle file (SI units). Per-model sections (e.g. [multibody]) are kept as they are."""
+    """Schema of a vehicle file (SI units). Per-model sections (e.g. [multibody]) are kept as they are,
+    after the checks of their known keys."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
 
     name: str = ""
-    mass: float = Positive
-    yaw_inertia: float = Positive
-    roll_inertia: float = Positive
-    pitch_inertia: float = Positive
-    length: float = Positive
-    width: float = Positive
-    height: float = Positive
-    wheelbase: float = Positive
-    track: float = Positive
-    cg_to_front_axle: float = Positive
-    cg_to_front: float | None = Field(default=None, gt=0)  # CG to front bumper; default length / 2
-    cg_height: float = Field(ge=0)
-    rolling_resistance: float = Field(default=0.0, ge=0)
-    cornering_stiffness: float = Field(default=60e3, gt=0)  # N/rad per tyre
-    wheel_radius: float = Field(default=0.3, gt=0)
+    mass: Real = _num(*MASS_RANGE, "kg, total")
+    yaw_inertia: Real = Field(gt=0, description="kg m^2 about the vertical axis through the CG; radius of "
+                              "gyration sqrt(I/m) in 0.1-1 x the diagonal of length and width")
+    roll_inertia: Real = Field(gt=0, description="kg m^2 about the longitudinal axis; radius of gyration "
+                               "0.1-1 x the diagonal of width and height")
+    pitch_inertia: Real = Field(gt=0, description="kg m^2 about the lateral axis; radius of gyration "
+                                "0.1-1 x the diagonal of length and height")
+    length: Real = _num(0.2, 30.0, "m, bumper to bumper")
+    width: Real = _num(0.2, 5.0, "m")
+    height: Real = _num(0.2, 6.0, "m")
+    wheelbase: Real = Field(gt=0, description="m; the axles lie inside the outline")
+    track: Real = Field(gt=0, description="m; at most the width")
+    cg_to_front_axle: Real = Field(gt=0, description="m; shorter than the wheelbase and than cg_to_front")
+    cg_to_front: Real | None = Field(default=None, gt=0, description="m, CG to front bumper; default "
+                                     "length / 2; shorter than the length")
+    cg_height: Real = Field(ge=0, description="m; below the height")
+    rolling_resistance: Real = _num(0.0, 1.0, "coefficient f_r (tyres on asphalt 0.01-0.015, sand 0.3)",
+                                    default=0.0)
+    cornering_stiffness: Real = _num(0.0, 1e6, "N/rad per tyre (cars 40-150e3, truck tyres to 5e5)",
+                                     lo_open=True, default=60e3)
+    wheel_radius: Real = _num(0.1, 1.5, "m", default=0.3)
+    multibody: MultibodySection | None = None
 
-    @model_validator(mode="after")
-    def _geometry(self):
-        if self.cg_to_front_axle >= self.wheelbase:
-            raise ValueError("cg_to_front_axle must be shorter than the wheelbase")
-        if self.cg_to_front is not None and self.cg_to_front >= self.length:
-            raise ValueError("cg_to_front must be shorter than the length")
-        return self
+
+
+def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
+    """Bounds that join several fields: (the fields involved, the problem), first the first one checked."""
+    out = []
+    if v.cg_to_front_axle >= v.wheelbase:
+        out.append((("cg_to_front_axle", "wheelbase"), "cg_to_front_axle must be shorter than the wheelbase"))
+    front = v.length / 2 if v.cg_to_front is None else v.cg_to_front
+    if front >= v.length:
+        out.append((("cg_to_front", "length"), "cg_to_front must be shorter than the length"))
+    elif v.cg_to_front_axle >= front or v.wheelbase - v.cg_to_front_axle >= v.length - front:
+        out.append((("cg_to_front_axle", "wheelbase", "cg_to_front", "length"),
+                    "the axles must lie inside the outline (cg_to_front_axle < cg_to_front and "
+                    "wheelbase - cg_to_front_axle < length - cg_to_front)"))
+    if v.track > v.width:
+        out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
+    if v.cg_height >= v.height:
+        out.append((("cg_height", "height"), f"cg_height ({v.cg_height:g} m) must be below the height "
+                    f"({v.height:g} m)"))
+    lo, hi = GYRATION_SHARE
+    for key, (da, db) in (("yaw_inertia", ("length", "width")), ("roll_inertia", ("width", "height")),
+                          ("pitch_inertia", ("length", "height"))):
+        k, diag = math.sqrt(getattr(v, key) / v.mass), math.hypot(getattr(v, da), getattr(v, db))
+        if not lo * diag <= k <= hi * diag:
+            out.append(((key, "mass", da, db),
+                        f"{key} {getattr(v, key):g} kg m^2 with mass {v.mass:g} kg: radius of gyration "
+                        f"sqrt(I/m) = {k:.3g} m lies outside {lo:g}-{hi:g} x the diagonal of {da} and {db} "
+                        f"({diag:.3g} m) (an inertia in other units, or not scaled with an overridden mass?)"))
+    return out
+
+
+def _non_finite(data, path=()):
+    """The first key path (tuple) in nested tables/arrays whose value is a non-finite float, or None."""
+    if isinstance(data, float):
+        return path if not math.isfinite(data) else None
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for k, v in items:
+        hit = _non_finite(v, (*path, k))
+        if hit is not None:
+            return hit
+    return None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,6 +235,14 @@ def read_toml(path: Path, what: str = "file") -> dict:
         raise InputError(path, what, err.strerror or str(err)) from None
 
 
+def _shown(value) -> str:
+    """A short one-line rendering of a bad input value, in TOML spelling for booleans."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def pydantic_error(file, err: ValidationError, prefix: str = "") -> InputError:
     """The first validation error as one InputError line (file, dotted key, problem)."""
     first = err.errors()[0]
@@ -111,15 +252,35 @@ def pydantic_error(file, err: ValidationError, prefix: str = "") -> InputError:
         msg = "unknown key"
     elif first["type"] == "missing":
         msg = "missing key"
+    elif first["type"].endswith("_type") or first["type"] in ("finite_number", "bool_parsing"):
+        msg += f", got {_shown(first.get('input'))}"
     return InputError(file, prefix + key, msg)
+
+
+def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None) -> VehicleFile:
+    """VehicleFile of `data`, every bad number blamed on `file` under `prefix` (the file itself, or the
+    scene's overrides: then the problem is named by an overridden key where one is involved)."""
+    try:
+        spec = VehicleFile.model_validate(data)
+    except ValidationError as err:
+        raise pydantic_error(file, err, prefix) from None
+    hit = _non_finite(data if overridden is None else overridden)
+    if hit is not None:
+        raise InputError(file, prefix + ".".join(map(str, hit)), "Input should be a finite number")
+    for keys, problem in consistency_problems(spec):
+        named = [k for k in keys if overridden is None or k in overridden]
+        raise InputError(file, prefix + (named or keys)[0], problem)
+    return spec
 
 
 def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None = None,
                  where: str = "vehicle", scene_file: str | Path = "<scene>") -> VehicleSpec:
-    """A vehicle from the library by name, or from a file path (relative to `base_dir`), with overrides."""
+    """A vehicle from the library by name, or from a file path (relative to `base_dir`), with overrides.
+    The file is checked first (its errors name it), then the file merged with the overrides, by the same
+    checks (errors name the scene file and `<where>.overrides.<key>`)."""
     if ref.endswith(".toml"):
         path = (base_dir or Path.cwd()) / ref
-        if not path.exists():
+        if not path.is_file():
             raise InputError(scene_file, where, f"vehicle file {ref!r} not found")
     else:
         names = library()
@@ -130,10 +291,7 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
             raise InputError(scene_file, where, f"unknown vehicle {ref!r}{hint}")
         path = Path(str(resources.files("crashlab").joinpath("vehicles", ref + ".toml")))
     data = read_toml(path, "vehicle")
-    try:  # the file itself first, so its own errors are blamed on it
-        spec = VehicleFile.model_validate(data)
-    except ValidationError as err:
-        raise pydantic_error(path, err) from None
+    spec = _validate(data, path)  # the file itself first, so its own errors are blamed on it
     if overrides:
         known = set(VehicleFile.model_fields) | set(data)
         for key, val in overrides.items():
@@ -142,15 +300,12 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
             if isinstance(data.get(key), dict) != isinstance(val, dict):
                 raise InputError(scene_file, f"{where}.overrides.{key}",
                                  "a table is overridden by a table, a value by a value")
-        try:
-            spec = VehicleFile.model_validate(_deep_merge(data, overrides))
-        except ValidationError as err:
-            raise pydantic_error(scene_file, err, prefix=f"{where}.overrides.") from None
-    fields = spec.model_dump()
-    sections = {k: v for k, v in fields.items() if k not in VehicleSpec.__dataclass_fields__}
-    core = {k: v for k, v in fields.items() if k in VehicleSpec.__dataclass_fields__}
+        data = _deep_merge(data, overrides)
+        spec = _validate(data, scene_file, f"{where}.overrides.", overrides)
+    core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k != "sections"}
+    # per-model sections as written (not the schema's dump, which would add None for absent keys)
+    sections = {k: v for k, v in data.items() if k not in VehicleSpec.__dataclass_fields__}
     core["name"] = core["name"] or ref
     if core["cg_to_front"] is None:
         core["cg_to_front"] = spec.length / 2
     return VehicleSpec(**core, sections=sections)
-

@@ -141,3 +141,72 @@ def test_listing_models_imports_nothing_heavy():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "[]", f"imported by listing: {res.stdout}"
+
+
+# ---------------------------------------------------------------- bounds (scene.py, vehicle.py)
+def test_library_vehicles_are_ordinary_cars():
+    """The shipped vehicles pass every bound, their radii of gyration lie at 0.2-0.35 x the diagonal (the
+    road-vehicle band the bound's documentation quotes), and their multibody sections stay as written."""
+    import math
+
+    from crashlab.vehicle import library, load_vehicle
+    for name in library():
+        s = load_vehicle(name)
+        for inertia, a, b in ((s.yaw_inertia, s.length, s.width), (s.roll_inertia, s.width, s.height),
+                              (s.pitch_inertia, s.length, s.height)):
+            assert 0.2 <= math.sqrt(inertia / s.mass) / math.hypot(a, b) <= 0.35, name
+        for part in s.sections.get("multibody", {}).values():
+            assert None not in part.values(), "a section is the file's table, not the schema's dump"
+    clio = load_vehicle("clio").sections["multibody"]
+    assert clio["chassis"]["mass"] == 940.0 and "semi_axes" not in clio["knuckle"]
+
+
+def test_zero_friction_and_ints_accepted(make_scene):
+    """Road and impact friction 0 (ice; an impact isolated from the road); an int is a number."""
+    s = make_scene([{"speed": 50, "x": -3, "overrides": {"mass": 1200}}], road={"friction": 0},
+                   impact={"friction": 0})
+    v = s.vehicles[0]
+    assert s.road.friction == 0.0 and s.impact.friction == 0.0
+    assert v.speed == pytest.approx(kmh_to_ms(50.0)) and v.x == -3.0 and v.spec.mass == 1200.0
+    assert isinstance(v.spec.mass, float)
+
+
+@pytest.mark.parametrize("vehicle, key", [
+    ({"x": 1e5 + 1}, "vehicles.0.x"), ({"y": -1e5 - 1}, "vehicles.0.y"),
+    ({"heading": 3601.0}, "vehicles.0.heading"), ({"yaw_rate": -721.0}, "vehicles.0.yaw_rate"),
+    ({"speed": 401.0}, "vehicles.0.speed"), ({"steer": 46.0}, "vehicles.0.steer"),
+    ({"overrides": {"mass": 49.0}}, "vehicles.0.overrides.mass"),
+    ({"overrides": {"mass": 60001.0}}, "vehicles.0.overrides.mass"),
+    ({"overrides": {"length": 31.0}}, "vehicles.0.overrides.length"),
+    ({"overrides": {"cg_to_front_axle": 1.9}}, "vehicles.0.overrides.cg_to_front_axle"),  # axle outside
+    ({"overrides": {"multibody": {"chassis": {"shape_exponents": [1.0, 4.0]}}}},
+     "vehicles.0.overrides.multibody.chassis.shape_exponents.0"),
+    ({"overrides": {"multibody": {"suspension": {"stiffness": "stiff"}}}},
+     "vehicles.0.overrides.multibody.suspension.stiffness"),
+])
+def test_documented_bounds(make_scene, vehicle, key):
+    """Each bound of the Field descriptions, just outside it."""
+    with pytest.raises(crashlab.InputError) as err:
+        make_scene([vehicle])
+    assert err.value.key == key
+
+
+@pytest.mark.parametrize("kw, key", [({"duration": 121.0}, "duration"), ({"road": {"friction": 2.1}}, "road.friction"),
+                                     ({"impact": {"friction": -0.1}}, "impact.friction"),
+                                     ({"barriers": [{"x": 50.0, "y": 0.0, "length": 0.01, "width": 1.0}]},
+                                      "barriers.0.length"),
+                                     ({"impact": {"point": [2e5, 0.0], "plane_angle": 0.0}}, "impact.point.0")])
+def test_documented_scene_bounds(make_scene, kw, key):
+    with pytest.raises(crashlab.InputError) as err:
+        make_scene([{}], **kw)
+    assert err.value.key == key
+
+
+def test_bounds_are_documented():
+    """Every bounded number of the scene and vehicle schemas states its range in its description."""
+    from crashlab.scene import BarrierFile, ImpactFile, RoadFile, SceneFile, VehicleEntryFile
+    from crashlab.vehicle import VehicleFile
+    for model in (SceneFile, RoadFile, ImpactFile, VehicleEntryFile, BarrierFile, VehicleFile):
+        for name, field in model.model_fields.items():
+            if any(hasattr(m, a) for m in field.metadata for a in ("gt", "ge", "lt", "le")):
+                assert field.description, f"{model.__name__}.{name}"
