@@ -20,19 +20,29 @@ from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T
 from crashlab.models.multibody.vehicle_build import NW, build
 from crashlab.outcome import Outcome
 
+from . import road as R
+
+BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
+LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
+MAX_LOAD_ITER = 4      # load passes per step before the step is halved (exudyn allows 5 iterations)
+ADAPT_RECOVERY = 5     # accepted steps before exudyn doubles a shortened step again
+
 
 class ExudynModel(CollisionModel):
     """The multibody model's vehicle (9 rigid bodies, joints, suspension) built with exudyn's items, exudyn's
     rolling-disc penalty tyre, and the multibody model's chassis contact applied as loads.
 
     Options (documented defaults, the same for every scene):
-      step = 1e-3 s              fixed step of exudyn's generalized-alpha (implicit, index 3). Not limited by
-                                 stability (implicit; the contact load is explicit but its stiffest car-to-car
-                                 mode, ~30 rad/s at 0.3 m crush, needs only h < 0.07 s): it is chosen for the
-                                 contact, which the loads see once per step: a 14 m/s approach then starts
-                                 with at most 14 mm penetration and the 0.17-0.31 s contacts of the
-                                 PC-Crash cases get 170-310 force samples (2e-3 s changes post-impact
-                                 speeds by < 0.3 km/h, README).
+      step = 1e-3 s              largest step of exudyn's generalized-alpha (implicit, index 3; exudyn's adaptive step
+                                 shortens it at contact onsets and when the contact load iteration does not
+                                 settle, then doubles it back every 5 steps). The contact loads are iterated to
+                                 their values at the step end, so the step sets the accuracy of the contact
+                                 force history (170-310 force samples per PC-Crash contact), not its energy.
+      min_step = 1e-6 s          shortest step exudyn may take (below it the run fails with a reason)
+      onset_tolerance = 1e-3 m   a step in which a contact (car-car, car-barrier, chassis-road) opens deeper than
+                                 this is repeated shorter (the multibody model's first-contact control, 1 mm)
+      load_tolerance = 1e-3      the contact forces at the step end have settled when a pass changes them by
+                                 less than this share of the largest (+ 10 N)
       spectral_radius = 0.8      generalized-alpha numerical damping at infinite frequency (exudyn's default is
                                  0.9): damps the activation transient of the wheel locks and the penalty
                                  tyre's stiff friction zone; the vehicle modes (< 20 Hz) keep > 99.9 % of
@@ -71,28 +81,40 @@ class ExudynModel(CollisionModel):
     the brake moment above).
     Steer: the knuckles are built at the Ackermann angles of vehicle_build.steer_angles (constant).
 
-    Contact: each step, before exudyn integrates it, the chassis poses are read and the multibody model's
-    numba `contact.contacts` (superellipsoid chassis, horizontal gap search, normal_force_chi with the scene's
-    force_law and restitution, the scene's friction law and impact friction) gives the force and moment on
-    each chassis; they are written into a global force and torque load on the chassis and held over the step
-    (an explicit, first-order coupling; equal and opposite, so linear momentum is exchanged exactly).
+    Contact: the multibody model's numba `contact.contacts` (superellipsoid chassis, horizontal gap search,
+    normal_force_chi with the scene's force_law and restitution, the scene's friction law and impact friction) and
+    the chassis-road contact of road.py (each chassis's lowest point against the plane z = 0, Hunt-Crossley with
+    a stiffness that carries the vehicle's weight at 2 mm) give the force and moment on each chassis; they are
+    written into a global force and torque load on the chassis. exudyn's generalized-alpha satisfies the
+    equations of motion at the step end, so the load must be the contact force of the step-end state: the
+    pre-step function sets a predictor (the loads at the step start, extrapolated), the post-Newton function
+    (exudyn's PostNewtonUserFunction, its discontinuous iteration, Flores & Ambrosio 2010) evaluates the
+    contacts at the converged step end and repeats the step with those loads until they settle (an implicit
+    contact force by fixed-point iteration; 1-2 extra passes in a contact step). Held at the step start, as
+    before issue 10, the load lagged the penetration by one step and made energy in proportion to the step
+    (elastic wall at 50 km/h: restitution 1.05; 200 km/h head-on +7.5 % kinetic energy). Equal and opposite
+    loads: linear momentum is exchanged exactly.
     """
 
     name = "exudyn"
 
     def __init__(self, step=1e-3, spectral_radius=0.8, friction_zone=0.2, record_dt=0.01, v_rest=0.01,
-                 w_rest=0.01, t_sleep=0.2, contact_stiffness=1.35e6, contact_exponent=1.5, v_min=1e-3):
+                 w_rest=0.01, t_sleep=0.2, contact_stiffness=1.35e6, contact_exponent=1.5, v_min=1e-3,
+                 min_step=1e-6, onset_tolerance=1e-3, load_tolerance=1e-3):
         vals = dict(step=step, spectral_radius=spectral_radius, friction_zone=friction_zone, record_dt=record_dt,
                     v_rest=v_rest, w_rest=w_rest, t_sleep=t_sleep, contact_stiffness=contact_stiffness,
-                    contact_exponent=contact_exponent, v_min=v_min)
+                    contact_exponent=contact_exponent, v_min=v_min, min_step=min_step,
+                    onset_tolerance=onset_tolerance, load_tolerance=load_tolerance)
         for k, v in vals.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise TypeError(f"exudyn model: option {k} must be a number, got {type(v).__name__}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise TypeError(f"exudyn model: option {k} must be a finite number, got {v!r}")
         if not (0 < step <= 0.01 and 0 <= spectral_radius <= 1 and friction_zone > 0 and record_dt >= 0
                 and v_rest > 0 and w_rest > 0 and t_sleep >= 0 and contact_stiffness > 0
-                and contact_exponent >= 1 and v_min > 0):
+                and contact_exponent >= 1 and v_min > 0 and 0 < min_step <= step and onset_tolerance > 0
+                and 0 < load_tolerance < 1):
             raise ValueError("exudyn model: invalid option value (need 0 < step <= 0.01, 0 <= spectral_radius <= 1, "
-                             "friction_zone, v_rest, w_rest, contact_stiffness, v_min > 0, contact_exponent >= 1)")
+                             "friction_zone, v_rest, w_rest, contact_stiffness, v_min, onset_tolerance > 0, "
+                             "contact_exponent >= 1, 0 < min_step <= step, 0 < load_tolerance < 1)")
         self.opts = {k: float(v) for k, v in vals.items()}
 
     def get_options(self):
@@ -144,13 +166,17 @@ class _Run:
         # contact arrays, exactly as the multibody model prepares them
         imp = scene.impact
         self.cchi, self.mu_c, self.fcode = chi(imp.force_law, imp.restitution), imp.friction, _fcode(imp.friction_law)
-        CSH = np.array([v.chassis_shape for v in self.vehs])
+        self.CSH = CSH = np.array([v.chassis_shape for v in self.vehs])
         Kv, n = opts["contact_stiffness"], opts["contact_exponent"]
         pairs = [(i, j, (Kv ** (-1 / n) + Kv ** (-1 / n)) ** (-n)) for i in range(nv) for j in range(i + 1, nv)]
         pairs += [(i, nv + k, Kv) for i in range(nv) for k in range(len(scene.barriers))]
         self.PP = np.array(pairs, dtype=float).reshape(-1, C.N_PP)
         BAR = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
         self.CT = _contact_arrays(CSH, self.PP, BAR, nv)
+        # chassis-road contact (road.py): stiffness from each vehicle's total mass
+        self.KR = R.stiffness([veh.mass for veh in self.vehs], R.N_ROAD)
+        self.road_chi = R.road_chi()
+        self.RSG = np.zeros((nv, R.N_RSG))
         self.Y = np.zeros((nv, 13))        # chassis state in the multibody layout: r, p, r_dot, w' (nq = 7)
         self.lock_pending = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles])
         mbs.Assemble()
@@ -187,11 +213,10 @@ class _Run:
             d = h - self.head[v]
             self.head[v] += math.atan2(math.sin(d), math.cos(d))
 
-    # ------------------------------------------------------------------ one step (pre-step user function)
-    def prestep(self, mbs, t):
-        h = self.o["step"]
-        s = t - h                                   # the state exudyn holds now is the one at the step start
-        self.nsteps += 1
+    def _contact_loads(self):
+        """Read the chassis states exudyn holds now and evaluate every contact there: returns (FX (nv, 7):
+        global force, moment about the chassis CG, power per chassis; the pairs' outputs psg; the road outputs
+        RSG), all copies."""
         for v in range(self.nv):
             r, A, vel, om = self._chassis(v)
             self.chassisA[v] = A
@@ -200,22 +225,91 @@ class _Run:
             y[3:7] = from_matrix(A)
             y[7:10] = vel
             y[10:13] = A.T @ om
-        self._update_headings()
         CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = self.CT
         psg = PSG[0]
         if PP.shape[0]:
             C.contacts(self.Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, self.o["contact_exponent"],
                        self.cchi, self.mu_c, self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, self.o["v_min"])
+        else:
+            FX[:, :] = 0.0
+        R.road_contacts(self.Y, 7, self.CSH, self.KR, R.N_ROAD, self.road_chi, self.scene.road.friction,
+                        self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
+        return FX.copy(), psg.copy(), self.RSG.copy()
+
+    def _apply(self, L):
+        mbs = self.mbs
         for v in range(self.nv):
             it = self.items[v]
-            mbs.SetLoadParameter(it["force"], "loadVector", FX[v, 0:3].tolist())
-            mbs.SetLoadParameter(it["torque"], "loadVector", FX[v, 3:6].tolist())
-        self._wheel_torques(mbs)
-        self._episodes(s, h)
-        if s >= self.t_rec - 1e-12:
-            self._record(s)
-            self.t_rec = s + self.o["record_dt"]
-        return self._awake(s)
+            mbs.SetLoadParameter(it["force"], "loadVector", L[v, 0:3].tolist())
+            mbs.SetLoadParameter(it["torque"], "loadVector", L[v, 3:6].tolist())
+        self.L = L
+
+    # ------------------------------------------------------------------ one step: pre-step and post-Newton
+    def prestep(self, mbs, t):
+        """Start of an attempt of the step [s, t] (the state exudyn holds now is the one at s). A new s means the
+        previous step was accepted: its contact bookkeeping is done here, with the loads at this state as its
+        end values. The contact loads start at their value at s (the predictor of the step's iteration)."""
+        s = mbs.systemData.GetTime(self.exu.ConfigurationType.StartOfStep)
+        self.iter = 0
+        if s != self.s_cur:
+            F, psg, rsg = self._contact_loads()
+            self._update_headings()
+            if self.s_cur is not None:
+                self._accept(self.s_cur, s, F, psg, rsg)
+            # slope of the loads over the last step: the predictor extrapolates it (at most one last step on)
+            self.dF, self.h_last = ((F - self.F0) / (s - self.s_cur), s - self.s_cur) if self.s_cur is not None \
+                else (np.zeros_like(F), 0.0)
+            self.s_cur, self.F0, self.psg0, self.rsg0 = s, F, psg, rsg
+            self._wheel_torques(mbs)
+            if s >= self.t_rec - 1e-12:
+                self._record(s)
+                self.t_rec = s + self.o["record_dt"]
+            self.awake = self._awake(s)
+        self._apply((self.F0 + self.dF * min(t - s, self.h_last))[:, :6])
+        return self.awake
+
+    def postnewton(self, mbs, t):
+        """After exudyn's Newton converged for [s, t]: the contact loads at t. The step is repeated with the
+        trapezoidal load (F(s) + F(t)) / 2 until it changes by less than load_tolerance; it is repeated with a
+        shorter step (exudyn's adaptive step) when a contact opens deeper than onset_tolerance or the load
+        iteration does not settle in MAX_LOAD_ITER passes. Returns [error, recommended step] (exudyn's
+        PostNewtonUserFunction; error > its discontinuous iterationTolerance repeats the step)."""
+        o = self.o
+        h = t - self.s_cur
+        F1, psg1, rsg1 = self._contact_loads()
+        can_shorten = h > 1.5 * o["min_step"]
+        if can_shorten:
+            d = self._onset_depth(psg1, rsg1)
+            if d > o["onset_tolerance"]:
+                self.n_shortened += 1
+                return [BIG_ERROR, h * max(0.1, min(0.5, o["onset_tolerance"] / d))]
+        L = F1[:, :6]
+        # converged when the forces settle; the moments are not tested: on parallel flat faces the contact
+        # point (a support point of the superellipsoid) moves across the face with the last digits of the
+        # contact normal, so the moment changes from pass to pass without a trend
+        err = float(np.abs(L[:, :3] - self.L[:, :3]).max()) if L.size else 0.0
+        if err <= o["load_tolerance"] * max(float(np.abs(L[:, :3]).max()), 1.0) + LOAD_ABS_TOL:
+            self.F1, self.psg1, self.rsg1 = F1, psg1, rsg1
+            return [0.0, -1.0]
+        self.iter += 1
+        if self.iter >= MAX_LOAD_ITER and can_shorten:
+            self.n_shortened += 1
+            return [BIG_ERROR, 0.5 * h]
+        self.n_load_iter += 1
+        self._apply(L)
+        return [max(err, BIG_ERROR), -1.0]
+
+    def _onset_depth(self, psg1, rsg1):
+        """Deepest penetration of a contact not yet open (pairs, road)."""
+        PST = self.CT[5]
+        d = 0.0
+        for p in range(PST.shape[0]):
+            if PST[p, C.S_ACT] == 0.0:
+                d = max(d, psg1[p, C.G_DEL])
+        for v in range(self.nv):
+            if not self.road_on[v]:
+                d = max(d, rsg1[v, R.R_DEL])
+        return d
 
     def _wheel_torques(self, mbs):
         """Rolling resistance f_r F_z R tanh(w / OMEGA_RR) and brake eta mu F_z R tanh(w / OMEGA_BRAKE) against
@@ -239,25 +333,32 @@ class _Run:
             mbs.SetLoadParameter(tw, "loadVector", M.tolist())
             mbs.SetLoadParameter(tk, "loadVector", (-M).tolist())
 
-    def _episodes(self, s, h):
-        """Contact episodes (as multibody.integrator): open at the first penetration (delta_dot0 stored), close
-        at separation; accumulate impulse, work, peak force and penetration of the load held over [s, s+h]."""
+    def _accept(self, s, t, F1, psg1, rsg1):
+        """Bookkeeping of the accepted step [s, t] (as multibody.integrator): episodes open at the first
+        penetration (delta_dot0 stored, onset time interpolated in the step), close at separation; impulse of
+        the applied (trapezoidal) load, work by the trapezoidal rule of the contact power, peak force and
+        penetration at both ends. Road contacts: their intervals only (contact_intervals)."""
+        h = t - s
+        self.nsteps += 1
+        self.h_min_used = min(self.h_min_used, h)
         CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = self.CT
-        psg = PSG[0]
+        psg0 = self.psg0
         for p in range(PP.shape[0]):
             i, j = int(PP[p, C.P_I]), int(PP[p, C.P_J])
-            d = psg[p, C.G_DEL]
-            if PST[p, C.S_ACT] == 0.0 and d > 0.0:
+            d0, d1 = psg0[p, C.G_DEL], psg1[p, C.G_DEL]
+            if PST[p, C.S_ACT] == 0.0:
+                if d1 <= 0.0:
+                    continue
                 PST[p, C.S_ACT] = 1.0
-                PST[p, C.S_DD0] = max(psg[p, C.G_DDOT], self.o["v_min"])
-                PST[p, C.S_T0] = s
+                PST[p, C.S_DD0] = max(psg1[p, C.G_DDOT], self.o["v_min"])
+                PST[p, C.S_T0] = s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0)
                 PST[p, C.S_JX:C.S_WORK + 1] = 0.0
-                self.max_onset = max(self.max_onset, d)
+                self.max_onset = max(self.max_onset, d1)
                 PST[p, C.S_VI:C.S_VI + 3] = [self._pose(i)[q] for q in (6, 7, 8)]
                 if j < self.nv:
                     PST[p, C.S_VJ:C.S_VJ + 3] = [self._pose(j)[q] for q in (6, 7, 8)]
                 if math.isnan(self.contact_time):
-                    self.contact_time = s
+                    self.contact_time = PST[p, C.S_T0]
                     for v in range(self.nv):
                         pv = self._pose(v)
                         self.contact[v] = [pv[0], pv[1], pv[3], math.hypot(pv[6], pv[7])]
@@ -267,20 +368,31 @@ class _Run:
                         lock(self.mbs, self.items[v])
                         self.lock_pending[v] = False
                         self.locked[v] = True
-            elif PST[p, C.S_ACT] > 0.0 and d <= 0.0:
-                self._close(p, s, 0.0)
-            if PST[p, C.S_ACT] > 0.0:
-                PST[p, C.S_JX] += h * psg[p, C.G_FX]
-                PST[p, C.S_JX + 1] += h * psg[p, C.G_FY]
-                PST[p, C.S_JX + 2] += h * psg[p, C.G_FZ]
-                PST[p, C.S_WORK] += h * psg[p, C.G_POW]
-                if psg[p, C.G_FN] > PST[p, C.S_PEAK]:
-                    PST[p, C.S_PEAK] = psg[p, C.G_FN]
-                    PST[p, C.S_PX], PST[p, C.S_PY], PST[p, C.S_PTH] = psg[p, C.G_PX], psg[p, C.G_PY], psg[p, C.G_TH]
-                PST[p, C.S_MAXPEN] = max(PST[p, C.S_MAXPEN], d)
-                self.max_pen = max(self.max_pen, d)
+            PST[p, C.S_JX] += 0.5 * h * (psg0[p, C.G_FX] + psg1[p, C.G_FX])
+            PST[p, C.S_JX + 1] += 0.5 * h * (psg0[p, C.G_FY] + psg1[p, C.G_FY])
+            PST[p, C.S_JX + 2] += 0.5 * h * (psg0[p, C.G_FZ] + psg1[p, C.G_FZ])
+            PST[p, C.S_WORK] += 0.5 * h * (psg0[p, C.G_POW] + psg1[p, C.G_POW])
+            for q in (psg0, psg1):
+                if q[p, C.G_FN] > PST[p, C.S_PEAK]:
+                    PST[p, C.S_PEAK] = q[p, C.G_FN]
+                    PST[p, C.S_PX], PST[p, C.S_PY], PST[p, C.S_PTH] = q[p, C.G_PX], q[p, C.G_PY], q[p, C.G_TH]
+            PST[p, C.S_MAXPEN] = max(PST[p, C.S_MAXPEN], d1)
+            self.max_pen = max(self.max_pen, d1)
+            if d1 <= 0.0:
+                t1 = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 else s
+                self._close(p, t1, 0.0, psg1)
+        for v in range(self.nv):
+            on = rsg1[v, R.R_DEL] > 0.0
+            if on and not self.road_on[v]:
+                d0, d1 = self.rsg0[v, R.R_DEL], rsg1[v, R.R_DEL]
+                self.road_t0[v] = s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0)
+                self.road_contacts += 1
+            elif self.road_on[v] and not on:
+                self.intervals.append((self.road_t0[v], t))
+            self.road_on[v] = on
+            self.road_pen = max(self.road_pen, rsg1[v, R.R_DEL])
 
-    def _close(self, p, s, is_open):
+    def _close(self, p, s, is_open, psg):
         CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = self.CT
         i, j = int(PP[p, C.P_I]), int(PP[p, C.P_J])
         r = np.zeros(C.N_IMP)
@@ -294,16 +406,17 @@ class _Run:
             pj = self._pose(j)
             r[C.I_DVJ:C.I_DVJ + 3] = [pj[6] - PST[p, C.S_VJ], pj[7] - PST[p, C.S_VJ + 1],
                                       pj[8] - PST[p, C.S_VJ + 2]]
-        r[C.I_DD0], r[C.I_DD1], r[C.I_OPEN] = PST[p, C.S_DD0], PSG[0][p, C.G_DDOT], is_open
+        r[C.I_DD0], r[C.I_DD1], r[C.I_OPEN] = PST[p, C.S_DD0], psg[p, C.G_DDOT], is_open
         if len(self.imp) < C.MAX_IMP:
             self.imp.append(r)
+        self.intervals.append((PST[p, C.S_T0], s))
         self.n_episodes += 1
         PST[p, C.S_ACT] = 0.0
         PST[p, C.S_JX:C.S_WORK + 1] = 0.0
 
     def _record(self, s):
         for v in range(self.nv):
-            self.traj[v].append((s,) + tuple(self._pose(v)))
+            self.traj[v].append((s,) + tuple(self._pose(v)) + (self.RSG[v, R.R_ZMIN],))
 
     def _awake(self, s):
         """False (stop after this step) once every chassis has been still for t_sleep and no contact is open."""
@@ -331,9 +444,14 @@ class _Run:
         self.contact = np.full((nv, 4), np.nan)
         self.contact_time = math.nan
         self.traj = [[] for _ in range(nv)]
-        self.imp, self.n_episodes = [], 0
+        self.imp, self.n_episodes, self.intervals = [], 0, []
         self.t_rec, self.t_still, self.nsteps = 0.0, None, 0
-        self.max_onset = self.max_pen = 0.0
+        self.max_onset = self.max_pen = self.road_pen = 0.0
+        self.s_cur, self.awake, self.iter = None, True, 0
+        self.n_load_iter = self.n_shortened = self.road_contacts = 0
+        self.h_min_used = math.inf
+        self.road_on = np.zeros(nv, dtype=bool)
+        self.road_t0 = np.zeros(nv)
         ss = exu.SimulationSettings()
         ti = ss.timeIntegration
         ti.endTime = scene.duration
@@ -346,32 +464,43 @@ class _Run:
         # 9 bodies per car couple only through their joints: the sparse solver halves the run time
         # against exudyn's default dense one (side collision 1.93 -> 1.02 s, identical rest poses)
         ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-        # the step is fixed: no automatic step-size change (the contact load is held over one step of known size)
-        ti.adaptiveStep = False
+        # step: `step` at most; exudyn's adaptive step shortens it when postnewton asks (contact onset, a load
+        # iteration that does not settle) or Newton fails, and doubles it again after ADAPT_RECOVERY steps
+        ti.adaptiveStep = True
+        ti.minimumStepSize = o["min_step"]
+        ti.adaptiveStepRecoverySteps = ADAPT_RECOVERY
+        ti.adaptiveStepRecoveryIterations = 1000
+        ti.discontinuous.useRecommendedStepSize = True
         self.o = dict(o, step=scene.duration / ti.numberOfSteps)
         mbs.SetPreStepUserFunction(self.prestep)
+        mbs.SetPostNewtonUserFunction(self.postnewton)
         warnings, ok = [], True
         import exudyn.solver
         # the pre-step function allocates (numpy) every step by design: exudyn's allocation-count warning
-        # would be printed on every run
+        # would be printed on every run (exudyn 1.13 checks only the threshold, not the flag)
         exudyn.solver.solverCheckMemoryAllocations = False
+        exudyn.solver.solverCheckMemoryAllocationsThreshold = float("inf")
         solved = mbs.SolveDynamic(ss)
         t_end = float(mbs.systemData.GetTime())
         if solved is False:
             ok = False
             warnings.append(f"exudyn's solver stopped at t = {t_end:.4f} s (Newton did not converge)")
-        # final state: close open contacts, last record
-        for v in range(nv):
-            self.chassisA[v] = self._chassis(v)[1]
+        # the last step: its bookkeeping, close open contacts, last record
+        F, psg, rsg = self._contact_loads()
         self._update_headings()
+        if self.s_cur is not None and t_end > self.s_cur:
+            self._accept(self.s_cur, t_end, F, psg, rsg)
         PST = self.CT[5]
         for p in range(self.PP.shape[0]):
             if PST[p, C.S_ACT] > 0.0:
-                self._close(p, t_end, 1.0)
+                self._close(p, t_end, 1.0, psg)
+        for v in range(nv):
+            if self.road_on[v]:
+                self.intervals.append((self.road_t0[v], t_end))
         self._record(t_end)
         rest, final = np.zeros((nv, 3)), np.zeros((nv, 3))
         trajectories = {}
-        keys = ("t", "x", "y", "z", "heading", "roll", "pitch", "vx", "vy", "yaw_rate")
+        keys = ("t", "x", "y", "z", "heading", "roll", "pitch", "vx", "vy", "yaw_rate", "z_min")
         for v, n in enumerate(self.names):
             p = self._pose(v)
             rest[v] = [p[0], p[1], p[3]]
@@ -389,19 +518,23 @@ class _Run:
         if self.n_episodes > C.MAX_IMP:
             warnings.append(f"more than {C.MAX_IMP} contact episodes: only the first {C.MAX_IMP} are reported")
         try:
-            newton = int(mbs.sys["dynamicSolver"].it.newtonStepsCount)
+            it = mbs.sys["dynamicSolver"].it
+            newton, disc = int(it.newtonStepsCount), int(it.discontinuousIterationsCount)
         except Exception:  # the solver's statistics are a convenience; their layout is not a stable API
-            newton = -1
+            newton = disc = -1
         fz = exu.OutputVariableType.ForceLocal
         loads = {n: [float(mbs.GetObjectOutput(d, fz)[2]) for d in self.items[v]["discs"]]
                  for v, n in enumerate(self.names)}
         diagnostics = {"steps": self.nsteps, "wheel_loads_final": loads, "wheel_order": ["FL", "FR", "RL", "RR"],
-                       "step_size": self.o["step"], "newton_iterations": newton,
+                       "step_size": self.o["step"], "min_step_used": self.h_min_used,
+                       "newton_iterations": newton, "discontinuous_iterations": disc,
+                       "load_iterations": self.n_load_iter, "steps_shortened": self.n_shortened,
                        "t_end": t_end, "contact_episodes": self.n_episodes,
+                       "road_contacts": self.road_contacts, "max_road_penetration": self.road_pen,
                        "max_onset_penetration": self.max_onset, "max_penetration": self.max_pen,
                        "vehicle_notes": {n: self.vehs[v].notes for v, n in enumerate(self.names)},
-                       "solver": "exudyn generalized-alpha (index 3), fixed step"}
+                       "solver": "exudyn generalized-alpha (index 3), adaptive step, trapezoidal contact loads"}
         wall = time.perf_counter() - t0
         diagnostics["wall_time_s"] = wall
         return Outcome(self.names, rest, final, self.contact, self.contact_time, trajectories, rows, diagnostics,
-                       warnings, ok, "exudyn", wall)
+                       warnings, ok, "exudyn", wall, contact_intervals=sorted(self.intervals))
