@@ -62,9 +62,13 @@ class ImpactFile(_Strict):
     plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")
 
 
+Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\x7f]+$",
+                            description="1-64 characters, no control characters (it labels tables and plots)")]
+
+
 class VehicleEntryFile(_Strict):
-    name: str
-    vehicle: str
+    name: Name
+    vehicle: str = Field(min_length=1, description="a library name (crashlab models) or a .toml path")
     x: Position = 0.0
     y: Position = 0.0
     heading: Angle = 0.0

@@ -252,6 +252,8 @@ def pydantic_error(file, err: ValidationError, prefix: str = "") -> InputError:
         msg = "unknown key"
     elif first["type"] == "missing":
         msg = "missing key"
+    elif first["type"] == "string_pattern_mismatch":
+        msg = "no control characters (line breaks, tabs) allowed"
     elif first["type"].endswith("_type") or first["type"] in ("finite_number", "bool_parsing"):
         msg += f", got {_shown(first.get('input'))}"
     return InputError(file, prefix + key, msg)

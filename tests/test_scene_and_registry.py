@@ -210,3 +210,11 @@ def test_bounds_are_documented():
         for name, field in model.model_fields.items():
             if any(hasattr(m, a) for m in field.metadata for a in ("gt", "ge", "lt", "le")):
                 assert field.description, f"{model.__name__}.{name}"
+
+
+@pytest.mark.parametrize("name, problem", [("", "at least 1 character"), ("V\n1", "no control characters"),
+                                           ("x" * 65, "at most 64")])
+def test_vehicle_names_label_tables(make_scene, name, problem):
+    with pytest.raises(crashlab.InputError, match=problem) as err:
+        make_scene([{"name": name}])
+    assert err.value.key == "vehicles.0.name" and "\n" not in str(err.value)
