@@ -13,14 +13,13 @@ import numpy as np
 
 from crashlab.model import CollisionModel
 from crashlab.models.multibody import contact as C
+from crashlab.models.multibody import road_contact as R
 from crashlab.models.multibody.contact_force import _fcode, chi
 from crashlab.models.multibody.euler_parameters import from_matrix
 from crashlab.models.multibody.model import FRICTION_V0, FRICTION_V1, FRICTION_VS, _contact_arrays, impact_rows
 from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T_R2
 from crashlab.models.multibody.vehicle_build import NW, build
 from crashlab.outcome import Outcome
-
-from . import road as R
 
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
 LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
@@ -83,8 +82,9 @@ class ExudynModel(CollisionModel):
 
     Contact: the multibody model's numba `contact.contacts` (superellipsoid chassis, horizontal gap search,
     normal_force_chi with the scene's force_law and restitution, the scene's friction law and impact friction) and
-    the chassis-road contact of road.py (each chassis's lowest point against the plane z = 0, Hunt-Crossley with
-    a stiffness that carries the vehicle's weight at 2 mm) give the force and moment on each chassis; they are
+    the multibody model's chassis-road contact (multibody.road_contact: each chassis's lowest point against the
+    plane z = 0, Hunt-Crossley, a stiffness that carries the vehicle's weight at 5 mm, road friction and a patch
+    moment) give the force and moment on each chassis; they are
     written into a global force and torque load on the chassis. exudyn's generalized-alpha satisfies the
     equations of motion at the step end, so the load must be the contact force of the step-end state: the
     pre-step function sets a predictor (the loads at the step start, extrapolated), the post-Newton function
@@ -173,9 +173,11 @@ class _Run:
         self.PP = np.array(pairs, dtype=float).reshape(-1, C.N_PP)
         BAR = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
         self.CT = _contact_arrays(CSH, self.PP, BAR, nv)
-        # chassis-road contact (road.py): stiffness from each vehicle's total mass
+        # chassis-road contact (multibody.road_contact, the multibody model's): stiffness from each vehicle's
+        # total mass, regularised Coulomb friction as the multibody model
         self.KR = R.stiffness([veh.mass for veh in self.vehs], R.N_ROAD)
         self.road_chi = R.road_chi()
+        self.road_fcode = _fcode("coulomb")
         self.RSG = np.zeros((nv, R.N_RSG))
         self.Y = np.zeros((nv, 13))        # chassis state in the multibody layout: r, p, r_dot, w' (nq = 7)
         self.lock_pending = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles])
@@ -233,7 +235,7 @@ class _Run:
         else:
             FX[:, :] = 0.0
         R.road_contacts(self.Y, 7, self.CSH, self.KR, R.N_ROAD, self.road_chi, self.scene.road.friction,
-                        self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
+                        self.road_fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
         return FX.copy(), psg.copy(), self.RSG.copy()
 
     def _apply(self, L):
