@@ -294,9 +294,11 @@ class _Run:
             self.F1, self.psg1, self.rsg1 = F1, psg1, rsg1
             return [0.0, -1.0]
         self.iter += 1
-        if self.iter >= MAX_LOAD_ITER and can_shorten:
-            self.n_shortened += 1
-            return [BIG_ERROR, 0.5 * h]
+        if self.iter >= MAX_LOAD_ITER:
+            if can_shorten:
+                self.n_shortened += 1
+                return [BIG_ERROR, 0.5 * h]
+            self.n_unsettled += 1      # at min_step: exudyn accepts the step after its last iteration
         self.n_load_iter += 1
         self._apply(L)
         return [max(err, BIG_ERROR), -1.0]
@@ -450,7 +452,7 @@ class _Run:
         self.t_rec, self.t_still, self.nsteps = 0.0, None, 0
         self.max_onset = self.max_pen = self.road_pen = 0.0
         self.s_cur, self.awake, self.iter = None, True, 0
-        self.n_load_iter = self.n_shortened = self.road_contacts = 0
+        self.n_load_iter = self.n_shortened = self.road_contacts = self.n_unsettled = 0
         self.h_min_used = math.inf
         self.road_on = np.zeros(nv, dtype=bool)
         self.road_t0 = np.zeros(nv)
@@ -517,6 +519,10 @@ class _Run:
         rows = impact_rows(self.names, mass, np.array(self.imp).reshape(-1, C.N_IMP), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
+        if self.n_unsettled:
+            ok = False
+            warnings.append(f"the contact loads did not settle at the shortest step ({o['min_step']:g} s) in "
+                            f"{self.n_unsettled} step(s)")
         if self.n_episodes > C.MAX_IMP:
             warnings.append(f"more than {C.MAX_IMP} contact episodes: only the first {C.MAX_IMP} are reported")
         try:
