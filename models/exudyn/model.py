@@ -193,7 +193,7 @@ class _Run:
         return np.asarray(r), A, np.asarray(vel), np.asarray(om)
 
     def _pose(self, v):
-        """(x, y, z, heading (continuous), roll, pitch, vx, vy, yaw_rate): vehicle CG of all nine bodies,
+        """(x, y, z, heading (continuous), roll, pitch, vx, vy, yaw_rate, vz): vehicle CG of all nine bodies,
         chassis angles (ZYX), CG velocity, chassis yaw rate (as multibody.integrator.pose)."""
         out = self.exu.OutputVariableType
         it = self.items[v]
@@ -206,7 +206,7 @@ class _Run:
         r, A, vel, om = self._chassis(v)
         pitch = math.asin(max(-1.0, min(1.0, -A[2, 0])))
         roll = math.atan2(A[2, 1], A[2, 2])
-        return (c[0], c[1], c[2], self.head[v], roll, pitch, c[3], c[4], om[2])
+        return (c[0], c[1], c[2], self.head[v], roll, pitch, c[3], c[4], om[2], c[5])
 
     def _update_headings(self):
         for v in range(self.nv):
@@ -504,7 +504,7 @@ class _Run:
         self._record(t_end)
         rest, final = np.zeros((nv, 3)), np.zeros((nv, 3))
         trajectories = {}
-        keys = ("t", "x", "y", "z", "heading", "roll", "pitch", "vx", "vy", "yaw_rate", "z_min")
+        keys = ("t", "x", "y", "z", "heading", "roll", "pitch", "vx", "vy", "yaw_rate", "vz", "z_min")
         for v, n in enumerate(self.names):
             p = self._pose(v)
             rest[v] = [p[0], p[1], p[3]]
