@@ -29,7 +29,9 @@ B_MASS, B_IXX, B_IYY, B_IZZ = 0, 1, 2, 3
 # vehicle contact (contact.py): exponent n, hysteresis chi, vehicle/vehicle friction mu and law code,
 # friction tolerances v0, v1, v_s, smallest onset approach velocity
 (C_NEXP, C_CHI, C_MU_C, C_FCODE, C_FV0, C_FV1, C_FVS, C_VMIN) = range(17, 25)
-N_CFG = 25
+# chassis-road contact (road_contact.py): hysteresis chi and exponent n of the road law
+(C_ROAD_CHI, C_ROAD_N) = range(25, 27)
+N_CFG = 27
 # aux outputs of one evaluation (per vehicle)
 AUX_FZ, AUX_DRIFT_POS, AUX_DRIFT_ANG = 0, 4, 5
 N_AUX = 6

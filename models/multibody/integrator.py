@@ -67,16 +67,20 @@ from .equations import (
     B_MASS,
     C_ATOL,
     C_CHI,
+    C_G,
     C_FCODE,
     C_FV0,
     C_FV1,
     C_FVS,
     C_H0,
     C_HMAX,
+    C_MU,
     C_MU_C,
     C_NEXP,
     C_ONSET_TOL,
     C_REC_DT,
+    C_ROAD_CHI,
+    C_ROAD_N,
     C_RTOL,
     C_STOP_AT_REST,
     C_T_SLEEP,
@@ -86,10 +90,12 @@ from .equations import (
     C_W_REST,
     MAX_ROWS,
     N_AUX,
+    energy,
     rhs,
 )
 from .euler_parameters import rotation_into
 from .joints import J_I, J_J, J_TYPE, J_XI, J_XJ, REVOLUTE, REVOLUTE_LOCKED
+from .road_contact import R_DEL, R_ZMIN, road_contacts
 
 # Dormand-Prince 5(4) tableau
 _C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
@@ -107,10 +113,12 @@ STATUS_OK, STATUS_CONTACT, STATUS_NAN, STATUS_STEP = 0, 1, 2, 3
 (D_STEPS, D_REJECTED, D_NFEV, D_T_END, D_STATUS, D_CONTACT_T, D_PAIR_I, D_PAIR_J, D_MAX_DRIFT_POS,
  D_MAX_DRIFT_ANG, D_MAX_NORM_ERR, D_NREC, D_H_MIN, D_H_MAX, D_NIMP, D_MAX_ONSET, D_ONSET_BISECT) = range(17)
 N_DIAG = 17
-# trajectory record columns
+# trajectory record columns: ..., wheel loads (4), lowest point of the chassis above the road, and 1 if the
+# chassis touched the road during any step since the previous record
 (R_T, R_X, R_Y, R_Z, R_HEAD, R_ROLL, R_PITCH, R_VX, R_VY, R_YAW_RATE) = range(10)
 R_FZ = 10
-N_REC = 14
+R_ZMIN_REC, R_ROAD, R_EMECH = 14, 15, 16      # ..., mechanical energy (equations.energy) [J]
+N_REC = 17
 
 
 class Work:
@@ -126,14 +134,18 @@ def make_work(nv, nb):
 
 
 @njit(cache=True)
-def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
+def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
     A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam = wk
     CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
+    KR, RSG = RD
     if PP.shape[0] > 0:
         contacts(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, cfg[C_NEXP], cfg[C_CHI],
                  cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN])
     else:
         FX[:, :] = 0.0
+    # chassis-road contact (regularised Coulomb with the road's friction)
+    road_contacts(Y, 7 * BODY.shape[1], CSH, KR, cfg[C_ROAD_N], cfg[C_ROAD_CHI], cfg[C_MU], 0, cfg[C_FV0],
+                  cfg[C_FV1], cfg[C_FVS], FX, RSG[s])
     for v in range(Y.shape[0]):
         if awake[v]:
             rhs(Y[v], K[s, v], BODY[v], JNT[v], SPR[v], TYR[v], cfg, A[v], R[v], V[v], W[v], Q[v], D[v],
@@ -143,7 +155,7 @@ def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
 
 
 @njit(cache=True)
-def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
+def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
     """One Dormand-Prince step from Y (K[0] = f(Y) given); fills Ynew and K[1..6] (K[6] = f(Ynew))."""
     nv, ny = Y.shape
     for s in range(1, 7):
@@ -160,7 +172,7 @@ def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT):
             for v in range(nv):
                 if not awake[v]:
                     Ynew[v] = Y[v]
-        eval_all(Ytmp, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+        eval_all(Ytmp, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
 
 
 @njit(cache=True)
@@ -234,10 +246,16 @@ def _headings(Y, BODY, hprev, out):
 
 
 @njit(cache=True)
-def _record(traj, n, t, Y, BODY, head, aux):
+def _record(traj, n, t, Y, BODY, head, aux, RSG0, road, SPR, TYR, g):
     if n >= traj.shape[0]:
         return n
+    nb = BODY.shape[1]
+    Ae, Re, Ve, We = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3))
     for v in range(Y.shape[0]):
+        traj[n, v, R_EMECH] = energy(Y[v], BODY[v], SPR[v], TYR[v], g, Ae, Re, Ve, We)
+        traj[n, v, R_ZMIN_REC] = RSG0[v, R_ZMIN]
+        traj[n, v, R_ROAD] = road[v]
+        road[v] = 0.0
         p = pose(Y[v], BODY[v], BODY.shape[1])
         traj[n, v, R_T] = t
         traj[n, v, R_X], traj[n, v, R_Y], traj[n, v, R_Z] = p[0], p[1], p[2]
@@ -319,14 +337,17 @@ def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
 
 @njit(cache=True)
 def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events,
-             IMP, CONT):
+             IMP, CONT, RD):
     """Integrate all vehicles from Y (modified in place) until rest or t_end, with vehicle contact
     (contact.py): first-contact control (no step ends with a new contact deeper than onset_tol),
-    per-pair contact episodes recorded in IMP, state at first contact in CONT."""
+    per-pair contact episodes recorded in IMP, state at first contact in CONT; chassis-road contact
+    (road_contact.py, RD = (KR, RSG[7, nv, N_RSG]))."""
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
     CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
+    RSG = RD[1]
+    road = np.zeros(nv)
     npair = PP.shape[0]
     wk = make_work(nv, nb)
     K = np.zeros((7, nv, ny))
@@ -343,17 +364,17 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
     diag[D_H_MIN] = 1e300
     diag[D_MAX_NORM_ERR] = normalise(Y, nb)
     _headings(Y, BODY, head, head)
-    eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+    eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
     fz_start[:, :] = aux[:, AUX_FZ:AUX_FZ + 4]
     nfev = 1
-    nrec = _record(traj, 0, 0.0, Y, BODY, head, aux)
+    nrec = _record(traj, 0, 0.0, Y, BODY, head, aux, RSG[0], road, SPR, TYR, cfg[C_G])
     t_rec = rec_dt
     t, h = 0.0, cfg[C_H0]
     status = STATUS_OK
     bw = _A[6]
     while t < t_end * (1 - 1e-12):
         h = min(h, hmax, t_end - t)
-        dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+        dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
         nfev += 6
         err = error_norm(Y, Ynew, K, h, awake, nq, nvq, nslip, rtol, atol)
         if not (err == err):
@@ -376,7 +397,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
             found = False
             for _ in range(60):
                 mid = 0.5 * (lo + hi)
-                dp_step(Y, mid, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+                dp_step(Y, mid, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
                 nfev += 6
                 dm = _new_penetration(PST, PSG[6])
                 if dm > tol:
@@ -391,7 +412,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                     break
             if not found:
                 h = hi
-                dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+                dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
                 nfev += 6
             diag[D_ONSET_BISECT] += 1
         # accepted
@@ -469,8 +490,14 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
         for p in range(npair):
             for k in range(PSG.shape[2]):
                 PSG[0, p, k] = PSG[6, p, k]
+        for v in range(nv):
+            for s in range(7):
+                if RSG[s, v, R_DEL] > 0.0:
+                    road[v] = 1.0
+            for k in range(RSG.shape[2]):
+                RSG[0, v, k] = RSG[6, v, k]
         if need_k0:
-            eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT)
+            eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
             nfev += 1
         # rest: a vehicle still for t_sleep goes to sleep (not while it is in contact)
         for v in range(nv):
@@ -488,7 +515,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                 Y[v, nq:nvq] = 0.0
                 K[0, v, :] = 0.0
         if t >= t_rec - 1e-12:
-            nrec = _record(traj, nrec, t, Y, BODY, head, aux)
+            nrec = _record(traj, nrec, t, Y, BODY, head, aux, RSG[0], road, SPR, TYR, cfg[C_G])
             t_rec = t + rec_dt
         if cfg[C_STOP_AT_REST] > 0 and not awake.any():
             break
@@ -500,7 +527,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
         if awake[v]:
             fz_end[v, :] = aux[v, AUX_FZ:AUX_FZ + 4]
     if traj.shape[0] > 0 and (nrec == 0 or traj[nrec - 1, 0, R_T] < t):
-        nrec = _record(traj, nrec, t, Y, BODY, head, aux)
+        nrec = _record(traj, nrec, t, Y, BODY, head, aux, RSG[0], road, SPR, TYR, cfg[C_G])
     diag[D_T_END] = t
     diag[D_STATUS] = status
     diag[D_NFEV] = nfev

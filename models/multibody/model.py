@@ -14,6 +14,7 @@ from crashlab.outcome import Outcome
 from . import contact as C
 from . import equations as E
 from . import integrator as I
+from . import road_contact as RC
 from .contact_force import _fcode, chi
 from .euler_parameters import from_matrix
 from .tyre import LOCKED, MODES, T_R1, T_R2, deflection
@@ -87,6 +88,7 @@ class MultibodyModel(CollisionModel):
         cfg[E.C_REC_DT], cfg[E.C_ONSET_TOL] = o["record_dt"], o["onset_tol"]
         cfg[E.C_NEXP], cfg[E.C_VMIN] = o["contact_exponent"], o["v_min"]
         cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS] = FRICTION_V0, FRICTION_V1, FRICTION_VS
+        cfg[E.C_ROAD_CHI], cfg[E.C_ROAD_N] = RC.road_chi(), RC.N_ROAD
         return cfg
 
     def settled(self, veh):
@@ -95,16 +97,18 @@ class MultibodyModel(CollisionModel):
         if key not in self._settled:
             modes = [LOCKED] * NW
             cfg = self._cfg(0.8, self.opts["settle_time"], False)
+            cfg[E.C_T_SLEEP] = 2.0 * self.opts["settle_time"]    # never frozen while still creeping
             cfg[E.C_DAMPING] = 1.0
             cfg[E.C_FRICTION] = 1.0
             Y = initial_local(veh)[None, :].copy()
             nslip = 2 * NW
             diag = np.zeros(I.N_DIAG)
             I.simulate(Y, veh.BODY[None], joints(veh, modes, np.zeros(NW))[None], veh.SPR[None],
-                       tyres_for(veh, modes)[None], _contact_arrays(np.zeros((1, 7)), np.zeros((0, C.N_PP)),
+                       tyres_for(veh, modes)[None], _contact_arrays(veh.chassis_shape[None], np.zeros((0, C.N_PP)),
                                                                     np.zeros((0, 5)), 1),
                        np.zeros(1, np.bool_), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
-                       np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, C.N_IMP)), np.zeros((1, 4)))
+                       np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, C.N_IMP)), np.zeros((1, 4)),
+                       _road_arrays(veh.chassis_shape[None], [veh.mass]))
             y = Y[0]
             nq, nvq, _ = E.sizes(NB, NW)
             y[nq:] = 0.0
@@ -206,7 +210,7 @@ class MultibodyModel(CollisionModel):
         IMP = np.zeros((C.MAX_IMP, C.N_IMP))
         CONT = np.full((nv, 4), np.nan)
         I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["LOCK"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
-                   CONT)
+                   CONT, _road_arrays(prep["CSH"], [v.mass for v in vehs]))
         nr = int(diag[I.D_NREC])
         status = int(diag[I.D_STATUS])
         warnings, ok = [], True
@@ -228,7 +232,8 @@ class MultibodyModel(CollisionModel):
                                "heading": tr[:, I.R_HEAD].copy(), "vx": tr[:, I.R_VX].copy(),
                                "vy": tr[:, I.R_VY].copy(), "yaw_rate": tr[:, I.R_YAW_RATE].copy(),
                                "z": tr[:, I.R_Z].copy(), "roll": tr[:, I.R_ROLL].copy(),
-                               "pitch": tr[:, I.R_PITCH].copy(), "wheel_loads": tr[:, I.R_FZ:I.R_FZ + 4].copy()}
+                               "pitch": tr[:, I.R_PITCH].copy(), "wheel_loads": tr[:, I.R_FZ:I.R_FZ + 4].copy(),
+                               "z_min": tr[:, I.R_ZMIN_REC].copy(), "energy": tr[:, I.R_EMECH].copy()}
             e_end.append(self._energy(Y[v], BODY[v], SPR[v], TYR[v]))
             w_nc.append(float(Y[v, ny - 1]))
         balance = [(e_end[v] - e_start[v] - w_nc[v]) / max(abs(e_start[v]), 1.0) for v in range(nv)]
@@ -257,13 +262,42 @@ class MultibodyModel(CollisionModel):
         rows = impact_rows(names, BODY[:, :, 0].sum(1), IMP[:int(diag[I.D_NIMP])].copy(), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
+        imp = IMP[:int(diag[I.D_NIMP])]
+        intervals = contact_intervals(imp[:, C.I_T0], imp[:, C.I_T1], traj[:nr, :, I.R_T],
+                                      traj[:nr, :, I.R_ROAD])
+        diagnostics["road_contact_time"] = {n: float(np.sum(np.diff(traj[:nr, v, I.R_T])
+                                                            * (traj[1:nr, v, I.R_ROAD] > 0)))
+                                            for v, n in enumerate(names)}
         return Outcome(names, rest, final, contact, float(diag[I.D_CONTACT_T]), trajectories, rows, diagnostics,
-                       warnings, ok, self.name, time.perf_counter() - t0)
+                       warnings, ok, self.name, time.perf_counter() - t0, contact_intervals=intervals)
 
     def _energy(self, y, BODY, SPR, TYR):
         A = np.zeros((NB, 3, 3))
         R, V, W = np.zeros((NB, 3)), np.zeros((NB, 3)), np.zeros((NB, 3))
         return float(E.energy(y, BODY, SPR, TYR, G, A, R, V, W))
+
+
+def _road_arrays(CSH, masses):
+    """The chassis-road tuple of the integrator: stiffness per vehicle, stage outputs RSG[7, nv, N_RSG]."""
+    return (RC.stiffness(masses), np.zeros((7, len(masses), RC.N_RSG)))
+
+
+def contact_intervals(t0, t1, t_rec, road):
+    """Merged (t_start, t_end) [s] of every contact: the chassis-chassis / chassis-barrier episodes (t0, t1)
+    and the chassis-road contact (road[k, v] = 1: vehicle v touched the road between records k-1 and k)."""
+    iv = [(float(a), float(b)) for a, b in zip(t0, t1)]
+    for v in range(road.shape[1]):
+        for k in range(road.shape[0]):
+            if road[k, v] > 0:
+                iv.append((float(t_rec[k - 1, v]) if k > 0 else 0.0, float(t_rec[k, v])))
+    iv.sort()
+    out = []
+    for a, b in iv:
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
 
 
 def _contact_arrays(CSH, PP, BAR, nv):

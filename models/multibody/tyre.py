@@ -11,8 +11,13 @@ whose steady states are exactly the UA definitions in braking (V_sx/V_x, V_y/V_x
 (V_sx/V_c, (1-S) tan(alpha) = V_y/V_c) (§6.2). With V_ref in the relaxation rate instead of a divisor there
 is no singularity at standstill (§6 pitfall 2): there the states are tread deflections (springs K/sigma).
 
-Forces (§6.4, comprehensive slip, brush form): X = K_s s, Y = K_a a_eq (a_eq = a + (K_g/K_a) sin(gamma),
-camber as an equivalent slip), S_c = |(X, Y)|, l_n = max(0, 1 - S_c/(3 mu F_z)),
+Camber: an equivalent lateral slip in the same state, fed by the rolling speed,
+    sigma_a da/dt = V_y + (K_g/K_a) sin(gamma) |V_c| - V_ref a,
+so a free-rolling wheel's steady state is tan(alpha) + (K_g/K_a) sin(gamma) (the usual equivalent slip) and a
+wheel at standstill or locked gets no camber thrust (before issue 10 the camber slip was added statically:
+a tilted car at rest was pushed sideways by mu F_z and accelerated without any contact).
+Forces (§6.4, comprehensive slip, brush form): X = K_s s, Y = K_a a_eq (a_eq = a, camber included),
+S_c = |(X, Y)|, l_n = max(0, 1 - S_c/(3 mu F_z)),
     F = (X, Y) l_n^2 + mu F_z e_slide (1 - 3 l_n^2 + 2 l_n^3),  e_slide = (s, a_eq)/|(s, a_eq)|
 i.e. the adhesion part follows the stiffness-weighted slip and the sliding part the sliding-velocity
 direction (for a locked wheel F = mu F_z against the sliding velocity). The law is C1 across the
@@ -75,7 +80,10 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
     vsx = vx - vc
     vref = math.sqrt(max(vx * vx, vc * vc) + V_EPS * V_EPS)
     ds = (vsx - vref * s) / Tw[T_SIG_S]
-    da = (vy - vref * a) / Tw[T_SIG_A]
+    # camber thrust as an equivalent lateral slip fed by the rolling speed |V_c| (the tread is carried
+    # through the tilted contact patch only while the wheel rolls): steady state a = tan(alpha) +
+    # (K_g/K_a) sin(gamma) for a free-rolling wheel (V_c = V_x), nothing at standstill or when locked
+    da = (vy + Tw[T_KG] / Tw[T_KA] * w[2] * abs(vc) - vref * a) / Tw[T_SIG_A]
     if delta <= 0.0:
         dslip[0], dslip[1] = ds, da
         return 0.0, 0.0
@@ -98,14 +106,13 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
         if rd > 0.0:
             ds -= f * rd * (X / sc) / ks
             da -= f * rd * (Y / sc) / ka
-    if friction_on == 0.0:
-        # no in-plane tyre forces: the slip states act on nothing and are frozen (their saturated
-        # dynamics at fmax = 0 only chatter and throttle the step size)
+    if friction_on == 0.0 or mu <= 0.0:
+        # no in-plane tyre forces (also on ice, road friction 0): the slip states act on nothing and are
+        # frozen (their saturated dynamics at fmax = 0 only chatter and throttle the step size)
         ds, da = 0.0, 0.0
     dslip[0], dslip[1] = ds, da
     # comprehensive-slip brush law (§6.4)
-    sing = w[2]
-    aeq = a + Tw[T_KG] / ka * sing
+    aeq = a                                  # camber is already in the state (see da above)
     X, Y = ks * s, ka * aeq
     sc = math.sqrt(X * X + Y * Y)
     fxi, feta, tz = 0.0, 0.0, 0.0

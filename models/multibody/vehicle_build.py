@@ -33,7 +33,7 @@ from .joints import (
     REVOLUTE_LOCKED,
     TRANSLATIONAL,
 )
-from .spring_damper import N_S, S_C, S_I, S_J, S_K, S_KB, S_L0, S_LB, S_P, S_Q
+from .spring_damper import N_S, S_C, S_I, S_J, S_K, S_KB, S_L0, S_LB, S_P, S_Q, S_U
 from .tyre import (
     LOCKED,
     MODES,
@@ -118,10 +118,29 @@ def build(spec) -> Vehicle:
                "wheel.inertia")
     m_k = _get(kn, "mass", DEFAULTS["knuckle_mass"], notes, "knuckle.mass")
     I_k = [DEFAULTS["knuckle_inertia"]] * 3
-    m_c = _get(ch, "mass", spec.mass - 4 * (m_w + m_k), notes, "chassis.mass")
-    I_c = _get(ch, "inertia", [spec.roll_inertia, spec.pitch_inertia, spec.yaw_inertia], notes, "chassis.inertia")
+    # the vehicle's mass and inertias (top level, where a scene override lands) are the parameters' home:
+    # the chassis body takes what the wheels and knuckles leave (issue 10: a [multibody.chassis] mass used
+    # to win over a mass override)
+    m_u4 = 4 * (m_w + m_k)
+    m_c = spec.mass - m_u4
+    if m_c < 0.5 * spec.mass:
+        raise ValueError(f"{spec.name}: mass = {spec.mass:g} kg is too small for the multibody vehicle's "
+                         f"four wheels and knuckles ({m_u4:g} kg; the chassis body needs at least half)")
+    sprung_ratio = 1.0          # the file's [multibody] data scaled to this mass (dynamic similarity)
+    if "mass" in ch:
+        m_c_file = float(ch["mass"])
+        if abs(m_c_file - m_c) > 1e-9 * spec.mass:
+            sprung_ratio = m_c / m_c_file
+            notes.append(f"mass {spec.mass:g} kg differs from the [multibody] data's {m_c_file + m_u4:g} kg: "
+                         f"chassis body {m_c:g} kg, suspension rates x{sprung_ratio:.3f}, tyre radial and "
+                         f"slip stiffness x{spec.mass / (m_c_file + m_u4):.3f} (same static deflections)")
+    mass_ratio = spec.mass / (m_c / sprung_ratio + m_u4)
+    if "inertia" in ch and [float(x) for x in ch["inertia"]] != [spec.roll_inertia, spec.pitch_inertia,
+                                                                   spec.yaw_inertia]:
+        notes.append("chassis.inertia of [multibody.chassis] ignored: the vehicle's roll/pitch/yaw inertia "
+                     "(less the wheels' and knuckles' share) is used")
     BODY = np.zeros((NB, 4))
-    BODY[0] = [m_c, *I_c]
+    BODY[0, 0] = m_c
     BODY[1:5] = [m_k, *I_k]
     BODY[5:9] = [m_w, *I_w]
     a = spec.cg_to_front_axle
@@ -134,10 +153,10 @@ def build(spec) -> Vehicle:
     # tyre
     r2 = _get(ty, "torus_radius_2", 0.0825 * sc, notes, "tyre.torus_radius_2")
     r1 = _get(ty, "torus_radius_1", R - r2, notes, "tyre.torus_radius_1")
-    kz = _get(ty, "radial_stiffness", DEFAULTS["radial_stiffness_clio"] * m_tot / 980.0, notes,
-              "tyre.radial_stiffness")
-    ks = _get(ty, "longitudinal_slip_stiffness", DEFAULTS["slip_stiffness_clio"] * m_tot / 980.0, notes,
-              "tyre.longitudinal_slip_stiffness")
+    kz = _get(ty, "radial_stiffness", DEFAULTS["radial_stiffness_clio"] * m_tot / 980.0 / mass_ratio, notes,
+              "tyre.radial_stiffness") * mass_ratio
+    ks = _get(ty, "longitudinal_slip_stiffness", DEFAULTS["slip_stiffness_clio"] * m_tot / 980.0 / mass_ratio,
+              notes, "tyre.longitudinal_slip_stiffness") * mass_ratio
     ka = ty.get("cornering_stiffness", spec.cornering_stiffness)
     kg = _get(ty, "camber_stiffness", DEFAULTS["camber_to_cornering"] * ka, notes, "tyre.camber_stiffness")
     # the top-level rolling_resistance is the parameter's home (a scene override must reach the tyre); the
@@ -164,8 +183,8 @@ def build(spec) -> Vehicle:
     sprung = load - m_u * g
     l0 = _get(su, "free_length", DEFAULTS["free_length"], notes, "suspension.free_length")
     if "stiffness" in su:
-        k_s = np.full(4, float(su["stiffness"]))
-        c_s = np.full(4, float(su.get("damping", 0.0)))
+        k_s = np.full(4, float(su["stiffness"])) * sprung_ratio
+        c_s = np.full(4, float(su.get("damping", 0.0))) * sprung_ratio
     else:
         om = 2 * math.pi * DEFAULTS["ride_frequency"]
         k_s = sprung / g * om ** 2
@@ -183,6 +202,23 @@ def build(spec) -> Vehicle:
         pts = np.column_stack([axle_x, axle_y, l_static + z_w - zc])
         notes.append("suspension mounts above the wheel centres, placed so that the chassis CG rests at "
                      "cg_height (default)")
+    # chassis inertia: the vehicle's inertias about its CG less the wheels' and knuckles' share (parallel
+    # axes, static pose), so that the built vehicle has the vehicle's totals
+    zb = np.array([zc] + [z_w[k] for k in range(NW)] * 2)
+    xb = np.concatenate([[0.0], axle_x, axle_x])
+    yb = np.concatenate([[0.0], axle_y, axle_y])
+    mb = BODY[:, B_MASS]
+    cg = [float((mb * q).sum() / m_tot) for q in (xb, yb, zb)]
+    dx, dy, dz = xb - cg[0], yb - cg[1], zb - cg[2]
+    total = (spec.roll_inertia, spec.pitch_inertia, spec.yaw_inertia)
+    for ax, (d1, d2, key) in enumerate(((dy, dz, "roll_inertia"), (dx, dz, "pitch_inertia"),
+                                        (dx, dy, "yaw_inertia"))):
+        share = float((BODY[1:, 1 + ax] + mb[1:] * (d1[1:] ** 2 + d2[1:] ** 2)).sum()
+                      + mb[0] * (d1[0] ** 2 + d2[0] ** 2))
+        BODY[0, 1 + ax] = total[ax] - share
+        if BODY[0, 1 + ax] < 0.3 * total[ax]:
+            raise ValueError(f"{spec.name}: {key} = {total[ax]:g} kg m^2 is too small for the multibody "
+                             f"vehicle (its wheels and knuckles alone have {share:g} kg m^2 about the CG)")
     SPR = np.zeros((NW, N_S))
     for k in range(NW):
         SPR[k, S_I], SPR[k, S_J] = 0, 1 + k
@@ -191,6 +227,7 @@ def build(spec) -> Vehicle:
         SPR[k, [S_K, S_C, S_L0]] = [k_s[k], c_s[k], l0]
         SPR[k, S_LB] = max(l_static[k] - DEFAULTS["bump_travel"], 0.02)
         SPR[k, S_KB] = DEFAULTS["bump_stiffness_factor"] * k_s[k]
+        SPR[k, S_U:S_U + 3] = [0.0, 0.0, -1.0]     # a strut along the translational joint (signed length)
     return Vehicle(spec.name, BODY, SPR, TYR, axle_x, axle_y, DEFAULTS["joint_z"], spec.wheelbase,
                    (spec.cg_to_front, spec.cg_to_rear, spec.width / 2), zc, z_w, notes,
                    chassis_shape(spec, ch, notes))
