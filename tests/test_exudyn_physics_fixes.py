@@ -142,3 +142,23 @@ def test_yaw_inertia_override_conserves_angular_momentum(yaw_inertia):
                      + vs.spec.yaw_inertia * out.trajectories[vs.name]["yaw_rate"][k] for vs in sc.vehicles))
     assert abs(out.trajectories["A"]["yaw_rate"][-1]) > 0.5, "the offset impact spins the Clio"
     assert L[1] == pytest.approx(L[0], rel=0.01), L
+
+
+@pytest.mark.slow
+def test_end_overlap_is_judged_with_the_contact_bodies():
+    """Stress scene random 2:17 (crashlab.stress, seed 2): V1 (a saloon) comes to rest with a corner 3 cm from
+    the barrier. Its rectangular outline overlaps the barrier's by 0.26 m there (the superellipsoid's rounded
+    corner lies inside the rectangle), which the guard's outline check called an interpenetration; the model
+    checks its contact bodies instead (guard_skip) and the run passes."""
+    from crashlab import stress
+    from crashlab.geometry import penetration
+    from crashlab.scene import barrier_outline, vehicle_outline
+    sc = stress.random_scenes(18, seed=2)[17]
+    out = ExudynModel().simulate(sc)
+    v1 = sc.vehicles[0]
+    x, y, h = out.rest_si[0]
+    depth = penetration(vehicle_outline(v1, x, y, h), barrier_outline(sc.barriers[0]))[0]
+    print(f"\noutline overlap {depth:.2f} m, end state ok {out.outcome_ok}")
+    assert depth > 0.05, "the scene is the rounded-corner case"
+    assert out.outcome_ok, out.warnings
+    assert out.rest.loc["V1", "at_rest"]
