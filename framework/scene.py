@@ -10,7 +10,7 @@ import dataclasses
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, Strict, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError
 
 from .errors import InputError
 from .units import deg_to_rad, kmh_to_ms
@@ -28,7 +28,7 @@ POSITION_MAX = 1e5  # m: |x|, |y| of vehicles, barriers and the impact point: a 
 #                     survey coordinates (UTM, national grids) are shifted to a local origin first
 ANGLE_MAX = 3600.0  # deg: |heading|, |plane_angle|: ten turns (angles count modulo 360)
 SPEED_MAX = 400.0  # km/h
-YAW_RATE_MAX = 720.0  # deg/s: two turns a second; spinning cars after an impact stay below ~400 deg/s
+YAW_RATE_MAX = 720.0  # deg/s: two turns a second (a start state; post-impact spin comes from the model)
 STEER_MAX = 45.0  # deg at the road wheels (lock of a car ~35-40 deg)
 DURATION_MAX = 120.0  # s
 FRICTION_MAX = 2.0  # road and impact friction; 0 is allowed (ice; an impact isolated from the road)

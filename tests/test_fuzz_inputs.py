@@ -18,18 +18,18 @@ from __future__ import annotations
 import copy
 import json
 import math
-import os
 import random
 import re
 import subprocess
 import sys
-import tomllib
 from pathlib import Path
 
 import pytest
+import tomllib
 
 REPO = Path(__file__).resolve().parent.parent
-SCENES = sorted((REPO / "studies" / "pc_crash").glob("*.toml")) + sorted((REPO / "studies" / "validation").glob("*.toml"))
+SCENES = sorted((REPO / "studies" / "pc_crash").glob("*.toml")) + \
+    sorted((REPO / "studies" / "validation").glob("*.toml"))
 STUDIES = sorted((REPO / "studies" / "reconstruction").glob("*.toml"))
 CASE_TIME_LIMIT = 120.0  # s per case in the child (a hang, not a slow case: the cases take < 1 s alone)
 SEED = 20240610
@@ -358,11 +358,10 @@ def _child(manifest_path: str, results_path: str):
     import contextlib
     import faulthandler
     import io
+    import resource
     import time
     import traceback
     import warnings
-
-    import resource
 
     import matplotlib
     matplotlib.use("Agg")

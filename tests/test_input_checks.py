@@ -200,7 +200,8 @@ def test_a_vehicle_file_and_an_override_pass_the_same_checks(tmp_path, capsys, k
     (tmp_path / "good.toml").write_text(good)
     f1, f2 = tmp_path / "s1.toml", tmp_path / "s2.toml"
     f1.write_text(SCENE_TOP.format(top="", extra="").replace('"clio"', '"bad.toml"'))
-    f2.write_text(SCENE_TOP.format(top="", extra=f"[vehicles.overrides]\n{key} = {bad}").replace('"clio"', '"good.toml"'))
+    override = SCENE_TOP.format(top="", extra=f"[vehicles.overrides]\n{key} = {bad}")
+    f2.write_text(override.replace('"clio"', '"good.toml"'))
     in_file = refused(capsys, tmp_path / "bad.toml", key, "simulate", f1)
     in_override = refused(capsys, f2, f"vehicles.0.overrides.{key}")
     assert in_file.split(f": {key}: ")[1] == in_override.split(f".{key}: ")[1]
@@ -240,7 +241,8 @@ def ice_scene(make_scene, wheels):
     return make_scene([{"speed": 50.0, "wheels": wheels, "overrides": {"rolling_resistance": 0.0}},
                        {"x": 6.0, "heading": 180.0, "speed": 20.0, "wheels": wheels,
                         "overrides": {"rolling_resistance": 0.0, "mass": 1500.0, "yaw_inertia": 1700.0}}],
-                      road={"friction": 0.0}, impact={"friction": 0.0, "restitution": 0.3}, duration=2.0)
+                      road={"friction": 0.0}, duration=2.0,
+                      impact={"friction": 0.0, "restitution": 0.3, "force_law": "exact-restitution"})
 
 
 def test_zero_friction_is_accepted(make_scene):
@@ -254,6 +256,8 @@ DIVIDES_BY_MU = pytest.mark.xfail(
            "braked; the impulse and pymunk models), kernel.py h = 1 / stiffest_rate (0 for locked wheels)")
 ICE_CASES = [pytest.param(m, w, marks=DIVIDES_BY_MU) if m == "impulse" or w != "locked" else pytest.param(m, w)
              for m in ("impulse", "pymunk") for w in ("rolling", "locked", "braked")]
+ICE_CASES += [pytest.param(m, w, marks=pytest.mark.slow)
+              for m in ("multibody", "exudyn") for w in ("rolling", "locked")]
 
 
 @pytest.mark.parametrize("model, wheels", ICE_CASES)
