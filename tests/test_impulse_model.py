@@ -136,15 +136,17 @@ def test_rigid_barrier_rebound(model, make_scene):
 
 
 def _impact_states(out, spec):
-    """Per impact of vehicle V1: (row, pre (vx, vy, r), post (vx, vy, r), CG (x, y)). The trajectory
-    recorded at every step holds the post-impact state at the impact time; pre = post - delta."""
+    """Per impact of vehicle V1: (row, pre (vx, vy, r), post (vx, vy, r), CG (x, y), number of follow-up
+    contact impulses booked into the row). The trajectory recorded at every step holds the post-impact
+    state at the impact time; pre = post - delta (exact for a row without follow-ups)."""
     tr = out._trajectories["V1"]  # SI arrays
     result = []
-    for _, row in out.impacts[out.impacts.vehicle == "V1"].iterrows():
+    follow = [r["contact_impulses"] for r in out.impact_rows if r["vehicle"] == "V1"]
+    for (_, row), nf in zip(out.impacts[out.impacts.vehicle == "V1"].iterrows(), follow):
         k = int(np.flatnonzero(tr["t"] == row.t)[0])
         post = np.array([tr["vx"][k], tr["vy"][k], tr["yaw_rate"][k]])
         delta = np.array([row.dvx * KMH, row.dvy * KMH, math.radians(row.d_yaw_rate)])
-        result.append((row, post - delta, post, np.array([tr["x"][k], tr["y"][k]])))
+        result.append((row, post - delta, post, np.array([tr["x"][k], tr["y"][k]]), nf))
     return result
 
 
@@ -155,7 +157,8 @@ def test_second_impact_against_barrier_bookkeeping(make_scene):
     corner: -0.47 m from the CG with the default crush_time). Every impact is checked on its own: normal
     restitution at the point (g'_n = -e g_n), angular momentum about the point conserved, kinetic energy
     lost = energy recorded > 0, the impulse inside the friction cone (sliding: on its edge); between
-    impacts the tyres only dissipate."""
+    impacts the tyres only dissipate. An impact whose row also holds follow-up contact impulses (sustained
+    contact, test_impulse_sustained_contact.py) is checked as a sum: energy > 0, a pushing impulse."""
     e, mu = 0.1, 0.3
     scene = make_scene([{"speed": 50.0, "heading": 20.0, "wheels": "locked_after_impact"}],
                        impact={"restitution": e, "friction": mu},
@@ -169,7 +172,7 @@ def test_second_impact_against_barrier_bookkeeping(make_scene):
     assert len(states) >= 2, "a second impact"
     ke_prev = kinetic(spec, 50 * KMH * math.cos(math.radians(20)), 50 * KMH * math.sin(math.radians(20)), 0)
     local_x = []
-    for row, pre, post, cg in states:
+    for row, pre, post, cg, follow in states:
         p = np.array([row.point_x, row.point_y])
         th = math.radians(row.plane_angle)
         n = np.array([math.sin(th), -math.cos(th)])  # from the vehicle into the barrier
@@ -179,6 +182,11 @@ def test_second_impact_against_barrier_bookkeeping(make_scene):
         vp = lambda s, r=r: np.array([s[0] - s[2] * r[1], s[1] + s[2] * r[0]])  # noqa: E731
         gn0, gn1 = -vp(pre) @ n, -vp(post) @ n
         assert gn0 < 0, "approaching at the impact"
+        if follow:
+            assert row.energy > 0 and -(spec.mass * np.array([row.dvx, row.dvy]) * KMH) @ n > 0
+            local_x.append(r @ np.array([math.cos(math.radians(20)), math.sin(math.radians(20))]))
+            ke_prev = kinetic(spec, *post)  # an upper bound: follow-ups only dissipate
+            continue
         assert abs(gn1 + e * gn0) <= 1e-9 * np.abs(pre).sum() * 3, "g'_n = -e g_n"
         dv = post - pre
         L = spec.yaw_inertia * dv[2] - spec.mass * (r[0] * dv[1] - r[1] * dv[0])  # about P
@@ -254,7 +262,7 @@ def test_given_point_not_approaching_fails_cleanly(model, make_scene):
 def test_outcome_tables(model, case3):
     out = model.simulate(case3)
     assert out.outcome_ok
-    assert list(out.rest.columns) == ["x", "y", "heading"] and list(out.rest.index) == ["V1", "V2"]
+    assert list(out.rest.columns[:3]) == ["x", "y", "heading"] and list(out.rest.index) == ["V1", "V2"]
     assert out.rest.index.name == "vehicle"
     tr = out.trajectory("V1")
     assert list(tr.columns[:7]) == ["t", "x", "y", "heading", "vx", "vy", "yaw_rate"]
@@ -297,23 +305,26 @@ def test_rest_pose_is_smooth_in_the_start_position(case3):
     """The onset of contact is located to onset_tol; the state at the impulse wanders within it as the
     start moves, and the rest pose with it. A start of the side collision found by the twin-4 search (V1
     at 66 km/h hits V2's front corner): along 0.24 m of V1.x (241 starts) the rest positions' second
-    differences scatter by 1.9 cm with a 1 mm tolerance and the first-touch point of impact (the model
-    before this was measured), and by 0.1 cm with the defaults (0.01 mm, contact-zone point). A search or
-    a least-squares polish needs the smooth one."""
+    differences scatter by 0.7 cm with a 1 mm tolerance and the first-touch point of impact, and by
+    0.09 cm with the defaults (0.01 mm, contact-zone point). A search or a least-squares polish needs the
+    smooth one. (Before sustained contact, issue 10, the pair chattered through 9-20 micro-impacts here,
+    which amplified the 1 mm jitter to 1.9 cm.)"""
     scene = case3.with_vehicle("V1", x=-1.9638, y=0.2535, speed=66.3217 * KMH)
     scene = scene.with_vehicle("V2", x=1.3553, y=0.5725, speed=23.0194 * KMH)
     shifts = np.linspace(-0.12, 0.12, 241)
     scenes = [scene.with_vehicle("V1", x=-1.9638 + s) for s in shifts]
 
     def roughness(model):
-        rest = np.array([out.rest_si[:, :2] for out in model.simulate_batch(scenes)])
+        outs = model.simulate_batch(scenes)
+        assert all(out.outcome_ok for out in outs)
+        rest = np.array([out.rest_si[:, :2] for out in outs])
         return float(np.std(np.diff(rest, 2, axis=0)))
 
     default = roughness(crashlab.get_model("impulse"))
     coarse = roughness(crashlab.get_model("impulse", onset_tol=1e-3, crush_time=0.0))
     print(f"\nrest-position roughness: {default * 100:.3f} cm (defaults), {coarse * 100:.3f} cm (1 mm, first touch)")
     assert default < 0.005
-    assert coarse > 0.015  # the measure sees the jitter it guards against
+    assert coarse > 0.005  # the measure sees the jitter it guards against
 
 
 def test_contact_zone_point_of_impact_is_continuous_through_parallel_faces(case3):

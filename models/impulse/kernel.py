@@ -9,13 +9,19 @@ scenes runs in parallel with `prange`. Step-size policy:
   * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it;
   * the run ends when every vehicle sleeps (stop_at_rest) or at `duration`.
 Contact onset is located by bisection of the step until the outlines overlap by at most `onset_tol`.
+
+Contact episodes (the model docstring argues the choice): a pair's touch after being apart by more than
+SEPARATION is an impact (restitution e, a row of the impact table); until the pair is that far apart
+again, every step in which the outlines overlap and approach gets plastic (e = 0) Coulomb-limited
+contact impulses, booked into that impact's row, and a position projection keeps the overlap below
+CONTACT_SLOP. Reaching max_impacts or MAX_STEPS stops and fails the run.
 """
 import math
 
 import numpy as np
 from numba import njit, prange
 
-from crashlab.geometry import contact_zone_centroid, overlap_centroid, penetration, rect_corners
+from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
@@ -38,16 +44,22 @@ from .vehicle_motion import (
  C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME) = range(19)
 N_CFG = 19
 # impact record
+# impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
+# summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
- I_PY, I_PLANE, I_HEAD_I, I_HEAD_J) = range(18)
-N_IMP = 18
+ I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW) = range(20)
+N_IMP = 20
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
- D_E_IMPACT, D_SLEEP_SKIPS) = range(12)
-N_DIAG = 12
+ D_E_IMPACT, D_SLEEP_SKIPS, D_FOLLOW, D_PROJECTED) = range(14)
+N_DIAG = 14
 STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
-V_APPROACH = 0.05  # m/s: an overlapping pair gets a further impulse only when approaching faster
+V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)
+CONTACT_SLOP = 0.002  # m: overlap tolerated in sustained contact (no bisection, no projection below it)
+SEPARATION = 0.05  # m: a pair further apart than this has ended its contact episode
+DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this within a step is bisected
+MAX_SWEEPS = 50  # sequential-impulse sweeps over simultaneous contacts per step
 STOP_MARGIN = 0.5  # m/s: coarse steps end this far above the speed a coarse step could brake away
 
 
@@ -148,6 +160,42 @@ def _record_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, kind, energy, px, p
     imp[n, I_PX], imp[n, I_PY], imp[n, I_PLANE] = px, py, math.atan2(nx, -ny)  # tangent t = k x n
     imp[n, I_HEAD_I] = S[i, 2]
     imp[n, I_HEAD_J] = S[j, 2] if j < nv else 0.0
+    imp[n, I_T_END], imp[n, I_N_FOLLOW] = t, 0.0
+
+
+@njit(cache=True)
+def _merge_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, energy, nx, ny):
+    """Add a follow-up contact impulse of the same pair to impact row n: velocity changes and energy
+    summed, the impulse expressed in the row's normal/tangent frame."""
+    imp[n, I_DVX_I] += S[i, 3] - S_before[i, 3]
+    imp[n, I_DVY_I] += S[i, 4] - S_before[i, 4]
+    imp[n, I_DR_I] += S[i, 5] - S_before[i, 5]
+    if j < nv:
+        imp[n, I_DVX_J] += S[j, 3] - S_before[j, 3]
+        imp[n, I_DVY_J] += S[j, 4] - S_before[j, 4]
+        imp[n, I_DR_J] += S[j, 5] - S_before[j, 5]
+    imp[n, I_ENERGY] += energy
+    ix, iy = pn * nx - pt * ny, pn * ny + pt * nx
+    mx, my = math.sin(imp[n, I_PLANE]), -math.cos(imp[n, I_PLANE])
+    imp[n, I_PN] += ix * mx + iy * my
+    imp[n, I_PT] += -ix * my + iy * mx
+    imp[n, I_T_END] = t
+    imp[n, I_N_FOLLOW] += 1.0
+
+
+@njit(cache=True)
+def _project_apart(P, S, i, k, nv, nx, ny, shift):
+    """Move the pair apart by `shift` along n (from i to k), split by inverse mass so that their centre
+    of mass stays; positions only, velocities (momentum, energy) untouched (position projection,
+    as the split impulse of Box2D / Chipmunk)."""
+    w1 = 1.0 / P[i, P_MASS]
+    w2 = 1.0 / P[k, P_MASS] if k < nv else 0.0
+    f1, f2 = w1 / (w1 + w2), w2 / (w1 + w2)
+    S[i, 0] -= shift * f1 * nx
+    S[i, 1] -= shift * f1 * ny
+    if k < nv:
+        S[k, 0] += shift * f2 * nx
+        S[k, 1] += shift * f2 * ny
 
 
 @njit(cache=True)
@@ -173,10 +221,21 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
     for k in range(nk):
         radius[k] = _radius(P, B, k, nv)
     in_contact = np.zeros((nv, nk), np.bool_)
+    episode = np.full((nv, nk), -1, np.int64)  # impact row of the pair's open contact episode
+    allowed = np.zeros((nv, nk))  # overlap the projection leaves (a collision position's start overlap)
+    cl_i = np.empty(nv * nk, np.int64)  # the contacts of a step: pair, depth, normal, overlap centroid
+    cl_k = np.empty(nv * nk, np.int64)
+    cl_d = np.empty(nv * nk)
+    cl_n = np.empty((nv * nk, 2))
+    cl_p = np.empty((nv * nk, 2))
+    cl_v = np.empty((nv * nk, 8, 2))  # and the overlap polygon's vertices
+    cl_m = np.zeros(nv * nk, np.int64)
     for i in range(nv):  # outlines that overlap at the start are in contact (a collision position)
         for k in range(i + 1, nk):
-            if penetration(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv))[0] > 0.0:
+            d0 = penetration(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv))[0]
+            if d0 > 0.0:
                 in_contact[i, k] = True
+                allowed[i, k] = d0
     for i in range(nv):
         modes[i] = int(P[i, P_WHEELS])
         if modes[i] == LOCKED_AFTER_IMPACT:
@@ -214,6 +273,8 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         else:
             _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
             n_imp = 1
+            # the given impulse keeps its own row (the collision position's impulse as given); contact
+            # after it, where the pair's overlap deepens, opens an episode of its own
             diag[D_E_IMPACT] += energy
             for q in (i0, j):
                 if q < nv:
@@ -235,7 +296,9 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         h = dt
         for i in range(nv):
             if not asleep[i]:
-                h = min(h, 1.0 / stiffest_rate(P[i], mu, modes[i]))
+                rate = stiffest_rate(P[i], mu, modes[i])  # 0 for locked wheels on ice: no tyre force
+                if rate > 0.0:
+                    h = min(h, 1.0 / rate)
         quiet = True
         for i in range(nv):
             if not asleep[i]:
@@ -268,32 +331,48 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         if steps > MAX_STEPS:
             status = STATUS_STEP_LIMIT
             break
-        # ---- onset of a new contact: bisect the step until the overlap is at most tol
+        # ---- onset of a new contact: bisect the step until the overlap is at most tol; a touching pair
+        # whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
+        # rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN
         for i in range(nv):
             for k in range(i + 1, nk):
-                if in_contact[i, k] or (asleep[i] and (k >= nv or asleep[k])):
+                if asleep[i] and (k >= nv or asleep[k]):
                     continue
                 ckx, cky = _centre(Snew, B, k, nv)
                 if math.hypot(Snew[i, 0] - ckx, Snew[i, 1] - cky) > radius[i] + radius[k]:
                     continue
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
-                if depth > tol:
-                    lo, hi = 0.0, h
-                    for _ in range(60):
-                        hm = 0.5 * (lo + hi)
-                        _heun(P, S, modes, asleep, mu, acc, hm, Snew, k1, k2, tmp)
-                        diag[D_BISECT] += 1
-                        depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
-                        if depth > tol:
-                            hi = hm
-                        elif depth <= 0.0:
-                            lo = hm
-                        else:
-                            break
-                    h = hm
+                if in_contact[i, k]:
+                    if allowed[i, k] > 0.0 or depth <= DEEPEN:
+                        continue
+                    lo_d, hi_d = CONTACT_SLOP, DEEPEN
+                else:
+                    if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
+                        continue
+                    lo_d, hi_d = 0.0, tol
+                lo, hi = 0.0, h
+                for _ in range(60):
+                    hm = 0.5 * (lo + hi)
+                    _heun(P, S, modes, asleep, mu, acc, hm, Snew, k1, k2, tmp)
+                    diag[D_BISECT] += 1
+                    depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
+                    if depth > hi_d:
+                        hi = hm
+                    elif depth <= lo_d:
+                        lo = hm
+                    else:
+                        break
+                h = hm
         t += h
         S[:] = Snew
-        # ---- impulses: new contacts, and pairs that still overlap and approach (a further impact)
+        # ---- contacts: an impact (the first touch of an episode) gets its own row; a pair in an open
+        # episode that overlaps and approaches gets a plastic contact impulse booked into the episode's
+        # row. Several contacts at once (a car squeezed between a car and a wall) are
+        # resolved together by sweeps of sequential impulses (projected Gauss-Seidel) over the step's
+        # contacts: after the first sweep a pair is approaching again only through its neighbours'
+        # impulses of this instant, so its further impulses are plastic and booked into its row. Then a
+        # projection keeps each overlap below CONTACT_SLOP.
+        nc = 0
         for i in range(nv):
             for k in range(i + 1, nk):
                 if asleep[i] and (k >= nv or asleep[k]):
@@ -301,49 +380,104 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                 ckx, cky = _centre(S, B, k, nv)
                 if math.hypot(S[i, 0] - ckx, S[i, 1] - cky) > radius[i] + radius[k]:
                     in_contact[i, k] = False
+                    episode[i, k] = -1
+                    allowed[i, k] = 0.0
                     continue
                 ci, ck = _outline(P, S, B, i, nv), _outline(P, S, B, k, nv)
                 depth, nx, ny, owner = penetration(ci, ck)
                 if depth <= 0.0:
                     in_contact[i, k] = False
+                    allowed[i, k] = 0.0
+                    if -depth > SEPARATION:
+                        episode[i, k] = -1
+                    continue
+                in_contact[i, k] = True
+                if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
+                    # a collision position's start overlap, not deepening: the given impulse resolved it
+                    allowed[i, k] = min(allowed[i, k], depth)
                     continue
                 diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
                 px, py, area = overlap_centroid(ci, ck)
                 if math.isnan(px):
                     continue
+                poly, npoly = clip_convex(ci, ck)
+                cl_m[nc] = min(npoly, cl_v.shape[1])
+                cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
+                cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
+                cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
+                nc += 1
+        stop = False
+        for _ in range(MAX_SWEEPS if nc > 1 else 1):
+            active = False
+            for c in range(nc):
+                i, k = cl_i[c], cl_k[c]
+                nx, ny, px, py = cl_n[c, 0], cl_n[c, 1], cl_p[c, 0], cl_p[c, 1]
                 v1x, v1y = _point_velocity(S, i, nv, px, py)
                 v2x, v2y = _point_velocity(S, k, nv, px, py)
                 approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
-                if in_contact[i, k] and approach < V_APPROACH:
+                row = episode[i, k]
+                if row >= 0 and imp[row, I_T] != t:
+                    # sustained contact: the overlap's vertex that approaches fastest (rigid bodies: the
+                    # normal velocity is linear over the overlap, so its extremes are at vertices)
+                    for q in range(cl_m[c]):
+                        qx, qy = cl_v[c, q, 0], cl_v[c, q, 1]
+                        v1x, v1y = _point_velocity(S, i, nv, qx, qy)
+                        v2x, v2y = _point_velocity(S, k, nv, qx, qy)
+                        aq = -((v2x - v1x) * nx + (v2y - v1y) * ny)
+                        if aq > approach:
+                            approach, px, py = aq, qx, qy
+                if approach <= V_EPS:
                     continue
-                # the point of impact: the middle of the contact zone the approach will crush
-                zx, zy, _ = contact_zone_centroid(ci, ck, nx, ny, cfg[C_CRUSH_TIME] * max(approach, 0.0))
-                if not math.isnan(zx):
-                    px, py = zx, zy
-                if n_imp >= max_imp:
-                    status = STATUS_IMPACT_CAP
-                    in_contact[i, k] = True
-                    continue
+                is_impact = row < 0
+                if is_impact:
+                    if n_imp >= max_imp:
+                        status = STATUS_IMPACT_CAP
+                        stop = True
+                        break
+                    # the point: the middle of the contact zone the approach will crush
+                    zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv),
+                                                      nx, ny, cfg[C_CRUSH_TIME] * approach)
+                    if not math.isnan(zx):
+                        px, py = zx, zy
+                e_k = e if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
                 S_before[:] = S
-                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e, mu_imp, law)
+                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, mu_imp, law)
                 if kind < 0:
-                    in_contact[i, k] = True
                     continue
-                if n_imp == 0:
-                    diag[D_CONTACT_T] = t
-                    for q in range(nv):
-                        contact[q, 0], contact[q, 1], contact[q, 2] = S_before[q, 0], S_before[q, 1], S_before[q, 2]
-                        contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
-                _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
-                n_imp += 1
+                active = True
+                if is_impact:
+                    if n_imp == 0:
+                        diag[D_CONTACT_T] = t
+                        for q in range(nv):
+                            contact[q, 0], contact[q, 1] = S_before[q, 0], S_before[q, 1]
+                            contact[q, 2] = S_before[q, 2]
+                            contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
+                    _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                    episode[i, k] = n_imp
+                    n_imp += 1
+                else:
+                    _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
+                    diag[D_FOLLOW] += 1
                 diag[D_E_IMPACT] += energy
-                in_contact[i, k] = True
                 for q in (i, k):
                     if q < nv:
                         hit[q] = True
                         asleep[q] = False
                         if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
                             modes[q] = LOCKED
+            if stop or not active:
+                break
+        if stop:
+            break
+        # non-penetration at the position level: the velocity-level contact impulse stops the approach at
+        # the end of a step but not the overlap gained within it (~ a h^2 / 2)
+        for c in range(nc):
+            i, k, depth = cl_i[c], cl_k[c], cl_d[c]
+            target = max(allowed[i, k], CONTACT_SLOP)
+            if depth > target:
+                _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
+                diag[D_PROJECTED] += depth - target
+            allowed[i, k] = min(allowed[i, k], depth)
         # ---- rest: a vehicle that has (almost) stopped goes to sleep; an impulse wakes it
         all_asleep = True
         for i in range(nv):

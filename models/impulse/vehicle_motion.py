@@ -31,9 +31,9 @@ def wheel_force(vwx, vwy, normal, mu, mode, f_rr, c_alpha):
     alpha, saturating at mu N); locked: Coulomb against the sliding velocity; braked (ABS-like): the
     lateral force of a rolling wheel and the friction left in the friction circle as braking force.
     """
-    if normal <= 0.0:
-        return 0.0, 0.0
     fmax = mu * normal
+    if fmax <= 0.0:  # wheel off the ground, or a frictionless road (ice): no force
+        return 0.0, 0.0
     if mode == LOCKED:
         s = math.sqrt(vwx * vwx + vwy * vwy + V_REG * V_REG)
         return -fmax * vwx / s, -fmax * vwy / s
