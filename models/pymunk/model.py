@@ -78,7 +78,8 @@ class PymunkModel(CollisionModel):
     change are the velocity jumps the contact caused, i.e. the change of velocity over the steps of the
     episode minus the part of the tyre forces (known exactly: Chipmunk adds F dt / m); the energy is the
     kinetic energy the contact impulses removed. The point is the middle of the contact points and the
-    plane the tangent of the contact normal at the episode's first step.
+    plane the tangent of the contact normal at the episode's first step; `contact_intervals` (and the rows'
+    `duration`) span the episode's steps with contact impulses.
 
     What differs from the impulse model by construction: when two flat faces meet (a bumper on a
     door), Chipmunk's contact has two points, one at each end of the contact segment, and both get the
@@ -118,13 +119,15 @@ class PymunkModel(CollisionModel):
 class _Episode:
     """One contact episode of a pair (vehicle i, vehicle or barrier k)."""
 
-    __slots__ = ("dv", "energy", "i", "k", "plane", "px", "py", "t", "weight")
+    __slots__ = ("dv", "energy", "i", "j", "k", "plane", "px", "py", "t", "t_end", "weight")
 
     def __init__(self, t, i, k, px, py, plane):
         self.t, self.i, self.k, self.px, self.py, self.plane = t, i, k, px, py, plane
+        self.t_end = t  # end of the last step with a contact impulse
         self.dv = np.zeros((2, 3))  # contact velocity jump of i and (if a vehicle) k: vx, vy, r
         self.energy = 0.0  # kinetic energy removed by the contact impulses [J]
-        self.weight = 0.0  # impulse of this step [N s], to share a vehicle's jump between contacts
+        self.weight = 0.0  # impulse of this step [N s], to share a vehicle's yaw jump between contacts
+        self.j = np.zeros(2)  # impulse of this step on vehicle i [N s, global] (on k: -j)
 
 
 class _Run:
@@ -215,11 +218,15 @@ class _Run:
             self.max_depth = max(self.max_depth, -p.distance)
 
     def _post_solve(self, arb, space, data):
-        i, k, _ = self._pair(arb)
+        i, k, sgn = self._pair(arb)
         ep = self.open.get((i, k))
         if ep is not None:
-            j = arb.total_impulse
+            j = arb.total_impulse  # the impulse on the body of arb.shapes[0]
             ep.weight += math.hypot(j.x, j.y)
+            ep.j[0] += sgn * j.x
+            ep.j[1] += sgn * j.y
+            if j.x != 0.0 or j.y != 0.0:
+                ep.t_end = self.t + self.m.dt
 
     def _separate(self, arb, space, data):
         i, k, _ = self._pair(arb)
@@ -269,6 +276,7 @@ class _Run:
             self.touching[:] = False
             for ep in self.open.values():
                 ep.weight = 0.0
+                ep.j[:] = 0.0
             self.space.step(dt)
             steps += 1
             self.t = steps * dt
@@ -284,19 +292,25 @@ class _Run:
                 ok = False
                 warnings.append("the state became NaN")
                 break
-            # rest: a vehicle out of contact that has (almost) stopped is put to sleep
+            # rest: a vehicle that has (almost) stopped is put to sleep unless it touches one that moves
+            # (a pair at rest against each other, or a car at rest against a wall, is at rest)
+            moving = (np.hypot(S[:, 3], S[:, 4]) >= m.v_rest) | (np.abs(S[:, 5]) >= m.v_rest)
+            pushed = np.zeros(nv, bool)
+            for i, k in self.open:
+                if k < nv:
+                    pushed[i] |= moving[k]
+                    pushed[k] |= moving[i]
             for q in range(nv):
-                moving = math.hypot(S[q, 3], S[q, 4]) >= m.v_rest or abs(S[q, 5]) >= m.v_rest
                 if self.awake[q]:
-                    if not self.touching[q] and not moving:
+                    if not moving[q] and not pushed[q]:
                         self.awake[q] = False
                         self.bodies[q].velocity, self.bodies[q].angular_velocity = (0.0, 0.0), 0.0
                         S[q, 3:6] = 0.0
-                elif moving:  # struck while at rest
+                elif moving[q]:  # struck while at rest
                     self.awake[q] = True
-            if not self.awake.any() and not self.touching.any():
+            if not self.awake.any():
                 if not scene.stop_at_rest:
-                    self.t = scene.duration  # everything at rest and nothing touches: the state is final
+                    self.t = scene.duration  # everything at rest: the state is final
                 break
         if rec_dt > 0 and nr < n_rec:
             traj[nr, :, 0], traj[nr, :, 1:7] = self.t, S
@@ -315,7 +329,9 @@ class _Run:
         return de
 
     def _book(self, S1, jump, mass, iz):
-        """Share each vehicle's contact jump of this step among its contact episodes (by impulse)."""
+        """Share each vehicle's contact jump of this step among its contact episodes: the velocity jump
+        exactly, from each contact's impulse (so every episode exchanges momentum, m1 dv1 + m2 dv2 = 0, also
+        when a car touches two others at once); the yaw-rate jump and the energy by impulse share."""
         active = list(self.open.values())  # an episode that separated this step had no impulse in it
         if not active:
             return
@@ -326,7 +342,11 @@ class _Run:
             total = sum(ep.weight for ep, _ in mine)
             for ep, side in mine:
                 share = ep.weight / total if total > 0 else 1.0 / len(mine)
-                ep.dv[side] += share * jump[q]
+                if len(mine) == 1:
+                    ep.dv[side] += jump[q]
+                else:
+                    ep.dv[side, 0:2] += (1.0 if side == 0 else -1.0) * ep.j / mass[q]
+                    ep.dv[side, 2] += share * jump[q, 2]
                 ep.energy -= share * self._step_energy(S1, jump, mass, iz, (q,))
 
     # ------------------------------------------------------------------ results
@@ -347,7 +367,8 @@ class _Run:
                 rows.append({"t": ep.t, "vehicle": names[q], "other": other, "dvx": dvx, "dvy": dvy,
                              "d_yaw_rate": dr, "energy": ep.energy, "ees": math.sqrt(2.0 * e_q / P[q, P_MASS]),
                              "pdof": math.atan2(math.sin(ang), math.cos(ang)), "kind": "continuous",
-                             "point_x": ep.px, "point_y": ep.py, "plane_angle": ep.plane})
+                             "point_x": ep.px, "point_y": ep.py, "plane_angle": ep.plane,
+                             "duration": ep.t_end - ep.t})
         if not self.episodes:
             warnings.append("no contact between the vehicles")
         diagnostics = {"steps": steps, "impacts": len(self.episodes), "t_end": self.t,
@@ -358,4 +379,6 @@ class _Run:
                             "vx": traj[:, i, 4], "vy": traj[:, i, 5], "yaw_rate": traj[:, i, 6]}
                         for i, n in enumerate(names)}
         return Outcome(names, S[:, 0:3].copy(), S[:, 3:6].copy(), self.contact.copy(), self.contact_t,
-                       trajectories, rows, diagnostics, warnings, ok, self.m.name, wall)
+                       trajectories, rows, diagnostics, warnings, ok, self.m.name, wall,
+                       contact_intervals=[(ep.t, ep.t_end) for ep in self.episodes],
+                       impact_energy=[ep.energy for ep in self.episodes])
