@@ -39,23 +39,11 @@ DEFAULT_SHARE = {"scene": 0.3, "study": 0.2}  # of the cases in the default run;
 # Known failures that live outside the input checks (framework/reconstruction.py, the models): case id ->
 # reason. They are xfail (not strict) until fixed there.
 KNOWN_FAILURES: dict[str, str] = {}
-ICE = ("the impulse model divides by road friction mu = 0 (models/impulse/vehicle_motion.py wheel_force, "
-       "kernel.py 1 / stiffest_rate): ZeroDivisionError")
 
 
 def known_failure(case) -> str | None:
     """Why a case is expected to fail today, or None."""
-    if case["id"] in KNOWN_FAILURES:
-        return KNOWN_FAILURES[case["id"]]
-    if case["kind"] == "scene":
-        try:
-            doc = tomllib.loads(case["content"].decode())
-        except (UnicodeDecodeError, tomllib.TOMLDecodeError):
-            return None
-        if isinstance(doc.get("road"), dict) and doc["road"].get("friction") == 0 and \
-                not isinstance(doc["road"]["friction"], bool):
-            return ICE
-    return None
+    return KNOWN_FAILURES.get(case["id"])
 
 
 # ---------------------------------------------------------------- a small TOML writer

@@ -250,12 +250,7 @@ def test_zero_friction_is_accepted(make_scene):
     assert sc.road.friction == 0.0 and sc.impact.friction == 0.0
 
 
-DIVIDES_BY_MU = pytest.mark.xfail(
-    raises=ZeroDivisionError, strict=False,
-    reason="models/impulse/vehicle_motion.py divides by mu = 0: wheel_force tanh(c alpha / (mu N)) (rolling, "
-           "braked; the impulse and pymunk models), kernel.py h = 1 / stiffest_rate (0 for locked wheels)")
-ICE_CASES = [pytest.param(m, w, marks=DIVIDES_BY_MU) if m == "impulse" or w != "locked" else pytest.param(m, w)
-             for m in ("impulse", "pymunk") for w in ("rolling", "locked", "braked")]
+ICE_CASES = [(m, w) for m in ("impulse", "pymunk") for w in ("rolling", "locked", "braked")]
 ICE_CASES += [pytest.param(m, w, marks=pytest.mark.slow)
               for m in ("multibody", "exudyn") for w in ("rolling", "locked")]
 
