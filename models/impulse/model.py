@@ -31,9 +31,10 @@ class ImpulseModel(CollisionModel):
                           the Clio on rolling wheels, 3.5 ms on locked wheels (vehicle_motion.stiffest_rate)
       coarse_dt = 0.05 s  largest step while every vehicle runs straight and nothing can touch
       onset_tol = 1e-5 m  contact onset located until the outlines overlap by at most this; with
-                          1 mm the rest position jittered by 2-3 cm (std of second differences along
-                          a start coordinate of a side collision) as the impact state wandered within
-                          the tolerance, with 0.01 mm by ~0.1 cm, for a few more bisection steps
+                          1 mm (and the first-touch point) the rest position jittered by 0.7 cm (std of
+                          second differences along a start coordinate of a side collision; 1.9 cm
+                          before the sustained-contact treatment below) as the impact state wandered
+                          within the tolerance, with 0.01 mm by ~0.1 cm, for a few more bisection steps
       record_dt = 0.01 s  trajectory sampling of `simulate` (batch runs record none)
       v_rest = 0.03       m/s and rad/s below which a vehicle out of contact is at rest
       max_impacts = 20    cap on impacts (rows of the impact table) per run; reaching it stops the run
@@ -80,8 +81,8 @@ class ImpulseModel(CollisionModel):
     overlap per step: a position projection moves the pair apart along the contact normal (positions
     only, split by inverse mass: momentum, energy and the pair's centre of mass unchanged, as
     Box2D's and Chipmunk's split impulse) to keep the overlap below CONTACT_SLOP = 2 mm; a touching
-    pair that deepens by more than 4 mm within a step (a far corner swinging in) has that step bisected
-    as at an onset. A given collision position's start overlap is left as it is and only prevented from
+    pair whose overlap passes 4 mm within a step (a far corner swinging in) has that step bisected as at
+    an onset. A given collision position's start overlap is left as it is and only prevented from
     deepening; the given impulse keeps its own row. Checked against the analytic push (a free-rolling
     car pushing a locked one: common speed, then deceleration mu g m2 / (m1 + m2)) and a seeded stress
     sweep (tests/test_impulse_sustained_contact.py, tests/test_impulse_stress.py).
