@@ -4,12 +4,32 @@ from __future__ import annotations
 import numpy as np
 
 from .scene import barrier_outline, vehicle_outline
-from .units import deg_to_rad
+from .units import deg_to_rad, ms_to_kmh
+
+
+def _end_label(outcome, i: int) -> str:
+    """'rest' or 'end pose (moving N km/h)' (crashlab.outcome; computed here for an older Outcome)."""
+    if hasattr(outcome, "pose_label"):
+        return outcome.pose_label(i)
+    final = getattr(outcome, "final_si", None)
+    if final is None:
+        return "rest"
+    speed = float(np.hypot(final[i, 0], final[i, 1]))
+    return "rest" if speed <= 0.1 and abs(final[i, 2]) <= 0.1 else f"end pose (moving {ms_to_kmh(speed):.1f} km/h)"
+
+
+def _arrow(ax, x, y, h, length, colour, **kw):
+    ax.annotate("", xy=(x + length * np.cos(h), y + length * np.sin(h)), xytext=(x, y),
+                arrowprops=dict(arrowstyle="-|>", color=colour, lw=kw.get("lw", 1.5), alpha=kw.get("alpha", 1.0),
+                                shrinkA=0, shrinkB=0, mutation_scale=12))
 
 
 def top_view(scene, outcome, path, title=None, measured=None):
-    """Outlines at start (dotted), at first contact (dashed) and at rest (solid), and CG paths.
-    `measured`: optional {vehicle: (x, y, heading_deg)} drawn in grey (evidence)."""
+    """Outlines at start (dotted), at first contact (dashed) and at the end (solid: 'rest', or 'end pose
+    (moving N km/h)' for a vehicle still moving), CG paths, and a heading arrow on every pose, one colour
+    per vehicle. `measured`: optional {vehicle: (x, y, heading_deg or None)}, the evidence, drawn thick
+    and pale in the vehicle's colour with its heading arrow (a cross where no heading was measured);
+    the legend gives simulated and measured end headings."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -18,29 +38,34 @@ def top_view(scene, outcome, path, title=None, measured=None):
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]
+        arrow_len = 0.8 * v.spec.cg_to_front
         poses = [((v.x, v.y, v.heading), ":", "start")]
         fc = outcome.contact_si[i]
         if not np.isnan(fc[0]):
             poses.append(((fc[0], fc[1], fc[2]), "--", "first contact"))
-        if outcome.outcome_ok:
-            r = outcome.rest_si[i]
-            poses.append(((r[0], r[1], r[2]), "-", "rest"))
+        r = outcome.rest_si[i]
+        if outcome.outcome_ok and np.all(np.isfinite(r)):
+            heading = (np.degrees(r[2]) + 180.0) % 360.0 - 180.0
+            poses.append(((r[0], r[1], r[2]), "-", f"{_end_label(outcome, i)}, heading {heading:.1f} deg"))
         for (x, y, h), ls, label in poses:
             poly = vehicle_outline(v, x, y, h)
             poly = np.vstack([poly, poly[:1]])
             ax.plot(poly[:, 0], poly[:, 1], ls, color=c, label=f"{v.name} {label}")
-            ax.arrow(x, y, 0.6 * np.cos(h), 0.6 * np.sin(h), color=c, head_width=0.12, length_includes_head=True)
-        if v.name in getattr(outcome, "_trajectories", {}):
-            tr = outcome._trajectories[v.name]
-            ax.plot(tr["x"], tr["y"], "-", color=c, lw=0.8, alpha=0.6)
+            _arrow(ax, x, y, h, arrow_len, c)
+        tr = getattr(outcome, "trajectories", None) or getattr(outcome, "_trajectories", {})
+        if v.name in tr:
+            ax.plot(tr[v.name]["x"], tr[v.name]["y"], "-", color=c, lw=0.8, alpha=0.6)
         if measured and v.name in measured:
             mx, my, mh = measured[v.name]
             if mh is None:  # a measured position without heading: a cross
-                ax.plot([mx], [my], "x", color="0.4", ms=10, mew=2, label=f"{v.name} measured")
+                ax.plot([mx], [my], "x", color=c, ms=10, mew=2, alpha=0.6, label=f"{v.name} measured (no heading)")
                 continue
             poly = vehicle_outline(v, mx, my, deg_to_rad(mh))
             poly = np.vstack([poly, poly[:1]])
-            ax.plot(poly[:, 0], poly[:, 1], "-", color="0.5", lw=2, alpha=0.6, label=f"{v.name} measured")
+            mh_w = (mh + 180.0) % 360.0 - 180.0
+            ax.plot(poly[:, 0], poly[:, 1], "-", color=c, lw=3, alpha=0.35,
+                    label=f"{v.name} measured, heading {mh_w:.1f} deg")
+            _arrow(ax, mx, my, deg_to_rad(mh), arrow_len, c, lw=3, alpha=0.45)
     for b in scene.barriers:
         poly = barrier_outline(b)
         ax.fill(poly[:, 0], poly[:, 1], color="0.3")

@@ -26,6 +26,13 @@ directions are pymoo's Das-Dennis directions with the largest number of partitio
 direction count does not exceed ``pop_size`` (100 if omitted); for two objectives that is exactly
 ``pop_size`` directions. Unknown keywords raise ``TypeError``.
 
+Every algorithm built here pickles (a reconstruction's checkpoint after each generation): pymoo 0.6.2
+wraps some module-level functions in a closure (``pymoo.util.default_random_state``), e.g. the
+tournament comparison of NSGA-III and SMS-EMOA, which pickle cannot store; they are replaced by a
+reference to the module attribute (``ModuleFunction``), which pickles by name. MOEA/D evaluates its
+offspring one at a time through a generator, which pickles only between generations (when it is None),
+so a caller checkpoints MOEA/D at generation boundaries.
+
 pymoo is imported only when a factory is called, so loading the entry points is cheap.
 """
 
@@ -50,6 +57,55 @@ DEFAULT_N_OBJ = 2
 DEFAULT_REF_DIR_BUDGET = 100
 _OPERATOR_OPTIONS = {"eta_c", "crossover_prob", "eta_m", "mutation_prob_var"}
 _NOT_OPTIONS = {"kwargs"}
+
+
+class ModuleFunction:
+    """A module-level function held by its import path: pickles by name, calls the function."""
+
+    def __init__(self, module: str, name: str):
+        self.module, self.name = module, name
+        self._fn = None
+
+    def __call__(self, *args, **kwargs):
+        if self._fn is None:
+            self._fn = getattr(importlib.import_module(self.module), self.name)
+        return self._fn(*args, **kwargs)
+
+    def __getstate__(self):
+        return {"module": self.module, "name": self.name, "_fn": None}
+
+    def __repr__(self):
+        return f"ModuleFunction({self.module}.{self.name})"
+
+
+def by_name(fn):
+    """``fn`` if it pickles, else a ModuleFunction for the module attribute that a closure-wrapped
+    function (pymoo's default_random_state) stands for; ``fn`` itself when no such attribute is found."""
+    import pickle
+    try:
+        pickle.dumps(fn)
+        return fn
+    except Exception:  # noqa: BLE001 - find the module attribute it stands for
+        pass
+    for cell in getattr(fn, "__closure__", None) or ():
+        inner = cell.cell_contents
+        module, name = getattr(inner, "__module__", None), getattr(inner, "__qualname__", "")
+        if callable(inner) and module and "<locals>" not in name:
+            try:
+                if getattr(importlib.import_module(module), name) is fn:
+                    return ModuleFunction(module, name)
+            except (ImportError, AttributeError):
+                continue
+    return fn
+
+
+def make_picklable(algorithm):
+    """Replace closure-wrapped comparison functions of the algorithm's selection operators (in place)."""
+    mating = getattr(algorithm, "mating", None)
+    for holder in (getattr(algorithm, "selection", None), getattr(mating, "selection", None)):
+        if holder is not None and callable(getattr(holder, "func_comp", None)):
+            holder.func_comp = by_name(holder.func_comp)
+    return algorithm
 
 
 def algorithm_class(name: str) -> type:
@@ -118,7 +174,7 @@ def make_algorithm(name: str, /, **options):
     options.update(_operators(options))
     if uses_ref_dirs:
         _set_reference_directions(name, options)
-    algorithm = cls(**options)
+    algorithm = make_picklable(cls(**options))
     algorithm.handles_constraints = ALGORITHMS[name][3]
     return algorithm
 
