@@ -11,7 +11,10 @@ hang and runs the rest in a new child).
 
 A case passes when it runs (exit 0), or fails a simulation (exit 3, one line), or is refused with exit 2
 and exactly one line "crashlab: error: FILE: KEY: problem" naming the mutated file: never a traceback,
-never a hang. The default run takes a fixed sample; -m slow runs the rest.
+never a hang. A value that is wrong whatever its key (NaN, inf, |x| >= 1e30, a boolean for a number or a
+number for a boolean, an array or table for a scalar, binary or non-UTF-8 data, a duplicated table) must
+be refused (exit 2); the unmutated files must run (exit 0). The default run takes a fixed sample; -m slow
+runs the rest.
 """
 from __future__ import annotations
 
@@ -140,14 +143,22 @@ def _fmt(v) -> str:
     return "table" if isinstance(v, dict) else json.dumps(v) if isinstance(v, str) else _value(v)
 
 
+def _invalid_number(v) -> bool:
+    """A value no number of a scene or study may take: not finite, beyond every bound, or not a number."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return True
+    return not math.isfinite(v) or abs(v) >= 1e30
+
+
 def _tree_mutations(doc: dict, rng: random.Random, per_leaf: int):
-    """(label, mutated doc) per leaf: deletion and `per_leaf` replacement values chosen for its type."""
+    """(label, mutated doc, refused) per leaf: deletion and `per_leaf` replacement values chosen for its
+    type; refused is True where the value is wrong whatever the key, None where it may be valid."""
     out = []
     for path, val in _leaves(doc):
         label = ".".join(map(str, path))
-        out.append((f"{label}:deleted", _delete(doc, path)))
+        out.append((f"{label}:deleted", _delete(doc, path), None))
         if val is None:  # a table: replaced by a number
-            out.append((f"{label}=5", _set(doc, path, 5)))
+            out.append((f"{label}=5", _set(doc, path, 5), True))
             continue
         if isinstance(val, bool):
             choices = [1, "yes", 0.0]
@@ -158,32 +169,43 @@ def _tree_mutations(doc: dict, rng: random.Random, per_leaf: int):
         else:  # an array of numbers
             choices = [[], [math.nan, 0.0], [1e308, 1e308], [1.0, 2.0, 3.0], "abc", [True, False]]
         for v in rng.sample(choices, min(per_leaf, len(choices))):
-            out.append((f"{label}={_fmt(v)}", _set(doc, path, v)))
+            if isinstance(val, bool) or isinstance(v, (bool, list, dict)):
+                refused = True  # numbers are not booleans, booleans not numbers; no array is a scalar
+            elif isinstance(val, (int, float)):
+                refused = True if _invalid_number(v) else None
+            elif isinstance(val, str):
+                refused = True if not isinstance(v, str) else None
+            else:
+                refused = True  # every array value above is malformed (length, type or NaN)
+            out.append((f"{label}={_fmt(v)}", _set(doc, path, v), refused))
     return out
 
 
 def _text_mutations(text: str, rng: random.Random):
-    """(label, bytes) of file-level damage: truncation, binary data, encodings, duplicated tables."""
+    """(label, bytes, refused) of file-level damage: truncation (may leave a valid file), binary data,
+    encodings, duplicated tables."""
     raw = text.encode()
-    out = [(f"truncated@{f:.2f}", raw[:int(len(raw) * f)]) for f in (0.0, 0.13, 0.37, 0.5, 0.71, 0.93)]
-    out.append(("binary", bytes(rng.randrange(256) for _ in range(700))))
-    out.append(("nul-byte", raw[:len(raw) // 2] + b"\x00" + raw[len(raw) // 2:]))
-    out.append(("utf16", text.encode("utf-16")))
-    out.append(("latin1-name", text.replace('name = "', 'name = "\xe9', 1).encode("latin-1", "replace")))
+    out = [(f"truncated@{f:.2f}", raw[:int(len(raw) * f)], None) for f in (0.0, 0.13, 0.37, 0.5, 0.71, 0.93)]
+    out.append(("binary", bytes(rng.randrange(256) for _ in range(700)), True))
+    out.append(("nul-byte", raw[:len(raw) // 2] + b"\x00" + raw[len(raw) // 2:], True))
+    out.append(("utf16", text.encode("utf-16"), True))
+    out.append(("latin1-name", text.replace('name = "', 'name = "\xe9', 1).encode("latin-1", "replace"), True))
     tables = re.findall(r"^\[[^\[\]]+\]$", text, flags=re.M)
     if tables:  # a [table] given twice: a TOML error
         t = tables[0]
-        out.append((f"duplicated {t}", (text + f"\n{t}\n").encode()))
+        out.append((f"duplicated {t}", (text + f"\n{t}\n").encode(), True))
     if "[[vehicles]]" in text:  # an array-of-tables element given twice: a duplicate vehicle
         block = text[text.index("[[vehicles]]"):]
         nxt = block.find("\n[[", 5)
         block = block if nxt < 0 else block[:nxt]
-        out.append(("duplicated [[vehicles]]", (text + "\n" + block + "\n").encode()))
+        out.append(("duplicated [[vehicles]]", (text + "\n" + block + "\n").encode(), True))
     return out
 
 
 def _scene_additions(doc: dict):
-    """Keys the bundled scenes leave out, set to values beyond their range (and one inside)."""
+    """Keys the bundled scenes leave out, set to values beyond their range (refused) and a few inside."""
+    valid = {"vehicles.0.yaw_rate=90.0", "vehicles.0.overrides.mass=700.0", "vehicles.0.overrides.mass=3000.0",
+             "road.friction=0.0+impact.friction=0"}
     out = []
     v0 = ("vehicles", 0)
     for key, vals in (("yaw_rate", [1e308, -1e3, math.nan, 90.0]), ("steer", [90.0, True, -1e30]),
@@ -213,7 +235,7 @@ def _scene_additions(doc: dict):
                                                                           ("impact", "friction"), 0.0)))
     out.append(("unknown key", _set(doc, ("colour",), "red")))
     out.append(("vehicles.0.unknown key", _set(doc, (*v0, "sped"), 50.0)))
-    return out
+    return [(lab, d, None if lab in valid else True) for lab, d in out]
 
 
 def _tiny_study(doc: dict, path: Path, polish: int) -> dict:
@@ -229,6 +251,7 @@ def _tiny_study(doc: dict, path: Path, polish: int) -> dict:
 
 
 def _study_additions(doc: dict):
+    """Study keys set beyond any range (refused; a seed of 2^40 may be valid)."""
     out = []
     for key, v in (("dt", 1e308), ("dt", math.nan), ("dt", True)):
         out.append((f"model_options.{key}={_fmt(v)}", _set(doc, ("model_options",), {key: v})))
@@ -247,11 +270,12 @@ def _study_additions(doc: dict):
     out.append(("scene=missing.toml", _set(doc, ("scene",), "missing.toml")))
     out.append(("scene=.", _set(doc, ("scene",), ".")))
     out.append(("unknown key", _set(doc, ("colour",), "red")))
-    return out
+    return [(lab, d, None if lab == f"optimizer.seed={2 ** 40}" else True) for lab, d in out]
 
 
 def all_cases() -> list[dict]:
-    """Every fuzz case: id, kind (scene/study), content (bytes). Deterministic: a seeded sample of the
+    """Every fuzz case: id, kind (scene/study), content (bytes), refused (True: must exit 2; False: must
+    run, exit 0; None: either). Deterministic: a seeded sample of the
     per-leaf mutations of each file, the additions of two scenes and two studies, the file-level damage
     of every scene and of three studies."""
     rng = random.Random(SEED)
@@ -262,17 +286,20 @@ def all_cases() -> list[dict]:
         muts = rng.sample(_tree_mutations(doc, rng, per_leaf=2), 20)
         if path.stem in ("side", "rigid_wall"):
             muts += _scene_additions(doc)
-        muts = [(lab, dumps(d).encode()) for lab, d in [("unmutated", doc), *muts]] + _text_mutations(text, rng)
-        cases += [{"id": f"scene:{path.stem}:{lab}", "kind": "scene", "content": data} for lab, data in muts]
+        muts = [(lab, dumps(d).encode(), r) for lab, d, r in [("unmutated", doc, False), *muts]]
+        muts += _text_mutations(text, rng)
+        cases += [{"id": f"scene:{path.stem}:{lab}", "kind": "scene", "content": data, "refused": r}
+                  for lab, data, r in muts]
     for k, path in enumerate(STUDIES):
         doc = _tiny_study(tomllib.loads(path.read_text()), path, polish=4 * (k % 2))
         muts = rng.sample(_tree_mutations(doc, rng, per_leaf=2), 8)
         if path.stem in ("case1", "twin1"):
             muts += _study_additions(doc)
-        muts = [(lab, dumps(d).encode()) for lab, d in [("unmutated", doc), *muts]]
+        muts = [(lab, dumps(d).encode(), r) for lab, d, r in [("unmutated", doc, False), *muts]]
         if path.stem in ("case1", "case3", "twin1"):
             muts += _text_mutations(dumps(doc), rng)
-        cases += [{"id": f"study:{path.stem}:{lab}", "kind": "study", "content": data} for lab, data in muts]
+        cases += [{"id": f"study:{path.stem}:{lab}", "kind": "study", "content": data, "refused": r}
+                  for lab, data, r in muts]
     seen = set()
     for c in cases:  # ids are the test ids: unique
         base, n = c["id"], 2
@@ -317,7 +344,7 @@ def run_cases(cases, workdir: Path, with_out: bool) -> dict[str, dict]:
         f = workdir / f"case{k:04d}.toml"
         f.write_bytes(c["content"])
         out_dir = workdir / f"out{k:04d}" if (with_out or k % 10 == 0) and c["kind"] == "study" else None
-        manifest.append({"id": c["id"], "argv": _argv(c, f, out_dir), "file": str(f)})
+        manifest.append({"id": c["id"], "argv": _argv(c, f, out_dir), "file": str(f), "refused": c["refused"]})
     results: dict[str, dict] = {}
     todo = manifest
     while todo:
@@ -371,7 +398,7 @@ def _child(manifest_path: str, results_path: str):
             sys.__stderr__.flush()
             faulthandler.dump_traceback_later(CASE_TIME_LIMIT, exit=True)
             out, err = io.StringIO(), io.StringIO()
-            rec = {"id": m["id"], "file": m["file"], "rc": None, "error": None}
+            rec = {"id": m["id"], "file": m["file"], "refused": m["refused"], "rc": None, "error": None}
             t0 = time.perf_counter()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
@@ -397,8 +424,10 @@ def _child(manifest_path: str, results_path: str):
 def check(r: dict):
     """The contract of one case (see the module docstring)."""
     assert r["error"] is None, f"{r['error']}\n{r.get('where', '')}\n{r['stderr'][-1500:]}"
-    if r["id"].endswith(":unmutated"):  # a bundled file (tiny budget) runs: the mutations test the checks
+    if r["refused"] is False:  # a bundled file (tiny budget) runs: the mutations test the checks
         assert r["rc"] == 0, r["stderr"]
+    if r["refused"]:  # a value wrong whatever its key (NaN, inf, 1e30, a bool for a number, binary data)
+        assert r["rc"] == 2, f"accepted (exit {r['rc']}): {r['stderr'][-500:]}"
     lines = r["stderr"].strip().splitlines()
     assert r["rc"] in (0, 2, 3), f"exit {r['rc']}: {r['stderr']}"
     assert "Traceback" not in r["stderr"], r["stderr"]
