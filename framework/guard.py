@@ -6,8 +6,9 @@ and third-party models are checked alike; crashlab.model). A model may declare i
 that do not apply to it. Checks (docs/physics.md, "Physics guard"):
 
   energy_overall          the kinetic energy at the end exceeds the kinetic energy at the start
-  energy_outside_contact  a vehicle's mechanical energy (planar kinetic energy, m g z and 1/2 m vz^2
-                          where the trajectory records z and vz) rises between two trajectory samples while no contact acts
+  energy_outside_contact  a vehicle's mechanical energy (the trajectory's column energy where a model
+                          records it, else planar kinetic energy, m g z and 1/2 m vz^2 where the
+                          trajectory records z and vz) rises between two trajectory samples while no contact acts
   impact_energy           an impact creates energy (dissipated energy below zero)
   interpenetration        two vehicles, or a vehicle and a barrier, end with their outlines overlapping
   below_road              a part of a 3D vehicle's body lies below the road (trajectory column z_min)
@@ -129,12 +130,15 @@ def _check_free_energy(scene, out, tol) -> None:
         if tr is None or len(tr["t"]) < 2:
             continue
         t = np.asarray(tr["t"])
-        e = 0.5 * v.spec.mass * (np.square(tr["vx"]) + np.square(tr["vy"])) \
-            + 0.5 * v.spec.yaw_inertia * np.square(tr["yaw_rate"])
-        if "z" in tr:
-            e = e + v.spec.mass * G * (np.asarray(tr["z"]) - tr["z"][0])
-        if "vz" in tr:
-            e = e + 0.5 * v.spec.mass * np.square(tr["vz"])
+        if "energy" in tr:  # the model's own full mechanical energy (3D: every body, every rotation)
+            e = np.asarray(tr["energy"], dtype=float)
+        else:
+            e = 0.5 * v.spec.mass * (np.square(tr["vx"]) + np.square(tr["vy"])) \
+                + 0.5 * v.spec.yaw_inertia * np.square(tr["yaw_rate"])
+            if "z" in tr:
+                e = e + v.spec.mass * G * (np.asarray(tr["z"]) - tr["z"][0])
+            if "vz" in tr:
+                e = e + 0.5 * v.spec.mass * np.square(tr["vz"])
         # step k joins samples k-1 and k; it is in contact when a contact interval touches it
         touched = np.zeros(len(t) - 1, dtype=bool)
         for c0, c1 in iv:

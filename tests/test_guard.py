@@ -65,6 +65,21 @@ def test_energy_from_nowhere_after_last_contact_fails():
     assert any("V1 gains" in w for w in out.warnings)
 
 
+def test_a_models_own_energy_column_is_the_measure():
+    """A tumbling 3D car turns roll energy into planar speed: with the model's full mechanical energy
+    recorded (trajectory column energy) that is no gain; with the planar measure alone it would be."""
+    scene = _two_cars()
+    t = np.linspace(0, 2, 201)
+    v1 = np.where(t < 1.0, 5.0, 12.0)
+    flat = np.full_like(t, 0.5 * 1000 * 12.0 ** 2)
+    traj = {"V1": _traj(t, v1, energy=flat), "V2": _traj(t, np.zeros_like(t))}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj)).simulate(scene)
+    assert out.outcome_ok, out.warnings
+    traj["V1"].pop("energy")
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj)).simulate(scene)
+    assert out.violations == ["energy_outside_contact"]
+
+
 def test_energy_change_inside_contact_is_not_a_violation():
     scene = _two_cars()
     t = np.linspace(0, 2, 201)
