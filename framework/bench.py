@@ -49,7 +49,8 @@ def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
     print(f"model {model_name}, scene {scene.name}")
     print(f"single:   {n_single / best_single:10.0f} simulations/s ({best_single / n_single * 1e3:.3f} ms each)")
     print(f"batch {batch}: {batch / best_batch:8.0f} simulations/s ({best_batch / batch * 1e3:.3f} ms each); "
-          f"without the physics guard {batch / best_bare:.0f}/s (guard costs {100 * (best_batch / best_bare - 1):.1f} %)")
+          f"without the physics guard {batch / best_bare:.0f}/s "
+          f"(guard costs {100 * (best_batch / best_bare - 1):.1f} %)")
     return n_single / best_single, batch / best_batch
 
 

@@ -46,7 +46,7 @@ def check_batch(scenes, outs, skip=frozenset()) -> None:
     todo = [(s, o) for s, o in zip(scenes, outs) if not o.guarded]
     if not todo:
         return
-    for s, o in todo:
+    for _, o in todo:
         o.guarded = True
     groups: dict = {}
     for s, o in todo:  # one vectorised pass per vehicle count
@@ -125,7 +125,7 @@ def _contact_intervals(out) -> np.ndarray:
 def _check_free_energy(scene, out, tol) -> None:
     """Largest rise of each vehicle's energy within a stretch of samples free of contact."""
     iv = _contact_intervals(out)
-    for i, v in enumerate(scene.vehicles):
+    for v in scene.vehicles:
         tr = out.trajectories.get(v.name)
         if tr is None or len(tr["t"]) < 2:
             continue

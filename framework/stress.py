@@ -43,14 +43,16 @@ def _crash(name: str, v1: dict, v2: dict | None, angle: float, offset: float, im
     vehicles = []
     s1 = v1["speed"] / 3.6
     vehicles.append({"name": "V1", "vehicle": v1["kind"], "x": -s1 * t_meet, "y": offset, "heading": 0.0,
-                     "speed": v1["speed"], "wheels": v1["wheels"], "overrides": _vehicle_overrides(v1["kind"], v1["mass"])})
+                     "speed": v1["speed"], "wheels": v1["wheels"],
+                     "overrides": _vehicle_overrides(v1["kind"], v1["mass"])})
     barriers = []
     if barrier:
         barriers.append({"x": 0.5, "y": 0.0, "heading": angle + 90.0, "length": 6.0, "width": 1.0})
     if v2 is not None:
         gap2 = v2["speed"] / 3.6 * t_meet
         a = math.radians(angle)
-        vehicles.append({"name": "V2", "vehicle": v2["kind"], "x": -gap2 * math.cos(a), "y": -gap2 * math.sin(a), "heading": angle, "speed": v2["speed"], "wheels": v2["wheels"],
+        vehicles.append({"name": "V2", "vehicle": v2["kind"], "x": -gap2 * math.cos(a), "y": -gap2 * math.sin(a),
+                         "heading": angle, "speed": v2["speed"], "wheels": v2["wheels"],
                          "overrides": _vehicle_overrides(v2["kind"], v2["mass"])})
     return {"name": name, "duration": DURATION, "stop_at_rest": True, "road": {"friction": road},
             "impact": impact, "vehicles": vehicles, "barriers": barriers}
@@ -124,7 +126,8 @@ def sweep(model, scenes):
         t0 = time.perf_counter()
         try:
             out = model.simulate(scene)
-            ok, kinds, reason = out.outcome_ok, list(out.violations), "; ".join(out.warnings) if not out.outcome_ok else ""
+            ok, kinds = out.outcome_ok, list(out.violations)
+            reason = "" if ok else "; ".join(out.warnings)
             if not ok and not kinds:
                 kinds = ["model_failure"]
             moving = [n for n, r in zip(out.names, out.at_rest_mask) if not r] if ok else []
@@ -137,8 +140,9 @@ def sweep(model, scenes):
         rows.append({"scene": scene.name, "n_vehicles": len(vs), "barriers": len(scene.barriers),
                      "speeds_kmh": "/".join(f"{v.speed * 3.6:.0f}" for v in vs),
                      "masses_kg": "/".join(f"{v.spec.mass:.0f}" for v in vs),
-                     "wheels": "/".join(v.wheels for v in vs), "impacts": impacts, "ok": ok, "violations": ",".join(kinds),
-                     "reason": reason, "moving_at_end": ",".join(moving), "rolled_over": ",".join(rolled),
+                     "wheels": "/".join(v.wheels for v in vs), "impacts": impacts, "ok": ok,
+                     "violations": ",".join(kinds), "reason": reason, "moving_at_end": ",".join(moving),
+                     "rolled_over": ",".join(rolled),
                      "wall_time_s": time.perf_counter() - t0})
     return pd.DataFrame(rows)
 

@@ -9,14 +9,12 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import build_scene
 
 import crashlab
-from crashlab import guard
 from crashlab.model import CollisionModel
 from crashlab.outcome import Outcome
 from crashlab.units import kmh_to_ms
-
-from conftest import build_scene
 
 
 def _two_cars(**kw):

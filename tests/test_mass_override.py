@@ -5,11 +5,10 @@ contact episode while the road also acts: crashlab.testing)."""
 from __future__ import annotations
 
 import pytest
+from conftest import build_scene
 
 import crashlab
 from crashlab.scene import load_vehicle
-
-from conftest import build_scene
 
 MODELS = ["impulse", "pymunk", "multibody", "exudyn"]
 

@@ -18,7 +18,7 @@ from crashlab.models.multibody.contact_force import _fcode, chi
 from crashlab.models.multibody.euler_parameters import from_matrix
 from crashlab.models.multibody.model import FRICTION_V0, FRICTION_V1, FRICTION_VS, _contact_arrays, impact_rows
 from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T_R2
-from crashlab.models.multibody.vehicle_build import NW, build
+from crashlab.models.multibody.vehicle_build import NW, build_scene_vehicles
 from crashlab.outcome import Outcome
 
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
@@ -128,8 +128,9 @@ class ExudynModel(CollisionModel):
     def simulate(self, scene) -> Outcome:
         t0 = time.perf_counter()
         names = scene.vehicle_names
+        vehicles = build_scene_vehicles(scene)  # a vehicle the model cannot build is bad input (exit 2)
         try:
-            return _Run(self.opts, scene).run(t0)
+            return _Run(self.opts, scene, vehicles).run(t0)
         except Exception as e:  # exudyn raises RuntimeError/ValueError when Newton fails or a state blows up
             return Outcome.failed(names, f"exudyn model: simulation failed: {type(e).__name__}: {e}", self.name,
                                   time.perf_counter() - t0)
@@ -138,7 +139,7 @@ class ExudynModel(CollisionModel):
 class _Run:
     """One simulation: the exudyn system of a scene, the contact state and the records."""
 
-    def __init__(self, opts, scene):
+    def __init__(self, opts, scene, vehicles):
         import exudyn as exu
 
         from .build import build_vehicle
@@ -150,7 +151,7 @@ class _Run:
         self.SC = exu.SystemContainer()
         mbs = self.mbs = self.SC.AddSystem()
         ground = mbs.CreateGround()
-        self.vehs = [build(vs.spec) for vs in scene.vehicles]
+        self.vehs = vehicles
         self.items = [build_vehicle(mbs, ground, veh, vs, scene.road.friction, opts["friction_zone"], True)
                       for veh, vs in zip(self.vehs, scene.vehicles)]
         # rolling resistance and brake: a torque pair wheel/knuckle per wheel that turns (when either acts)

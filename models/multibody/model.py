@@ -18,7 +18,7 @@ from . import road_contact as RC
 from .contact_force import _fcode, chi
 from .euler_parameters import from_matrix
 from .tyre import LOCKED, MODES, T_R1, T_R2, deflection
-from .vehicle_build import NB, NW, build, initial_local, joints, steer_angles, tyres_for
+from .vehicle_build import NB, NW, build_scene_vehicles, initial_local, joints, steer_angles, tyres_for
 
 G = 9.81
 # Friction tolerances of the vehicle/vehicle friction laws (contact_force.py defaults, vehicle scale)
@@ -169,8 +169,7 @@ class MultibodyModel(CollisionModel):
     def prepare(self, scene) -> dict:
         """The packed arrays of a scene (start state Y, parameters, cfg); `run` integrates them."""
         vehs, Ys, Js, Ts, Os = [], [], [], [], []
-        for vs in scene.vehicles:
-            veh = build(vs.spec)
+        for vs, veh in zip(scene.vehicles, build_scene_vehicles(scene)):
             modes = [MODES["rolling"] if vs.wheels == "locked_after_impact" else MODES[vs.wheels]] * NW
             deltas = steer_angles(veh, vs.steer)
             vehs.append(veh)

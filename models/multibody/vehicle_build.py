@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from crashlab.errors import InputError
+
 from .equations import B_MASS, sizes
 from .joints import (
     J_I,
@@ -309,3 +311,16 @@ def initial_local(veh: Vehicle) -> np.ndarray:
 
 def mode_codes(wheels: str):
     return [MODES[wheels]] * NW
+
+
+def build_scene_vehicles(scene) -> list:
+    """The multibody vehicles of a scene. A vehicle this model cannot honour (a mass or inertia too small
+    for its wheels and knuckles) is bad input, refused before anything runs: InputError naming the scene
+    file and the vehicle entry."""
+    vehicles = []
+    for i, vs in enumerate(scene.vehicles):
+        try:
+            vehicles.append(build(vs.spec))
+        except ValueError as err:
+            raise InputError(scene.source, f"vehicles.{i} ({vs.name})", str(err)) from None
+    return vehicles
