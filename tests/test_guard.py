@@ -78,6 +78,19 @@ def test_a_models_own_energy_column_is_the_measure():
     assert out.violations == ["energy_outside_contact"]
 
 
+def test_a_contact_on_a_sample_boundary_counts_despite_round_off():
+    """pymunk reported a contact at 0.24000000000000002 s and its sample at 0.2399999 s already held the
+    struck car's new speed: the guard called it a gain without contact before CONTACT_PAD."""
+    scene = _two_cars()
+    t = np.round(np.arange(0, 100) * 0.01, 12)
+    t[24] = 0.2399999
+    v2 = np.where(t < 0.235, 0.0, 12.0)
+    traj = {"V1": _traj(t, np.full_like(t, 13.0)), "V2": _traj(t, v2)}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj,
+                                      contact_intervals=[(0.24000000000000002,) * 2])).simulate(scene)
+    assert out.outcome_ok, out.warnings
+
+
 def test_energy_change_inside_contact_is_not_a_violation():
     scene = _two_cars()
     t = np.linspace(0, 2, 201)
