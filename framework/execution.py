@@ -22,8 +22,8 @@ dropped and nothing stops the run:
     leaves its thread running, so that worker is restarted;
   * no worker outlives its run: the pool stops its workers when the run ends or raises; on Linux every
     worker process is also killed by the kernel when the process that started it dies, even by SIGKILL
-    (prctl PR_SET_PDEATHSIG; elsewhere a watchdog thread polls the parent). Dask workers of the local
-    cluster get the same through a preload, and Dask's nanny stops them with the cluster.
+    (prctl PR_SET_PDEATHSIG; elsewhere a watchdog thread polls the parent). Dask's local cluster stops
+    its workers when it closes, and they exit when the pipe to their parent closes (distributed.process).
 With `timeout_s` None or 0 the serial backend simulates in this process (exceptions still fail single
 evaluations; a hang then hangs the run).
 """
@@ -385,15 +385,12 @@ class WorkerPool:
 
 
 # ---------------------------------------------------------------- Dask
-def dask_setup(worker):  # noqa: ARG001 - Dask preload hook: a local cluster's workers die with this process
-    _die_with_parent(os.getppid())
-
-
 def _append_result(box, model_name, options_items, scenes):
     box.append(evaluate_scenes(model_name, options_items, scenes))
 
 
 _DASK_CALLS = [0]  # evaluations begun in this (Dask worker) process
+_DASK_RESTART_S = 120.0  # s: a restarted Dask worker is back within this (measured 5-40 s on a loaded machine)
 
 
 def _dask_evaluate(model_name: str, options_items: tuple, scenes: list, timeout_s: float | None,
@@ -454,8 +451,11 @@ class Executor:
             if self.scheduler:
                 self._client = Client(self.scheduler)
             else:
+                # no PR_SET_PDEATHSIG here: it is bound to the thread that starts a process, and Dask's
+                # nanny starts workers from helper threads that come and go; Dask's workers watch their
+                # parent through a pipe and exit when it closes (distributed.process)
                 self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                             dashboard_address=None, preload=["crashlab.execution"])
+                                             dashboard_address=None)
                 self._client = Client(self._cluster)
         return self
 
@@ -497,8 +497,9 @@ class Executor:
             futures = self._client.map(_dask_evaluate, [model_name] * len(batch), [items] * len(batch),
                                        [t[1] for t in batch], [self.timeout_s] * len(batch),
                                        [t[2] for t in batch], [FIRST_CALL_GRACE_S] * len(batch), pure=False)
-            # the longest a round can legitimately take: every scene of it one after the other
-            bound = None if self.timeout_s is None else FIRST_CALL_GRACE_S + self.timeout_s * sum(
+            # the longest a round can legitimately take: every scene of it one after the other, after the
+            # first-call grace and a restart of the workers (Dask closes a worker gracefully first)
+            bound = None if self.timeout_s is None else FIRST_CALL_GRACE_S + _DASK_RESTART_S + self.timeout_s * sum(
                 len(t[1]) for t in batch)
             hung = set()
             for (offset, chunk, _), fut in zip(batch, futures):

@@ -12,12 +12,14 @@ budget (at least POLISH_MIN evaluations); `[polish] evaluations = 0` turns it of
 
 Failed evaluations. A candidate fails (objectives FAILED_OBJECTIVE, both constraints violated, so every
 optimizer is pushed away from it as from an infeasible one) when the model raises, times out, its worker
-dies, the Outcome is not ok (the physics guard's verdict included), or a vehicle with evidence is still
-moving at the end of the run. A moving vehicle's end pose is not a rest pose: scoring its distance to
-the measured rest position would reward a start that merely has not finished yet, and a penalty would
-have to trade km/h against metres with a weight nobody can justify; failing it is truthful and the reason
-("V1 still moving at 34 km/h at the end ...") tells the user that the scene's duration is too short when
-it happens often. Every failure is in DIR/failures.csv with its free variables and reason.
+dies, the Outcome is not ok (the physics guard's verdict included), or, after contact, a vehicle with
+evidence is still moving at the end of the run (a miss whose cars drive on is not a failure: it is
+infeasible by g2 and its end poses are not scored either). A moving vehicle's end pose is not a rest
+pose: scoring its distance to the measured rest position would reward a start that merely has not
+finished yet, and a penalty would have to trade km/h against metres with a weight nobody can justify;
+failing it is truthful, and the reason ("V1 still moving at 34 km/h at the end ...") tells the user that
+the scene's duration is too short when it happens often. Every failure is in DIR/failures.csv with its
+free variables and reason.
 
 Resume. The checkpoint (DIR/checkpoint.pkl, after every generation) holds a fingerprint of what the
 result depends on: the study file's content (without the execution backend and workers, which do not
@@ -317,15 +319,18 @@ class ReconstructionProblem(Problem):
         executor = self.executor or Executor()
         ev = executor.evaluate(self.model, self.model_options, scenes)
         ok, reason = ev.ok.copy(), ev.reason.copy()
+        hit = ev.n_impacts > 0
+        moving = np.zeros(len(X), bool)
         for name in self.evidence:  # a vehicle with evidence must be at rest: its end pose is scored as one
             i = self.names.index(name)
-            for k in np.flatnonzero(ev.ok & ~ev.at_rest[:, i]):
+            moving |= ev.ok & ~ev.at_rest[:, i]
+            for k in np.flatnonzero(ev.ok & hit & ~ev.at_rest[:, i]):
                 reason[k] = (reason[k] + "; " if reason[k] else "") + (
                     f"{name} still moving at {ms_to_kmh(ev.end_speed[k, i]):.0f} km/h at the end "
                     "(scene duration too short?)")
-            ok &= ev.at_rest[:, i]
+        ok &= ~(moving & hit)  # a miss that drives on is no failure: it is infeasible (g2) and not scored
         F = self.objectives(ev.rest)
-        F[~ok] = FAILED_OBJECTIVE
+        F[~ok | moving] = FAILED_OBJECTIVE
         G = np.column_stack([self.start_overlap(X), np.where(ev.n_impacts > 0, 0.0, 1.0)])
         G[~ok] = 1.0
         self.n_failed += int((~ok).sum())
