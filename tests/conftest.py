@@ -76,3 +76,14 @@ def _stress_sweep(model, speed, angles=(0.0, 45.0, 90.0, 135.0, 180.0)):
 def stress_sweep():
     """`stress_sweep(model, speed)`: see _stress_sweep."""
     return _stress_sweep
+
+
+def assert_one_error_line(res, path, key, words=()):
+    """A CLI run that refused bad input: exit 2, no traceback, one line on stderr naming the file and key."""
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr + res.stdout
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert f"{path}: {key}: " in lines[0], lines[0]
+    for w in words:
+        assert w in lines[0], lines[0]

@@ -16,6 +16,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import assert_one_error_line
 
 import crashlab
 from crashlab import execution
@@ -326,28 +327,18 @@ BAD = {  # id: (line replacements, key, words in the message)
 }
 
 
-def _one_error_line(res, path, key, words):
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert "Traceback" not in res.stderr + res.stdout
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1, res.stderr
-    assert f"{path}: {key}: " in lines[0], lines[0]
-    for w in words:
-        assert w in lines[0], lines[0]
-
-
 @pytest.mark.parametrize("case", list(BAD), ids=list(BAD))
 def test_bad_study_file_exits_2_with_one_line(tmp_path, case):
     replace, key, words = BAD[case]
     path = small_study(tmp_path, name=f"{case}.toml", **replace)
-    _one_error_line(cli("reconstruct", path, "--no-progress"), path, key, words)
+    assert_one_error_line(cli("reconstruct", path, "--no-progress"), path, key, words)
 
 
 def test_bad_command_line_options_exit_2(tmp_path):
     path = small_study(tmp_path)
-    _one_error_line(cli("reconstruct", path, "--optimizer", "nsga-sharng"), path, "--optimizer",
+    assert_one_error_line(cli("reconstruct", path, "--optimizer", "nsga-sharng"), path, "--optimizer",
                     ["did you mean 'nsga-sharing'"])
-    _one_error_line(cli("reconstruct", path, "--resume", "--out", tmp_path / "empty"),
+    assert_one_error_line(cli("reconstruct", path, "--resume", "--out", tmp_path / "empty"),
                     tmp_path / "empty" / "checkpoint.pkl", "--resume", ["no checkpoint"])
 
 

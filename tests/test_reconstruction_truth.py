@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import assert_one_error_line
 
 import crashlab
 from crashlab import execution
@@ -59,16 +60,6 @@ def study_file(tmp_path, base="twin1", name="s.toml", pop_size=12, generations=3
 def cli(*args, timeout=300):
     return subprocess.run([sys.executable, "-m", "crashlab.cli", *map(str, args)], capture_output=True,
                           text=True, timeout=timeout)
-
-
-def one_line(res, path, key, words=()):
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert "Traceback" not in res.stderr + res.stdout
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1, res.stderr
-    assert f"{path}: {key}: " in lines[0], lines[0]
-    for w in words:
-        assert w in lines[0], lines[0]
 
 
 # ------------------------------------------------------------------ 1. rest means rest
@@ -278,15 +269,15 @@ def test_resume_cli_one_line_exit_2_for_another_study_and_a_corrupt_checkpoint(t
     changed = study_file(tmp_path, name="changed.toml", generations=2,
                          replace={"e": ("[evidence]\ntwin = true", "[evidence.rest.V1]\nx = 4.0\ny = 0.4")})
     ckpt = tmp_path / "out" / "checkpoint.pkl"
-    one_line(cli("reconstruct", changed, "--resume", "--out", tmp_path / "out", "--no-progress"), ckpt, "--resume",
-             ["different study", "evidence"])
+    assert_one_error_line(cli("reconstruct", changed, "--resume", "--out", tmp_path / "out", "--no-progress"),
+                          ckpt, "--resume", ["different study", "evidence"])
     ckpt.write_bytes(ckpt.read_bytes()[:200])  # a truncated file
-    one_line(cli("reconstruct", path, "--resume", "--out", tmp_path / "out", "--no-progress"), ckpt, "--resume",
-             ["cannot read the checkpoint", "corrupt"])
+    assert_one_error_line(cli("reconstruct", path, "--resume", "--out", tmp_path / "out", "--no-progress"),
+                          ckpt, "--resume", ["cannot read the checkpoint", "corrupt"])
 
 
 @pytest.mark.parametrize("content", [b"", b"not a pickle at all", b"\x80\x04K\x05."])
-def test_corrupt_or_foreign_checkpoints_are_one_line(tmp_path, content):
+def test_corrupt_or_foreign_checkpoints_are_assert_one_error_line(tmp_path, content):
     path = study_file(tmp_path)
     (tmp_path / "out").mkdir()
     (tmp_path / "out" / "checkpoint.pkl").write_bytes(content)
@@ -331,9 +322,9 @@ def test_bad_study_value_cli_exits_2_before_the_search(tmp_path):
     """Before: evidence at 1e18 m ran the whole search, then crashed drawing the plots."""
     path = study_file(tmp_path, base="case1", replace={"r": ("x = 7.11", "x = 1e18")})
     res = cli("reconstruct", path, "--no-progress", "--out", tmp_path / "out")
-    one_line(res, path, "evidence.rest.V1.x", ["100000"])
+    assert_one_error_line(res, path, "evidence.rest.V1.x", ["100000"])
     assert not (tmp_path / "out").exists()
-    one_line(cli("reconstruct", study_file(tmp_path, name="ok.toml"), "--workers", "-1", "--no-progress"),
+    assert_one_error_line(cli("reconstruct", study_file(tmp_path, name="ok.toml"), "--workers", "-1", "--no-progress"),
              tmp_path / "ok.toml", "--workers")
 
 
