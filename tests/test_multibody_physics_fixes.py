@@ -5,7 +5,12 @@
 * the tyre's camber thrust acted at standstill and on a locked wheel (a static equivalent slip): a tilted
   car at rest was pushed sideways by mu F_z and accelerated without contact (+100 kJ);
 * chassis-road contact (a rolled-over car must stay on the road and come to rest);
-* vehicle overrides of mass and inertias with a [multibody.chassis] mass in the vehicle file.
+* vehicle overrides of mass and inertias with a [multibody.chassis] mass in the vehicle file;
+* the tread damping (on the slip-state rate) acted on a sliding tyre too: a locked wheel whose slip state,
+  deep beyond saturation, relaxed as the car spun was pushed along its sliding velocity (+120 kW per wheel,
+  +70 kJ without contact in stress scene random 1:0);
+* the slip states kept integrating in the air (unsaturated): a tumbling car landed on a wheel whose state
+  pointed against its sliding velocity, mu F_z drove it (+1.7 MW, +100 kJ in stress scene random 1:5).
 """
 import math
 
@@ -215,3 +220,53 @@ def test_rollover_stays_on_the_road_and_comes_to_rest(wx, overrides):
     assert out.contact_intervals and out.contact_intervals[-1][1] > 1.0
     ke0 = 0.5 * sc.vehicles[0].spec.mass * sc.vehicles[0].speed ** 2
     assert _energy_rise_outside_contact(sc, out, "V1") < 1000.0 + 0.02 * ke0
+
+
+def test_sliding_locked_wheel_never_drives():
+    """A locked wheel sliding (70 deg slip angle, 23 m/s) with its transient slip state far beyond
+    saturation and relaxing (the state of stress scene 1:0 at t = 1.6 s): the road's force on it does no
+    positive work on the contact-patch velocity, it is mu F_z (within 1 %) and opposes the sliding velocity
+    within 10 deg. Before the fix the tread damping on the state rate drove it forward (+100 kW)."""
+    Tw, A, R, V, W, bw = _cambered_wheel(0.0, v=(-6.0, 22.3, 0.0))
+    for s, a in ((-0.78, 4.06), (0.3, 5.3), (-1.0, 1.0), (-0.5, 8.0)):
+        Q = np.zeros((NB, 6))
+        dsl = np.zeros(2)
+        fz, _ = tyre(Tw, A, R, V, W, Q, s, a, 0.85, 1.0, 1.0, dsl)
+        F = Q[bw, :2]
+        assert F @ V[bw, :2] <= 0.0, (s, a, F)
+        cos = -(F @ V[bw, :2]) / (np.linalg.norm(F) * np.linalg.norm(V[bw, :2]))
+        if (s, a) == (-0.78, 4.06):
+            assert np.linalg.norm(F) == pytest.approx(0.85 * fz, rel=0.01)
+            assert cos > math.cos(math.radians(10.0))
+
+
+@pytest.mark.parametrize("index,name", [(0, "V2"), (30, "V1"), (5, "V1")])
+def test_locked_spinning_car_gains_no_energy(index, name):
+    """Stress scenes random 1:0 (33/166 km/h) and 1:30 (164/190 km/h), wheels locked: after the impact the
+    spinning car slides on locked wheels (1:5: a 193 km/h SUV tumbles and lands on its wheels); its full
+    mechanical energy never rises outside contact by more than the guard's tolerance (1 kJ + 2 % of its
+    initial kinetic energy), and the guarded outcome is ok. Before the fix V2 of scene 0 went from 73 to
+    80.5 km/h (+70 kJ) with no contact."""
+    import crashlab
+    from crashlab import stress
+    sc = stress.random_scenes(40, seed=1)[index]
+    m = crashlab.get_model("multibody")
+    out = m.simulate(sc)
+    v = sc.vehicle_names.index(name)
+    ke0 = 0.5 * sc.vehicles[v].spec.mass * sc.vehicles[v].speed ** 2
+    assert _energy_rise_outside_contact(sc, out, name) < 1000.0 + 0.02 * ke0
+    assert out.outcome_ok, out.warnings
+
+
+def test_slip_states_relax_off_the_road():
+    """A wheel off the road (tumbling car) has no tread deflection to build: its slip states decay towards 0
+    whatever its velocity, so it lands with no stale slip. Before the fix they integrated V_y/V_ref in the air
+    (a = 6 against the sliding direction at touchdown in stress scene 1:5)."""
+    Tw, A, R, V, W, bw = _cambered_wheel(0.0, v=(0.5, -10.0, 0.0), delta=-0.05)
+    for s, a in ((0.0, 0.0), (0.3, 6.0), (-1.0, -2.0)):
+        Q = np.zeros((NB, 6))
+        dsl = np.zeros(2)
+        fz, _ = tyre(Tw, A, R, V, W, Q, s, a, 0.8, 1.0, 1.0, dsl)
+        assert fz == 0.0 and not Q.any()
+        assert dsl[0] * s <= 0.0 and dsl[1] * a <= 0.0          # towards 0
+        assert abs(dsl[0]) <= 1e3 * abs(s) and abs(dsl[1]) <= 1e3 * abs(a)   # and nothing new is built

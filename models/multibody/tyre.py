@@ -22,6 +22,9 @@ S_c = |(X, Y)|, l_n = max(0, 1 - S_c/(3 mu F_z)),
 i.e. the adhesion part follows the stiffness-weighted slip and the sliding part the sliding-velocity
 direction (for a locked wheel F = mu F_z against the sliding velocity). The law is C1 across the
 adhesion/sliding boundary, so the UA case switches (I/II/III, adhesion/sliding) never jump.
+Tread damping C_s sigma_s ds/dt, C_a sigma_a da/dt (zero in steady state) is added to the adhesion part
+of a state within full sliding (S_c <= 3 mu F_z) and fades out beyond it (over SAT_BAND): a fully sliding
+tread is Coulomb friction against the sliding direction (issue 10).
 Self-aligning torque T_z = (l/6) Y l_n^3, contact length l = sqrt(8 R delta).
 Rolling resistance: moment -f_r F_z h tanh(Omega/Omega_reg) about the spin axis (f_r dimensionless, h the
 hub-to-contact distance, so that it equals a resistance force f_r F_z).
@@ -43,6 +46,7 @@ V_EPS = 0.01        # m/s: smooths V_ref = max(|V_x|, |V_c|) at standstill
 DELTA_RAMP = 1e-3   # m: radial damping fades in over the first mm of deflection (no jump at touchdown)
 OMEGA_RR = 0.5      # rad/s: rolling-resistance moment reaches its full value above this spin rate
 OMEGA_BRAKE = 1.0   # rad/s: same for the brake torque
+TAU_AIR = 0.01      # s: relaxation of the slip states (tread deflection) of a wheel off the road
 SAT_BAND = 0.05     # the slip states stop growing once S_c exceeds 3 mu F_z by this fraction
 
 
@@ -85,7 +89,10 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
     # (K_g/K_a) sin(gamma) for a free-rolling wheel (V_c = V_x), nothing at standstill or when locked
     da = (vy + Tw[T_KG] / Tw[T_KA] * w[2] * abs(vc) - vref * a) / Tw[T_SIG_A]
     if delta <= 0.0:
-        dslip[0], dslip[1] = ds, da
+        # off the road the tread deflection springs back (time TAU_AIR): before issue 10 the states kept
+        # integrating V/V_ref in the air, unsaturated, and a tumbling car landed on a wheel whose state
+        # pointed against its sliding velocity (mu F_z driving it: +1.7 MW, +100 kJ in stress scene 1:5)
+        dslip[0], dslip[1] = -s / TAU_AIR, -a / TAU_AIR
         return 0.0, 0.0
     # normal force (§6.1): elastic + radial damping faded in over DELTA_RAMP
     arm = sub(C, c)
@@ -123,8 +130,17 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
         fxi = X * ln * ln + slide * s
         feta = Y * ln * ln + slide * aeq
         tz = math.sqrt(8.0 * Rfree * delta) / 6.0 * Y * ln * ln * ln
-    fx = -fxi - damping_on * Tw[T_CS] * Tw[T_SIG_S] * ds * friction_on
-    fy = -feta - damping_on * Tw[T_CA] * Tw[T_SIG_A] * da * friction_on
+    # tread damping damps the elastic tread deflection; a state beyond full sliding (S_c > 3 mu F_z) is no
+    # deflection any more (the whole patch slides, the force is Coulomb friction against the sliding
+    # direction), so the damping fades out over SAT_BAND there. Before, a locked wheel's state far
+    # beyond saturation relaxing at V_ref/sigma gave a damping force far above mu F_z along the sliding
+    # velocity (issue 10: a spinning car on locked wheels gained +70 kJ without contact, +120 kW per wheel)
+    cd = damping_on * friction_on
+    if sc > 3.0 * fmax:
+        z = 1.0 if fmax <= 0.0 else min(1.0, (sc / (3.0 * fmax) - 1.0) / SAT_BAND)
+        cd *= 1.0 - z * z * (3.0 - 2.0 * z)
+    fx = -fxi - cd * Tw[T_CS] * Tw[T_SIG_S] * ds
+    fy = -feta - cd * Tw[T_CA] * Tw[T_SIG_A] * da
     fh = math.sqrt(fx * fx + fy * fy)
     if fh > fmax:
         r = fmax / fh if fh > 0.0 else 0.0
