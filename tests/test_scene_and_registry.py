@@ -218,3 +218,24 @@ def test_vehicle_names_label_tables(make_scene, name, problem):
     with pytest.raises(crashlab.InputError, match=problem) as err:
         make_scene([{"name": name}])
     assert err.value.key == "vehicles.0.name" and "\n" not in str(err.value)
+
+
+def test_entry_points_are_read_once_per_process(monkeypatch):
+    """crashlab.simulate used to re-read package metadata on every call (about 2 ms, four times an impulse
+    simulation): the registry reads each group once, and refresh() forgets it."""
+    from crashlab import registry
+    calls = []
+    real = registry.entry_points
+
+    def counting(**kw):
+        calls.append(kw)
+        return real(**kw)
+
+    monkeypatch.setattr(registry, "entry_points", counting)
+    registry.refresh()
+    for _ in range(3):
+        registry.get_model("impulse")
+    assert len(calls) == 1
+    registry.refresh()
+    registry.get_model("impulse")
+    assert len(calls) == 2
