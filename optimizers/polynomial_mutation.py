@@ -1,4 +1,4 @@
-"""Deb & Deb (2012) bounded polynomial mutation (FORMULAS.md section 11.2, first form).
+"""Deb & Deb (2012) bounded polynomial mutation (docs/physics.md §24).
 
 For a variable ``y`` in ``[x_l, x_u]`` and ``u ~ U(0, 1)``::
 

@@ -1,6 +1,6 @@
 """Fitness-proportionate selection for NSGA: roulette wheel and stochastic remainder.
 
-FORMULAS.md 11.3: ``p_i = f_i / sum f_j``; roulette draws ``r ~ U[0, 1)`` and takes the first
+docs/physics.md §22: ``p_i = f_i / sum f_j``; roulette draws ``r ~ U[0, 1)`` and takes the first
 ``i`` whose cumulative probability exceeds ``r``; stochastic remainder first gives every
 individual ``floor(N p_i)`` copies and fills the rest by roulette on the fractional parts.
 Parents are then paired so that no individual mates with itself.

@@ -1,4 +1,4 @@
-"""Non-dominated fronts and shared dummy fitness of NSGA (Srinivas & Deb 1994; FORMULAS.md 11.3).
+"""Non-dominated fronts and shared dummy fitness of NSGA (Srinivas & Deb 1994; docs/physics.md §22).
 
 All functions are plain numpy so they can be tested without running an algorithm.
 """

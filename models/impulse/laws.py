@@ -1,4 +1,4 @@
-"""Planar impulse-momentum collision laws (FORMULAS.md §9): Kudlich-Slibar (PC-Crash) and Brach.
+"""Planar impulse-momentum collision laws (docs/physics.md §3): Kudlich-Slibar (PC-Crash) and Brach.
 
 Sign conventions: n is the unit contact normal from vehicle 1 to vehicle 2, t = k x n the tangent;
 r1, r2 lead from each CG to the point of impact; g = relative velocity of 2 with respect to 1 at the
@@ -16,7 +16,7 @@ SLIDING = 1
 
 @register_jitable
 def impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny):
-    """K_nn, K_tt, K_nt: the change of relative velocity at the point per unit impulse (§9)."""
+    """K_nn, K_tt, K_nt: the change of relative velocity at the point per unit impulse (§3)."""
     tx, ty = -ny, nx
     a1 = r1x * ny - r1y * nx  # r x n
     a2 = r2x * ny - r2y * nx
@@ -30,7 +30,7 @@ def impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny):
 
 @register_jitable
 def collision_impulse(knn, ktt, knt, gn, gt, e, mu, law):
-    """Normal and tangential impulse (Pn, Pt) on vehicle 2, and FULL or SLIDING (§9)."""
+    """Normal and tangential impulse (Pn, Pt) on vehicle 2, and FULL or SLIDING (§3)."""
     d = knn * ktt - knt * knt
     if law == KUDLICH_SLIBAR:
         # common velocity at the end of compression, restitution on the whole impulse: g' = -e g
@@ -43,7 +43,7 @@ def collision_impulse(knn, ktt, knt, gn, gt, e, mu, law):
     if abs(pt) <= mu * pn + 1e-12 * abs(pn):
         pn, pt = energy_limited(knn, ktt, knt, gn, gt, e, pn, pt)
         return pn, pt, FULL
-    # sliding: tangential impulse capped at mu Pn, against the initial slip s = -sgn(g_t) (§9); without
+    # sliding: tangential impulse capped at mu Pn, against the initial slip s = -sgn(g_t) (§3); without
     # initial slip, against the slip the impact would start (the sign of the law's Pt). Friction that
     # pushes along the slip would create energy, so the other sign is never taken.
     s = -1.0 if gt > 0.0 else 1.0
@@ -69,7 +69,7 @@ def _dissipation_sign(knn, ktt, knt, gn, gt, e, r):
 
 @register_jitable
 def energy_limited(knn, ktt, knt, gn, gt, e, pn, pt):
-    """(Pn, Pt) unchanged when the impact dissipates energy (T' - T = ½ Π·(g + g') <= 0, §9); otherwise
+    """(Pn, Pt) unchanged when the impact dissipates energy (T' - T = ½ Π·(g + g') <= 0, §3); otherwise
     the tangential/normal ratio is reduced toward 0 (the frictionless impact, always dissipative), keeping
     g'_n = -e g_n, to the largest ratio that creates no energy (Brach's energy bound on the impulse ratio).
     The Newton-type sticking impulse with e > 0, and a sliding impulse whose friction reverses the slip

@@ -1,4 +1,4 @@
-"""Planar 3-DOF vehicle motion with four wheel contacts (FORMULAS.md §10).
+"""Planar 3-DOF vehicle motion with four wheel contacts (docs/physics.md §2).
 
 One implementation of the tyre/ground forces, compiled with numba, used by every planar model.
 State per vehicle (global): x, y, heading psi, vx, vy, yaw rate r.
@@ -64,7 +64,7 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
     v = -sn * s[3] + c * s[4]
     r = s[5]
     # axle loads with longitudinal transfer m a_x h / L, then lateral transfer m a_y h / track per side,
-    # shared between the axles as the static loads (§10, pycrash style)
+    # shared between the axles as the static loads (§2, pycrash style)
     nf = m * (G * b - acc_body[0] * h) / wb
     nr = m * (G * a + acc_body[0] * h) / wb
     dlat = m * acc_body[1] * h / track

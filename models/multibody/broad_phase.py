@@ -1,7 +1,7 @@
-"""Broad phase for superellipsoid contact (FORMULAS.md §2): bounding spheres -> AABB -> OBB 15-axis SAT.
+"""Broad phase for superellipsoid contact (docs/physics.md §11): bounding spheres -> AABB -> OBB 15-axis SAT.
 
 * spheres_overlap: |c1 - c2|^2 <= (R1 + R2)^2 — NOT R1^2 + R2^2 (the non-conservative bug of
-  artur-ag/fcl SuperOvoid.cpp, §2.1).
+  artur-ag/fcl SuperOvoid.cpp, §11).
 * aabb_overlap: |c1_k - c2_k| <= e1_k + e2_k for k = 1..3.
 * obb_overlap: Gottschalk's 15-axis separating-axis test (PQP obb_disjoint) in A's frame with
   |R|_ij + eps (eps = 1e-6) against near-parallel edge pairs. A superellipsoid (0 < eps <= 2) lies
@@ -35,7 +35,7 @@ def aabb_overlap(c1, e1, c2, e2):
 
 @njit(cache=True)
 def obb_overlap(cA, RA, a, cB, RB, b, eps=1e-6):
-    """15-axis SAT (§2.3). RA, RB: columns are the box axes (world); a, b: half-extents.
+    """15-axis SAT (§11). RA, RB: columns are the box axes (world); a, b: half-extents.
     Returns True if the boxes overlap (no separating axis found), False if disjoint."""
     R = np.empty((3, 3))
     AR = np.empty((3, 3))

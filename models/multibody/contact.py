@@ -7,7 +7,7 @@ rotation, BOXE half-extents). The contact normal is searched among HORIZONTAL di
 d = (cos th, sin th, 0) only: the signed gap is g = max_th -(h1(d) + h2(-d)) (h = global support
 functions, closed form: superellipsoid.support_value_global, and the exact box support function), i.e.
 the separating-axis gap of the two bodies' plan shadows. Why horizontal only: the chassis slabs are
-0.5 m tall and a car-to-car crush reaches 0.5-1 m with the literature stiffness of FORMULAS §12, so the
+0.5 m tall and a car-to-car crush reaches 0.5-1 m with the literature stiffness of docs/physics.md §27, so the
 3D minimum-translation distance would flip to a vertical push-out at deep penetration (a vehicle is not
 pushed over the other); vehicles crush horizontally. A vertical gate (the z-ranges must overlap) keeps
 vehicles at different heights apart. The 1D maximisation over th is a golden-section search: warm-started
@@ -150,7 +150,7 @@ def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi
              cfg_v1, cfg_vs, cfg_vmin):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
     CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
-    Broad phase (§2), cheapest first: plan bounding circles, height ranges, oriented boxes (a
+    Broad phase (§11), cheapest first: plan bounding circles, height ranges, oriented boxes (a
     superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
     also measures its separation speed); BPC counts what each stage removed."""
     nv = Y.shape[0]

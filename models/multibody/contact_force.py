@@ -1,24 +1,24 @@
-"""Contact force laws (FORMULAS.md §4, §4.1, §5) — groundwork for vehicle contact (issue 5).
+"""Contact force laws (docs/physics.md §13, §14) — groundwork for vehicle contact (issue 5).
 
 Normal force (continuous, dissipative, Hertz-type):
     F_N = K delta^n [1 + chi(e) delta_dot / delta_dot0]        clamped to F_N >= 0 (no adhesion)
 delta > 0 penetration, delta_dot its rate (> 0 approaching), delta_dot0 the rate at contact onset,
-recorded once per contact (clamped below by v_min, §4.1 pitfall). Laws (`chi(law, e)`):
+recorded once per contact (clamped below by v_min, §13). Laws (`chi(law, e)`):
     hertz                 0                   (elastic)
     hunt-crossley         3(1-e)/2
     lankarani-nikravesh   3(1-e^2)/4
     flores                8(1-e)/(5e)
     gonthier              (1-e^2)/e
-    exact-restitution     root of 1 - chi e = (1 + chi) exp(-chi (1 + e)) in (0, 1/e) (§4.1), brentq,
+    exact-restitution     root of 1 - chi e = (1 + chi) exp(-chi (1 + e)) in (0, 1/e) (§13), brentq,
                           cached per e: reproduces e exactly with the F_N >= 0 clamp.
-`effective_restitution(law, e)`: the restitution e* the law really produces (§4.1, independent of K,
+`effective_restitution(law, e)`: the restitution e* the law really produces (§13, independent of K,
 n, m*, delta_dot0): root of 1 - chi e* = (1 + chi) exp(-chi (1 + e*)), unique in (0, 1/chi) (the
 left side minus the right side is concave in e*, positive at 0 and negative at 1/chi).
 Flores, Gonthier and the exact law have chi -> inf as e -> 0: e is clamped to [E_MIN, E_MAX] =
 [0.01, 0.999].
 
-Friction (§5), magnitude ratio c(v) with F_T = -mu c(|v_T|) F_N v_T/|v_T|:
-    coulomb     c = v / sqrt(v^2 + v_s^2)                     (regularised Coulomb, §5 pitfall)
+Friction (§14), magnitude ratio c(v) with F_T = -mu c(|v_T|) F_N v_T/|v_T|:
+    coulomb     c = v / sqrt(v^2 + v_s^2)                     (regularised Coulomb, §14)
     threlfall   c = 1 - exp(-3 v / v0)                         [U] recalled form, Threlfall 1978,
                 "The inclusion of Coulomb friction in mechanisms programs with particular reference to
                 DRAM", Mech. Mach. Theory 13:475-483 (95 % of mu F_N at v = v0)
@@ -26,8 +26,8 @@ Friction (§5), magnitude ratio c(v) with F_T = -mu c(|v_T|) F_N v_T/|v_T|:
                 "Impact of rigid and flexible multibody systems: deformation description and contact
                 models", in Virtual Nonlinear Multibody Systems (NATO ASI, Kluwer), pp. 57-81
 All three: c(0) = 0, c -> 1 for v >> tolerance, non-decreasing in v (tests). Ambrosio has no static
-friction (c = 0 below v0: contacts creep, §5 pitfall). Default tolerances are vehicle-scale
-(v_s = v0 = 0.01 m/s, v1 = 0.1 m/s, §5 [R]), not the 1e-4/1e-3 m/s of the papers.
+friction (c = 0 below v0: contacts creep, §14). Default tolerances are vehicle-scale
+(v_s = v0 = 0.01 m/s, v1 = 0.1 m/s, §14), not the 1e-4/1e-3 m/s of the papers.
 """
 import math
 from functools import lru_cache
@@ -64,7 +64,7 @@ def _relation(chi, e):
 
 @lru_cache(maxsize=1024)
 def exact_chi(e):
-    """chi that reproduces the target restitution e exactly (§4.1), root in (0, 1/e) by brentq."""
+    """chi that reproduces the target restitution e exactly (§13), root in (0, 1/e) by brentq."""
     e = _clamp_e(e)
     hi = 1.0 / e
     lo = 1e-6
@@ -74,7 +74,7 @@ def exact_chi(e):
 
 
 def chi(law, e):
-    """Hysteresis damping factor chi of a normal law at restitution coefficient e (§4 table)."""
+    """Hysteresis damping factor chi of a normal law at restitution coefficient e (§13)."""
     law = _norm_law(law)
     if law == "hertz":
         return 0.0
@@ -91,19 +91,19 @@ def chi(law, e):
 
 
 def restitution_from_chi(c):
-    """e* produced by F_N = K delta^n (1 + c delta_dot/delta_dot0), F_N >= 0 (§4.1)."""
+    """e* produced by F_N = K delta^n (1 + c delta_dot/delta_dot0), F_N >= 0 (§13)."""
     if c <= 0.0:
         return 1.0
     return brentq(lambda es: _relation(c, es), 0.0, 1.0 / c, xtol=1e-14, rtol=1e-14, maxiter=200)
 
 
 def effective_restitution(law, e):
-    """Restitution the law actually produces for the target e (§4.1 table)."""
+    """Restitution the law actually produces for the target e (§13)."""
     return restitution_from_chi(chi(law, e))
 
 
 def hertz_stiffness(E1, nu1, R1, E2=None, nu2=None, R2=None):
-    """K = 4/3 E* sqrt(R*) (§4). E2=None: rigid body 2; R2=None: plane (R* = R1)."""
+    """K = 4/3 E* sqrt(R*) (§13). E2=None: rigid body 2; R2=None: plane (R* = R1)."""
     inv_E = (1 - nu1 ** 2) / E1 + (0.0 if E2 is None else (1 - nu2 ** 2) / E2)
     Rs = R1 if R2 is None else R1 * R2 / (R1 + R2)
     return 4.0 / 3.0 / inv_E * math.sqrt(Rs)
@@ -127,7 +127,7 @@ def normal_force(law, delta, delta_dot, delta_dot0, K, e=1.0, n=1.5, v_min=1e-3)
 
 
 # ----------------------------------------------------------------------------------------------------
-# friction (§5)
+# friction (§14)
 # ----------------------------------------------------------------------------------------------------
 @njit(cache=True)
 def friction_ratio_code(code, v, v0, v1, vs):
@@ -164,7 +164,7 @@ def friction_ratio(law, v, v0=0.01, v1=0.1, v_s=0.01):
 
 
 def friction_force(law, v_rel, normal, F_N, mu, v0=0.01, v1=0.1, v_s=0.01):
-    """F_T = -mu c(|v_T|) F_N v_T/|v_T| with v_T = v_rel - (v_rel.n) n (§5); zero for v_T = 0."""
+    """F_T = -mu c(|v_T|) F_N v_T/|v_T| with v_T = v_rel - (v_rel.n) n (§14); zero for v_T = 0."""
     v_rel = np.asarray(v_rel, float)
     n = np.asarray(normal, float)
     vT = v_rel - (v_rel @ n) * n

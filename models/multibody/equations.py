@@ -1,4 +1,4 @@
-"""Equations of motion of one vehicle (FORMULAS.md §7.1-7.2): Newton-Euler with Euler parameters,
+"""Equations of motion of one vehicle (docs/physics.md §7): Newton-Euler with Euler parameters,
 constraints with Lagrange multipliers and Baumgarte stabilisation, solved by the Schur complement.
 
 State y of one vehicle (nb bodies, nw wheels):

@@ -1,4 +1,4 @@
-"""Euler parameters (Nikravesh 1988; FORMULAS.md §1.4), compiled helpers on 3-tuples.
+"""Euler parameters (Nikravesh 1988; docs/physics.md §6), compiled helpers on 3-tuples.
 
 p = [e0, e1, e2, e3], A(p) the rotation matrix (body -> global), p_dot = 1/2 L(p)^T w' with w' the
 body-fixed angular velocity. Vectors are tuples so that numba keeps them in registers (no allocation).
@@ -51,7 +51,7 @@ def mtv(A, b, x):
 
 @njit(cache=True)
 def rotation_into(e0, e1, e2, e3, A, b):
-    """A(p) of §1.4 written into A[b] (p need not be exactly unit: it is normalised here)."""
+    """A(p) of §6 written into A[b] (p need not be exactly unit: it is normalised here)."""
     n = 1.0 / (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
     A[b, 0, 0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n
     A[b, 0, 1] = 2.0 * (e1 * e2 - e0 * e3) * n
@@ -74,7 +74,7 @@ def p_dot(e0, e1, e2, e3, w):
 
 
 def from_matrix(A):
-    """Euler parameters of a rotation matrix, Shepperd's branch (largest of e0^2..e3^2; §1.4 pitfall)."""
+    """Euler parameters of a rotation matrix, Shepperd's branch (largest of e0^2..e3^2; §6)."""
     tr = A[0, 0] + A[1, 1] + A[2, 2]
     cand = [tr, A[0, 0], A[1, 1], A[2, 2]]
     k = max(range(4), key=lambda i: cand[i])

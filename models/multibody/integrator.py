@@ -5,7 +5,7 @@ Scene awareness: step sizes grow up to h_max while nothing happens; a vehicle wh
 still (speed < v_rest, angular speed < w_rest) for t_sleep goes to sleep (velocities zeroed, no more
 force evaluations); the run ends when every vehicle sleeps (stop_at_rest) or at t_end.
 Vehicle contact (contact.py) is evaluated in every stage. First-contact control (Flores & Ambrosio 2010,
-FORMULAS §8): a trial step that passes the error test but ends with a pair not yet in contact
+docs/physics.md §15): a trial step that passes the error test but ends with a pair not yet in contact
 penetrating deeper than onset_tol is bisected (re-integrated from its start) until the new penetration
 is in (0, onset_tol]; the pair is then active and its approach velocity delta_dot0 is stored until the
 pair separates (penetration <= 0 at the end of a step), which closes the contact episode (impulse, peak
@@ -391,7 +391,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                 status = STATUS_STEP
                 break
             continue
-        # first-contact control (FORMULAS §8): a step may not end with a new contact deeper than tol
+        # first-contact control (docs/physics.md §15): a step may not end with a new contact deeper than tol
         if check_events and npair > 0 and _new_penetration(PST, PSG[6]) > tol:
             lo, hi = 0.0, h
             found = False

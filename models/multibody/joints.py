@@ -1,4 +1,4 @@
-"""Kinematic joints as constraint rows (FORMULAS.md §7.3), with velocity Jacobians in the body-fixed
+"""Kinematic joints as constraint rows (docs/physics.md §7), with velocity Jacobians in the body-fixed
 angular-velocity form: each row k has Phi_k, D_k = [d/d r_dot_i, d/d w'_i, d/d r_dot_j, d/d w'_j] (12
 numbers) and gamma_k = -(D_dot v)_k, so that Phi_ddot = D v_dot - gamma.
 

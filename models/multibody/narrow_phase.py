@@ -1,4 +1,4 @@
-"""Narrow phase between two convex superellipsoids (FORMULAS.md §3): signed gap, normal, contact points.
+"""Narrow phase between two convex superellipsoids (docs/physics.md §12): signed gap, normal, contact points.
 
 `signed_gap(sh1, r1, A1, sh2, r2, A2, warm=None, info=None)` ->
     (gap, normal, P1, P2, converged)
@@ -9,25 +9,25 @@
     info (dict, optional) receives method ('newton-warm' | 'newton' | 'slsqp'), iterations, warm.
 
 Pipeline:
-1. Seed [R, §3.4]: the signed gap of convex bodies is max over unit d of -(h1(d) + h2(-d)) (h the global
+1. Seed (§10): the signed gap of convex bodies is max over unit d of -(h1(d) + h2(-d)) (h the global
    support functions); it is evaluated with the closed-form support function on 200 Fibonacci
    directions, the best one refined by 8 levels of a 5 x 5 tangent-plane grid (~400 support calls,
    a few microseconds), and that direction's support points sigma1(d), sigma2(-d) seed Newton. (No
    GJK/EPA: this is simpler, branch-free, and lands in the right basin.)
-2. Common-normal Newton-Raphson (Lopes et al. 2010, §3.2): 6 unknowns (local points), residuals
+2. Common-normal Newton-Raphson (Lopes et al. 2010, §12): 6 unknowns (local points), residuals
    n_P.t_Q, n_P.b_Q, d.t_Q, d.b_Q, G1(P), G2(Q) (the well-scaled G in place of F: same zero set),
    Householder tangent basis h = n + sgn(n_x)|n| e_x (sgn(0) = +1; the sign is frozen within one Jacobian
    evaluation so the frame is smooth), Jacobian by central differences, step limited to a quarter of the
    smallest semi-axis, both points re-projected radially onto their surfaces after each step.
-3. Acceptance (§3.2): anti-parallel normals n_P.n_Q <= -0.99 and the gap vector along the normal
+3. Acceptance (§12): anti-parallel normals n_P.n_Q <= -0.99 and the gap vector along the normal
    (d^.n_P >= 0.99 separated, <= -0.99 penetrating; skipped when |d| < 1e-9), and the gap not below the
    seed's value. Any accepted pair satisfies P = sigma1(n_P), Q = sigma2(-n_P), so its gap equals
    g(n_P) <= max g = the true signed gap: a pair is wrong only if it is a lower stationary point of g
-   (e.g. the back-side pair of §3.1 pitfall 4), and the seed value (<= max g) rejects those.
+   (e.g. the back-side pair of §12), and the seed value (<= max g) rejects those.
    NOT used: the Lopes/fcl test "penetrating iff Q inside body 1" — for a deep penetration the
    minimum-translation pair can have Q outside body 1 (seen on random pairs); the sign comes from
    s = n_P.(Q - P) as in Portal's code.
-4. Fallback: scipy.optimize.minimize SLSQP on Portal's formulation (§3.1, constraint set 'normals_dot'
+4. Fallback: scipy.optimize.minimize SLSQP on Portal's formulation (§12, constraint set 'normals_dot'
    by default or 'normals_cross'): min |P2-P1|^2 s.t. G1(P1) = 0, G2(P2) = 0, n1.n2 + 1 = 0, points in
    cubes of half-size 1.1 max(a,b,c) around their centres; sign from s = n1.(P2-P1). Its result is then
    polished by Newton; whatever passes the checks is returned, else the SLSQP point with converged False.
@@ -67,7 +67,7 @@ SEED_DIRS = _fibonacci(200)
 # ----------------------------------------------------------------------------------------------------
 @njit(cache=True)
 def householder_tb(n0, n1, n2, sgn):
-    """Tangent t = H[:,1], binormal b = H[:,2] of H = I - 2hh^T/h^Th, h = n + sgn |n| e_x (§3.2)."""
+    """Tangent t = H[:,1], binormal b = H[:,2] of H = I - 2hh^T/h^Th, h = n + sgn |n| e_x (§12)."""
     nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     h0 = n0 + sgn * nn
     hh = h0 * h0 + n1 * n1 + n2 * n2
@@ -138,7 +138,7 @@ def _solve6(J, rhs, x):
 
 @njit(cache=True)
 def newton_common_normal(q0, sh1, r1, A1, sh2, r2, A2, maxit=150, tol=1e-10):
-    """Common-normal Newton (§3.2) from local points q0 = [xi_P; xi_Q]. Returns (q, converged, iters).
+    """Common-normal Newton (§12) from local points q0 = [xi_P; xi_Q]. Returns (q, converged, iters).
     converged: step < tol * L (L = largest semi-axis) or residual norm < 1e-13, within maxit."""
     q = q0.copy()
     p = radial_project(q[0], q[1], q[2], sh1)
@@ -284,7 +284,7 @@ def evaluate(q, sh1, r1, A1, sh2, r2, A2):
 
 
 # ----------------------------------------------------------------------------------------------------
-# SLSQP fallback (Portal, Dias & Sousa, §3.1)
+# SLSQP fallback (Portal, Dias & Sousa, §12)
 # ----------------------------------------------------------------------------------------------------
 def _grad_G_global(x, sh, r, A):
     l = (x - r) @ A

@@ -1,4 +1,4 @@
-"""Translational spring-damper with a bump stop (FORMULAS.md §7.4).
+"""Translational spring-damper with a bump stop (docs/physics.md §8).
 
 d = r_j^Q - r_i^P, l = |d|, u = d/l, l_dot = u . d_dot
 f = k (l - l0) + c l_dot - k_b max(0, l_b - l)     (tension positive; the bump stop is a linear stop

@@ -1,10 +1,10 @@
-"""Superellipsoid geometry (FORMULAS.md §1.1-1.3, §2.1-2.2, §3.4) — groundwork for vehicle contact (issue 5).
+"""Superellipsoid geometry (docs/physics.md §10, §11) — groundwork for vehicle contact (issue 5).
 
 A shape is the float64 array ``sh = [a, b, c, eps1, eps2]`` (semi-axes in m, shape exponents; eps1 the
 profile along z, eps2 the xy cross-section). Convex for 0 < eps <= 2; the Newton narrow phase needs
 C^2 surfaces, i.e. eps <= 1. Local (shape) coordinates xi; a pose is (r, A): centre and rotation matrix
 (columns = local axes in the global frame), so x = r + A xi. A shape offset in its body (s'_c, A'_c of
-§1.3) is handled by `shape_pose`, which folds it into a single (r, A).
+§10) is handled by `shape_pose`, which folds it into a single (r, A).
 
 Hot-path scalar kernels are numba ``@njit(cache=True)`` functions on 3-tuples (no allocation):
   F_local, G_local, grad_F_local, grad_G_local, normal_local, radial_project, support_local,
@@ -33,7 +33,7 @@ XY_TINY = 1e-12
 # ----------------------------------------------------------------------------------------------------
 @njit(cache=True)
 def F_local(x, y, z, sh):
-    """Implicit function F of §1.1 (<0 inside, 0 on the surface, >0 outside). May overflow far away for
+    """Implicit function F of §10 (<0 inside, 0 on the surface, >0 outside). May overflow far away for
     small eps: use G_local there."""
     a, b, c, e1, e2 = sh[0], sh[1], sh[2], sh[3], sh[4]
     X = abs(x / a)
@@ -67,7 +67,7 @@ def G_local(x, y, z, sh):
 
 @njit(cache=True)
 def grad_F_local(x, y, z, sh):
-    """Gradient of F (§1.2) at xi, with the |X|, |Y| < 1e-12 special case. Direct formula: may overflow
+    """Gradient of F (§10) at xi, with the |X|, |Y| < 1e-12 special case. Direct formula: may overflow
     far from the surface for small eps (use normal_local / grad_G_local there)."""
     a, b, c, e1, e2 = sh[0], sh[1], sh[2], sh[3], sh[4]
     X = x / a
@@ -120,7 +120,7 @@ def radial_project(x, y, z, sh):
 
 @njit(cache=True)
 def support_local(dx, dy, dz, sh):
-    """Support mapping sigma(d) of §3.4 (Hölder duality): the surface point maximising d . xi. d need not
+    """Support mapping sigma(d) of §10 (Hölder duality): the surface point maximising d . xi. d need not
     be unit. Valid for 0 < eps < 2."""
     a, b, c, e1, e2 = sh[0], sh[1], sh[2], sh[3], sh[4]
     ux, uy, uz = a * dx, b * dy, c * dz
@@ -159,7 +159,7 @@ def support_local(dx, dy, dz, sh):
 
 @njit(cache=True)
 def support_value_local(dx, dy, dz, sh):
-    """h(d) = max over the shape of d . xi (= t of §3.4 for the unnormalised u)."""
+    """h(d) = max over the shape of d . xi (= t of §10 for the unnormalised u)."""
     a, b, c, e1, e2 = sh[0], sh[1], sh[2], sh[3], sh[4]
     ux, uy, uz = abs(a * dx), abs(b * dy), abs(c * dz)
     m = max(ux, max(uy, uz))
@@ -232,7 +232,7 @@ def shape(a, b, c, eps1, eps2):
 
 
 def shape_pose(r_body, A_body, s_c=None, A_c=None):
-    """Pose of a shape offset in its body (§1.3): x = r_i + A_i (s'_c + A'_c xi) = r + A xi."""
+    """Pose of a shape offset in its body (§10): x = r_i + A_i (s'_c + A'_c xi) = r + A xi."""
     r_body = np.asarray(r_body, float)
     A_body = np.asarray(A_body, float)
     s_c = np.zeros(3) if s_c is None else np.asarray(s_c, float)
@@ -257,7 +257,7 @@ def _split(xi, sh):
 
 
 def F_np(xi, sh):
-    """F of §1.1 for an (N, 3) array of local points."""
+    """F of §10 for an (N, 3) array of local points."""
     X, Y, Z, e1, e2 = _split(xi, sh)
     with np.errstate(over="ignore"):
         return (X ** (2 / e2) + Y ** (2 / e2)) ** (e2 / e1) + Z ** (2 / e1) - 1.0
@@ -311,7 +311,7 @@ def sample_surface(sh, n=40):
 
 
 # ----------------------------------------------------------------------------------------------------
-# broad-phase helpers (§2.1, §2.2)
+# broad-phase helpers (§11)
 # ----------------------------------------------------------------------------------------------------
 def bounding_radius(sh, exact=False):
     """Bounding-sphere radius about the shape centre. Default: the box corner sqrt(a^2+b^2+c^2), always
@@ -328,7 +328,7 @@ def bounding_radius(sh, exact=False):
 
 def aabb_half_extents(sh, A, exact=True):
     """World AABB half-extents of the shape with rotation A. exact=True: e_k = h(A^T e_k) (support value
-    along each world axis, tight); exact=False: the oriented-box bound |A| (a, b, c) (§2.2)."""
+    along each world axis, tight); exact=False: the oriented-box bound |A| (a, b, c) (§11)."""
     A = np.asarray(A, float)
     if not exact:
         return np.abs(A) @ sh[:3]

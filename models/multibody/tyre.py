@@ -1,4 +1,4 @@
-"""University of Arizona (UA) tyre, Gim & Nikravesh (1990/91), as FORMULAS.md §6, with the smoothing
+"""University of Arizona (UA) tyre, Gim & Nikravesh (1990/91), as docs/physics.md §9, with the smoothing
 and the transient-slip states described in README.md.
 
 Per wheel: torus geometry (r1 = radius of the carcass-centre circle, r2 = carcass radius), flat road
@@ -8,15 +8,15 @@ the lateral slip angle), relaxing towards the UA slips with relaxation lengths s
     sigma_s ds/dt = V_sx - V_ref s        sigma_a da/dt = V_y - V_ref a,   V_ref = max(|V_x|, |V_c|)
 
 whose steady states are exactly the UA definitions in braking (V_sx/V_x, V_y/V_x) and traction
-(V_sx/V_c, (1-S) tan(alpha) = V_y/V_c) (§6.2). With V_ref in the relaxation rate instead of a divisor there
-is no singularity at standstill (§6 pitfall 2): there the states are tread deflections (springs K/sigma).
+(V_sx/V_c, (1-S) tan(alpha) = V_y/V_c) (§9). With V_ref in the relaxation rate instead of a divisor there
+is no singularity at standstill (§9): there the states are tread deflections (springs K/sigma).
 
 Camber: an equivalent lateral slip in the same state, fed by the rolling speed,
     sigma_a da/dt = V_y + (K_g/K_a) sin(gamma) |V_c| - V_ref a,
 so a free-rolling wheel's steady state is tan(alpha) + (K_g/K_a) sin(gamma) (the usual equivalent slip) and a
 wheel at standstill or locked gets no camber thrust (before issue 10 the camber slip was added statically:
 a tilted car at rest was pushed sideways by mu F_z and accelerated without any contact).
-Forces (§6.4, comprehensive slip, brush form): X = K_s s, Y = K_a a_eq (a_eq = a, camber included),
+Forces (§9, comprehensive slip, brush form): X = K_s s, Y = K_a a_eq (a_eq = a, camber included),
 S_c = |(X, Y)|, l_n = max(0, 1 - S_c/(3 mu F_z)),
     F = (X, Y) l_n^2 + mu F_z e_slide (1 - 3 l_n^2 + 2 l_n^3),  e_slide = (s, a_eq)/|(s, a_eq)|
 i.e. the adhesion part follows the stiffness-weighted slip and the sliding part the sliding-velocity
@@ -94,7 +94,7 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
         # pointed against its sliding velocity (mu F_z driving it: +1.7 MW, +100 kJ in stress scene 1:5)
         dslip[0], dslip[1] = -s / TAU_AIR, -a / TAU_AIR
         return 0.0, 0.0
-    # normal force (§6.1): elastic + radial damping faded in over DELTA_RAMP
+    # normal force (§9): elastic + radial damping faded in over DELTA_RAMP
     arm = sub(C, c)
     vC = add(vw, cross(om, arm))
     ddelta = -vC[2]
@@ -118,7 +118,7 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
         # frozen (their saturated dynamics at fmax = 0 only chatter and throttle the step size)
         ds, da = 0.0, 0.0
     dslip[0], dslip[1] = ds, da
-    # comprehensive-slip brush law (§6.4)
+    # comprehensive-slip brush law (§9)
     aeq = a                                  # camber is already in the state (see da above)
     X, Y = ks * s, ka * aeq
     sc = math.sqrt(X * X + Y * Y)

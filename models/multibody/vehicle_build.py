@@ -71,7 +71,7 @@ DEFAULTS = {
     "bump_stiffness_factor": 10.0,                          # stop stiffness / spring stiffness
     "radial_stiffness_clio": 200e3, "slip_stiffness_clio": 500e3,   # N/m, N per 980 kg (scaled with mass)
     "camber_to_cornering": 0.2,                             # K_gamma / K_alpha (Clio 30/150)
-    "radial_damping_ratio": 0.01,                           # FunctionBay UA sample (FORMULAS §12)
+    "radial_damping_ratio": 0.01,                           # FunctionBay UA sample (docs/physics.md §27)
     "relaxation_over_radius": 1.0,                          # sigma_s = sigma_a = R
     "tread_damping_ratio_spin": 0.5, "tread_damping_ratio_lateral": 0.2,
     "brake_eta": 0.95,                                      # braked (ABS): brake torque / (mu F_z R_e)
