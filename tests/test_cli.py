@@ -1,4 +1,4 @@
-"""The command line (DESIGN.md): models, simulate [--json] [--plot], compare, and bad input: status 2,
+"""The command line (README.md): models, simulate [--json] [--plot], compare, and bad input: status 2,
 one line on stderr naming the file and the key, never a traceback."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Normal force laws, the restitution they produce, friction laws, and the bouncing ball with and
-without contact-onset control (issue 5 groundwork; FORMULAS §4, §4.1, §5, §8)."""
+without contact-onset control (issue 5 groundwork; docs/physics.md §13, §14, §15)."""
 import math
 
 import numpy as np
@@ -20,7 +20,7 @@ from crashlab.models.multibody.contact_force import (
 )
 
 E_TAB = [0.01, 0.05, 0.10, 0.20, 0.30, 0.50, 0.70, 0.90]
-TABLE_41 = {  # FORMULAS §4.1
+TABLE_41 = {  # docs/physics.md §13
     "hunt-crossley": [0.490, 0.501, 0.516, 0.547, 0.581, 0.663, 0.768, 0.909],
     "lankarani-nikravesh": [0.663, 0.664, 0.665, 0.672, 0.684, 0.725, 0.796, 0.913],
     "flores": [0.006, 0.033, 0.069, 0.156, 0.256, 0.470, 0.683, 0.894],

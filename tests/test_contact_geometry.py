@@ -1,4 +1,4 @@
-"""Superellipsoid geometry, broad phase and narrow phase (issue 5 groundwork; FORMULAS §1, §2, §3).
+"""Superellipsoid geometry, broad phase and narrow phase (issue 5 groundwork; docs/physics.md §10, §11, §12).
 
 Brute-force references used here:
 * signed gap (separated AND penetrating): the separating-axis value g(d) = -(h1(d) + h2(-d)) maximised

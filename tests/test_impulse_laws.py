@@ -1,4 +1,4 @@
-"""The planar impulse laws (FORMULAS.md §9): Kudlich-Slibar (PC-Crash, Poisson type) and Brach.
+"""The planar impulse laws (docs/physics.md §3): Kudlich-Slibar (PC-Crash, Poisson type) and Brach.
 
 `impact_matrix` and `collision_impulse` are plain Python functions (numba `register_jitable`), so the
 tests call them directly and apply the returned impulse (Pn, Pt) with the §9 formulas:

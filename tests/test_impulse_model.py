@@ -1,5 +1,5 @@
-"""The `impulse` model end to end: planar vehicle motion (FORMULAS §10), impacts in a simulation
-(§9), the PC-Crash cases of the thesis, the Outcome contract (DESIGN.md)."""
+"""The `impulse` model end to end: planar vehicle motion (docs/physics.md §2), impacts in a simulation
+(docs/physics.md §3), the PC-Crash cases of the thesis, the Outcome contract (README.md)."""
 from __future__ import annotations
 
 import math

@@ -74,7 +74,7 @@ def test_sharing_function_in_unit_interval(d, sigma, alpha):
 
 def test_deb_sigma_share_rule():
     assert deb_sigma_share(5, 10) == pytest.approx(0.5 / 10 ** (1 / 5))
-    assert deb_sigma_share(5, 10) == pytest.approx(0.315, abs=5e-4)  # FORMULAS 11.3 examples
+    assert deb_sigma_share(5, 10) == pytest.approx(0.315, abs=5e-4)  # docs/physics.md §22, example
     assert deb_sigma_share(8, 20) == pytest.approx(0.344, abs=5e-4)
 
 

@@ -1,4 +1,4 @@
-"""The reconstruction layer (DESIGN.md, study file and `crashlab reconstruct`): collision repair, the
+"""The reconstruction layer (README.md, study file and `crashlab reconstruct`): collision repair, the
 objectives and failed evaluations, identical answers on every execution backend, resume after a kill,
 bad study files, the output files, and (slow) the twin experiments. The optimizers themselves are
 tested in test_optimizers.py."""

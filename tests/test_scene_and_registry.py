@@ -1,4 +1,4 @@
-"""Scene files, vehicle overrides, validation errors, the plugin registry (DESIGN.md contracts)."""
+"""Scene files, vehicle overrides, validation errors, the plugin registry (the contracts in README.md)."""
 from __future__ import annotations
 
 import dataclasses
