@@ -24,7 +24,7 @@ def _get_model(name, where):
     from .registry import get_model
     try:
         return get_model(name)
-    except UnknownPluginError as err:
+    except (UnknownPluginError, TypeError) as err:
         raise InputError(where, "--model", str(err)) from None
 
 
@@ -77,9 +77,13 @@ def cmd_compare(args):
     for m in models:
         outcomes[m] = _get_model(m, args.scene).simulate(scene)
     df = comparison_table(scene, outcomes)
+    failed = [m for m, out in outcomes.items() if not out.outcome_ok]
     if args.json:
         print(df.to_json(orient="records", indent=2))
-        return 0
+        for m in failed:
+            print(f"crashlab: simulation failed: {args.scene}: model {m}: {'; '.join(outcomes[m].warnings)}",
+                  file=sys.stderr)
+        return 3 if failed else 0
     with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 200,
                            "display.max_columns", 30):
         print(f"{scene.name}: end pose x, y [m], heading [deg], at_rest; final velocity vx, vy [km/h]")
@@ -87,7 +91,10 @@ def cmd_compare(args):
     for m, out in outcomes.items():
         for w in out.warnings:
             print(f"warning ({m}):", w)
-    return 0
+    for m in failed:
+        print(f"crashlab: simulation failed: {args.scene}: model {m}: {'; '.join(outcomes[m].warnings)}",
+              file=sys.stderr)
+    return 3 if failed else 0
 
 
 def cmd_bench(args):

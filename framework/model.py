@@ -46,8 +46,9 @@ class CollisionModel(abc.ABC):
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         for attr, wrap in (("simulate", _guarded_simulate), ("simulate_batch", _guarded_batch)):
-            fn = cls.__dict__.get(attr)
-            if fn is not None and not getattr(fn, "__guarded__", False):
+            fn = getattr(cls, attr, None)  # also a method a mixin brings along
+            if fn is not None and not getattr(fn, "__guarded__", False) \
+                    and not getattr(fn, "__isabstractmethod__", False):
                 setattr(cls, attr, wrap(fn))
         unknown = set(cls.guard_skip) - set(guard.CHECKS)
         if unknown:

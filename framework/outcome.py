@@ -42,7 +42,8 @@ class Outcome:
         self.names = list(names)
         self.rest_si = np.asarray(rest_si, dtype=float)
         n = len(self.names)
-        self.final_si = np.zeros((n, 3)) if final_si is None else np.asarray(final_si, dtype=float)
+        # final velocities unknown are not zero: a model that does not report them gets no rest pose
+        self.final_si = np.full((n, 3), np.nan) if final_si is None else np.asarray(final_si, dtype=float)
         self.contact_si = np.full((n, 4), np.nan) if contact_si is None else np.asarray(contact_si, float)
         self.contact_time = contact_time
         self._trajectories = trajectories or {}
@@ -167,7 +168,7 @@ class Outcome:
 
     def to_json_dict(self) -> dict:
         def num(v):
-            return None if v is None or (isinstance(v, float) and math.isnan(v)) else round(float(v), 6)
+            return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else round(float(v), 6)
         vehicles = {}
         speed, at_rest = self.end_speed_si, self.at_rest_mask
         for i, n in enumerate(self.names):

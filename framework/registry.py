@@ -63,8 +63,14 @@ def available_optimizers() -> list[str]:
 
 
 def get_model(name: str, **options):
-    """A CollisionModel instance; options are the model's config keys."""
-    return load(MODELS, name)(**options)
+    """A CollisionModel instance; options are the model's config keys. A plugin must derive from
+    crashlab.CollisionModel: that is where the physics guard checks every Outcome."""
+    from .model import CollisionModel
+    model = load(MODELS, name)(**options)
+    if not isinstance(model, CollisionModel):
+        raise TypeError(f"model plugin {name!r} ({type(model).__name__}) does not derive from "
+                        "crashlab.CollisionModel, so its results could not be checked")
+    return model
 
 
 def get_optimizer(name: str, **options):

@@ -12,6 +12,7 @@ import pytest
 from conftest import build_scene
 
 import crashlab
+from crashlab import guard
 from crashlab.model import CollisionModel
 from crashlab.outcome import Outcome
 from crashlab.units import kmh_to_ms
@@ -34,8 +35,8 @@ class Scripted(CollisionModel):
 
 
 def _outcome(scene, rest, final=None, **kw):
-    return Outcome(scene.vehicle_names, np.array(rest, float), None if final is None else np.array(final, float),
-                   model="scripted", **kw)
+    final = np.zeros((len(scene.vehicles), 3)) if final is None else np.array(final, float)
+    return Outcome(scene.vehicle_names, np.array(rest, float), final, model="scripted", **kw)
 
 
 def _traj(t, vx, **cols):
@@ -89,6 +90,36 @@ def test_a_contact_on_a_sample_boundary_counts_despite_round_off():
     out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj,
                                       contact_intervals=[(0.24000000000000002,) * 2])).simulate(scene)
     assert out.outcome_ok, out.warnings
+
+
+def test_one_vehicles_contact_does_not_excuse_another():
+    """V1 is in contact the whole run, V2 touches nothing and goes from 50 to 100 km/h: the contact is
+    V1's (its impact row with the barrier), so V2's gain is caught (the review's p7: it was not)."""
+    scene = build_scene([{"x": 0.0, "speed": 50.0}, {"x": 20.0, "y": 10.0, "speed": 50.0}],
+                        barriers=[{"x": 3.0, "y": 0.0, "length": 1.0, "width": 4.0}])
+    t = np.linspace(0, 5, 501)
+    traj = {"V1": _traj(t, np.zeros_like(t)), "V2": _traj(t, np.where(t < 2.0, kmh_to_ms(50.0), kmh_to_ms(100.0)))}
+    rows = [{"t": 0.0, "vehicle": "V1", "other": "barrier0", "dvx": 0.0, "dvy": 0.0, "d_yaw_rate": 0.0,
+             "energy": 1e3, "kind": "continuous", "point_x": 2.5, "point_y": 0.0, "plane_angle": 0.0,
+             "duration": 5.0}]
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [30, 10, 0]], trajectories=traj, impact_rows=rows,
+                                      contact_intervals=[(0.0, 5.0)])).simulate(scene)
+    assert out.violations == ["energy_outside_contact"] and "V2 gains" in out.warnings[-1]
+
+
+def test_the_energy_tolerance_is_the_vehicles_own():
+    """A 3,000 kg car at 200 km/h beside a standing 700 kg car that speeds up to 54 km/h without contact
+    (+79 kJ): 2 % of the scene's energy (93 kJ) would hide it, 2 % of the light car's does not."""
+    scene = build_scene([{"x": 0.0, "speed": 200.0, "overrides": {"mass": 3000.0, "yaw_inertia": 4500.0,
+                                                                    "roll_inertia": 900.0, "pitch_inertia": 4500.0}},
+                         {"x": 0.0, "y": 20.0, "overrides": {"mass": 700.0, "yaw_inertia": 1050.0,
+                                                              "roll_inertia": 210.0, "pitch_inertia": 1050.0}}])
+    t = np.linspace(0, 2, 201)
+    traj = {"V1": _traj(t, np.full_like(t, kmh_to_ms(200.0))),
+            "V2": _traj(t, np.where(t < 1.0, 0.0, kmh_to_ms(54.0)))}
+    out = Scripted(lambda s: _outcome(s, [[100, 0, 0], [10, 20, 0]], [[kmh_to_ms(200.0), 0, 0], [0, 0, 0]],
+                                      trajectories=traj)).simulate(scene)
+    assert out.violations == ["energy_outside_contact"] and "V2 gains 78.8 kJ" in out.warnings[-1]
 
 
 def test_energy_change_inside_contact_is_not_a_violation():
@@ -156,6 +187,38 @@ def test_a_model_may_skip_checks_that_do_not_apply():
     assert out.outcome_ok and out.guarded
     with pytest.raises(TypeError, match="unknown guard checks"):
         type("Bad", (CollisionModel,), {"simulate": lambda self, s: None, "guard_skip": frozenset({"nope"})})
+
+
+def test_a_simulate_from_a_mixin_is_guarded_too():
+    class Mixin:
+        def simulate(self, scene):
+            return _outcome(scene, [[20, 0, 0], [30, 0, math.pi]], [[kmh_to_ms(900.0), 0, 0], [0, 0, 0]])
+
+    class FromMixin(Mixin, CollisionModel):
+        name = "from-mixin"
+
+    out = FromMixin().simulate(_two_cars())
+    assert out.guarded and out.violations == ["energy_overall"]
+
+
+def test_a_model_without_final_velocities_reports_no_rest():
+    scene = _two_cars()
+    out = Outcome(scene.vehicle_names, np.array([[20, 0, 0], [30, 0, math.pi]], float), model="bare")
+    assert not out.at_rest_mask.any()
+    guard.check(scene, out)
+    assert not out.outcome_ok and out.violations == ["non_finite"]
+
+
+def test_a_plugin_that_is_no_collision_model_is_refused(monkeypatch):
+    from crashlab import registry
+
+    class Duck:
+        def simulate(self, scene):
+            return None
+
+    monkeypatch.setattr(registry, "load", lambda group, name: Duck)
+    with pytest.raises(TypeError, match="does not derive from crashlab.CollisionModel"):
+        registry.get_model("duck")
 
 
 def test_batch_is_guarded_like_single_runs():

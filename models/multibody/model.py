@@ -260,8 +260,9 @@ class MultibodyModel(CollisionModel):
             "broad_phase": dict(zip(("pair_evaluations", "removed_by_circle", "removed_by_height",
                                      "removed_by_obb", "narrow_phase"), CT[8].tolist())),
         }
-        if diag[I.D_NIMP] >= C.MAX_IMP:
-            warnings.append(f"more than {C.MAX_IMP} contact episodes: only the first {C.MAX_IMP} are reported")
+        if diag[I.D_NIMP] >= C.MAX_IMP:  # later episodes would be missing from the table and the guard
+            ok = False
+            warnings.append(f"more than {C.MAX_IMP} contact episodes: the run cannot report them all")
         heads = [(traj[:nr, v, I.R_T].copy(), traj[:nr, v, I.R_HEAD].copy()) for v in range(nv)]
         rows = impact_rows(names, BODY[:, :, 0].sum(1), IMP[:int(diag[I.D_NIMP])].copy(), heads)
         if any(r["open"] for r in rows):
