@@ -39,7 +39,7 @@ class EchoModel(crashlab.CollisionModel):
     def simulate(self, scene):
         shift = scene.vehicles[0].speed * 3.6
         rest = [(v.x + shift, v.y, v.heading) for v in scene.vehicles]
-        return crashlab.Outcome(scene.vehicle_names, rest, model=self.name,
+        return crashlab.Outcome(scene.vehicle_names, rest, np.zeros((len(rest), 3)), model=self.name,
                                 impact_rows=[{"t": 0.1, "vehicle": "V1", "other": "V2", "energy": 0.0}])
 
 

@@ -20,6 +20,7 @@ from crashlab.models.multibody.model import FRICTION_V0, FRICTION_V1, FRICTION_V
 from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T_R2
 from crashlab.models.multibody.vehicle_build import NW, build_scene_vehicles
 from crashlab.outcome import Outcome
+from crashlab.units import G
 
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
 LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
@@ -213,6 +214,21 @@ class _Run:
         pitch = math.asin(max(-1.0, min(1.0, -A[2, 0])))
         roll = math.atan2(A[2, 1], A[2, 2])
         return (c[0], c[1], c[2], self.head[v], roll, pitch, c[3], c[4], om[2], c[5])
+
+    def _energy(self, v):
+        """Mechanical energy of vehicle v [J]: kinetic energy of its nine bodies (translation and rotation
+        about their principal axes) and their height in gravity; the guard's measure for a tumbling car,
+        whose planar energy alone trades with roll and pitch in free flight (docs/physics.md §19)."""
+        out = self.exu.OutputVariableType
+        g = self.mbs.GetNodeOutput
+        e = 0.0
+        for b, nd in enumerate(self.items[v]["nodes"]):
+            m, inertia = self.vehs[v].BODY[b, 0], self.vehs[v].BODY[b, 1:4]
+            A = np.asarray(g(nd, out.RotationMatrix)).reshape(3, 3)
+            vel, om = np.asarray(g(nd, out.Velocity)), A.T @ np.asarray(g(nd, out.AngularVelocity))
+            e += 0.5 * m * float(vel @ vel) + 0.5 * float(inertia @ (om * om)) \
+                + m * G * float(np.asarray(g(nd, out.Position))[2])
+        return e
 
     def _update_headings(self):
         for v in range(self.nv):
@@ -426,7 +442,7 @@ class _Run:
 
     def _record(self, s):
         for v in range(self.nv):
-            self.traj[v].append((s,) + tuple(self._pose(v)) + (self.RSG[v, R.R_ZMIN],))
+            self.traj[v].append((s,) + tuple(self._pose(v)) + (self.RSG[v, R.R_ZMIN], self._energy(v)))
 
     def _awake(self, s):
         """False (stop after this step) once every chassis has been still for t_sleep and no contact is open."""
@@ -511,7 +527,7 @@ class _Run:
         self._record(t_end)
         rest, final = np.zeros((nv, 3)), np.zeros((nv, 3))
         trajectories = {}
-        keys = ("t", "x", "y", "z", "heading", "roll", "pitch", "vx", "vy", "yaw_rate", "vz", "z_min")
+        keys = ("t", "x", "y", "z", "heading", "roll", "pitch", "vx", "vy", "yaw_rate", "vz", "z_min", "energy")
         for v, n in enumerate(self.names):
             p = self._pose(v)
             rest[v] = [p[0], p[1], p[3]]
