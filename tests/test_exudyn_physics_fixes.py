@@ -169,9 +169,9 @@ def test_tumbling_car_is_judged_on_its_full_energy():
     """A car tumbling in free flight trades roll for yaw (angular momentum is kept, its body-axis parts are
     not): its planar energy rose by 53 kJ without contact and the guard failed the run (stress scene 1:5);
     the model records the nine bodies' full mechanical energy, which does not rise."""
-    from crashlab import stress
+    from crashlab import simulate, stress
     scene = stress.random_scenes(15, seed=1)[5]
-    out = crashlab.simulate(scene, model="exudyn")
+    out = simulate(scene, model="exudyn")
     assert out.outcome_ok, out.warnings
     e = out.trajectories["V2"]["energy"]
     assert e[-1] < e[0]
