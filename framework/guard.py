@@ -169,11 +169,16 @@ def _check_free_energy(scene, out) -> None:
             return
 
 
-def _check_road(scene, out) -> None:
+def _recorded(scene, out, column):
+    """(vehicle, its trajectory) for the vehicles whose trajectory records `column`."""
     for v in scene.vehicles:
         tr = out.trajectories.get(v.name)
-        if tr is None or "z_min" not in tr or len(tr["z_min"]) == 0:
-            continue
+        if tr is not None and column in tr and len(tr[column]):
+            yield v, tr
+
+
+def _check_road(scene, out) -> None:
+    for v, tr in _recorded(scene, out, "z_min"):
         z = np.asarray(tr["z_min"])
         k = int(np.argmin(z))
         if z[k] < -ROAD_TOL:
@@ -182,10 +187,7 @@ def _check_road(scene, out) -> None:
 
 
 def _report_rollover(scene, out) -> None:
-    for v in scene.vehicles:
-        tr = out.trajectories.get(v.name)
-        if tr is None or "roll" not in tr or len(tr["roll"]) == 0:
-            continue
+    for v, tr in _recorded(scene, out, "roll"):
         roll, pitch = float(tr["roll"][-1]), float(tr.get("pitch", [0.0])[-1])
         # continuous angles: the attitude is upside down or on a side when the wrapped angle exceeds 90 deg
         roll_w, pitch_w = math.remainder(roll, 2 * math.pi), math.remainder(pitch, 2 * math.pi)

@@ -9,21 +9,12 @@ from .outcome import Outcome
 from .scene import Scene
 
 
-def _guarded_simulate(simulate):
-    @functools.wraps(simulate)
-    def wrapper(self, scene, *args, **kwargs):
-        out = simulate(self, scene, *args, **kwargs)
-        guard.check(scene, out, self.guard_skip)
-        return out
-    wrapper.__guarded__ = True
-    return wrapper
-
-
-def _guarded_batch(simulate_batch):
-    @functools.wraps(simulate_batch)
+def _guarded(method, check):
+    """`method` (simulate or simulate_batch) followed by the physics guard's `check` on what it returns."""
+    @functools.wraps(method)
     def wrapper(self, scenes, *args, **kwargs):
-        outs = simulate_batch(self, scenes, *args, **kwargs)
-        guard.check_batch(scenes, outs, self.guard_skip)
+        outs = method(self, scenes, *args, **kwargs)
+        check(scenes, outs, self.guard_skip)
         return outs
     wrapper.__guarded__ = True
     return wrapper
@@ -45,11 +36,11 @@ class CollisionModel(abc.ABC):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        for attr, wrap in (("simulate", _guarded_simulate), ("simulate_batch", _guarded_batch)):
+        for attr, check in (("simulate", guard.check), ("simulate_batch", guard.check_batch)):
             fn = getattr(cls, attr, None)  # also a method a mixin brings along
             if fn is not None and not getattr(fn, "__guarded__", False) \
                     and not getattr(fn, "__isabstractmethod__", False):
-                setattr(cls, attr, wrap(fn))
+                setattr(cls, attr, _guarded(fn, check))
         unknown = set(cls.guard_skip) - set(guard.CHECKS)
         if unknown:
             raise TypeError(f"model {cls.name!r}: unknown guard checks in guard_skip: {sorted(unknown)}")
@@ -66,7 +57,7 @@ class CollisionModel(abc.ABC):
         """Simulate many scenes; models override this to vectorise or parallelise."""
         return [self.simulate(s) for s in scenes]
 
-    simulate_batch = _guarded_batch(simulate_batch)
+    simulate_batch = _guarded(simulate_batch, guard.check_batch)
 
     def get_options(self) -> dict:
         return {}
