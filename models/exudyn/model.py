@@ -16,7 +16,14 @@ from crashlab.models.multibody import contact as C
 from crashlab.models.multibody import road_contact as R
 from crashlab.models.multibody.contact_force import _fcode, chi
 from crashlab.models.multibody.euler_parameters import from_matrix
-from crashlab.models.multibody.model import FRICTION_V0, FRICTION_V1, FRICTION_VS, _contact_arrays, impact_rows
+from crashlab.models.multibody.model import (
+    FRICTION_V0,
+    FRICTION_V1,
+    FRICTION_VS,
+    _contact_arrays,
+    _end_overlap,
+    impact_rows,
+)
 from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T_R2
 from crashlab.models.multibody.vehicle_build import NW, build_scene_vehicles
 from crashlab.outcome import Outcome
@@ -523,7 +530,7 @@ class _Run:
         for v in range(nv):
             if self.road_on[v]:
                 self.intervals.append((self.road_t0[v], t_end))
-        overlap = self._end_overlap(psg)
+        overlap = _end_overlap(self.names, self.PP, psg)
         self._record(t_end)
         rest, final = np.zeros((nv, 3)), np.zeros((nv, 3))
         trajectories = {}
@@ -572,15 +579,3 @@ class _Run:
         if ok and overlap is not None:
             out.fail("interpenetration", overlap)
         return out
-
-    def _end_overlap(self, psg):
-        """The guard's interpenetration check with the contact bodies (superellipsoid chassis, barrier boxes):
-        a reason when a pair ends penetrating deeper than guard.PENETRATION_TOL, else None."""
-        from crashlab.guard import PENETRATION_TOL
-        for p in range(self.PP.shape[0]):
-            d = psg[p, C.G_DEL]
-            if d > PENETRATION_TOL:
-                i, j = int(self.PP[p, C.P_I]), int(self.PP[p, C.P_J])
-                other = self.names[j] if j < self.nv else f"barrier {j - self.nv}"
-                return f"{self.names[i]} and {other} end penetrating by {d:.2f} m (contact bodies)"
-        return None
