@@ -132,37 +132,44 @@ def _vehicle_contacts(out, name) -> np.ndarray:
     return np.asarray(iv, dtype=float).reshape(-1, 2)
 
 
-def _check_free_energy(scene, out) -> None:
-    """Largest rise of each vehicle's energy within a stretch of samples free of its own contacts, against
-    ENERGY_TOL_J + ENERGY_TOL_REL x the largest energy that vehicle had."""
-    for v in scene.vehicles:
-        tr = out.trajectories.get(v.name)
-        if tr is None or len(tr["t"]) < 2:
+def free_energy_rise(out, vehicle) -> tuple[float, float, float]:
+    """(largest rise [J], its time [s], tolerance [J]) of one vehicle's energy within the stretches of its
+    trajectory free of its own contacts; the tolerance is ENERGY_TOL_J + ENERGY_TOL_REL x the largest
+    energy that vehicle had. `vehicle` is the scene's VehicleState."""
+    tr = out.trajectories[vehicle.name]
+    t = np.asarray(tr["t"])
+    if "energy" in tr:  # the model's own full mechanical energy (3D: every body, every rotation)
+        e = np.asarray(tr["energy"], dtype=float)
+    else:
+        m = vehicle.spec.mass
+        e = 0.5 * m * (np.square(tr["vx"]) + np.square(tr["vy"])) \
+            + 0.5 * vehicle.spec.yaw_inertia * np.square(tr["yaw_rate"])
+        if "z" in tr:
+            e = e + m * G * (np.asarray(tr["z"]) - tr["z"][0])
+        if "vz" in tr:
+            e = e + 0.5 * m * np.square(tr["vz"])
+    tol = ENERGY_TOL_J + ENERGY_TOL_REL * float(np.max(np.abs(e)))
+    # step k joins samples k-1 and k; it is in contact when one of the vehicle's contacts touches it
+    touched = np.zeros(len(t) - 1, dtype=bool)
+    for c0, c1 in _vehicle_contacts(out, vehicle.name):
+        touched |= (t[1:] >= c0 - CONTACT_PAD) & (t[:-1] <= c1 + CONTACT_PAD)
+    worst, t_worst = 0.0, math.nan
+    lowest = e[0]
+    for k in range(1, len(t)):
+        if touched[k - 1]:
+            lowest = e[k]
             continue
-        t = np.asarray(tr["t"])
-        if "energy" in tr:  # the model's own full mechanical energy (3D: every body, every rotation)
-            e = np.asarray(tr["energy"], dtype=float)
-        else:
-            e = 0.5 * v.spec.mass * (np.square(tr["vx"]) + np.square(tr["vy"])) \
-                + 0.5 * v.spec.yaw_inertia * np.square(tr["yaw_rate"])
-            if "z" in tr:
-                e = e + v.spec.mass * G * (np.asarray(tr["z"]) - tr["z"][0])
-            if "vz" in tr:
-                e = e + 0.5 * v.spec.mass * np.square(tr["vz"])
-        tol = ENERGY_TOL_J + ENERGY_TOL_REL * float(np.max(np.abs(e)))
-        # step k joins samples k-1 and k; it is in contact when one of the vehicle's contacts touches it
-        touched = np.zeros(len(t) - 1, dtype=bool)
-        for c0, c1 in _vehicle_contacts(out, v.name):
-            touched |= (t[1:] >= c0 - CONTACT_PAD) & (t[:-1] <= c1 + CONTACT_PAD)
-        worst, t_worst = 0.0, math.nan
-        lowest = e[0]
-        for k in range(1, len(t)):
-            if touched[k - 1]:
-                lowest = e[k]
-                continue
-            lowest = min(lowest, e[k - 1])
-            if e[k] - lowest > worst:
-                worst, t_worst = e[k] - lowest, t[k]
+        lowest = min(lowest, e[k - 1])
+        if e[k] - lowest > worst:
+            worst, t_worst = e[k] - lowest, t[k]
+    return worst, t_worst, tol
+
+
+def _check_free_energy(scene, out) -> None:
+    for v, _ in _recorded(scene, out, "t"):
+        if len(out.trajectories[v.name]["t"]) < 2:
+            continue
+        worst, t_worst, tol = free_energy_rise(out, v)
         if worst > tol:
             out.fail("energy_outside_contact", f"{v.name} gains {worst / 1e3:.1f} kJ without contact "
                      f"(by t = {t_worst:.2f} s; tolerance {tol / 1e3:.1f} kJ)")
