@@ -14,7 +14,25 @@ from .registry import UnknownPluginError
 
 
 def cmd_models(args):
-    from .registry import available_models, available_optimizers
+    from .registry import MODELS, available_models, available_optimizers, load
+    if args.options:
+        from tabulate import tabulate
+
+        from .options import describe
+        try:
+            cls = load(MODELS, args.options)
+        except UnknownPluginError as err:
+            raise InputError("command line", "--options", str(err)) from None
+        rows = describe(getattr(cls, "Options", None))
+        if not rows:
+            print(f"model {args.options!r} takes no options")
+            return 0
+        print(f"options of model {args.options!r} (accuracy: the direction that makes a knob finer)")
+        print(tabulate([[r["name"], r["type"], r["unit"], r["default"], r["range"], r["accuracy"],
+                         r["description"]] for r in rows],
+                       headers=["option", "type", "unit", "default", "range", "accuracy", "meaning"],
+                       tablefmt="simple", maxcolwidths=[None, None, None, None, None, None, 70]))
+        return 0
     print("models:     " + ", ".join(available_models()))
     print("optimizers: " + ", ".join(available_optimizers()))
     return 0
@@ -134,7 +152,10 @@ def cmd_reconstruct(args):
 def build_parser():
     p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("models", help="list the registered collision models and optimizers").set_defaults(fn=cmd_models)
+    mo = sub.add_parser("models", help="list the registered collision models and optimizers")
+    mo.add_argument("--options", metavar="NAME", help="list the options of model NAME with unit, range, default "
+                    "and accuracy direction")
+    mo.set_defaults(fn=cmd_models)
     s = sub.add_parser("simulate", help="simulate a scene file")
     s.add_argument("scene")
     s.add_argument("--model", default="impulse")

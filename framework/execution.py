@@ -171,7 +171,7 @@ def evaluate_scenes(model_name: str, options_items: tuple, scenes: list, single_
         if contact is not None:
             res.contact[k] = contact
         diag = getattr(o, "diagnostics", {}) or {}
-        res.n_impacts[k] = diag["impacts"] if "impacts" in diag else len(o.impact_rows)
+        res.n_impacts[k] = diag["episodes"] if "episodes" in diag else len(o.impact_rows)
         final = getattr(o, "final_si", None)
         if final is None:  # an outcome without velocities: nothing says it moves
             res.at_rest[k] = True

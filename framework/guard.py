@@ -72,6 +72,7 @@ def _check_group(group, skip) -> None:
     finite = np.isfinite(rest).all(axis=(1, 2)) & np.isfinite(final).all(axis=(1, 2))
     near = _near_pairs(group, rest)
     for k, (scene, out) in enumerate(group):
+        out.diagnostics.energy_start, out.diagnostics.energy_end = float(e0[k]), float(e1[k])
         if not out.outcome_ok:
             continue
         if not finite[k]:
@@ -104,6 +105,7 @@ def _near_pairs(group, rest) -> np.ndarray:
 def _check_one(scene, out, skip, tol, near) -> None:
     if "impact_energy" not in skip and (out._impact_energy is not None or out.impact_rows):
         e_imp = out.impact_energy
+        out.diagnostics.energy_impacts = float(e_imp.sum())
         if e_imp.size and not e_imp.min() >= -tol:
             k = int(np.argmin(e_imp))
             out.fail("impact_energy", f"impact {k + 1} creates {-e_imp[k] / 1e3:.1f} kJ "

@@ -5,6 +5,7 @@ import abc
 import functools
 
 from . import guard
+from .options import ModelOptions, parse
 from .outcome import Outcome
 from .scene import Scene
 
@@ -23,7 +24,8 @@ def _guarded(method, check):
 class CollisionModel(abc.ABC):
     """A collision model knows physics only: it takes a Scene and returns an Outcome.
 
-    The constructor takes only the model's options (the keys of its config table), as in scikit-learn.
+    The constructor takes only the model's options (the keys of its config table), as in scikit-learn,
+    declared as a schema in `Options` and validated by this base class into `self.options`.
     `simulate` never raises for a physically failed run: it returns an Outcome with outcome_ok False.
 
     Every Outcome a model returns passes the physics guard (crashlab.guard): the base class wraps the
@@ -33,6 +35,9 @@ class CollisionModel(abc.ABC):
 
     name: str = ""
     guard_skip: frozenset = frozenset()
+    # the model's options as a schema (crashlab.options): meaning, unit, range, default, accuracy knobs;
+    # None: the model takes no options
+    Options: type[ModelOptions] | None = None
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -46,8 +51,9 @@ class CollisionModel(abc.ABC):
             raise TypeError(f"model {cls.name!r}: unknown guard checks in guard_skip: {sorted(unknown)}")
 
     def __init__(self, **options):
-        if options:
-            raise TypeError(f"model {self.name!r} takes no option {', '.join(sorted(options))}")
+        """Validate the options against `Options` (OptionError names the key) and keep them as
+        `self.options`."""
+        self.options = parse(self.name or type(self).__name__, self.Options, options)
 
     @abc.abstractmethod
     def simulate(self, scene: Scene) -> Outcome:
@@ -60,4 +66,4 @@ class CollisionModel(abc.ABC):
     simulate_batch = _guarded(simulate_batch, guard.check_batch)
 
     def get_options(self) -> dict:
-        return {}
+        return {} if self.options is None else self.options.model_dump()

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from .diagnostics import Diagnostics
 from .units import ms_to_kmh, rad_to_deg
 
 # A vehicle is at rest at the end when its CG moves slower than REST_SPEED and it turns slower than
@@ -48,7 +49,9 @@ class Outcome:
         self.contact_time = contact_time
         self._trajectories = trajectories or {}
         self._impact_rows = impact_rows if callable(impact_rows) else list(impact_rows)
-        self.diagnostics = dict(diagnostics or {})
+        self.diagnostics = Diagnostics.of(diagnostics)
+        if self.diagnostics.wall_time_s is None:
+            self.diagnostics.wall_time_s = wall_time_s
         self.warnings = list(warnings)
         self.outcome_ok = bool(ok)
         self.model = model

@@ -812,9 +812,12 @@ def load_study(path) -> Study:
     if spec.optimizer.name not in available_optimizers():
         raise InputError(path, "optimizer.name",
                          str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
+    from .options import OptionError
     from .registry import get_model
     try:
         model = get_model(spec.model, **spec.model_options)
+    except OptionError as err:
+        raise InputError(path, f"model_options.{err.key}", err.problem) from None
     except (TypeError, ValueError) as err:
         raise InputError(path, "model_options", str(err)) from None
     scene_path = path.parent / spec.scene

@@ -6,8 +6,10 @@ import math
 import time
 
 import numpy as np
+from pydantic import model_validator
 
 from crashlab.model import CollisionModel
+from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.scene import given_pair
 
@@ -90,19 +92,34 @@ class ImpulseModel(CollisionModel):
 
     name = "impulse"
 
-    def __init__(self, dt=0.005, coarse_dt=0.05, onset_tol=1e-5, record_dt=0.01, v_rest=0.03,
-                 max_impacts=20, crush_time=0.036):
-        if not (0 < dt <= 0.05 and coarse_dt >= dt and onset_tol > 0 and record_dt >= 0 and v_rest > 0
-                and max_impacts >= 1 and crush_time >= 0):
-            raise ValueError("impulse model: invalid option value")
-        self.dt, self.coarse_dt, self.onset_tol = float(dt), float(coarse_dt), float(onset_tol)
-        self.record_dt, self.v_rest, self.max_impacts = float(record_dt), float(v_rest), int(max_impacts)
-        self.crush_time = float(crush_time)
+    class Options(ModelOptions):
+        dt: float = option(0.005, "largest fine step of the Heun integrator (also kept below 1 / the fastest "
+                           "tyre-force decay rate)", "s", accuracy="smaller", gt=0, le=0.05)
+        coarse_dt: float = option(0.05, "largest step while every vehicle runs straight and nothing can touch",
+                                  "s", accuracy="smaller", gt=0, le=1.0)
+        onset_tol: float = option(1e-5, "contact onset located until the outlines overlap by at most this", "m",
+                                  accuracy="smaller", gt=0, le=0.1)
+        record_dt: float = option(0.01, "trajectory sampling of `simulate` (0: none; batch runs record none)", "s",
+                                  ge=0)
+        v_rest: float = option(0.03, "speed (m/s) and yaw rate (rad/s) below which a vehicle out of contact is at "
+                               "rest", "m/s", gt=0, le=1.0)
+        max_impacts: int = option(20, "cap on impacts per run; reaching it fails the run", "", ge=1, le=10000)
+        crush_time: float = option(0.036, "the point of impact is the middle of the zone the approach speed at "
+                                   "first touch would crush in this time (0: the first-touch point)", "s",
+                                   ge=0, le=1.0)
 
-    def get_options(self):
-        return {"dt": self.dt, "coarse_dt": self.coarse_dt, "onset_tol": self.onset_tol,
-                "record_dt": self.record_dt, "v_rest": self.v_rest, "max_impacts": self.max_impacts,
-                "crush_time": self.crush_time}
+        @model_validator(mode="after")
+        def _coarse_not_finer(self):
+            if self.coarse_dt < self.dt:
+                raise ValueError("coarse_dt: must be >= dt")
+            return self
+
+    def __init__(self, **options):
+        super().__init__(**options)
+        o = self.options
+        self.dt, self.coarse_dt, self.onset_tol = o.dt, o.coarse_dt, o.onset_tol
+        self.record_dt, self.v_rest, self.max_impacts, self.crush_time = o.record_dt, o.v_rest, o.max_impacts, \
+            o.crush_time
 
     # ------------------------------------------------------------------ packing
     def pack(self, scene):
@@ -170,8 +187,9 @@ class ImpulseModel(CollisionModel):
         n_imp = int(diag[K.D_IMPACTS])
         rows = functools.partial(_impact_rows, names, P[:, 0].copy(), imp[:n_imp].copy())
         intervals = [(float(a), float(b)) for a, b in imp[:n_imp, [K.I_T, K.I_T_END]]]
+        # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps
         diagnostics = {"steps": int(diag[K.D_STEPS]), "coarse_steps": int(diag[K.D_COARSE]),
-                       "bisections": int(diag[K.D_BISECT]), "impacts": int(diag[K.D_IMPACTS]),
+                       "rejected_steps": int(diag[K.D_BISECT]), "episodes": n_imp,
                        "t_end": diag[K.D_T_END], "max_penetration": diag[K.D_MAX_DEPTH],
                        "kinetic_energy_start": diag[K.D_KE0], "energy_dissipated_impacts": diag[K.D_E_IMPACT],
                        "contact_impulses": int(diag[K.D_FOLLOW]), "projected": diag[K.D_PROJECTED]}
