@@ -6,9 +6,14 @@ import math
 
 import numpy as np
 
+from .diagnostics import CORE
 from .model import CollisionModel
+from .options import describe
 from .outcome import Outcome
 from .scene import scene_from_dict
+
+# the diagnostics core a model fills itself (the guard fills the energies, Outcome the wall time)
+MODEL_DIAGNOSTICS = [k for k in CORE if not k.startswith("energy_") and k != "wall_time_s"]
 
 
 def _probe_scene(speed_kmh: float = 40.0):
@@ -23,8 +28,13 @@ def _probe_scene(speed_kmh: float = 40.0):
 
 
 def check_collision_model(model: CollisionModel, rest_tolerance: float = 1e-9) -> None:
-    """Assert the interface contract: types, tables, batch equal to single runs, momentum exchange."""
+    """Assert the interface contract: option schema, types, tables, diagnostics core, batch equal to single
+    runs, momentum exchange."""
     assert isinstance(model, CollisionModel), "a model derives from crashlab.CollisionModel"
+    for row in describe(type(model).Options):
+        assert row["description"], f"option {row['name']} has a description (crashlab.options.option)"
+    assert type(model)(**model.get_options()).get_options() == model.get_options(), \
+        "get_options() gives the options back to the constructor"
     scene = _probe_scene()
     out = model.simulate(scene)
     assert isinstance(out, Outcome), "simulate returns an Outcome"
@@ -34,6 +44,8 @@ def check_collision_model(model: CollisionModel, rest_tolerance: float = 1e-9) -
         "rest columns are x, y, heading, speed, at_rest"
     assert out.guarded and not out.violations, f"the probe passes the physics guard: {out.warnings}"
     assert np.all(np.isfinite(out.rest_si)), "rest poses are finite"
+    missing = [k for k in MODEL_DIAGNOSTICS if out.diagnostics.get(k) is None]
+    assert not missing, f"the diagnostics core is filled (crashlab.diagnostics.CORE); missing {missing}"
     tr = out.trajectory("A")
     for col in ("t", "x", "y", "heading", "vx", "vy", "yaw_rate"):
         assert col in tr.columns, f"trajectory has column {col}"
