@@ -9,7 +9,6 @@ for third-party models too.
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -97,12 +96,3 @@ def accuracy_knobs(schema: type[ModelOptions] | None) -> dict[str, str]:
     """name -> the direction ("smaller" or "larger") that makes the run finer, for every accuracy knob."""
     return {r["name"]: r["accuracy"] for r in describe(schema) if r["accuracy"]}
 
-
-def refine(schema: type[ModelOptions], name: str, value: float, factor: float) -> float:
-    """`value` of knob `name` made finer by `factor` (> 1): divided for "smaller", multiplied for "larger"
-    (an integer knob is rounded up, at least by one)."""
-    direction = accuracy_knobs(schema)[name]
-    new = value / factor if direction == "smaller" else value * factor
-    if schema.model_fields[name].annotation is int:
-        new = max(int(math.ceil(new)), int(value) + (1 if direction == "larger" else -1))
-    return new
