@@ -45,12 +45,19 @@ def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
     for _ in range(repeat):
         best_batch = min(best_batch, _time(lambda: model.simulate_batch(scenes)))
         best_bare = min(best_bare, _time(lambda: unguarded(model, scenes)))
+    # crashlab.simulate (registry look-up, option validation) against model.simulate, interleaved
+    from . import simulate
+    best_api, best_direct = math.inf, math.inf
+    for _ in range(repeat):
+        best_direct = min(best_direct, _time(lambda: [model.simulate(scene) for _ in range(n_single)]))
+        best_api = min(best_api, _time(lambda: [simulate(scene, model_name) for _ in range(n_single)]))
     print(f"machine: {machine()}")
     print(f"model {model_name}, scene {scene.name}")
     print(f"single:   {n_single / best_single:10.0f} simulations/s ({best_single / n_single * 1e3:.3f} ms each)")
     print(f"batch {batch}: {batch / best_batch:8.0f} simulations/s ({best_batch / batch * 1e3:.3f} ms each); "
           f"without the physics guard {batch / best_bare:.0f}/s "
           f"(guard costs {100 * (best_batch / best_bare - 1):.1f} %)")
+    print(f"crashlab.simulate: {(best_api - best_direct) / n_single * 1e3:+.3f} ms a call over model.simulate")
     return n_single / best_single, batch / best_batch
 
 
