@@ -138,7 +138,7 @@ def test_energy_conserved_without_damping_and_friction():
     d = out.diagnostics
     assert d["t_end"] == pytest.approx(5.0)
     assert d["work_nonconservative"][0] == 0.0
-    e0, e1 = d["energy_start"][0], d["energy_end"][0]
+    e0, e1 = d["mechanical_energy_start"][0], d["mechanical_energy_end"][0]
     assert abs(e1 / e0 - 1.0) < 1e-3
     # and the motion was not trivial: the bounce exchanges energy between springs and motion
     assert np.ptp(out.trajectory("V1")["z"]) > 0.005

@@ -250,7 +250,7 @@ class MultibodyModel(CollisionModel):
             "max_euler_norm_error": float(diag[I.D_MAX_NORM_ERR]),
             "wheel_loads_static": {n: fz0[v].tolist() for v, n in enumerate(names)},
             "wheel_loads_final": {n: fz1[v].tolist() for v, n in enumerate(names)},
-            "energy_start": e_start, "energy_end": e_end, "work_nonconservative": w_nc,
+            "mechanical_energy_start": e_start, "mechanical_energy_end": e_end, "work_nonconservative": w_nc,
             "energy_balance": balance,
             "vehicle_notes": {n: vehs[v].notes for v, n in enumerate(names)},
             "wheel_order": ["FL", "FR", "RL", "RR"],
