@@ -3,7 +3,7 @@
 Everything per scene runs inside one numba function (no Python loop over time steps); a batch of
 scenes runs in parallel with `prange`. Step-size policy:
   * fine steps (Heun, 2nd order) of at most `dt`, and below 1 / (fastest decay rate of the regularised
-    tyre forces) (vehicle_motion.stiffest_rate), whenever a tyre force can change or vehicles are close;
+    tyre forces) (planar_vehicle.stiffest_rate), whenever a tyre force can change or vehicles are close;
   * while every moving vehicle runs straight and no pair can touch within the step, the step grows up
     to `coarse_dt` (straight running has constant forces, Heun is exact for it);
   * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it;
@@ -22,10 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners
-from crashlab.units import G
-
-from .laws import collision_impulse, impact_matrix
-from .vehicle_motion import (
+from crashlab.models.common.planar_vehicle import (
     LOCKED,
     LOCKED_AFTER_IMPACT,
     P_FRONT,
@@ -38,6 +35,9 @@ from .vehicle_motion import (
     stiffest_rate,
     vehicle_derivative,
 )
+from crashlab.units import G
+
+from .laws import collision_impulse, impact_matrix
 
 # configuration vector
 (C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
@@ -51,8 +51,8 @@ N_CFG = 19
 N_IMP = 20
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
- D_E_IMPACT, D_SLEEP_SKIPS, D_FOLLOW, D_PROJECTED) = range(14)
-N_DIAG = 14
+ D_E_IMPACT, D_FOLLOW, D_PROJECTED) = range(13)
+N_DIAG = 13
 STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
 V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)

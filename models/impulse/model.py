@@ -9,13 +9,14 @@ import numpy as np
 from pydantic import model_validator
 
 from crashlab.model import CollisionModel
+from crashlab.models.common.impact_rows import pair_rows
+from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.scene import given_pair
 
 from . import kernel as K
 from .laws import BRACH, FULL, KUDLICH_SLIBAR
-from .vehicle_motion import N_PARAMS, pack_vehicle
 
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH}
 STATUS_TEXT = {K.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
@@ -30,7 +31,7 @@ class ImpulseModel(CollisionModel):
     Options (documented defaults, the same for every scene):
       dt = 0.005 s        largest fine step of the Heun integrator; each step is also kept below
                           1 / (fastest decay rate of the regularised tyre forces), e.g. 2.4 ms for
-                          the Clio on rolling wheels, 3.5 ms on locked wheels (vehicle_motion.stiffest_rate)
+                          the Clio on rolling wheels, 3.5 ms on locked wheels (planar_vehicle.stiffest_rate)
       coarse_dt = 0.05 s  largest step while every vehicle runs straight and nothing can touch
       onset_tol = 1e-5 m  contact onset located until the outlines overlap by at most this; with
                           1 mm (and the first-touch point) the rest position jittered by 0.7 cm (std of
@@ -185,7 +186,7 @@ class ImpulseModel(CollisionModel):
             warnings[0] = f"more impacts than max_impacts = {self.max_impacts}: the run was stopped there"
         ok = status == K.STATUS_OK
         n_imp = int(diag[K.D_IMPACTS])
-        rows = functools.partial(_impact_rows, names, P[:, 0].copy(), imp[:n_imp].copy())
+        rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp[:n_imp].copy())
         intervals = [(float(a), float(b)) for a, b in imp[:n_imp, [K.I_T, K.I_T_END]]]
         # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps
         diagnostics = {"steps": int(diag[K.D_STEPS]), "coarse_steps": int(diag[K.D_COARSE]),
@@ -204,32 +205,14 @@ def _impact_rows(names, mass, imp):
     """Impact table rows (SI), one per vehicle per impact; an impact's row holds the sums over its contact
     episode (the impact and its follow-up contact impulses, `contact_impulses` of them, the last at
     `t_end`); kind, point and plane are the impact's."""
-    nv = len(names)
     rows = []
     for r in imp:
-        i, j = int(r[K.I_I]), int(r[K.I_J])
         pn, pt, plane = r[K.I_PN], r[K.I_PT], r[K.I_PLANE]
         nx, ny = math.sin(plane), -math.cos(plane)
         ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
-        # deformation energy split assuming crush stiffness proportional to mass (equal force:
-        # E_k proportional to 1 / m_k); a barrier takes none
-        inv_i, inv_j = 1.0 / mass[i], (1.0 / mass[j] if j < nv else 0.0)
-        sides = [(i, names[j] if j < nv else f"barrier{j - nv}", -1.0, K.I_DVX_I, K.I_DR_I, K.I_HEAD_I, inv_i)]
-        if j < nv:
-            sides.append((j, names[i], 1.0, K.I_DVX_J, K.I_DR_J, K.I_HEAD_J, inv_j))
-        for q, other, sgn, c_dv, c_dr, c_head, inv_q in sides:
-            e_q = r[K.I_ENERGY] * inv_q / (inv_i + inv_j)
-            rows.append({"t": r[K.I_T], "vehicle": names[q], "other": other, "dvx": r[c_dv],
-                         "dvy": r[c_dv + 1], "d_yaw_rate": r[c_dr], "energy": r[K.I_ENERGY],
-                         "ees": math.sqrt(max(2.0 * e_q / mass[q], 0.0)), "pdof": _pdof(sgn * ix, sgn * iy, r[c_head]),
-                         "kind": "full" if int(r[K.I_KIND]) == FULL else "sliding",
-                         "point_x": r[K.I_PX], "point_y": r[K.I_PY], "plane_angle": plane,
-                         "t_end": r[K.I_T_END], "contact_impulses": int(r[K.I_N_FOLLOW])})
+        dv = ((r[K.I_DVX_I], r[K.I_DVY_I], r[K.I_DR_I]), (r[K.I_DVX_J], r[K.I_DVY_J], r[K.I_DR_J]))
+        rows += pair_rows(names, mass, int(r[K.I_I]), int(r[K.I_J]), r[K.I_T], r[K.I_ENERGY], dv,
+                          ((-ix, -iy), (ix, iy)), (r[K.I_HEAD_I], r[K.I_HEAD_J]), (r[K.I_PX], r[K.I_PY]), plane,
+                          "full" if int(r[K.I_KIND]) == FULL else "sliding",
+                          t_end=r[K.I_T_END], contact_impulses=int(r[K.I_N_FOLLOW]))
     return rows
-
-
-def _pdof(fx, fy, heading):
-    """Principal direction of force on a vehicle [rad]: where the force comes from, in the vehicle frame
-    at the impact, 0 = from straight ahead, counter-clockwise positive."""
-    ang = math.atan2(-fy, -fx) - heading
-    return math.atan2(math.sin(ang), math.cos(ang))

@@ -1,11 +1,11 @@
 """Tyre/ground forces for the pymunk model: a compiled loop over the vehicles that calls the one
-implementation of the planar wheel forces (crashlab.models.impulse.vehicle_motion.vehicle_derivative)
+implementation of the planar wheel forces (crashlab.models.common.planar_vehicle.vehicle_derivative)
 and turns its accelerations into the force [N, global] and yaw moment [N m] applied to each body.
 """
 import numpy as np
 from numba import njit
 
-from crashlab.models.impulse.vehicle_motion import P_IZ, P_MASS, vehicle_derivative
+from crashlab.models.common.planar_vehicle import P_IZ, P_MASS, vehicle_derivative
 
 
 @njit(cache=True)

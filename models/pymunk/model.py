@@ -12,7 +12,8 @@ import numpy as np
 
 from crashlab.geometry import rect_corners
 from crashlab.model import CollisionModel
-from crashlab.models.impulse.vehicle_motion import (
+from crashlab.models.common.impact_rows import pair_rows
+from crashlab.models.common.planar_vehicle import (
     LOCKED,
     N_PARAMS,
     P_IZ,
@@ -21,23 +22,9 @@ from crashlab.models.impulse.vehicle_motion import (
     ROLLING,
     pack_vehicle,
 )
+from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.scene import barrier_outline
-
-
-def _check(name, value, kind, ok):
-    if kind is bool:
-        if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"pymunk model: option {name} must be a bool, not {type(value).__name__}")
-        return bool(value)
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"pymunk model: option {name} must be a number, not {type(value).__name__}")
-    if kind is int and value != int(value):
-        raise TypeError(f"pymunk model: option {name} must be an integer, got {value!r}")
-    value = kind(value)
-    if not ok(value):
-        raise ValueError(f"pymunk model: option {name} = {value!r} is out of range")
-    return value
 
 
 class PymunkModel(CollisionModel):
@@ -63,9 +50,14 @@ class PymunkModel(CollisionModel):
       collision_slop = 1e-4 m  penetration allowed without positional correction. Chipmunk's default
                              (0.1) is meant for pixels; in metres it would let the cars sink 10 cm into
                              each other. 0.1 mm is far below any crush depth yet above round-off.
+                             An accuracy knob ("smaller"): a tolerance on the overlap, whose limit 0 is
+                             the rigid non-penetration the model stands for.
       collision_bias = 0.0018  fraction of a penetration left after one second (Chipmunk's default,
                              (1 - 0.1)^60). The correction is a split impulse: it moves positions only
                              and never changes the velocities, so it adds no momentum or energy.
+                             Not an accuracy knob: a stabilisation rate (as multibody's baumgarte), and
+                             neither direction converges to the model (0 removes the whole penetration
+                             in one step, 1 never removes it).
       record_dt = 0.01 s     trajectory sampling (0: none)
       v_rest = 0.03          m/s and rad/s below which a vehicle out of contact is at rest (as impulse)
       ground_forces = True   tyre/road forces on; False leaves only the contacts (momentum checks)
@@ -91,20 +83,27 @@ class PymunkModel(CollisionModel):
 
     name = "pymunk"
 
-    def __init__(self, dt=0.00025, iterations=100, collision_slop=1e-4, collision_bias=0.0017970074436457143,
-                 record_dt=0.01, v_rest=0.03, ground_forces=True):
-        self.dt = _check("dt", dt, float, lambda v: 0.0 < v <= 0.01)
-        self.iterations = _check("iterations", iterations, int, lambda v: 1 <= v <= 10000)
-        self.collision_slop = _check("collision_slop", collision_slop, float, lambda v: 0.0 <= v <= 0.1)
-        self.collision_bias = _check("collision_bias", collision_bias, float, lambda v: 0.0 <= v <= 1.0)
-        self.record_dt = _check("record_dt", record_dt, float, lambda v: v >= 0.0 and math.isfinite(v))
-        self.v_rest = _check("v_rest", v_rest, float, lambda v: 0.0 < v < 10.0)
-        self.ground_forces = _check("ground_forces", ground_forces, bool, None)
+    class Options(ModelOptions):
+        dt: float = option(0.00025, "fixed step of the engine (Chipmunk's contact friction breaks angular "
+                           "momentum by about the step's penetration; the tyre forces are evaluated once a step)",
+                           "s", accuracy="smaller", gt=0, le=0.01)
+        iterations: int = option(100, "sequential-impulse solver iterations per step", "", accuracy="larger",
+                                 ge=1, le=10000)
+        collision_slop: float = option(1e-4, "penetration allowed without positional correction", "m",
+                                       accuracy="smaller", ge=0, le=0.1)
+        collision_bias: float = option(0.0017970074436457143, "fraction of a penetration left uncorrected after "
+                                       "one second (split impulse: positions only)", "", ge=0, le=1.0)
+        record_dt: float = option(0.01, "trajectory sampling (0: none)", "s", ge=0)
+        v_rest: float = option(0.03, "speed (m/s) and yaw rate (rad/s) below which a vehicle out of contact is at "
+                               "rest", "m/s", gt=0, lt=10.0)
+        ground_forces: bool = option(True, "test switch: False removes the tyre/road forces (momentum checks)")
 
-    def get_options(self):
-        return {"dt": self.dt, "iterations": self.iterations, "collision_slop": self.collision_slop,
-                "collision_bias": self.collision_bias, "record_dt": self.record_dt, "v_rest": self.v_rest,
-                "ground_forces": self.ground_forces}
+    def __init__(self, **options):
+        super().__init__(**options)
+        o = self.options
+        self.dt, self.iterations, self.record_dt, self.v_rest = o.dt, o.iterations, o.record_dt, o.v_rest
+        self.collision_slop, self.collision_bias, self.ground_forces = o.collision_slop, o.collision_bias, \
+            o.ground_forces
 
     # ------------------------------------------------------------------ running
     def simulate(self, scene) -> Outcome:
@@ -353,25 +352,16 @@ class _Run:
     def _outcome(self, S, traj, steps, ke0, e_contact, warnings, ok, wall) -> Outcome:
         scene, nv, P = self.scene, self.nv, self.P
         names = scene.vehicle_names
+        heads = [self.contact[q, 2] if not math.isnan(self.contact[q, 2]) else S[q, 2] for q in range(nv)]
         rows = []
-        for ep in self.episodes:
-            other_k = names[ep.k] if ep.k < nv else f"barrier{ep.k - nv}"
-            inv = [1.0 / P[ep.i, P_MASS], 1.0 / P[ep.k, P_MASS] if ep.k < nv else 0.0]
-            for side, (q, other) in enumerate(((ep.i, other_k), (ep.k, names[ep.i]))):
-                if q >= nv:
-                    continue
-                dvx, dvy, dr = ep.dv[side]
-                e_q = max(ep.energy, 0.0) * inv[side] / sum(inv)
-                h = self.contact[q, 2] if not math.isnan(self.contact[q, 2]) else S[q, 2]
-                ang = math.atan2(-dvy, -dvx) - h  # the force on q comes from -dv
-                rows.append({"t": ep.t, "vehicle": names[q], "other": other, "dvx": dvx, "dvy": dvy,
-                             "d_yaw_rate": dr, "energy": ep.energy, "ees": math.sqrt(2.0 * e_q / P[q, P_MASS]),
-                             "pdof": math.atan2(math.sin(ang), math.cos(ang)), "kind": "continuous",
-                             "point_x": ep.px, "point_y": ep.py, "plane_angle": ep.plane,
-                             "duration": ep.t_end - ep.t})
+        for ep in self.episodes:  # the force on a vehicle has the direction of its contact velocity jump
+            rows += pair_rows(names, P[:, P_MASS], ep.i, ep.k, ep.t, ep.energy, ep.dv, ep.dv[:, 0:2],
+                              (heads[ep.i], heads[ep.k] if ep.k < nv else 0.0), (ep.px, ep.py), ep.plane,
+                              "continuous", duration=ep.t_end - ep.t)
         if not self.episodes:
             warnings.append("no contact between the vehicles")
-        diagnostics = {"steps": steps, "impacts": len(self.episodes), "t_end": self.t,
+        # core (crashlab.diagnostics): fixed steps, none rejected; max_penetration from the arbiters' contact depths
+        diagnostics = {"steps": steps, "rejected_steps": 0, "episodes": len(self.episodes), "t_end": self.t,
                        "max_penetration": self.max_depth, "kinetic_energy_start": ke0,
                        "energy_dissipated_impacts": -e_contact, "dt": self.m.dt,
                        "iterations": self.m.iterations}
