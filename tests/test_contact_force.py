@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from crashlab.models.multibody.contact_force import (
+from crashlab.models.common.contact_force import (
     FRICTION_LAWS,
     LAWS,
     chi,

@@ -19,9 +19,9 @@ from scipy.optimize import linprog
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from crashlab.models.multibody import superellipsoid as se
-from crashlab.models.multibody.broad_phase import aabb_overlap, filter_pairs, obb_overlap, spheres_overlap
-from crashlab.models.multibody.narrow_phase import _fibonacci, gap_function, signed_gap
+from crashlab.models.common import superellipsoid as se
+from crashlab.models.common.broad_phase import aabb_overlap, filter_pairs, obb_overlap, spheres_overlap
+from crashlab.models.common.narrow_phase import _fibonacci, gap_function, signed_gap
 
 
 def random_shape(rng, emin=0.3, emax=1.0):

@@ -9,11 +9,12 @@ pytest.importorskip("exudyn")
 
 import crashlab  # noqa: E402
 from crashlab.models.exudyn import ExudynModel  # noqa: E402
+from crashlab.options import OptionError  # noqa: E402
 from crashlab.scene import scene_from_dict  # noqa: E402
 from crashlab.testing import check_collision_model  # noqa: E402
+from crashlab.units import G  # noqa: E402
 
 PC = Path(__file__).resolve().parents[1] / "studies" / "pc_crash"
-G = 9.81
 
 
 @pytest.fixture(scope="module")
@@ -52,12 +53,15 @@ def test_conformance(model):
 
 
 def test_options_are_checked():
-    with pytest.raises(ValueError):
+    with pytest.raises(OptionError, match="step"):
         ExudynModel(step=-1e-3)
-    with pytest.raises(TypeError):
+    with pytest.raises(OptionError, match="step"):
         ExudynModel(step="small")
     with pytest.raises(TypeError):
         ExudynModel(no_such_option=1)
+    with pytest.raises(OptionError) as err:
+        ExudynModel(step=1e-4, min_step=1e-3)
+    assert err.value.key == "min_step"
 
 
 def test_braked_stopping_distance(model):

@@ -8,11 +8,9 @@ import pytest
 
 pytest.importorskip("exudyn")
 
+from crashlab.models.common.vehicle_3d import build  # noqa: E402
 from crashlab.models.exudyn import ExudynModel  # noqa: E402
-from crashlab.models.multibody.vehicle_build import build  # noqa: E402
 from crashlab.scene import scene_from_dict  # noqa: E402
-
-G = 9.81
 
 
 def _wall(speed_kmh, duration=0.35):

@@ -17,13 +17,26 @@ import math
 import numpy as np
 import pytest
 
-from crashlab.models.multibody.equations import B_MASS
-from crashlab.models.multibody.spring_damper import S_I, S_J, S_L0, S_LB, S_P, S_Q, spring_damper, spring_energy
-from crashlab.models.multibody.tyre import T_KNUCKLE, T_R1, T_R2, T_SIG_A, T_WHEEL, tyre
-from crashlab.models.multibody.vehicle_build import NB, build
+from crashlab.models.common.rotations import matrix
+from crashlab.models.common.vehicle_3d import (
+    B_MASS,
+    NB,
+    S_I,
+    S_J,
+    S_L0,
+    S_LB,
+    S_P,
+    S_Q,
+    T_KNUCKLE,
+    T_R1,
+    T_R2,
+    T_SIG_A,
+    T_WHEEL,
+    build,
+)
+from crashlab.models.multibody.spring_damper import spring_damper, spring_energy
+from crashlab.models.multibody.tyre import tyre
 from crashlab.vehicle import load_vehicle
-
-G = 9.81
 
 
 def _bodies():
@@ -164,7 +177,6 @@ def _rolling_car(wx, speed=30.0, vehicle="clio", duration=10.0, overrides=None):
     """A car given a roll rate wx [rad/s] about its longitudinal axis at the start (every body moves as one
     rigid body about the vehicle CG), prepared for MultibodyModel.run."""
     from crashlab.models.multibody import MultibodyModel
-    from crashlab.models.multibody.model import _matrix
     from crashlab.scene import scene_from_dict
     v = {"name": "V1", "vehicle": vehicle, "speed": speed, "wheels": "locked"}
     if overrides:
@@ -178,7 +190,7 @@ def _rolling_car(wx, speed=30.0, vehicle="clio", duration=10.0, overrides=None):
     cg = (BODY[:, 0, None] * r).sum(0) / BODY[:, 0].sum()
     om = np.array([wx, 0.0, 0.0])
     for b in range(NB):
-        A = _matrix(Y[0, 7 * b + 3:7 * b + 7])
+        A = matrix(Y[0, 7 * b + 3:7 * b + 7])
         Y[0, nq + 6 * b:nq + 6 * b + 3] += np.cross(om, r[b] - cg)
         Y[0, nq + 6 * b + 3:nq + 6 * b + 6] += A.T @ om
     return m, sc, prep

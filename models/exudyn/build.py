@@ -1,6 +1,7 @@
-"""The multibody model's 9-body vehicle built in exudyn (imported only by this package, lazily).
+"""The 9-body vehicle of the 3D models (common/vehicle_3d.py) built in exudyn (imported only by this package,
+lazily).
 
-All vehicle data come from `crashlab.models.multibody.vehicle_build.build(spec)` (one home): body masses and
+All vehicle data come from `crashlab.models.common.vehicle_3d.build(spec)` (one home): body masses and
 principal inertias (BODY), wheel-centre positions (axle_x, axle_y), the static estimates of the chassis and
 wheel heights (z_chassis0, z_wheel0), the suspension rows (SPR: chassis point, knuckle point, k, c, free
 length) and the tyre rows (TYR: r1 + r2 = radius, K_z, C_z). Items per vehicle:
@@ -26,22 +27,15 @@ import math
 import numpy as np
 from exudyn.utilities import RigidBodyInertia
 
-from crashlab.models.multibody.spring_damper import S_C, S_K, S_L0, S_P, S_Q
-from crashlab.models.multibody.tyre import T_CZ, T_KZ, T_R1, T_R2
-from crashlab.models.multibody.vehicle_build import NW, steer_angles
-
-G = 9.81
-
-
-def rot_z(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+from crashlab.models.common.rotations import rot_z
+from crashlab.models.common.vehicle_3d import NW, S_C, S_K, S_L0, S_P, S_Q, T_CZ, T_KZ, T_R1, T_R2, steer_angles
+from crashlab.units import G
 
 
 def _body(mbs, row, pos, A, vel, omega):
     m, ixx, iyy, izz = row
     # the tensor is set after construction: the thesis's wheel (I_yy > I_xx + I_zz) violates the triangle
-    # inequality, which RigidBodyInertia reports on every construction; the data's home is vehicle_build
+    # inequality, which RigidBodyInertia reports on every construction; the data's home is vehicle_3d
     inertia = RigidBodyInertia(mass=float(m), inertiaTensor=np.eye(3))
     inertia.inertiaTensor = np.diag([ixx, iyy, izz])
     return mbs.CreateRigidBody(inertia=inertia,
@@ -50,7 +44,7 @@ def _body(mbs, row, pos, A, vel, omega):
 
 
 def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
-    """Create one vehicle of the scene (`veh` from vehicle_build.build, `vs` the scene's VehicleState) at
+    """Create one vehicle of the scene (`veh` from vehicle_3d.build, `vs` the scene's VehicleState) at
     its start pose and speed. Returns a dict of item indices (see keys below)."""
     Rz = rot_z(vs.heading)
     origin = np.array([vs.x, vs.y, 0.0])
@@ -58,7 +52,7 @@ def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
     om0 = np.array([0.0, 0.0, vs.yaw_rate])
     deltas = steer_angles(veh, vs.steer)
     m = veh.BODY[:, 0]
-    # start positions in the vehicle frame (the static estimates of vehicle_build); the vehicle CG is put on
+    # start positions in the vehicle frame (the static estimates of vehicle_3d); the vehicle CG is put on
     # the scene's (x, y)
     local = [np.array([0.0, 0.0, veh.z_chassis0])]
     for k in range(NW):

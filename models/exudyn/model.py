@@ -1,5 +1,6 @@
-"""Model `exudyn`: the multibody model's 9-body vehicle built in exudyn (build.py), with the multibody model's
-chassis contact (geometry, gap search, force law: crashlab.models.multibody.contact) applied as loads.
+"""Model `exudyn`: the 9-body vehicle of the 3D models (crashlab.models.common.vehicle_3d) built in exudyn
+(build.py), with the chassis contact shared with the multibody model (geometry, gap search, force law:
+crashlab.models.common.chassis_contact, road_contact, contact_episodes) applied as loads.
 
 exudyn is imported only here and in build.py, inside `simulate` (the registry imports this module only when
 the model is asked for; `import crashlab.models.exudyn` itself does not import exudyn).
@@ -10,22 +11,17 @@ import math
 import time
 
 import numpy as np
+from pydantic import model_validator
 
 from crashlab.model import CollisionModel
-from crashlab.models.multibody import contact as C
-from crashlab.models.multibody import road_contact as R
-from crashlab.models.multibody.contact_force import _fcode, chi
-from crashlab.models.multibody.euler_parameters import from_matrix
-from crashlab.models.multibody.model import (
-    FRICTION_V0,
-    FRICTION_V1,
-    FRICTION_VS,
-    _contact_arrays,
-    _end_overlap,
-    impact_rows,
-)
-from crashlab.models.multibody.tyre import OMEGA_BRAKE, OMEGA_RR, T_ETA, T_R1, T_R2
-from crashlab.models.multibody.vehicle_build import NW, build_scene_vehicles
+from crashlab.models.common import chassis_contact as C
+from crashlab.models.common import contact_episodes as EP
+from crashlab.models.common import road_contact as R
+from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
+from crashlab.models.common.rotations import from_matrix
+from crashlab.models.common.tyre_moments import brake_moment, rolling_resistance_moment
+from crashlab.models.common.vehicle_3d import CORNERS, NW, T_ETA, T_R1, T_R2, build_scene_vehicles
+from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.units import G
 
@@ -39,7 +35,7 @@ class ExudynModel(CollisionModel):
     """The multibody model's vehicle (9 rigid bodies, joints, suspension) built with exudyn's items, exudyn's
     rolling-disc penalty tyre, and the multibody model's chassis contact applied as loads.
 
-    Options (documented defaults, the same for every scene):
+    Options (the schema `Options` below; why these defaults, the same for every scene):
       step = 1e-3 s              largest step of exudyn's generalized-alpha (implicit, index 3; exudyn's adaptive step
                                  shortens it at contact onsets and when the contact load iteration does not
                                  settle, then doubles it back every 5 steps). The contact loads are iterated to
@@ -70,7 +66,7 @@ class ExudynModel(CollisionModel):
       v_min = 0.001 m/s          smallest approach velocity delta_dot0 stored at onset (multibody default)
 
     Tyre: exudyn's `CreateRollingDiscPenalty` (an infinitely thin disc of radius r1 + r2 on the plane z = 0)
-    instead of our UA tyre. Normal force K_z delta + C_z delta_dot with K_z and C_z of vehicle_build (the
+    instead of our UA tyre. Normal force K_z delta + C_z delta_dot with K_z and C_z of vehicle_3d (the
     multibody tyre's radial stiffness and damping). In-plane: regularised Coulomb friction, mu F_z along the
     slip velocity of the contact point (dryFriction = [mu, mu] with the scene's road friction, linear below
     `friction_zone`). Differences to the UA tyre: no slip stiffness, no relaxation, no camber or
@@ -86,11 +82,11 @@ class ExudynModel(CollisionModel):
     Wheels: rolling (revolute joint), locked (generic joint, all six axes), locked_after_impact (revolute
     joint + a spin-lock generic joint activated at the vehicle's first contact), braked (revolute joint +
     the brake moment above).
-    Steer: the knuckles are built at the Ackermann angles of vehicle_build.steer_angles (constant).
+    Steer: the knuckles are built at the Ackermann angles of vehicle_3d.steer_angles (constant).
 
-    Contact: the multibody model's numba `contact.contacts` (superellipsoid chassis, horizontal gap search,
+    Contact: the numba `common.chassis_contact.contacts` shared with multibody (superellipsoids, horizontal gap search,
     normal_force_chi with the scene's force_law and restitution, the scene's friction law and impact friction) and
-    the multibody model's chassis-road contact (multibody.road_contact: each chassis's lowest point against the
+    the shared chassis-road contact (common.road_contact: each chassis's lowest point against the
     plane z = 0, Hunt-Crossley, a stiffness that carries the vehicle's weight at 5 mm, road friction and a patch
     moment) give the force and moment on each chassis; they are
     written into a global force and torque load on the chassis. exudyn's generalized-alpha satisfies the
@@ -111,34 +107,41 @@ class ExudynModel(CollisionModel):
     # model checks the end state with its own contact shapes instead (same tolerance, guard.PENETRATION_TOL).
     guard_skip = frozenset({"interpenetration"})
 
-    def __init__(self, step=1e-3, spectral_radius=0.8, friction_zone=0.2, record_dt=0.01, v_rest=0.01,
-                 w_rest=0.01, t_sleep=0.2, contact_stiffness=1.35e6, contact_exponent=1.5, v_min=1e-3,
-                 min_step=1e-6, onset_tolerance=1e-3, load_tolerance=1e-3):
-        vals = dict(step=step, spectral_radius=spectral_radius, friction_zone=friction_zone, record_dt=record_dt,
-                    v_rest=v_rest, w_rest=w_rest, t_sleep=t_sleep, contact_stiffness=contact_stiffness,
-                    contact_exponent=contact_exponent, v_min=v_min, min_step=min_step,
-                    onset_tolerance=onset_tolerance, load_tolerance=load_tolerance)
-        for k, v in vals.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise TypeError(f"exudyn model: option {k} must be a finite number, got {v!r}")
-        if not (0 < step <= 0.01 and 0 <= spectral_radius <= 1 and friction_zone > 0 and record_dt >= 0
-                and v_rest > 0 and w_rest > 0 and t_sleep >= 0 and contact_stiffness > 0
-                and contact_exponent >= 1 and v_min > 0 and 0 < min_step <= step and onset_tolerance > 0
-                and 0 < load_tolerance < 1):
-            raise ValueError("exudyn model: invalid option value (need 0 < step <= 0.01, 0 <= spectral_radius <= 1, "
-                             "friction_zone, v_rest, w_rest, contact_stiffness, v_min, onset_tolerance > 0, "
-                             "contact_exponent >= 1, 0 < min_step <= step, 0 < load_tolerance < 1)")
-        self.opts = {k: float(v) for k, v in vals.items()}
+    class Options(ModelOptions):
+        step: float = option(1e-3, "largest step of exudyn's generalized-alpha (shortened at contact onsets and "
+                             "unsettled load iterations, then doubled back)", "s", accuracy="smaller", gt=0, le=0.01)
+        spectral_radius: float = option(0.8, "generalized-alpha numerical damping at infinite frequency", "",
+                                        ge=0, le=1)
+        friction_zone: float = option(0.2, "rolling disc's linear friction zone: below this slip speed the tyre "
+                                      "force is mu F_z v_slip / zone", "m/s", gt=0)
+        record_dt: float = option(0.01, "trajectory sampling", "s", ge=0)
+        v_rest: float = option(0.01, "chassis horizontal speed below which a vehicle counts as still", "m/s", gt=0)
+        w_rest: float = option(0.01, "chassis yaw rate below which a vehicle counts as still", "rad/s", gt=0)
+        t_sleep: float = option(0.2, "every chassis still this long, no contact open: the run stops", "s", ge=0)
+        contact_stiffness: float = option(1.35e6, "K of one vehicle against a rigid barrier; car-to-car pairs use "
+                                          "K/2^1.5 for equal K (series Hertz springs)", "N/m^1.5", gt=0)
+        contact_exponent: float = option(1.5, "n of F_N = K delta^n (1 + chi delta_dot / delta_dot0)", "", ge=1)
+        v_min: float = option(1e-3, "smallest approach velocity delta_dot0 stored at onset", "m/s", gt=0)
+        min_step: float = option(1e-6, "shortest step exudyn may take (below it the run fails with a reason)", "s",
+                                 accuracy="smaller", gt=0)
+        onset_tolerance: float = option(1e-3, "a step in which a contact (car-car, car-barrier, chassis-road) opens "
+                                        "deeper than this is repeated shorter", "m", accuracy="smaller", gt=0)
+        load_tolerance: float = option(1e-3, "the contact forces at the step end have settled when a pass changes "
+                                       "them by less than this share of the largest (+ 10 N)", "",
+                                       accuracy="smaller", gt=0, lt=1)
 
-    def get_options(self):
-        return dict(self.opts)
+        @model_validator(mode="after")
+        def _min_step_not_above_step(self):
+            if self.min_step > self.step:
+                raise ValueError("min_step: must be <= step")
+            return self
 
     def simulate(self, scene) -> Outcome:
         t0 = time.perf_counter()
         names = scene.vehicle_names
         vehicles = build_scene_vehicles(scene)  # a vehicle the model cannot build is bad input (exit 2)
         try:
-            return _Run(self.opts, scene, vehicles).run(t0)
+            return _Run(self.options.model_dump(), scene, vehicles).run(t0)
         except Exception as e:  # exudyn raises RuntimeError/ValueError when Newton fails or a state blows up
             return Outcome.failed(names, f"exudyn model: simulation failed: {type(e).__name__}: {e}", self.name,
                                   time.perf_counter() - t0)
@@ -175,23 +178,19 @@ class _Run:
                     tk = mbs.CreateTorque(itemNumber=it["knuckles"][k]["bodyNumber"], loadVector=[0.0, 0.0, 0.0],
                                           bodyFixed=False, show=False)
                     radius = veh.TYR[k, T_R1] + veh.TYR[k, T_R2]
-                    fb = veh.TYR[k, T_ETA] * scene.road.friction if braked else 0.0
-                    self.wheel_torques.append((v, k, fr * radius, fb * radius, tw, tk))
+                    eta = veh.TYR[k, T_ETA] if braked else 0.0
+                    self.wheel_torques.append((v, k, fr, eta, radius, tw, tk))
         # contact arrays, exactly as the multibody model prepares them
         imp = scene.impact
-        self.cchi, self.mu_c, self.fcode = chi(imp.force_law, imp.restitution), imp.friction, _fcode(imp.friction_law)
+        self.cchi, self.mu_c = chi(imp.force_law, imp.restitution), imp.friction
+        self.fcode = friction_code(imp.friction_law)
         self.CSH = CSH = np.array([v.chassis_shape for v in self.vehs])
-        Kv, n = opts["contact_stiffness"], opts["contact_exponent"]
-        pairs = [(i, j, (Kv ** (-1 / n) + Kv ** (-1 / n)) ** (-n)) for i in range(nv) for j in range(i + 1, nv)]
-        pairs += [(i, nv + k, Kv) for i in range(nv) for k in range(len(scene.barriers))]
-        self.PP = np.array(pairs, dtype=float).reshape(-1, C.N_PP)
-        BAR = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
-        self.CT = _contact_arrays(CSH, self.PP, BAR, nv)
-        # chassis-road contact (multibody.road_contact, the multibody model's): stiffness from each vehicle's
-        # total mass, regularised Coulomb friction as the multibody model
+        self.PP = C.pair_table(nv, len(scene.barriers), opts["contact_stiffness"], opts["contact_exponent"])
+        self.CT = C.contact_arrays(CSH, self.PP, C.barrier_rows(scene.barriers), nv)
+        # chassis-road contact (common/road_contact.py, as the multibody model): stiffness from each vehicle's
+        # total mass, regularised Coulomb friction
         self.KR = R.stiffness([veh.mass for veh in self.vehs], R.N_ROAD)
         self.road_chi = R.road_chi()
-        self.road_fcode = _fcode("coulomb")
         self.RSG = np.zeros((nv, R.N_RSG))
         self.Y = np.zeros((nv, 13))        # chassis state in the multibody layout: r, p, r_dot, w' (nq = 7)
         self.lock_pending = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles])
@@ -264,7 +263,7 @@ class _Run:
         else:
             FX[:, :] = 0.0
         R.road_contacts(self.Y, 7, self.CSH, self.KR, R.N_ROAD, self.road_chi, self.scene.road.friction,
-                        self.road_fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
+                        R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
         return FX.copy(), psg.copy(), self.RSG.copy()
 
     def _apply(self, L):
@@ -345,13 +344,14 @@ class _Run:
         return d
 
     def _wheel_torques(self, mbs):
-        """Rolling resistance f_r F_z R tanh(w / OMEGA_RR) and brake eta mu F_z R tanh(w / OMEGA_BRAKE) against
-        the wheel's spin w relative to its knuckle (multibody tyre.py), held over the step."""
+        """Rolling resistance and brake moments (common/tyre_moments.py) against the wheel's spin relative to
+        its knuckle, with the tyre's radius as the arm, held over the step."""
         if not self.wheel_torques:
             return
         out = self.exu.OutputVariableType
         g = self.mbs.GetNodeOutput
-        for v, k, fr_r, fb_r, tw, tk in self.wheel_torques:
+        mu = self.scene.road.friction
+        for v, k, fr, eta, radius, tw, tk in self.wheel_torques:
             it = self.items[v]
             if self.locked[v]:
                 M = np.zeros(3)
@@ -362,15 +362,15 @@ class _Run:
                 w_rel = float((np.asarray(g(nw, out.AngularVelocity)) - np.asarray(g(nk, out.AngularVelocity)))
                               @ axis)
                 fz = max(float(mbs.GetObjectOutput(it["discs"][k], out.ForceLocal)[2]), 0.0)
-                M = -fz * (fr_r * math.tanh(w_rel / OMEGA_RR) + fb_r * math.tanh(w_rel / OMEGA_BRAKE)) * axis
+                M = (rolling_resistance_moment(fr, fz, radius, w_rel) + brake_moment(eta, mu, fz, radius, w_rel)) * axis
             mbs.SetLoadParameter(tw, "loadVector", M.tolist())
             mbs.SetLoadParameter(tk, "loadVector", (-M).tolist())
 
     def _accept(self, s, t, F1, psg1, rsg1):
-        """Bookkeeping of the accepted step [s, t] (as multibody.integrator): episodes open at the first
-        penetration (delta_dot0 stored, onset time interpolated in the step), close at separation; impulse of
-        the applied (trapezoidal) load, work by the trapezoidal rule of the contact power, peak force and
-        penetration at both ends. Road contacts: their intervals only (contact_intervals)."""
+        """Bookkeeping of the accepted step [s, t] (common/contact_episodes.py, as multibody's integrator):
+        episodes open at the first penetration (delta_dot0 stored, onset time interpolated in the step), close at
+        separation; impulse of the applied (trapezoidal) load, work by the trapezoidal rule of the contact power,
+        peak force and penetration at both ends. Road contacts: their intervals only (contact_intervals)."""
         h = t - s
         self.nsteps += 1
         self.h_min_used = min(self.h_min_used, h)
@@ -382,14 +382,10 @@ class _Run:
             if PST[p, C.S_ACT] == 0.0:
                 if d1 <= 0.0:
                     continue
-                PST[p, C.S_ACT] = 1.0
-                PST[p, C.S_DD0] = max(psg1[p, C.G_DDOT], self.o["v_min"])
-                PST[p, C.S_T0] = s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0)
-                PST[p, C.S_JX:C.S_WORK + 1] = 0.0
+                EP.reset_sums(PST, p)
+                EP.open_episode(PST, p, s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0),
+                                max(psg1[p, C.G_DDOT], self.o["v_min"]), self._velocity(i), self._velocity(j))
                 self.max_onset = max(self.max_onset, d1)
-                PST[p, C.S_VI:C.S_VI + 3] = [self._pose(i)[q] for q in (6, 7, 8)]
-                if j < self.nv:
-                    PST[p, C.S_VJ:C.S_VJ + 3] = [self._pose(j)[q] for q in (6, 7, 8)]
                 if math.isnan(self.contact_time):
                     self.contact_time = PST[p, C.S_T0]
                     for v in range(self.nv):
@@ -401,15 +397,9 @@ class _Run:
                         lock(self.mbs, self.items[v])
                         self.lock_pending[v] = False
                         self.locked[v] = True
-            PST[p, C.S_JX] += 0.5 * h * (psg0[p, C.G_FX] + psg1[p, C.G_FX])
-            PST[p, C.S_JX + 1] += 0.5 * h * (psg0[p, C.G_FY] + psg1[p, C.G_FY])
-            PST[p, C.S_JX + 2] += 0.5 * h * (psg0[p, C.G_FZ] + psg1[p, C.G_FZ])
-            PST[p, C.S_WORK] += 0.5 * h * (psg0[p, C.G_POW] + psg1[p, C.G_POW])
             for q in (psg0, psg1):
-                if q[p, C.G_FN] > PST[p, C.S_PEAK]:
-                    PST[p, C.S_PEAK] = q[p, C.G_FN]
-                    PST[p, C.S_PX], PST[p, C.S_PY], PST[p, C.S_PTH] = q[p, C.G_PX], q[p, C.G_PY], q[p, C.G_TH]
-            PST[p, C.S_MAXPEN] = max(PST[p, C.S_MAXPEN], d1)
+                EP.accumulate(PST, p, 0.5 * h, q[p])
+                EP.track_peak(PST, p, q[p])
             self.max_pen = max(self.max_pen, d1)
             if d1 <= 0.0:
                 t1 = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 else s
@@ -425,27 +415,18 @@ class _Run:
             self.road_on[v] = on
             self.road_pen = max(self.road_pen, rsg1[v, R.R_DEL])
 
+    def _velocity(self, v):
+        """(vx, vy, yaw rate) of vehicle v's CG; zeros for a barrier (v >= number of vehicles)."""
+        if v >= self.nv:
+            return (0.0, 0.0, 0.0)
+        p = self._pose(v)
+        return (float(p[6]), float(p[7]), float(p[8]))
+
     def _close(self, p, s, is_open, psg):
-        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = self.CT
-        i, j = int(PP[p, C.P_I]), int(PP[p, C.P_J])
-        r = np.zeros(C.N_IMP)
-        r[C.I_I], r[C.I_J], r[C.I_T0], r[C.I_T1] = i, j, PST[p, C.S_T0], s
-        r[C.I_JX:C.I_JX + 3] = PST[p, C.S_JX:C.S_JX + 3]
-        r[C.I_PEAK], r[C.I_MAXPEN], r[C.I_ENERGY] = PST[p, C.S_PEAK], PST[p, C.S_MAXPEN], -PST[p, C.S_WORK]
-        r[C.I_PX], r[C.I_PY], r[C.I_TH] = PST[p, C.S_PX], PST[p, C.S_PY], PST[p, C.S_PTH]
-        pi = self._pose(i)
-        r[C.I_DVI:C.I_DVI + 3] = [pi[6] - PST[p, C.S_VI], pi[7] - PST[p, C.S_VI + 1], pi[8] - PST[p, C.S_VI + 2]]
-        if j < self.nv:
-            pj = self._pose(j)
-            r[C.I_DVJ:C.I_DVJ + 3] = [pj[6] - PST[p, C.S_VJ], pj[7] - PST[p, C.S_VJ + 1],
-                                      pj[8] - PST[p, C.S_VJ + 2]]
-        r[C.I_DD0], r[C.I_DD1], r[C.I_OPEN] = PST[p, C.S_DD0], psg[p, C.G_DDOT], is_open
-        if len(self.imp) < C.MAX_IMP:
-            self.imp.append(r)
+        PP, PST = self.CT[4], self.CT[5]
         self.intervals.append((PST[p, C.S_T0], s))
-        self.n_episodes += 1
-        PST[p, C.S_ACT] = 0.0
-        PST[p, C.S_JX:C.S_WORK + 1] = 0.0
+        self.n_episodes = EP.close_episode(self.IMP, self.n_episodes, PP, PST, p, s, psg[p, C.G_DDOT], is_open,
+                                           self._velocity(int(PP[p, C.P_I])), self._velocity(int(PP[p, C.P_J])))
 
     def _record(self, s):
         for v in range(self.nv):
@@ -477,7 +458,7 @@ class _Run:
         self.contact = np.full((nv, 4), np.nan)
         self.contact_time = math.nan
         self.traj = [[] for _ in range(nv)]
-        self.imp, self.n_episodes, self.intervals = [], 0, []
+        self.IMP, self.n_episodes, self.intervals = np.zeros((EP.MAX_IMP, EP.N_IMP)), 0, []
         self.t_rec, self.t_still, self.nsteps = 0.0, None, 0
         self.max_onset = self.max_pen = self.road_pen = 0.0
         self.s_cur, self.awake, self.iter = None, True, 0
@@ -530,7 +511,7 @@ class _Run:
         for v in range(nv):
             if self.road_on[v]:
                 self.intervals.append((self.road_t0[v], t_end))
-        overlap = _end_overlap(self.names, self.PP, psg)
+        overlap = C.end_overlap(self.names, self.PP, psg)
         self._record(t_end)
         rest, final = np.zeros((nv, 3)), np.zeros((nv, 3))
         trajectories = {}
@@ -546,15 +527,15 @@ class _Run:
             warnings.append("the state became NaN")
         mass = np.array([it["mass"].sum() for it in self.items])
         heads = [(trajectories[n]["t"], trajectories[n]["heading"]) for n in self.names]
-        rows = impact_rows(self.names, mass, np.array(self.imp).reshape(-1, C.N_IMP), heads)
+        rows = EP.impact_rows(self.names, mass, self.IMP[:min(self.n_episodes, EP.MAX_IMP)].copy(), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
         if self.n_unsettled:
             ok = False
             warnings.append(f"the contact loads did not settle at the shortest step ({o['min_step']:g} s) in "
                             f"{self.n_unsettled} step(s)")
-        if self.n_episodes > C.MAX_IMP:
-            warnings.append(f"more than {C.MAX_IMP} contact episodes: only the first {C.MAX_IMP} are reported")
+        if self.n_episodes > EP.MAX_IMP:
+            warnings.append(f"more than {EP.MAX_IMP} contact episodes: only the first {EP.MAX_IMP} are reported")
         try:
             it = mbs.sys["dynamicSolver"].it
             newton, disc = int(it.newtonStepsCount), int(it.discontinuousIterationsCount)
@@ -563,11 +544,11 @@ class _Run:
         fz = exu.OutputVariableType.ForceLocal
         loads = {n: [float(mbs.GetObjectOutput(d, fz)[2]) for d in self.items[v]["discs"]]
                  for v, n in enumerate(self.names)}
-        diagnostics = {"steps": self.nsteps, "wheel_loads_final": loads, "wheel_order": ["FL", "FR", "RL", "RR"],
+        diagnostics = {"steps": self.nsteps, "wheel_loads_final": loads, "wheel_order": list(CORNERS),
                        "step_size": self.o["step"], "min_step_used": self.h_min_used,
                        "newton_iterations": newton, "discontinuous_iterations": disc,
-                       "load_iterations": self.n_load_iter, "steps_shortened": self.n_shortened,
-                       "t_end": t_end, "contact_episodes": self.n_episodes,
+                       "load_iterations": self.n_load_iter, "rejected_steps": self.n_shortened,
+                       "t_end": t_end, "episodes": self.n_episodes,
                        "road_contacts": self.road_contacts, "max_road_penetration": self.road_pen,
                        "max_onset_penetration": self.max_onset, "max_penetration": self.max_pen,
                        "vehicle_notes": {n: self.vehs[v].notes for v, n in enumerate(self.names)},

@@ -17,12 +17,13 @@ import math
 import numpy as np
 from numba import njit
 
-from .euler_parameters import cross, p_dot, rotation_into
+from crashlab.models.common.rotations import cross, p_dot, rotation_into
+from crashlab.models.common.vehicle_3d import B_IXX, B_IYY, B_IZZ, B_MASS, T_KZ
+
 from .joints import J_TYPE, REVOLUTE_LOCKED, SPHERICAL, TRANSLATIONAL, joint_rows
 from .spring_damper import spring_damper, spring_energy
-from .tyre import T_KZ, deflection, tyre
+from .tyre import deflection, tyre
 
-B_MASS, B_IXX, B_IYY, B_IZZ = 0, 1, 2, 3
 # configuration vector (per run)
 (C_G, C_MU, C_ALPHA, C_BETA, C_DAMPING, C_FRICTION, C_RTOL, C_ATOL, C_HMAX, C_H0, C_TEND, C_STOP_AT_REST,
  C_V_REST, C_W_REST, C_T_SLEEP, C_REC_DT, C_ONSET_TOL) = range(17)

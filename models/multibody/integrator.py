@@ -4,62 +4,24 @@ vehicles of a scene at once (one step size, error norm over the awake vehicles).
 Scene awareness: step sizes grow up to h_max while nothing happens; a vehicle whose chassis has been
 still (speed < v_rest, angular speed < w_rest) for t_sleep goes to sleep (velocities zeroed, no more
 force evaluations); the run ends when every vehicle sleeps (stop_at_rest) or at t_end.
-Vehicle contact (contact.py) is evaluated in every stage. First-contact control (Flores & Ambrosio 2010,
+Vehicle contact (common/chassis_contact.py) is evaluated in every stage. First-contact control (Flores & Ambrosio 2010,
 docs/physics.md §15): a trial step that passes the error test but ends with a pair not yet in contact
 penetrating deeper than onset_tol is bisected (re-integrated from its start) until the new penetration
 is in (0, onset_tol]; the pair is then active and its approach velocity delta_dot0 is stored until the
 pair separates (penetration <= 0 at the end of a step), which closes the contact episode (impulse, peak
-force, work, max penetration, delta-V, recorded in IMP). Euler parameters are renormalised after every
-accepted step.
+force, work, max penetration, delta-V, recorded in IMP: common/contact_episodes.py). Euler parameters are
+renormalised after every accepted step.
 """
 import math
 
 import numpy as np
 from numba import njit
 
-from .contact import (
-    G_DDOT,
-    G_DEL,
-    G_FN,
-    G_FX,
-    G_FY,
-    G_FZ,
-    G_POW,
-    G_PX,
-    G_PY,
-    G_TH,
-    I_DD0,
-    I_DD1,
-    I_DVI,
-    I_DVJ,
-    I_ENERGY,
-    I_I,
-    I_J,
-    I_JX,
-    I_MAXPEN,
-    I_OPEN,
-    I_PEAK,
-    I_PX,
-    I_PY,
-    I_T0,
-    I_T1,
-    I_TH,
-    P_I,
-    P_J,
-    S_ACT,
-    S_DD0,
-    S_JX,
-    S_MAXPEN,
-    S_PEAK,
-    S_PTH,
-    S_PX,
-    S_PY,
-    S_T0,
-    S_VI,
-    S_VJ,
-    S_WORK,
-    contacts,
-)
+from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts
+from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
+from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
+from crashlab.models.common.rotations import rotation_into, rotation_matrix_into
+
 from .equations import (
     AUX_DRIFT_ANG,
     AUX_DRIFT_POS,
@@ -93,9 +55,7 @@ from .equations import (
     energy,
     rhs,
 )
-from .euler_parameters import rotation_into
 from .joints import J_I, J_J, J_TYPE, J_XI, J_XJ, REVOLUTE, REVOLUTE_LOCKED
-from .road_contact import R_DEL, R_ZMIN, road_contacts
 
 # Dormand-Prince 5(4) tableau
 _C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
@@ -144,8 +104,8 @@ def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
     else:
         FX[:, :] = 0.0
     # chassis-road contact (regularised Coulomb with the road's friction)
-    road_contacts(Y, 7 * BODY.shape[1], CSH, KR, cfg[C_ROAD_N], cfg[C_ROAD_CHI], cfg[C_MU], 0, cfg[C_FV0],
-                  cfg[C_FV1], cfg[C_FVS], FX, RSG[s])
+    road_contacts(Y, 7 * BODY.shape[1], CSH, KR, cfg[C_ROAD_N], cfg[C_ROAD_CHI], cfg[C_MU], ROAD_FRICTION_LAW,
+                  cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], FX, RSG[s])
     for v in range(Y.shape[0]):
         if awake[v]:
             rhs(Y[v], K[s, v], BODY[v], JNT[v], SPR[v], TYR[v], cfg, A[v], R[v], V[v], W[v], Q[v], D[v],
@@ -221,18 +181,14 @@ def pose(y, BODY, nb):
         for k in range(3):
             c[k] += mb * y[7 * b + k]
             c[3 + k] += mb * y[nq + 6 * b + k]
-    e0, e1, e2, e3 = y[3], y[4], y[5], y[6]
-    a00 = e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3
-    a10 = 2 * (e1 * e2 + e0 * e3)
-    a20 = 2 * (e1 * e3 - e0 * e2)
-    a21 = 2 * (e2 * e3 + e0 * e1)
-    a22 = e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3
-    yaw = math.atan2(a10, a00)
-    pitch = math.asin(max(-1.0, min(1.0, -a20)))
-    roll = math.atan2(a21, a22)
+    A = np.empty((3, 3))
+    rotation_matrix_into(y[3], y[4], y[5], y[6], A)
+    yaw = math.atan2(A[1, 0], A[0, 0])
+    pitch = math.asin(max(-1.0, min(1.0, -A[2, 0])))
+    roll = math.atan2(A[2, 1], A[2, 2])
     # yaw rate = (A w')_z
     w = y[nq + 3:nq + 6]
-    r = a20 * w[0] + a21 * w[1] + a22 * w[2]
+    r = A[2, 0] * w[0] + A[2, 1] * w[1] + A[2, 2] * w[2]
     return (c[0] / m, c[1] / m, c[2] / m, yaw, roll, pitch, c[3] / m, c[4] / m, r)
 
 
@@ -310,29 +266,19 @@ def _new_penetration(PST, PSG6):
 
 
 @njit(cache=True)
+def _velocity(Y, BODY, v):
+    """(vx, vy, yaw rate) of vehicle v's CG, zeros for a barrier (v >= number of vehicles)."""
+    if v >= Y.shape[0]:
+        return (0.0, 0.0, 0.0)
+    p = pose(Y[v], BODY[v], BODY.shape[1])
+    return (p[6], p[7], p[8])
+
+
+@njit(cache=True)
 def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
-    n = int(diag[D_NIMP])
-    nv = Y.shape[0]
-    nb = BODY.shape[1]
-    if n < IMP.shape[0]:
-        i, j = int(PP[p, P_I]), int(PP[p, P_J])
-        r = IMP[n]
-        r[I_I], r[I_J], r[I_T0], r[I_T1] = i, j, PST[p, S_T0], t
-        for k in range(3):
-            r[I_JX + k] = PST[p, S_JX + k]
-        r[I_PEAK], r[I_MAXPEN], r[I_ENERGY] = PST[p, S_PEAK], PST[p, S_MAXPEN], -PST[p, S_WORK]
-        r[I_PX], r[I_PY], r[I_TH] = PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH]
-        pi = pose(Y[i], BODY[i], nb)
-        r[I_DVI], r[I_DVI + 1], r[I_DVI + 2] = pi[6] - PST[p, S_VI], pi[7] - PST[p, S_VI + 1], pi[8] - PST[p, S_VI + 2]
-        if j < nv:
-            pj = pose(Y[j], BODY[j], nb)
-            r[I_DVJ], r[I_DVJ + 1], r[I_DVJ + 2] = (pj[6] - PST[p, S_VJ], pj[7] - PST[p, S_VJ + 1],
-                                                    pj[8] - PST[p, S_VJ + 2])
-        r[I_DD0], r[I_DD1], r[I_OPEN] = PST[p, S_DD0], PSG6[p, G_DDOT], is_open
-        diag[D_NIMP] = n + 1
-    PST[p, S_ACT] = 0.0
-    for k in range(S_JX, S_WORK + 1):
-        PST[p, k] = 0.0
+    """Close the contact episode of pair p at t (common/contact_episodes.py), counted in diag[D_NIMP]."""
+    diag[D_NIMP] = close_episode(IMP, int(diag[D_NIMP]), PP, PST, p, t, PSG6[p, G_DDOT], is_open,
+                                 _velocity(Y, BODY, int(PP[p, P_I])), _velocity(Y, BODY, int(PP[p, P_J])))
 
 
 @njit(cache=True)
@@ -435,29 +381,15 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
         for p in range(npair):
             for s in range(7):
                 if s < 6:
-                    w = h * bw[s]
-                    PST[p, S_JX] += w * PSG[s, p, G_FX]
-                    PST[p, S_JX + 1] += w * PSG[s, p, G_FY]
-                    PST[p, S_JX + 2] += w * PSG[s, p, G_FZ]
-                    PST[p, S_WORK] += w * PSG[s, p, G_POW]
-                if PSG[s, p, G_FN] > PST[p, S_PEAK]:
-                    PST[p, S_PEAK] = PSG[s, p, G_FN]
-                    PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH] = PSG[s, p, G_PX], PSG[s, p, G_PY], PSG[s, p, G_TH]
-                if PSG[s, p, G_DEL] > PST[p, S_MAXPEN]:
-                    PST[p, S_MAXPEN] = PSG[s, p, G_DEL]
+                    accumulate(PST, p, h * bw[s], PSG[s, p])
+                track_peak(PST, p, PSG[s, p])
             d6 = PSG[6, p, G_DEL]
             i, j = int(PP[p, P_I]), int(PP[p, P_J])
             if PST[p, S_ACT] == 0.0:
                 if d6 > 0.0:
-                    PST[p, S_ACT] = 1.0
-                    PST[p, S_DD0] = max(PSG[6, p, G_DDOT], cfg[C_VMIN])
-                    PST[p, S_T0] = t
+                    open_episode(PST, p, t, max(PSG[6, p, G_DDOT], cfg[C_VMIN]), _velocity(Y, BODY, i),
+                                 _velocity(Y, BODY, j))
                     diag[D_MAX_ONSET] = max(diag[D_MAX_ONSET], d6)
-                    pi = pose(Y[i], BODY[i], nb)
-                    PST[p, S_VI], PST[p, S_VI + 1], PST[p, S_VI + 2] = pi[6], pi[7], pi[8]
-                    if j < nv:
-                        pj = pose(Y[j], BODY[j], nb)
-                        PST[p, S_VJ], PST[p, S_VJ + 1], PST[p, S_VJ + 2] = pj[6], pj[7], pj[8]
                     if not (diag[D_CONTACT_T] == diag[D_CONTACT_T]):
                         diag[D_CONTACT_T] = t
                         diag[D_PAIR_I], diag[D_PAIR_J] = i, j
@@ -477,8 +409,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                             still[v] = 0.0
                             need_k0 = True
                 else:
-                    for k in range(S_JX, S_WORK + 1):
-                        PST[p, k] = 0.0
+                    reset_sums(PST, p)
             elif d6 <= 0.0:
                 _close(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, 0.0)
             if PST[p, S_ACT] > 0.0:

@@ -12,9 +12,13 @@ the joint vector d = r_j + s_Q - r_i - s_P), sph (d = 0, three rows). Joints:
 Joint table row (J_* indices): type, body i, body j, s'_P (on i), s'_Q (on j), joint frame on i
 (x_i, y_i, z_i as body-fixed unit vectors), on j (x_j, z_j).
 """
+import math
+
+import numpy as np
 from numba import njit
 
-from .euler_parameters import add, cross, dot, mtv, mv, scale, sub
+from crashlab.models.common.rotations import add, cross, dot, mtv, mv, scale, sub
+from crashlab.models.common.vehicle_3d import LOCKED, NW
 
 SPHERICAL, REVOLUTE, CYLINDRICAL, TRANSLATIONAL, REVOLUTE_LOCKED = 0, 1, 2, 3, 4
 ROWS = {SPHERICAL: 3, REVOLUTE: 5, CYLINDRICAL: 4, TRANSLATIONAL: 5, REVOLUTE_LOCKED: 6}
@@ -120,3 +124,30 @@ def joint_rows(J, A, R, V, W, D, phi, gam, rowb, ispos, row):
         rowb[k, 0] = i
         rowb[k, 1] = j
     return row
+
+
+def vehicle_joints(veh, modes, deltas) -> np.ndarray:
+    """Joint table of a 9-body vehicle (common/vehicle_3d.py) for wheel modes (per wheel, vehicle_3d.MODES
+    codes) and steer angles: chassis-knuckle TRANSLATIONAL, knuckle-wheel REVOLUTE (REVOLUTE_LOCKED for a
+    locked wheel)."""
+    J = np.zeros((2 * NW, N_J))
+    for k in range(NW):
+        d = deltas[k]
+        row = J[k]
+        row[J_TYPE], row[J_I], row[J_J] = TRANSLATIONAL, 0, 1 + k
+        row[J_SP:J_SP + 3] = [veh.axle_x[k], veh.axle_y[k], veh.joint_z]
+        row[J_SQ:J_SQ + 3] = 0.0
+        row[J_XI:J_XI + 3] = [math.cos(d), math.sin(d), 0.0]
+        row[J_YI:J_YI + 3] = [-math.sin(d), math.cos(d), 0.0]
+        row[J_ZI:J_ZI + 3] = [0.0, 0.0, 1.0]
+        row[J_XJ:J_XJ + 3] = [1.0, 0.0, 0.0]
+        row[J_ZJ:J_ZJ + 3] = [0.0, 0.0, 1.0]
+        row = J[NW + k]
+        row[J_TYPE] = REVOLUTE_LOCKED if modes[k] == LOCKED else REVOLUTE
+        row[J_I], row[J_J] = 1 + k, 5 + k
+        row[J_XI:J_XI + 3] = [0.0, 0.0, 1.0]
+        row[J_YI:J_YI + 3] = [1.0, 0.0, 0.0]
+        row[J_ZI:J_ZI + 3] = [0.0, 1.0, 0.0]
+        row[J_XJ:J_XJ + 3] = [0.0, 0.0, 1.0]
+        row[J_ZJ:J_ZJ + 3] = [0.0, 1.0, 0.0]
+    return J

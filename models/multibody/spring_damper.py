@@ -10,16 +10,15 @@ With |d| the length would turn positive again once a violent compression pushed 
 would flip and the spring would pull the wheel up through the chassis (issue 10: chassis below the road);
 signed, the bump stop's force keeps growing. The force on j acts at the point of the axis line at Q's
 height (P + l u), so the pair is collinear (no spurious couple; the joint carries Q's small offset).
-Row layout (S_* indices): i, j, s'_P, s'_Q, k, c, l0, l_b, k_b, u'_i (zero: along d, unsigned).
+Row layout (common/vehicle_3d.py S_* indices): i, j, s'_P, s'_Q, k, c, l0, l_b, k_b, u'_i (zero: along d,
+unsigned).
 """
 import math
 
 from numba import njit
 
-from .euler_parameters import add, cross, dot, mtv, mv, scale, sub
-
-S_I, S_J, S_P, S_Q, S_K, S_C, S_L0, S_LB, S_KB, S_U = 0, 1, 2, 5, 8, 9, 10, 11, 12, 13
-N_S = 16
+from crashlab.models.common.rotations import add, cross, dot, mtv, mv, scale, sub
+from crashlab.models.common.vehicle_3d import S_C, S_I, S_J, S_K, S_KB, S_L0, S_LB, S_P, S_Q, S_U
 
 
 @njit(cache=True, inline="always")

@@ -26,26 +26,37 @@ Tread damping C_s sigma_s ds/dt, C_a sigma_a da/dt (zero in steady state) is add
 of a state within full sliding (S_c <= 3 mu F_z) and fades out beyond it (over SAT_BAND): a fully sliding
 tread is Coulomb friction against the sliding direction (issue 10).
 Self-aligning torque T_z = (l/6) Y l_n^3, contact length l = sqrt(8 R delta).
-Rolling resistance: moment -f_r F_z h tanh(Omega/Omega_reg) about the spin axis (f_r dimensionless, h the
-hub-to-contact distance, so that it equals a resistance force f_r F_z).
-Braked wheel (ABS-like): brake torque eta mu F_z R_e against the wheel's spin relative to its knuckle.
+Rolling resistance and the braked wheel's (ABS-like) brake torque eta mu F_z R_e: common/tyre_moments.py.
+Parameter rows: common/vehicle_3d.py (T_*), built there from the vehicle file.
 """
 import math
 
 from numba import njit
 
-from .euler_parameters import add, cross, dot, mtv, mv, scale, sub
-
-(T_WHEEL, T_KNUCKLE, T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR, T_SIG_S, T_SIG_A, T_CS, T_CA,
- T_MODE, T_ETA) = range(16)
-N_T = 16
-ROLLING, LOCKED, LOCKED_AFTER_IMPACT, BRAKED = 0, 1, 2, 3
-MODES = {"rolling": ROLLING, "locked": LOCKED, "locked_after_impact": LOCKED_AFTER_IMPACT, "braked": BRAKED}
+from crashlab.models.common.rotations import add, cross, dot, mtv, mv, scale, sub
+from crashlab.models.common.tyre_moments import brake_moment, rolling_resistance_moment
+from crashlab.models.common.vehicle_3d import (
+    BRAKED,
+    T_CA,
+    T_CS,
+    T_CZ,
+    T_ETA,
+    T_FRR,
+    T_KA,
+    T_KG,
+    T_KNUCKLE,
+    T_KS,
+    T_KZ,
+    T_MODE,
+    T_R1,
+    T_R2,
+    T_SIG_A,
+    T_SIG_S,
+    T_WHEEL,
+)
 
 V_EPS = 0.01        # m/s: smooths V_ref = max(|V_x|, |V_c|) at standstill
 DELTA_RAMP = 1e-3   # m: radial damping fades in over the first mm of deflection (no jump at touchdown)
-OMEGA_RR = 0.5      # rad/s: rolling-resistance moment reaches its full value above this spin rate
-OMEGA_BRAKE = 1.0   # rad/s: same for the brake torque
 TAU_AIR = 0.01      # s: relaxation of the slip states (tread deflection) of a wheel off the road
 SAT_BAND = 0.05     # the slip states stop growing once S_c exceeds 3 mu F_z by this fraction
 
@@ -154,7 +165,7 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
     Q[bw, 1] += F[1]
     Q[bw, 2] += F[2]
     # rolling resistance: moment f_r F_z h (h = hub-to-contact distance), i.e. a resistance force f_r F_z
-    myr = -friction_on * Tw[T_FRR] * fz * math.sqrt(dot(sP, sP)) * math.tanh(spin / OMEGA_RR)
+    myr = friction_on * rolling_resistance_moment(Tw[T_FRR], fz, math.sqrt(dot(sP, sP)), spin)
     Tg = add(cross(sP, F), add((0.0, 0.0, tz), scale(myr, w)))
     n = mtv(A, bw, Tg)
     Q[bw, 3] += n[0]
@@ -165,7 +176,7 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
     if int(Tw[T_MODE]) == BRAKED:
         omk = mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2]))
         rel = spin - dot(omk, w)
-        tb = -friction_on * Tw[T_ETA] * mu * fz * Re * math.tanh(rel / OMEGA_BRAKE)
+        tb = friction_on * brake_moment(Tw[T_ETA], mu, fz, Re, rel)
         nb = mtv(A, bw, scale(tb, w))
         nk = mtv(A, bk, scale(-tb, w))
         for k in range(3):
@@ -173,3 +184,10 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
             Q[bk, 3 + k] += nk[k]
         power += tb * rel
     return fz, power
+
+
+def tyres_for(veh, modes):
+    """The vehicle's tyre rows with the wheel modes (per wheel, vehicle_3d.MODES codes) set."""
+    T = veh.TYR.copy()
+    T[:, T_MODE] = modes
+    return T

@@ -1,10 +1,14 @@
-"""Euler parameters (Nikravesh 1988; docs/physics.md §6), compiled helpers on 3-tuples.
+"""Rotations of the 3D models: Euler parameters (Nikravesh 1988; docs/physics.md §6) and compiled vector
+helpers on 3-tuples.
 
 p = [e0, e1, e2, e3], A(p) the rotation matrix (body -> global), p_dot = 1/2 L(p)^T w' with w' the
 body-fixed angular velocity. Vectors are tuples so that numba keeps them in registers (no allocation).
+`rotation_matrix_into` is the one home of A(p) (numba); `matrix` (numpy) and `rotation_into` (a body of a
+stack) call it; `from_matrix` goes back (Shepperd); `rot_z` is the rotation about the vertical.
 """
 import math
 
+import numpy as np
 from numba import njit
 
 
@@ -49,19 +53,38 @@ def mtv(A, b, x):
             A[b, 0, 2] * x[0] + A[b, 1, 2] * x[1] + A[b, 2, 2] * x[2])
 
 
+@njit(cache=True, inline="always")
+def rotation_matrix_into(e0, e1, e2, e3, A):
+    """A(p) of §6 written into the 3x3 array A (p need not be exactly unit: it is normalised here)."""
+    n = 1.0 / (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+    A[0, 0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n
+    A[0, 1] = 2.0 * (e1 * e2 - e0 * e3) * n
+    A[0, 2] = 2.0 * (e1 * e3 + e0 * e2) * n
+    A[1, 0] = 2.0 * (e1 * e2 + e0 * e3) * n
+    A[1, 1] = (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * n
+    A[1, 2] = 2.0 * (e2 * e3 - e0 * e1) * n
+    A[2, 0] = 2.0 * (e1 * e3 - e0 * e2) * n
+    A[2, 1] = 2.0 * (e2 * e3 + e0 * e1) * n
+    A[2, 2] = (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * n
+
+
 @njit(cache=True)
 def rotation_into(e0, e1, e2, e3, A, b):
-    """A(p) of §6 written into A[b] (p need not be exactly unit: it is normalised here)."""
-    n = 1.0 / (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
-    A[b, 0, 0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n
-    A[b, 0, 1] = 2.0 * (e1 * e2 - e0 * e3) * n
-    A[b, 0, 2] = 2.0 * (e1 * e3 + e0 * e2) * n
-    A[b, 1, 0] = 2.0 * (e1 * e2 + e0 * e3) * n
-    A[b, 1, 1] = (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * n
-    A[b, 1, 2] = 2.0 * (e2 * e3 - e0 * e1) * n
-    A[b, 2, 0] = 2.0 * (e1 * e3 - e0 * e2) * n
-    A[b, 2, 1] = 2.0 * (e2 * e3 + e0 * e1) * n
-    A[b, 2, 2] = (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * n
+    """A(p) written into A[b] of a stack of matrices (nb, 3, 3)."""
+    rotation_matrix_into(e0, e1, e2, e3, A[b])
+
+
+def matrix(p):
+    """A(p) as a new numpy array."""
+    A = np.empty((3, 3))
+    rotation_matrix_into(float(p[0]), float(p[1]), float(p[2]), float(p[3]), A)
+    return A
+
+
+def rot_z(a):
+    """Rotation by the angle a [rad] about the global z axis."""
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 @njit(cache=True, inline="always")

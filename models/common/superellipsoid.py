@@ -1,4 +1,4 @@
-"""Superellipsoid geometry (docs/physics.md §10, §11) — groundwork for vehicle contact (issue 5).
+"""Superellipsoid geometry (docs/physics.md §10, §11): the chassis contact body of the 3D models.
 
 A shape is the float64 array ``sh = [a, b, c, eps1, eps2]`` (semi-axes in m, shape exponents; eps1 the
 profile along z, eps2 the xy cross-section). Convex for 0 < eps <= 2; the Newton narrow phase needs

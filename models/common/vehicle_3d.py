@@ -1,13 +1,15 @@
-"""The 9-body vehicle (thesis chapter 2, Tables 3.2-3.6) built from a VehicleSpec.
+"""The 9-body vehicle of the 3D models (thesis chapter 2, Tables 3.2-3.6) built from a VehicleSpec: the
+description both multibody (its own joints and UA tyre) and exudyn (exudyn's items) build from, and the
+row layouts of its tables (BODY: B_*, suspension SPR: S_*, tyre TYR: T_*, wheel modes).
 
 Bodies: 0 chassis, 1-4 knuckles (FL, FR, RL, RR), 5-8 wheels. Joints: chassis-knuckle TRANSLATIONAL
 (the thesis's cylindrical joint with a vertical axis through the wheel centre, plus the steering
 constraint that fixes the knuckle's rotation about that axis at the wheel's steer angle), knuckle-wheel
 REVOLUTE about the spin axis (REVOLUTE_LOCKED for a locked wheel). Suspension: one spring-damper per
-corner from a chassis point to the wheel centre. Tyre: UA (tyre.py) on each wheel.
+corner from a chassis point to the wheel centre. Tyre: UA (multibody/tyre.py) on each wheel.
 
 Data come from the vehicle file's [multibody] sections; what a file lacks gets the documented defaults
-of `defaults()` (scaled from the thesis's Clio where a scale is obvious).
+of `DEFAULTS` (scaled from the thesis's Clio where a scale is obvious).
 """
 from __future__ import annotations
 
@@ -17,49 +19,25 @@ import math
 import numpy as np
 
 from crashlab.errors import InputError
-
-from .equations import B_MASS, sizes
-from .joints import (
-    J_I,
-    J_J,
-    J_SP,
-    J_SQ,
-    J_TYPE,
-    J_XI,
-    J_XJ,
-    J_YI,
-    J_ZI,
-    J_ZJ,
-    N_J,
-    REVOLUTE,
-    REVOLUTE_LOCKED,
-    TRANSLATIONAL,
-)
-from .spring_damper import N_S, S_C, S_I, S_J, S_K, S_KB, S_L0, S_LB, S_P, S_Q, S_U
-from .tyre import (
-    LOCKED,
-    MODES,
-    N_T,
-    T_CA,
-    T_CS,
-    T_CZ,
-    T_ETA,
-    T_FRR,
-    T_KA,
-    T_KG,
-    T_KNUCKLE,
-    T_KS,
-    T_KZ,
-    T_MODE,
-    T_R1,
-    T_R2,
-    T_SIG_A,
-    T_SIG_S,
-    T_WHEEL,
-)
+from crashlab.units import G
 
 NB, NW = 9, 4
 CORNERS = ("FL", "FR", "RL", "RR")
+# body table BODY[b]: mass [kg], principal inertias [kg m^2]
+B_MASS, B_IXX, B_IYY, B_IZZ = 0, 1, 2, 3
+# spring-damper row SPR[k] (docs/physics.md §8): bodies i, j, chassis point s'_P (on i), knuckle point s'_Q
+# (on j), stiffness, damping, free length, bump-stop length and stiffness, strut axis u'_i (zero: along d)
+S_I, S_J, S_P, S_Q, S_K, S_C, S_L0, S_LB, S_KB, S_U = 0, 1, 2, 5, 8, 9, 10, 11, 12, 13
+N_S = 16
+# tyre row TYR[k] (docs/physics.md §9): wheel and knuckle body, torus radii r1 and r2, radial stiffness and
+# damping, slip stiffness, cornering and camber stiffness, rolling resistance, relaxation lengths, tread
+# damping (spin, lateral), wheel mode, brake torque / (mu F_z R_e)
+(T_WHEEL, T_KNUCKLE, T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR, T_SIG_S, T_SIG_A, T_CS, T_CA,
+ T_MODE, T_ETA) = range(16)
+N_T = 16
+# wheel modes (the scene's `wheels`)
+ROLLING, LOCKED, LOCKED_AFTER_IMPACT, BRAKED = 0, 1, 2, 3
+MODES = {"rolling": ROLLING, "locked": LOCKED, "locked_after_impact": LOCKED_AFTER_IMPACT, "braked": BRAKED}
 CLIO_R = 0.28
 DEFAULTS = {
     # wheel + tyre: the Clio's 9 kg and inertias scaled with (R/0.28)^3 (mass) and m R^2 (inertia)
@@ -88,9 +66,8 @@ class Vehicle:
     TYR: np.ndarray         # (4, N_T) (mode set per scene)
     axle_x: np.ndarray      # (4,) wheel-centre x in the chassis frame
     axle_y: np.ndarray      # (4,)
-    joint_z: float
+    joint_z: float          # height of the chassis-knuckle joints in the chassis frame
     wheelbase: float
-    outline: tuple          # (front, rear, half width) about the vehicle CG
     z_chassis0: float       # first estimate of the chassis CG height
     z_wheel0: np.ndarray    # first estimate of wheel-centre heights
     notes: list
@@ -150,7 +127,6 @@ def build(spec) -> Vehicle:
     t2 = spec.track / 2
     axle_x = np.array([a, a, -b, -b])
     axle_y = np.array([t2, -t2, t2, -t2])
-    g = 9.81
     m_tot = BODY[:, B_MASS].sum()
     # tyre
     r2 = _get(ty, "torus_radius_2", 0.0825 * sc, notes, "tyre.torus_radius_2")
@@ -180,17 +156,17 @@ def build(spec) -> Vehicle:
         TYR[k, [T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR]] = [r1, r2, kz, cz, ks, ka, kg, frr]
         TYR[k, [T_SIG_S, T_SIG_A, T_CS, T_CA, T_ETA]] = [sig, sig, cs, ca, DEFAULTS["brake_eta"]]
     # static estimates: corner loads (from the axle positions), tyre and spring deflections
-    load = np.array([b, b, a, a]) / spec.wheelbase / 2 * m_tot * g
+    load = np.array([b, b, a, a]) / spec.wheelbase / 2 * m_tot * G
     z_w = r1 + r2 - load / kz
-    sprung = load - m_u * g
+    sprung = load - m_u * G
     l0 = _get(su, "free_length", DEFAULTS["free_length"], notes, "suspension.free_length")
     if "stiffness" in su:
         k_s = np.full(4, float(su["stiffness"])) * sprung_ratio
         c_s = np.full(4, float(su.get("damping", 0.0))) * sprung_ratio
     else:
         om = 2 * math.pi * DEFAULTS["ride_frequency"]
-        k_s = sprung / g * om ** 2
-        c_s = 2 * DEFAULTS["damping_ratio"] * np.sqrt(k_s * sprung / g)
+        k_s = sprung / G * om ** 2
+        c_s = 2 * DEFAULTS["damping_ratio"] * np.sqrt(k_s * sprung / G)
         notes.append("suspension stiffness/damping from ride frequency 1.36 Hz, damping ratio 0.48 (default)")
     l_static = l0 - sprung / k_s
     if "chassis_points" in su:
@@ -230,8 +206,7 @@ def build(spec) -> Vehicle:
         SPR[k, S_LB] = max(l_static[k] - DEFAULTS["bump_travel"], 0.02)
         SPR[k, S_KB] = DEFAULTS["bump_stiffness_factor"] * k_s[k]
         SPR[k, S_U:S_U + 3] = [0.0, 0.0, -1.0]     # a strut along the translational joint (signed length)
-    return Vehicle(spec.name, BODY, SPR, TYR, axle_x, axle_y, DEFAULTS["joint_z"], spec.wheelbase,
-                   (spec.cg_to_front, spec.cg_to_rear, spec.width / 2), zc, z_w, notes,
+    return Vehicle(spec.name, BODY, SPR, TYR, axle_x, axle_y, DEFAULTS["joint_z"], spec.wheelbase, zc, z_w, notes,
                    chassis_shape(spec, ch, notes))
 
 
@@ -263,54 +238,6 @@ def steer_angles(veh: Vehicle, steer: float) -> np.ndarray:
         out[k] = math.atan2(veh.wheelbase, rr - veh.axle_y[k]) if rr > 0 else \
             -math.atan2(veh.wheelbase, -(rr - veh.axle_y[k]))
     return out
-
-
-def joints(veh: Vehicle, modes, deltas) -> np.ndarray:
-    """Joint table for wheel modes (per wheel, tyre.MODES codes) and steer angles."""
-    J = np.zeros((2 * NW, N_J))
-    for k in range(NW):
-        d = deltas[k]
-        row = J[k]
-        row[J_TYPE], row[J_I], row[J_J] = TRANSLATIONAL, 0, 1 + k
-        row[J_SP:J_SP + 3] = [veh.axle_x[k], veh.axle_y[k], veh.joint_z]
-        row[J_SQ:J_SQ + 3] = 0.0
-        row[J_XI:J_XI + 3] = [math.cos(d), math.sin(d), 0.0]
-        row[J_YI:J_YI + 3] = [-math.sin(d), math.cos(d), 0.0]
-        row[J_ZI:J_ZI + 3] = [0.0, 0.0, 1.0]
-        row[J_XJ:J_XJ + 3] = [1.0, 0.0, 0.0]
-        row[J_ZJ:J_ZJ + 3] = [0.0, 0.0, 1.0]
-        row = J[NW + k]
-        row[J_TYPE] = REVOLUTE_LOCKED if modes[k] == LOCKED else REVOLUTE
-        row[J_I], row[J_J] = 1 + k, 5 + k
-        row[J_XI:J_XI + 3] = [0.0, 0.0, 1.0]
-        row[J_YI:J_YI + 3] = [1.0, 0.0, 0.0]
-        row[J_ZI:J_ZI + 3] = [0.0, 1.0, 0.0]
-        row[J_XJ:J_XJ + 3] = [0.0, 0.0, 1.0]
-        row[J_ZJ:J_ZJ + 3] = [0.0, 1.0, 0.0]
-    return J
-
-
-def tyres_for(veh: Vehicle, modes) -> np.ndarray:
-    T = veh.TYR.copy()
-    T[:, T_MODE] = modes
-    return T
-
-
-def initial_local(veh: Vehicle) -> np.ndarray:
-    """First estimate of the static state in the vehicle frame (chassis CG above the origin)."""
-    nq, nv, ny = sizes(NB, NW)
-    y = np.zeros(ny)
-    y[0:3] = [0.0, 0.0, veh.z_chassis0]
-    for b in range(NB):
-        y[7 * b + 3] = 1.0
-    for k in range(NW):
-        for b in (1 + k, 5 + k):
-            y[7 * b:7 * b + 3] = [veh.axle_x[k], veh.axle_y[k], veh.z_wheel0[k]]
-    return y
-
-
-def mode_codes(wheels: str):
-    return [MODES[wheels]] * NW
 
 
 def build_scene_vehicles(scene) -> list:

@@ -6,7 +6,7 @@ arrays, no state: the multibody integrator and the exudyn model call the same fu
 
 Y (nv, >= nq + 6): per vehicle the chassis state in the multibody layout (r at [0:3], Euler parameters at
 [3:7], r_dot at [nq:nq+3], body-fixed w' at [nq+3:nq+6]; nq = 7 * bodies, 7 for a chassis-only array);
-CSH (nv, 7) the chassis superellipsoids [a, b, c, eps1, eps2, x_off, z_off] (vehicle_build.chassis_shape);
+CSH (nv, 7) the chassis superellipsoids [a, b, c, eps1, eps2, x_off, z_off] (vehicle_3d.chassis_shape);
 KR (nv,) stiffness [N/m^n] (`stiffness`); n exponent; chi_ hysteresis factor (`road_chi`); mu the road's
 friction; fcode the friction law code (contact_force: 0 coulomb, 1 threlfall, 2 ambrosio) with its
 tolerances v0, v1, vs [m/s]. ADDS the road's load to FX[v] (global force [0:3], global moment about the
@@ -44,7 +44,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact import chassis_pose
+from crashlab.units import G
+
+from .chassis_contact import chassis_pose
 from .contact_force import exact_chi, friction_ratio_code
 from .superellipsoid import support_global
 
@@ -53,7 +55,7 @@ DELTA_STATIC = 0.005  # m: static penetration under the vehicle's own weight
 E_ROAD = 0.3          # restitution of a body hitting the road at V_REF
 V_REF = 3.0           # m/s
 RHO_PATCH = 0.1       # m, radius of the patch moment
-G = 9.81
+ROAD_FRICTION_LAW = 0  # contact_force.friction_ratio_code: regularised Coulomb
 # per-vehicle outputs RSG[v]
 R_ZMIN, R_DEL, R_DDOT, R_FN, R_POW = range(5)
 N_RSG = 5

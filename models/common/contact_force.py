@@ -1,4 +1,4 @@
-"""Contact force laws (docs/physics.md §13, §14) — groundwork for vehicle contact (issue 5).
+"""Contact force laws (docs/physics.md §13, §14) of the vehicle contacts (chassis_contact.py, road_contact.py).
 
 Normal force (continuous, dissipative, Hertz-type):
     F_N = K delta^n [1 + chi(e) delta_dot / delta_dot0]        clamped to F_N >= 0 (no adhesion)
@@ -38,6 +38,9 @@ from scipy.optimize import brentq
 
 E_MIN = 0.01
 E_MAX = 0.999
+# friction tolerances [m/s] of the vehicle contacts (vehicle scale, §14): v0 and v1 of Threlfall/Ambrosio,
+# v_s of the regularised Coulomb law
+FRICTION_V0, FRICTION_V1, FRICTION_VS = 0.01, 0.1, 0.01
 LAWS = ("hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier", "exact-restitution")
 FRICTION_LAWS = ("coulomb", "threlfall", "ambrosio")
 
@@ -144,16 +147,17 @@ def friction_ratio_code(code, v, v0, v1, vs):
     return (v - v0) / (v1 - v0)
 
 
-def _fcode(law):
+def friction_code(law):
+    """The numba code of a friction law name (0 coulomb, 1 threlfall, 2 ambrosio)."""
     k = law.lower()
     if k not in FRICTION_LAWS:
         raise ValueError(f"unknown friction law {law!r}; known: {', '.join(FRICTION_LAWS)}")
     return FRICTION_LAWS.index(k)
 
 
-def friction_ratio(law, v, v0=0.01, v1=0.1, v_s=0.01):
+def friction_ratio(law, v, v0=FRICTION_V0, v1=FRICTION_V1, v_s=FRICTION_VS):
     """Vectorised c(|v_T|) in [0, 1] of a friction law (F_T magnitude / (mu F_N))."""
-    code = _fcode(law)
+    code = friction_code(law)
     if law == "threlfall" and v0 <= 0:
         raise ValueError("threlfall needs v0 > 0")
     if law == "ambrosio" and not v1 > v0 >= 0:
@@ -163,7 +167,7 @@ def friction_ratio(law, v, v0=0.01, v1=0.1, v_s=0.01):
     return out if out.ndim else float(out)
 
 
-def friction_force(law, v_rel, normal, F_N, mu, v0=0.01, v1=0.1, v_s=0.01):
+def friction_force(law, v_rel, normal, F_N, mu, v0=FRICTION_V0, v1=FRICTION_V1, v_s=FRICTION_VS):
     """F_T = -mu c(|v_T|) F_N v_T/|v_T| with v_T = v_rel - (v_rel.n) n (§14); zero for v_T = 0."""
     v_rel = np.asarray(v_rel, float)
     n = np.asarray(normal, float)

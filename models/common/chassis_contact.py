@@ -1,18 +1,21 @@
-"""Vehicle contact inside the numba time loop (issue 5): chassis superellipsoids against each other and
-against rigid box barriers; continuous Hertz-type normal force with hysteresis damping and friction.
+"""Vehicle contact of the 3D models (multibody's numba time loop, exudyn's loads): chassis superellipsoids
+against each other and against rigid box barriers; continuous Hertz-type normal force with hysteresis
+damping and friction. Also the packing of the contact arrays both models hand to `contacts`
+(`pair_table`, `barrier_rows`, `contact_arrays`) and the end-state overlap check (`end_overlap`).
 
 Geometry. Each vehicle's chassis is one superellipsoid (shape row CSH[v] = [a, b, c, eps1, eps2, x_off,
 z_off], centred at x_off, z_off in the chassis frame); a barrier is a rigid box (BOXR centre, BOXA
 rotation, BOXE half-extents). The contact normal is searched among HORIZONTAL directions
 d = (cos th, sin th, 0) only: the signed gap is g = max_th -(h1(d) + h2(-d)) (h = global support
-functions, closed form: superellipsoid.support_value_global, and the exact box support function), i.e.
+functions, closed form: narrow_phase.support_value_body), i.e.
 the separating-axis gap of the two bodies' plan shadows. Why horizontal only: the chassis slabs are
 0.5 m tall and a car-to-car crush reaches 0.5-1 m with the literature stiffness of docs/physics.md §27, so the
 3D minimum-translation distance would flip to a vertical push-out at deep penetration (a vehicle is not
 pushed over the other); vehicles crush horizontally. A vertical gate (the z-ranges must overlap) keeps
 vehicles at different heights apart. The 1D maximisation over th is a golden-section search: warm-started
 (+-0.15 rad window, re-centred when the optimum hits its edge) from the previous evaluation while a pair
-is in contact (it follows the contact branch), global (72-angle scan + golden refinement) otherwise.
+is in contact (it follows the contact branch), global (72-angle scan + golden refinement) otherwise
+(narrow_phase.horizontal_gap).
 Contact point: the midpoint of the two support points sigma1(d), sigma2(-d) (for a box: of sigma1(d) and
 its projection on the box face). No Newton / SLSQP is needed in the loop (narrow_phase.py stays the
 general 3D tool and its tests).
@@ -33,26 +36,22 @@ from numba import njit
 
 from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi
-from .superellipsoid import support_global, support_value_global
+from .narrow_phase import horizontal_gap, support_value_body
+from .rotations import rot_z, rotation_matrix_into
+from .superellipsoid import support_global
 
 # pair parameters PP[p]: i, j (j >= nv: barrier j - nv), K
 P_I, P_J, P_K = 0, 1, 2
 N_PP = 3
-# pair state PST[p]
+# pair state PST[p]: warm angle and its validity, active flag, approach velocity stored at onset; the open
+# episode's bookkeeping (contact_episodes.py): onset time, impulse (3), peak normal force, max penetration,
+# work, point and normal angle at the peak force, velocities (vx, vy, yaw rate) of i and j at onset
 (S_TH, S_THOK, S_ACT, S_DD0, S_T0, S_JX, S_JY, S_JZ, S_PEAK, S_MAXPEN, S_WORK, S_PX, S_PY, S_PTH,
- S_VI, S_VJ, S_DUR) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 20
-N_PST = 21
+ S_VI, S_VJ) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17
+N_PST = 20
 # per-stage outputs PSG[stage, p]
 (G_FN, G_DEL, G_FX, G_FY, G_FZ, G_POW, G_PX, G_PY, G_TH, G_DDOT) = range(10)
 N_PSG = 10
-# impact records IMP[k]
-(I_I, I_J, I_T0, I_T1, I_JX, I_JY, I_JZ, I_PEAK, I_MAXPEN, I_ENERGY, I_PX, I_PY, I_TH, I_DVI, I_DVJ,
- I_DD0, I_DD1, I_OPEN) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21
-N_IMP = 22
-MAX_IMP = 64
-N_SCAN = 72
-GOLDEN_IT = 40
-WARM_HALF = 0.15
 # broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
 # by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
 B_PAIRS, B_CIRCLE, B_HEIGHT, B_OBB, B_NARROW = range(5)
@@ -64,17 +63,7 @@ BARRIER_HALF_HEIGHT = 0.75
 @njit(cache=True)
 def chassis_pose(y, nq, A):
     """Chassis (body 0) rotation into A, returns (r, v, omega_global) as tuples."""
-    e0, e1, e2, e3 = y[3], y[4], y[5], y[6]
-    n = 1.0 / (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
-    A[0, 0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n
-    A[0, 1] = 2.0 * (e1 * e2 - e0 * e3) * n
-    A[0, 2] = 2.0 * (e1 * e3 + e0 * e2) * n
-    A[1, 0] = 2.0 * (e1 * e2 + e0 * e3) * n
-    A[1, 1] = (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * n
-    A[1, 2] = 2.0 * (e2 * e3 - e0 * e1) * n
-    A[2, 0] = 2.0 * (e1 * e3 - e0 * e2) * n
-    A[2, 1] = 2.0 * (e2 * e3 + e0 * e1) * n
-    A[2, 2] = (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * n
+    rotation_matrix_into(y[3], y[4], y[5], y[6], A)
     w0, w1, w2 = y[nq + 3], y[nq + 4], y[nq + 5]
     om = (A[0, 0] * w0 + A[0, 1] * w1 + A[0, 2] * w2, A[1, 0] * w0 + A[1, 1] * w1 + A[1, 2] * w2,
           A[2, 0] * w0 + A[2, 1] * w1 + A[2, 2] * w2)
@@ -82,67 +71,8 @@ def chassis_pose(y, nq, A):
 
 
 @njit(cache=True)
-def _sv(kind, d0, d1, d2, sh, r, A):
-    if kind == 0:
-        return support_value_global(d0, d1, d2, sh, r, A)
-    h = d0 * r[0] + d1 * r[1] + d2 * r[2]
-    for k in range(3):
-        h += abs(A[0, k] * d0 + A[1, k] * d1 + A[2, k] * d2) * sh[k]
-    return h
-
-
-@njit(cache=True)
-def _g(th, k2, sh1, r1, A1, sh2, r2, A2):
-    c, s = math.cos(th), math.sin(th)
-    return -(_sv(0, c, s, 0.0, sh1, r1, A1) + _sv(k2, -c, -s, 0.0, sh2, r2, A2))
-
-
-@njit(cache=True)
-def _golden(lo, hi, k2, sh1, r1, A1, sh2, r2, A2):
-    gr = 0.6180339887498949
-    x1 = hi - gr * (hi - lo)
-    x2 = lo + gr * (hi - lo)
-    f1 = _g(x1, k2, sh1, r1, A1, sh2, r2, A2)
-    f2 = _g(x2, k2, sh1, r1, A1, sh2, r2, A2)
-    for _ in range(GOLDEN_IT):
-        if f1 > f2:
-            hi, x2, f2 = x2, x1, f1
-            x1 = hi - gr * (hi - lo)
-            f1 = _g(x1, k2, sh1, r1, A1, sh2, r2, A2)
-        else:
-            lo, x1, f1 = x1, x2, f2
-            x2 = lo + gr * (hi - lo)
-            f2 = _g(x2, k2, sh1, r1, A1, sh2, r2, A2)
-    if f1 > f2:
-        return x1, f1
-    return x2, f2
-
-
-@njit(cache=True)
-def horizontal_gap(th0, warm, k2, sh1, r1, A1, sh2, r2, A2):
-    """(th, g): the horizontal direction maximising the separation g(th) (signed gap, < 0 penetrating)."""
-    if warm:
-        lo, hi = th0 - WARM_HALF, th0 + WARM_HALF
-        th, g = th0, -1e300
-        for _ in range(8):
-            th, g = _golden(lo, hi, k2, sh1, r1, A1, sh2, r2, A2)
-            if th - lo > 0.02 and hi - th > 0.02:
-                break
-            lo, hi = th - WARM_HALF, th + WARM_HALF
-        return th, g
-    best, tb = -1e300, 0.0
-    for k in range(N_SCAN):
-        th = 2.0 * math.pi * k / N_SCAN
-        g = _g(th, k2, sh1, r1, A1, sh2, r2, A2)
-        if g > best:
-            best, tb = g, th
-    w = 2.0 * math.pi / N_SCAN
-    return _golden(tb - w, tb + w, k2, sh1, r1, A1, sh2, r2, A2)
-
-
-@njit(cache=True)
 def _zrange(kind, sh, r, A):
-    return -_sv(kind, 0.0, 0.0, -1.0, sh, r, A), _sv(kind, 0.0, 0.0, 1.0, sh, r, A)
+    return -support_value_body(kind, 0.0, 0.0, -1.0, sh, r, A), support_value_body(kind, 0.0, 0.0, 1.0, sh, r, A)
 
 
 @njit(cache=True)
@@ -256,3 +186,49 @@ def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi
         psg[p, G_FX], psg[p, G_FY], psg[p, G_FZ] = F[0], F[1], F[2]
         psg[p, G_POW] = F[0] * vr[0] + F[1] * vr[1] + F[2] * vr[2]
         psg[p, G_PX], psg[p, G_PY] = M[0], M[1]
+
+
+# ----------------------------------------------------------------------------------------------------
+# packing (Python, once per run)
+# ----------------------------------------------------------------------------------------------------
+def pair_table(nv, nbar, K, n):
+    """PP: every vehicle pair with K_eff = (K^(-1/n) + K^(-1/n))^(-n) (two equal Hertz springs in series,
+    §13) and every vehicle-barrier pair with K (one vehicle against a rigid barrier)."""
+    pairs = [(i, j, (K ** (-1 / n) + K ** (-1 / n)) ** (-n)) for i in range(nv) for j in range(i + 1, nv)]
+    pairs += [(i, nv + k, K) for i in range(nv) for k in range(nbar)]
+    return np.array(pairs, dtype=float).reshape(-1, N_PP)
+
+
+def barrier_rows(barriers):
+    """BAR (nbar, 5): x, y, heading, half length, half width of the scene's barriers."""
+    return np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in barriers]).reshape(-1, 5)
+
+
+def contact_arrays(CSH, PP, BAR, nv):
+    """The contact tuple handed to `contacts`: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC (fresh pair
+    state, outputs for the 7 stages of a Dormand-Prince step, broad-phase counters)."""
+    nbar = BAR.shape[0]
+    BOXR = np.zeros((nbar, 3))
+    BOXA = np.zeros((nbar, 3, 3))
+    BOXE = np.zeros((nbar, 3))
+    for k in range(nbar):
+        BOXR[k] = [BAR[k, 0], BAR[k, 1], BARRIER_HALF_HEIGHT]
+        BOXA[k] = rot_z(BAR[k, 2])
+        BOXE[k] = [BAR[k, 3], BAR[k, 4], BARRIER_HALF_HEIGHT]
+    npair = PP.shape[0]
+    return (np.ascontiguousarray(CSH, dtype=float), BOXR, BOXA, BOXE, np.ascontiguousarray(PP, dtype=float),
+            np.zeros((npair, N_PST)), np.zeros((7, npair, N_PSG)), np.zeros((nv, 7)), np.zeros(N_BPC, np.int64))
+
+
+def end_overlap(names, PP, psg):
+    """The guard's interpenetration check with the contact bodies (superellipsoid chassis, barrier boxes) at
+    the last evaluation: a reason when a pair ends penetrating deeper than guard.PENETRATION_TOL, else None."""
+    from crashlab.guard import PENETRATION_TOL
+    nv = len(names)
+    for p in range(PP.shape[0]):
+        d = psg[p, G_DEL]
+        if d > PENETRATION_TOL:
+            i, j = int(PP[p, P_I]), int(PP[p, P_J])
+            other = names[j] if j < nv else f"barrier {j - nv}"
+            return f"{names[i]} and {other} end penetrating by {d:.2f} m (contact bodies)"
+    return None

@@ -1,0 +1,155 @@
+"""Contact episodes of the 3D models (docs/physics.md §15, §21): a pair's contact from onset (first
+penetration) to separation, its bookkeeping and its rows of the impact table.
+
+Per episode, in the pair state PST (chassis_contact.S_*): onset time, approach velocity at onset, the
+velocities (vx, vy, yaw rate) of both vehicles at onset, and the sums the models accumulate over their
+accepted steps with their own quadrature weights (multibody: the Dormand-Prince weights of the stage forces;
+exudyn: the trapezoidal rule over the step ends): impulse, work of the contact forces, peak normal force
+(with the contact point and normal there) and the largest penetration. `close_episode` writes one record
+IMP[n] (I_* columns) and resets the pair; `impact_rows` turns the records into the impact table;
+`contact_intervals` merges episodes and road contact into the Outcome's contact intervals.
+The numba helpers are called from multibody's time loop and from exudyn's Python step functions alike.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .chassis_contact import (
+    G_DEL,
+    G_FN,
+    G_FX,
+    G_POW,
+    G_PX,
+    G_PY,
+    G_TH,
+    P_I,
+    P_J,
+    S_ACT,
+    S_DD0,
+    S_JX,
+    S_MAXPEN,
+    S_PEAK,
+    S_PTH,
+    S_PX,
+    S_PY,
+    S_T0,
+    S_VI,
+    S_VJ,
+    S_WORK,
+)
+from .impact_rows import pair_rows
+
+# episode records IMP[k]: pair, onset and end time, impulse on i (3), peak normal force, max penetration,
+# energy dissipated (-work), point and normal angle at the peak, velocity changes of i and j (vx, vy, yaw
+# rate), approach velocity at onset, normal velocity at the end, still open at the end of the run
+(I_I, I_J, I_T0, I_T1, I_JX, I_JY, I_JZ, I_PEAK, I_MAXPEN, I_ENERGY, I_PX, I_PY, I_TH, I_DVI, I_DVJ,
+ I_DD0, I_DD1, I_OPEN) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21
+N_IMP = 22
+MAX_IMP = 64      # records per run
+
+
+@njit(cache=True)
+def open_episode(PST, p, t0, dd0, vel_i, vel_j):
+    """Mark pair p active from t0 with the approach velocity dd0 and the velocities (vx, vy, yaw rate) of its
+    vehicles (vel_j is ignored by the records of a barrier pair)."""
+    PST[p, S_ACT] = 1.0
+    PST[p, S_DD0] = dd0
+    PST[p, S_T0] = t0
+    for k in range(3):
+        PST[p, S_VI + k] = vel_i[k]
+        PST[p, S_VJ + k] = vel_j[k]
+
+
+@njit(cache=True)
+def accumulate(PST, p, w, out):
+    """Add w times the pair's outputs `out` (a PSG row: force, power) to its impulse and work."""
+    for k in range(3):
+        PST[p, S_JX + k] += w * out[G_FX + k]
+    PST[p, S_WORK] += w * out[G_POW]
+
+
+@njit(cache=True)
+def track_peak(PST, p, out):
+    """Keep the peak normal force (with the point and normal angle there) and the largest penetration."""
+    if out[G_FN] > PST[p, S_PEAK]:
+        PST[p, S_PEAK] = out[G_FN]
+        PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH] = out[G_PX], out[G_PY], out[G_TH]
+    if out[G_DEL] > PST[p, S_MAXPEN]:
+        PST[p, S_MAXPEN] = out[G_DEL]
+
+
+@njit(cache=True)
+def reset_sums(PST, p):
+    """Clear the pair's episode sums (impulse, peak, max penetration, work)."""
+    for k in range(S_JX, S_WORK + 1):
+        PST[p, k] = 0.0
+
+
+@njit(cache=True)
+def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
+    """Write the episode of pair p ending at t1 (normal velocity dd1 there, vehicles' velocities vel_i,
+    vel_j now) as record IMP[n] if there is room, deactivate and reset the pair; returns n + 1."""
+    if n < IMP.shape[0]:
+        r = IMP[n]
+        r[I_I], r[I_J], r[I_T0], r[I_T1] = PP[p, P_I], PP[p, P_J], PST[p, S_T0], t1
+        for k in range(3):
+            r[I_JX + k] = PST[p, S_JX + k]
+            r[I_DVI + k] = vel_i[k] - PST[p, S_VI + k]
+            r[I_DVJ + k] = vel_j[k] - PST[p, S_VJ + k]
+        r[I_PEAK], r[I_MAXPEN], r[I_ENERGY] = PST[p, S_PEAK], PST[p, S_MAXPEN], -PST[p, S_WORK]
+        r[I_PX], r[I_PY], r[I_TH] = PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH]
+        r[I_DD0], r[I_DD1], r[I_OPEN] = PST[p, S_DD0], dd1, is_open
+    PST[p, S_ACT] = 0.0
+    reset_sums(PST, p)
+    return n + 1
+
+
+def impact_rows(names, mass, imp, heads=None):
+    """Impact table rows (SI; impact_rows.pair_rows: delta-V, EES split by 1/mass, PDOF), one per vehicle per
+    contact episode (kind "continuous"): t = episode start, dvx, dvy, d_yaw_rate = CG velocity / yaw-rate
+    change over the episode, energy = work dissipated by the contact forces over the episode (whole pair), pdof
+    from the impulse on the vehicle (heading at the episode start, from heads[v] = (t, heading) records),
+    point_x/y = contact point at peak force, plane_angle = tangent of the contact plane at peak force; plus:
+    peak_force [N] (normal), duration [s], impulse [N s] (magnitude of the contact impulse on the vehicle) and
+    its global components impulse_x, impulse_y, impulse_z, max_penetration [m], approach_speed /
+    separation_speed [m/s] (relative normal velocity at the contact point at onset and at separation;
+    restitution = separation/approach), open (contact still active when the run ended)."""
+    nv = len(names)
+    rows = []
+    for r in imp:
+        i, j = int(r[I_I]), int(r[I_J])
+        J = r[I_JX:I_JX + 3]
+        dd0, dd1 = r[I_DD0], r[I_DD1]
+        heading = [float(np.interp(r[I_T0], heads[q][0], heads[q][1])) if heads is not None and q < nv else 0.0
+                   for q in (i, j)]
+        pair = pair_rows(names, mass, i, j, r[I_T0], r[I_ENERGY], (r[I_DVI:I_DVI + 3], r[I_DVJ:I_DVJ + 3]),
+                         ((J[0], J[1]), (-J[0], -J[1])), heading, (r[I_PX], r[I_PY]), r[I_TH] + math.pi / 2,
+                         "continuous", peak_force=r[I_PEAK], duration=r[I_T1] - r[I_T0],
+                         impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
+        for row, sgn in zip(pair, (1.0, -1.0)):
+            row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],
+                       max_penetration=r[I_MAXPEN], approach_speed=dd0, separation_speed=-dd1,
+                       restitution=(-dd1 / dd0) if dd0 > 0 else math.nan, open=bool(r[I_OPEN]))
+        rows += pair
+    return rows
+
+
+def contact_intervals(t0, t1, t_rec, road):
+    """Merged (t_start, t_end) [s] of every contact: the chassis-chassis / chassis-barrier episodes (t0, t1)
+    and the chassis-road contact (road[k, v] = 1: vehicle v touched the road between records k-1 and k)."""
+    iv = [(float(a), float(b)) for a, b in zip(t0, t1)]
+    for v in range(road.shape[1]):
+        for k in range(road.shape[0]):
+            if road[k, v] > 0:
+                iv.append((float(t_rec[k - 1, v]) if k > 0 else 0.0, float(t_rec[k, v])))
+    iv.sort()
+    out = []
+    for a, b in iv:
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
