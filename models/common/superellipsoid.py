@@ -291,12 +291,6 @@ def normal_np(xi, sh):
     return g / np.linalg.norm(g, axis=1, keepdims=True)
 
 
-def support_np(d, sh):
-    """Support points sigma(d) for an (N, 3) array of local directions."""
-    d = np.atleast_2d(np.asarray(d, float))
-    return np.array([support_local(v[0], v[1], v[2], sh) for v in d])
-
-
 def sample_surface(sh, n=40):
     """Surface points: an n x n grid on each face of the unit cube, scaled by (a, b, c) and projected
     radially onto the surface (xi / (G + 1)). Spacing on the surface <= ~2 max(a,b,c)/n for boxy shapes."""

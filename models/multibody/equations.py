@@ -20,7 +20,7 @@ from numba import njit
 from crashlab.models.common.rotations import cross, p_dot, rotation_into
 from crashlab.models.common.vehicle_3d import B_IXX, B_IYY, B_IZZ, B_MASS, T_KZ
 
-from .joints import J_TYPE, REVOLUTE_LOCKED, SPHERICAL, TRANSLATIONAL, joint_rows
+from .joints import joint_rows
 from .spring_damper import spring_damper, spring_energy
 from .tyre import deflection, tyre
 
@@ -43,15 +43,6 @@ def sizes(nb, nw):
     nq = 7 * nb
     nv = 13 * nb
     return nq, nv, nv + 2 * nw + 1
-
-
-@njit(cache=True)
-def n_rows(JNT):
-    n = 0
-    for k in range(JNT.shape[0]):
-        t = int(JNT[k, J_TYPE])
-        n += 3 if t == SPHERICAL else (6 if t == REVOLUTE_LOCKED else (5 if t == TRANSLATIONAL or t == 1 else 4))
-    return n
 
 
 @njit(cache=True)

@@ -58,7 +58,6 @@ from .equations import (
 from .joints import J_I, J_J, J_TYPE, J_XI, J_XJ, REVOLUTE, REVOLUTE_LOCKED
 
 # Dormand-Prince 5(4) tableau
-_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
 _A = np.array([
     [0, 0, 0, 0, 0, 0],
     [1 / 5, 0, 0, 0, 0, 0],
@@ -69,7 +68,7 @@ _A = np.array([
     [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]])
 _E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
 
-STATUS_OK, STATUS_CONTACT, STATUS_NAN, STATUS_STEP = 0, 1, 2, 3
+STATUS_OK, STATUS_NAN, STATUS_STEP = 0, 2, 3
 (D_STEPS, D_REJECTED, D_NFEV, D_T_END, D_STATUS, D_CONTACT_T, D_PAIR_I, D_PAIR_J, D_MAX_DRIFT_POS,
  D_MAX_DRIFT_ANG, D_MAX_NORM_ERR, D_NREC, D_H_MIN, D_H_MAX, D_NIMP, D_MAX_ONSET, D_ONSET_BISECT) = range(17)
 N_DIAG = 17
@@ -79,10 +78,6 @@ N_DIAG = 17
 R_FZ = 10
 R_ZMIN_REC, R_ROAD, R_EMECH = 14, 15, 16      # ..., mechanical energy (equations.energy) [J]
 N_REC = 17
-
-
-class Work:
-    pass
 
 
 @njit(cache=True)

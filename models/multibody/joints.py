@@ -21,7 +21,6 @@ from crashlab.models.common.rotations import add, cross, dot, mtv, mv, scale, su
 from crashlab.models.common.vehicle_3d import LOCKED, NW
 
 SPHERICAL, REVOLUTE, CYLINDRICAL, TRANSLATIONAL, REVOLUTE_LOCKED = 0, 1, 2, 3, 4
-ROWS = {SPHERICAL: 3, REVOLUTE: 5, CYLINDRICAL: 4, TRANSLATIONAL: 5, REVOLUTE_LOCKED: 6}
 (J_TYPE, J_I, J_J) = range(3)
 J_SP, J_SQ, J_XI, J_YI, J_ZI, J_XJ, J_ZJ = 3, 6, 9, 12, 15, 18, 21
 N_J = 24
