@@ -74,16 +74,6 @@ def test_locked_wheel_braking_distance(model, kmh):
     assert tr["pitch"].max() > 0.5                 # dives nose-down (ISO pitch positive) while braking
 
 
-def test_free_rolling_keeps_speed():
-    m = MultibodyModel()
-    out = m.simulate(scene(50.0, "rolling", duration=5.0,
-                           overrides={"rolling_resistance": 0.0, "multibody": {"tyre": {"rolling_resistance": 0.0}}}))
-    tr = out.trajectory("V1")
-    v = np.hypot(tr["vx"], tr["vy"]) / 3.6
-    assert tr["t"].iloc[-1] == pytest.approx(5.0)
-    assert np.max(np.abs(v / v.iloc[0] - 1.0)) < 0.005
-
-
 def test_rolling_resistance_deceleration(model):
     sc = scene(50.0, "rolling", duration=5.0)
     prep = model.prepare(sc)
