@@ -87,34 +87,6 @@ def test_static_equilibrium(model):
     assert np.ptp(z) < 2e-3, "the start state is the static estimate of vehicle_build: < 2 mm of settling"
 
 
-def test_free_rolling_keeps_speed(model):
-    """Rolling resistance 0 on a flat road: speed kept within 0.1 % over 3 s (no tyre drag in the rolling disc)."""
-    out = model.simulate(_single(50.0, "rolling", 3.0))
-    v = math.hypot(*out.final_si[0, :2])
-    assert abs(v - 50 / 3.6) <= 1e-3 * 50 / 3.6, v * 3.6
-    assert abs(out.rest_si[0, 1]) < 0.01 and abs(math.degrees(out.rest_si[0, 2])) < 0.1
-
-
-def test_rolling_resistance_decelerates(model):
-    """f_r = 0.01: deceleration f_r g within 5 % (the moment f_r F_z R between wheel and knuckle)."""
-    out = model.simulate(_single(50.0, "rolling", 2.0, rr=0.01))
-    v = math.hypot(*out.final_si[0, :2])
-    decel = (50 / 3.6 - v) / 2.0
-    assert abs(decel - 0.01 * G) <= 0.05 * 0.01 * G, decel
-
-
-def test_locked_wheel_braking_distance(model):
-    """Locked wheels from 50 km/h on mu = 0.8: distance v^2 / (2 mu g) = 12.29 m within 2 % (the penalty disc's
-    friction is linear below 0.2 m/s, which only matters in the last centimetres)."""
-    out = model.simulate(_single(50.0, "locked", 4.0))
-    assert out.outcome_ok
-    d = out.rest_si[0, 0] - out.trajectory("A")["x"].iloc[0]
-    ref = (50 / 3.6) ** 2 / (2 * 0.8 * G)
-    print(f"braking distance {d:.3f} m, v^2/(2 mu g) {ref:.3f} m, error {100 * (d / ref - 1):+.2f} %")
-    assert abs(d / ref - 1) <= 0.02
-    assert out.diagnostics["t_end"] < 4.0, "stopped early: the car came to rest"
-
-
 def test_head_on_momentum_and_post_impact_speeds(pc_outcomes):
     """Case 1: x momentum of the two cars just before first contact and just after separation agrees within
     1e-4 of the pre-impact momentum (measured 2e-6: the contact forces are equal and opposite, and the
