@@ -184,6 +184,18 @@ def _merge_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, energy, nx, ny):
 
 
 @njit(cache=True)
+def _struck(P, i, j, nv, hit, asleep, modes):
+    """The vehicles of an impulse between i and j (a vehicle or a barrier): marked hit, woken, and their
+    wheels locked if they lock after the impact."""
+    for q in (i, j):
+        if q < nv:
+            hit[q] = True
+            asleep[q] = False
+            if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
+                modes[q] = LOCKED
+
+
+@njit(cache=True)
 def _project_apart(P, S, i, k, nv, nx, ny, shift):
     """Move the pair apart by `shift` along n (from i to k), split by inverse mass so that their centre
     of mass stays; positions only, velocities (momentum, energy) untouched (position projection,
@@ -276,12 +288,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             # the given impulse keeps its own row (the collision position's impulse as given); contact
             # after it, where the pair's overlap deepens, opens an episode of its own
             diag[D_E_IMPACT] += energy
-            for q in (i0, j):
-                if q < nv:
-                    hit[q] = True
-                    asleep[q] = False
-                    if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
-                        modes[q] = LOCKED
+            _struck(P, i0, j, nv, hit, asleep, modes)
             in_contact[i0, j] = True
 
     steps = 0
@@ -459,12 +466,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                     _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
                     diag[D_FOLLOW] += 1
                 diag[D_E_IMPACT] += energy
-                for q in (i, k):
-                    if q < nv:
-                        hit[q] = True
-                        asleep[q] = False
-                        if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
-                            modes[q] = LOCKED
+                _struck(P, i, k, nv, hit, asleep, modes)
             if stop or not active:
                 break
         if stop:
