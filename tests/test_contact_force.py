@@ -5,19 +5,76 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from crashlab.models.common.contact_force import (
     FRICTION_LAWS,
+    FRICTION_V0,
+    FRICTION_V1,
+    FRICTION_VS,
     LAWS,
     chi,
-    effective_restitution,
     exact_chi,
-    friction_force,
-    friction_ratio,
-    hertz_stiffness,
-    normal_force,
+    friction_code,
+    friction_ratio_code,
     normal_force_chi,
+    normal_law_name,
+    restitution_relation,
 )
+
+
+# ----------------------------------------------------------------------------------------------------
+# convenience forms of the laws, used only here
+# ----------------------------------------------------------------------------------------------------
+def restitution_from_chi(c):
+    """e* produced by F_N = K delta^n (1 + c delta_dot/delta_dot0), F_N >= 0 (§13)."""
+    if c <= 0.0:
+        return 1.0
+    return brentq(lambda es: restitution_relation(c, es), 0.0, 1.0 / c, xtol=1e-14, rtol=1e-14, maxiter=200)
+
+
+def effective_restitution(law, e):
+    """Restitution the law actually produces for the target e (§13)."""
+    return restitution_from_chi(chi(law, e))
+
+
+def hertz_stiffness(E1, nu1, R1, E2=None, nu2=None, R2=None):
+    """K = 4/3 E* sqrt(R*) (§13). E2=None: rigid body 2; R2=None: plane (R* = R1)."""
+    inv_E = (1 - nu1 ** 2) / E1 + (0.0 if E2 is None else (1 - nu2 ** 2) / E2)
+    Rs = R1 if R2 is None else R1 * R2 / (R1 + R2)
+    return 4.0 / 3.0 / inv_E * math.sqrt(Rs)
+
+
+def normal_force(law, delta, delta_dot, delta_dot0, K, e=1.0, n=1.5, v_min=1e-3):
+    """Normal force of a named law (see module docstring); F_N >= 0. Hertz uses n = 1.5 by definition
+    of the law, the others take n (1.5 for Hertzian contact, 1 for a linear stiffness)."""
+    law = normal_law_name(law)
+    return normal_force_chi(float(delta), float(delta_dot), float(delta_dot0), float(K), chi(law, e),
+                            1.5 if law == "hertz" else float(n), float(v_min))
+
+
+def friction_ratio(law, v, v0=FRICTION_V0, v1=FRICTION_V1, v_s=FRICTION_VS):
+    """Vectorised c(|v_T|) in [0, 1] of a friction law (F_T magnitude / (mu F_N))."""
+    code = friction_code(law)
+    if law == "threlfall" and v0 <= 0:
+        raise ValueError("threlfall needs v0 > 0")
+    if law == "ambrosio" and not v1 > v0 >= 0:
+        raise ValueError("ambrosio needs v1 > v0 >= 0")
+    v = np.asarray(v, float)
+    out = np.vectorize(lambda x: friction_ratio_code(code, x, v0, v1, v_s), otypes=[float])(v)
+    return out if out.ndim else float(out)
+
+
+def friction_force(law, v_rel, normal, F_N, mu, v0=FRICTION_V0, v1=FRICTION_V1, v_s=FRICTION_VS):
+    """F_T = -mu c(|v_T|) F_N v_T/|v_T| with v_T = v_rel - (v_rel.n) n (§14); zero for v_T = 0."""
+    v_rel = np.asarray(v_rel, float)
+    n = np.asarray(normal, float)
+    vT = v_rel - (v_rel @ n) * n
+    s = float(np.linalg.norm(vT))
+    if s == 0.0 or F_N <= 0.0:
+        return np.zeros(3)
+    return -mu * friction_ratio(law, s, v0, v1, v_s) * F_N * vT / s
+
 
 E_TAB = [0.01, 0.05, 0.10, 0.20, 0.30, 0.50, 0.70, 0.90]
 TABLE_41 = {  # docs/physics.md §13

@@ -1,4 +1,5 @@
-"""Superellipsoid geometry, broad phase and narrow phase (issue 5 groundwork; docs/physics.md §10, §11, §12).
+"""Superellipsoid geometry, broad phase and narrow phase (docs/physics.md §10, §11, §12): the models' support
+mapping and oriented-box test, and the test tools geometry_3d.py and narrow_phase_3d.py.
 
 Brute-force references used here:
 * signed gap (separated AND penetrating): the separating-axis value g(d) = -(h1(d) + h2(-d)) maximised
@@ -13,15 +14,16 @@ Brute-force references used here:
 """
 import math
 
+import geometry_3d as se
 import numpy as np
 import pytest
+from geometry_3d import aabb_overlap, filter_pairs, spheres_overlap
+from narrow_phase_3d import _fibonacci, gap_function, signed_gap
 from scipy.optimize import linprog
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from crashlab.models.common import superellipsoid as se
-from crashlab.models.common.broad_phase import aabb_overlap, filter_pairs, obb_overlap, spheres_overlap
-from crashlab.models.common.narrow_phase import _fibonacci, gap_function, signed_gap
+from crashlab.models.common.broad_phase import obb_overlap
 
 
 def random_shape(rng, emin=0.3, emax=1.0):

@@ -1,36 +1,13 @@
-"""Broad phase for superellipsoid contact (docs/physics.md §11): bounding spheres -> AABB -> OBB 15-axis SAT.
+"""Broad phase of the vehicle contacts (docs/physics.md §11): the oriented-box test. The cheaper gates (plan
+bounding circles, height ranges) are in chassis_contact.contacts; the bounding-sphere and AABB stages and
+`filter_pairs` are test tools (tests/geometry_3d.py).
 
-* spheres_overlap: |c1 - c2|^2 <= (R1 + R2)^2 — NOT R1^2 + R2^2 (the non-conservative bug of
-  artur-ag/fcl SuperOvoid.cpp, §11).
-* aabb_overlap: |c1_k - c2_k| <= e1_k + e2_k for k = 1..3.
 * obb_overlap: Gottschalk's 15-axis separating-axis test (PQP obb_disjoint) in A's frame with
   |R|_ij + eps (eps = 1e-6) against near-parallel edge pairs. A superellipsoid (0 < eps <= 2) lies
   inside its a x b x c box, so the box test is conservative.
-* filter_pairs: runs the three stages over candidate pairs and reports how many each stage removed.
 """
 import numpy as np
 from numba import njit
-
-from .superellipsoid import aabb_half_extents, bounding_radius
-
-
-@njit(cache=True)
-def spheres_overlap(c1, R1, c2, R2):
-    """True if the spheres (c1, R1), (c2, R2) touch or overlap: |c1 - c2|^2 <= (R1 + R2)^2."""
-    d0 = c1[0] - c2[0]
-    d1 = c1[1] - c2[1]
-    d2 = c1[2] - c2[2]
-    s = R1 + R2
-    return d0 * d0 + d1 * d1 + d2 * d2 <= s * s
-
-
-@njit(cache=True)
-def aabb_overlap(c1, e1, c2, e2):
-    """True if the AABBs [c1 - e1, c1 + e1] and [c2 - e2, c2 + e2] overlap (touching counts)."""
-    for k in range(3):
-        if abs(c1[k] - c2[k]) > e1[k] + e2[k]:
-            return False
-    return True
 
 
 @njit(cache=True)
@@ -66,35 +43,3 @@ def obb_overlap(cA, RA, a, cB, RB, b, eps=1e-6):
             if lhs > rhs:
                 return False
     return True
-
-
-def filter_pairs(centres, rotations, shapes, pairs=None, use_aabb=True):
-    """Broad phase over N superellipsoids (global centres (N,3), rotations (N,3,3), shapes (N,5)).
-
-    pairs: iterable of (i, j) candidates (default: all i < j). Returns (surviving pairs list,
-    counts dict with 'candidates', 'sphere', 'aabb', 'obb' = pairs removed by each stage, 'remaining').
-    """
-    centres = np.asarray(centres, float)
-    rotations = np.asarray(rotations, float)
-    shapes = np.asarray(shapes, float)
-    n = len(centres)
-    if pairs is None:
-        pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
-    pairs = list(pairs)
-    R = np.array([bounding_radius(s) for s in shapes])
-    E = np.array([aabb_half_extents(s, A) for s, A in zip(shapes, rotations)]) if use_aabb else None
-    counts = {"candidates": len(pairs), "sphere": 0, "aabb": 0, "obb": 0, "remaining": 0}
-    out = []
-    for i, j in pairs:
-        if not spheres_overlap(centres[i], R[i], centres[j], R[j]):
-            counts["sphere"] += 1
-            continue
-        if use_aabb and not aabb_overlap(centres[i], E[i], centres[j], E[j]):
-            counts["aabb"] += 1
-            continue
-        if not obb_overlap(centres[i], rotations[i], shapes[i, :3], centres[j], rotations[j], shapes[j, :3]):
-            counts["obb"] += 1
-            continue
-        out.append((i, j))
-    counts["remaining"] = len(out)
-    return out, counts

@@ -11,9 +11,10 @@ recorded once per contact (clamped below by v_min, §13). Laws (`chi(law, e)`):
     gonthier              (1-e^2)/e
     exact-restitution     root of 1 - chi e = (1 + chi) exp(-chi (1 + e)) in (0, 1/e) (§13), brentq,
                           cached per e: reproduces e exactly with the F_N >= 0 clamp.
-`effective_restitution(law, e)`: the restitution e* the law really produces (§13, independent of K,
-n, m*, delta_dot0): root of 1 - chi e* = (1 + chi) exp(-chi (1 + e*)), unique in (0, 1/chi) (the
-left side minus the right side is concave in e*, positive at 0 and negative at 1/chi).
+The restitution e* a law really produces (§13, independent of K, n, m*, delta_dot0) is the root of
+`restitution_relation`: 1 - chi e* = (1 + chi) exp(-chi (1 + e*)), unique in (0, 1/chi) (the left side
+minus the right side is concave in e*, positive at 0 and negative at 1/chi); the tests solve it
+(tests/test_contact_force.py, with the other convenience forms of these laws).
 Flores, Gonthier and the exact law have chi -> inf as e -> 0: e is clamped to [E_MIN, E_MAX] =
 [0.01, 0.999].
 
@@ -32,7 +33,6 @@ friction (c = 0 below v0: contacts creep, §14). Default tolerances are vehicle-
 import math
 from functools import lru_cache
 
-import numpy as np
 from numba import njit
 from scipy.optimize import brentq
 
@@ -45,7 +45,8 @@ LAWS = ("hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier", "
 FRICTION_LAWS = ("coulomb", "threlfall", "ambrosio")
 
 
-def _norm_law(law):
+def normal_law_name(law):
+    """The canonical name of a normal force law (aliases accepted); ValueError for an unknown law."""
     k = law.lower().replace("_", "-").replace(" ", "-")
     aliases = {"hunt": "hunt-crossley", "lankarani": "lankarani-nikravesh", "nikravesh": "lankarani-nikravesh",
                "flores-machado": "flores", "exact": "exact-restitution"}
@@ -59,7 +60,7 @@ def _clamp_e(e):
     return min(max(float(e), E_MIN), E_MAX)
 
 
-def _relation(chi, e):
+def restitution_relation(chi, e):
     """1 - chi e - (1 + chi) exp(-chi (1 + e)), written with expm1 for small chi."""
     x = chi * (1.0 + e)
     return -chi * e - math.expm1(-x) - chi * math.exp(-x)
@@ -71,14 +72,14 @@ def exact_chi(e):
     e = _clamp_e(e)
     hi = 1.0 / e
     lo = 1e-6
-    while _relation(lo, e) <= 0.0 and lo > 1e-12:  # tiny root for e -> 1: move the bracket down
+    while restitution_relation(lo, e) <= 0.0 and lo > 1e-12:  # tiny root for e -> 1: move the bracket down
         lo *= 0.1
-    return brentq(_relation, lo, hi, args=(e,), xtol=1e-14, rtol=1e-14, maxiter=200)
+    return brentq(restitution_relation, lo, hi, args=(e,), xtol=1e-14, rtol=1e-14, maxiter=200)
 
 
 def chi(law, e):
     """Hysteresis damping factor chi of a normal law at restitution coefficient e (§13)."""
-    law = _norm_law(law)
+    law = normal_law_name(law)
     if law == "hertz":
         return 0.0
     e = _clamp_e(e)
@@ -93,25 +94,6 @@ def chi(law, e):
     return exact_chi(e)
 
 
-def restitution_from_chi(c):
-    """e* produced by F_N = K delta^n (1 + c delta_dot/delta_dot0), F_N >= 0 (§13)."""
-    if c <= 0.0:
-        return 1.0
-    return brentq(lambda es: _relation(c, es), 0.0, 1.0 / c, xtol=1e-14, rtol=1e-14, maxiter=200)
-
-
-def effective_restitution(law, e):
-    """Restitution the law actually produces for the target e (§13)."""
-    return restitution_from_chi(chi(law, e))
-
-
-def hertz_stiffness(E1, nu1, R1, E2=None, nu2=None, R2=None):
-    """K = 4/3 E* sqrt(R*) (§13). E2=None: rigid body 2; R2=None: plane (R* = R1)."""
-    inv_E = (1 - nu1 ** 2) / E1 + (0.0 if E2 is None else (1 - nu2 ** 2) / E2)
-    Rs = R1 if R2 is None else R1 * R2 / (R1 + R2)
-    return 4.0 / 3.0 / inv_E * math.sqrt(Rs)
-
-
 @njit(cache=True)
 def normal_force_chi(delta, delta_dot, delta_dot0, K, chi_, n=1.5, v_min=1e-3):
     """F_N = K delta^n (1 + chi delta_dot / max(delta_dot0, v_min)), 0 for delta <= 0, clamped >= 0."""
@@ -119,14 +101,6 @@ def normal_force_chi(delta, delta_dot, delta_dot0, K, chi_, n=1.5, v_min=1e-3):
         return 0.0
     f = K * delta ** n * (1.0 + chi_ * delta_dot / max(delta_dot0, v_min))
     return f if f > 0.0 else 0.0
-
-
-def normal_force(law, delta, delta_dot, delta_dot0, K, e=1.0, n=1.5, v_min=1e-3):
-    """Normal force of a named law (see module docstring); F_N >= 0. Hertz uses n = 1.5 by definition
-    of the law, the others take n (1.5 for Hertzian contact, 1 for a linear stiffness)."""
-    law = _norm_law(law)
-    return normal_force_chi(float(delta), float(delta_dot), float(delta_dot0), float(K), chi(law, e),
-                            1.5 if law == "hertz" else float(n), float(v_min))
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -153,26 +127,3 @@ def friction_code(law):
     if k not in FRICTION_LAWS:
         raise ValueError(f"unknown friction law {law!r}; known: {', '.join(FRICTION_LAWS)}")
     return FRICTION_LAWS.index(k)
-
-
-def friction_ratio(law, v, v0=FRICTION_V0, v1=FRICTION_V1, v_s=FRICTION_VS):
-    """Vectorised c(|v_T|) in [0, 1] of a friction law (F_T magnitude / (mu F_N))."""
-    code = friction_code(law)
-    if law == "threlfall" and v0 <= 0:
-        raise ValueError("threlfall needs v0 > 0")
-    if law == "ambrosio" and not v1 > v0 >= 0:
-        raise ValueError("ambrosio needs v1 > v0 >= 0")
-    v = np.asarray(v, float)
-    out = np.vectorize(lambda x: friction_ratio_code(code, x, v0, v1, v_s), otypes=[float])(v)
-    return out if out.ndim else float(out)
-
-
-def friction_force(law, v_rel, normal, F_N, mu, v0=FRICTION_V0, v1=FRICTION_V1, v_s=FRICTION_VS):
-    """F_T = -mu c(|v_T|) F_N v_T/|v_T| with v_T = v_rel - (v_rel.n) n (§14); zero for v_T = 0."""
-    v_rel = np.asarray(v_rel, float)
-    n = np.asarray(normal, float)
-    vT = v_rel - (v_rel @ n) * n
-    s = float(np.linalg.norm(vT))
-    if s == 0.0 or F_N <= 0.0:
-        return np.zeros(3)
-    return -mu * friction_ratio(law, s, v0, v1, v_s) * F_N * vT / s
