@@ -3,8 +3,8 @@ helpers on 3-tuples.
 
 p = [e0, e1, e2, e3], A(p) the rotation matrix (body -> global), p_dot = 1/2 L(p)^T w' with w' the
 body-fixed angular velocity. Vectors are tuples so that numba keeps them in registers (no allocation).
-`rotation_matrix_into` is the one home of A(p) (numba); `matrix` (numpy) and `rotation_into` (a body of a
-stack) call it; `from_matrix` goes back (Shepperd); `rot_z` is the rotation about the vertical.
+`rotation_entries` is the one home of A(p) (numba, a 9-tuple); `rotation_matrix_into`, `rotation_into` (a
+body of a stack), `matrix` (numpy) and the multibody pose use it; `from_matrix` goes back (Shepperd); `rot_z` is the rotation about the vertical.
 """
 import math
 
@@ -54,24 +54,30 @@ def mtv(A, b, x):
 
 
 @njit(cache=True, inline="always")
-def rotation_matrix_into(e0, e1, e2, e3, A):
-    """A(p) of §6 written into the 3x3 array A (p need not be exactly unit: it is normalised here)."""
+def rotation_entries(e0, e1, e2, e3):
+    """The nine entries of A(p) of §6, row by row, as a tuple (p need not be exactly unit: it is normalised
+    here). The one home of the formula; tuples stay in registers."""
     n = 1.0 / (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
-    A[0, 0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n
-    A[0, 1] = 2.0 * (e1 * e2 - e0 * e3) * n
-    A[0, 2] = 2.0 * (e1 * e3 + e0 * e2) * n
-    A[1, 0] = 2.0 * (e1 * e2 + e0 * e3) * n
-    A[1, 1] = (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * n
-    A[1, 2] = 2.0 * (e2 * e3 - e0 * e1) * n
-    A[2, 0] = 2.0 * (e1 * e3 - e0 * e2) * n
-    A[2, 1] = 2.0 * (e2 * e3 + e0 * e1) * n
-    A[2, 2] = (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * n
+    return ((e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * n, 2.0 * (e1 * e2 - e0 * e3) * n,
+            2.0 * (e1 * e3 + e0 * e2) * n, 2.0 * (e1 * e2 + e0 * e3) * n, (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * n,
+            2.0 * (e2 * e3 - e0 * e1) * n, 2.0 * (e1 * e3 - e0 * e2) * n, 2.0 * (e2 * e3 + e0 * e1) * n,
+            (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * n)
+
+
+@njit(cache=True, inline="always")
+def rotation_matrix_into(e0, e1, e2, e3, A):
+    """A(p) written into the 3x3 array A."""
+    r = rotation_entries(e0, e1, e2, e3)
+    for k in range(9):
+        A[k // 3, k % 3] = r[k]
 
 
 @njit(cache=True)
 def rotation_into(e0, e1, e2, e3, A, b):
     """A(p) written into A[b] of a stack of matrices (nb, 3, 3)."""
-    rotation_matrix_into(e0, e1, e2, e3, A[b])
+    r = rotation_entries(e0, e1, e2, e3)
+    for k in range(9):
+        A[b, k // 3, k % 3] = r[k]
 
 
 def matrix(p):

@@ -20,7 +20,7 @@ from numba import njit
 from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts
 from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
 from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
-from crashlab.models.common.rotations import rotation_into, rotation_matrix_into
+from crashlab.models.common.rotations import rotation_entries, rotation_into
 
 from .equations import (
     AUX_DRIFT_ANG,
@@ -176,14 +176,13 @@ def pose(y, BODY, nb):
         for k in range(3):
             c[k] += mb * y[7 * b + k]
             c[3 + k] += mb * y[nq + 6 * b + k]
-    A = np.empty((3, 3))
-    rotation_matrix_into(y[3], y[4], y[5], y[6], A)
-    yaw = math.atan2(A[1, 0], A[0, 0])
-    pitch = math.asin(max(-1.0, min(1.0, -A[2, 0])))
-    roll = math.atan2(A[2, 1], A[2, 2])
+    a = rotation_entries(y[3], y[4], y[5], y[6])
+    yaw = math.atan2(a[3], a[0])
+    pitch = math.asin(max(-1.0, min(1.0, -a[6])))
+    roll = math.atan2(a[7], a[8])
     # yaw rate = (A w')_z
     w = y[nq + 3:nq + 6]
-    r = A[2, 0] * w[0] + A[2, 1] * w[1] + A[2, 2] * w[2]
+    r = a[6] * w[0] + a[7] * w[1] + a[8] * w[2]
     return (c[0] / m, c[1] / m, c[2] / m, yaw, roll, pitch, c[3] / m, c[4] / m, r)
 
 
