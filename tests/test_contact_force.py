@@ -1,5 +1,5 @@
 """Normal force laws, the restitution they produce, friction laws, and the bouncing ball with and
-without contact-onset control (issue 5 groundwork; docs/physics.md §13, §14, §15)."""
+without contact-onset control (docs/physics.md §13, §14, §15)."""
 import math
 
 import numpy as np

@@ -84,7 +84,7 @@ def test_static_equilibrium(model):
     fz = sum(out.diagnostics["wheel_loads_final"]["A"])
     assert abs(fz - 980.0 * G) <= 0.01 * 980.0 * G, fz
     z = out.trajectory("A")["z"].to_numpy()
-    assert np.ptp(z) < 2e-3, "the start state is the static estimate of vehicle_build: < 2 mm of settling"
+    assert np.ptp(z) < 2e-3, "the start state is the static estimate of vehicle_3d: < 2 mm of settling"
 
 
 def test_head_on_momentum_and_post_impact_speeds(pc_outcomes):

@@ -3,8 +3,9 @@ helpers on 3-tuples.
 
 p = [e0, e1, e2, e3], A(p) the rotation matrix (body -> global), p_dot = 1/2 L(p)^T w' with w' the
 body-fixed angular velocity. Vectors are tuples so that numba keeps them in registers (no allocation).
-`rotation_entries` is the one home of A(p) (numba, a 9-tuple); `rotation_matrix_into`, `rotation_into` (a
-body of a stack), `matrix` (numpy) and the multibody pose use it; `from_matrix` goes back (Shepperd); `rot_z` is the rotation about the vertical.
+`rotation_entries` is the one home of A(p) (numba, a 9-tuple); `rotation_matrix_into`, `rotation_into`
+(a body of a stack), `matrix` (numpy) and the multibody pose use it; `from_matrix` goes back (Shepperd);
+`rot_z` is the rotation about the vertical.
 """
 import math
 

@@ -27,10 +27,10 @@ from .tyre import deflection, tyre
 # configuration vector (per run)
 (C_G, C_MU, C_ALPHA, C_BETA, C_DAMPING, C_FRICTION, C_RTOL, C_ATOL, C_HMAX, C_H0, C_TEND, C_STOP_AT_REST,
  C_V_REST, C_W_REST, C_T_SLEEP, C_REC_DT, C_ONSET_TOL) = range(17)
-# vehicle contact (contact.py): exponent n, hysteresis chi, vehicle/vehicle friction mu and law code,
+# vehicle contact (common/chassis_contact.py): exponent n, hysteresis chi, vehicle/vehicle friction mu and law code,
 # friction tolerances v0, v1, v_s, smallest onset approach velocity
 (C_NEXP, C_CHI, C_MU_C, C_FCODE, C_FV0, C_FV1, C_FVS, C_VMIN) = range(17, 25)
-# chassis-road contact (road_contact.py): hysteresis chi and exponent n of the road law
+# chassis-road contact (common/road_contact.py): hysteresis chi and exponent n of the road law
 (C_ROAD_CHI, C_ROAD_N) = range(25, 27)
 N_CFG = 27
 # aux outputs of one evaluation (per vehicle)

@@ -279,9 +279,9 @@ def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
 def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events,
              IMP, CONT, RD):
     """Integrate all vehicles from Y (modified in place) until rest or t_end, with vehicle contact
-    (contact.py): first-contact control (no step ends with a new contact deeper than onset_tol),
+    (common/chassis_contact.py): first-contact control (no step ends with a new contact deeper than onset_tol),
     per-pair contact episodes recorded in IMP, state at first contact in CONT; chassis-road contact
-    (road_contact.py, RD = (KR, RSG[7, nv, N_RSG]))."""
+    (common/road_contact.py, RD = (KR, RSG[7, nv, N_RSG]))."""
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
