@@ -19,5 +19,5 @@ def simulate(scene, model: str = "impulse", **options) -> Outcome:
 
 def load_study(path):
     """A reconstruction study from its TOML file; `.run()` returns the Pareto set."""
-    from .reconstruction import load_study as _load
+    from crashlab.reconstruction import load_study as _load
     return _load(path)

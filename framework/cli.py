@@ -145,7 +145,7 @@ def cmd_stress(args):
 
 
 def cmd_reconstruct(args):
-    from .reconstruction import run_cli
+    from crashlab.reconstruction import run_cli
     return run_cli(args)
 
 

@@ -110,6 +110,11 @@ def _model(name: str, options_items: tuple):
     return get_model(name, **dict(options_items))
 
 
+def model_for(name: str, options: dict):
+    """This process's model instance for name and options: the one its evaluations use."""
+    return _model(name, tuple(sorted(options.items())))
+
+
 def _vectorised(model) -> bool:
     """Whether the model has a simulate_batch of its own (then a batch is one call, timed as a whole)."""
     from .model import CollisionModel

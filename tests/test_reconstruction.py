@@ -1,7 +1,7 @@
 """The reconstruction layer (README.md, study file and `crashlab reconstruct`): collision repair, the
 objectives and failed evaluations, identical answers on every execution backend, resume after a kill,
-bad study files, the output files, and (slow) the twin experiments. The optimizers themselves are
-tested in test_optimizers.py."""
+bad study files, the output files, the least-squares polish, and (slow) the twin experiments. The
+optimizers themselves are tested in test_optimizers.py."""
 from __future__ import annotations
 
 import json
@@ -20,8 +20,9 @@ from conftest import assert_one_error_line
 
 import crashlab
 from crashlab import execution
-from crashlab.optimizers.repair import CollisionRepair, _least_separation, repair_poses
 from crashlab.reconstruction import FAILED_OBJECTIVE, ReconstructionProblem, load_study
+from crashlab.reconstruction.polish import polish
+from crashlab.reconstruction.repair import CollisionRepair, _least_separation, repair_poses
 
 REPO = Path(__file__).resolve().parent.parent
 STUDIES = REPO / "studies" / "reconstruction"
@@ -451,6 +452,62 @@ def test_polish_brings_twin4_within_10_cm_where_the_search_alone_does_not():
     assert after_search > 0.10
     assert after_polish <= 0.10
     assert 0 < res.algorithm_info["polish_evaluations"] <= 250
+
+
+def _himmelblau_residuals(calls):
+    """Residuals of Himmelblau's function, zero at (3, 2), (-2.805118, 3.131312), ...; `calls` collects
+    every batch size asked for."""
+    def residuals(X):
+        calls.append(len(X))
+        x, y = X[:, 0], X[:, 1]
+        return np.column_stack([x**2 + y - 11.0, x + y**2 - 7.0])
+    return residuals
+
+
+def test_polish_reaches_the_zero_of_an_analytic_residual_within_its_budget():
+    calls = []
+    res = polish(_himmelblau_residuals(calls), [[1.0, 1.0]], xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=100)
+    assert res.x[0] == pytest.approx([3.0, 2.0], abs=1e-6)  # the zero inside the bounds
+    assert res.cost[0] < 1e-12
+    assert res.evaluations == sum(calls) <= 100
+    assert set(calls) <= {1, 2}  # single points and one batch of n_var points per Jacobian
+
+
+def test_polish_reuses_known_start_residuals():
+    """With the starts' residuals given, no start is evaluated again; a budget below n_var (no Jacobian
+    possible) then spends nothing."""
+    calls = []
+    r0 = _himmelblau_residuals([])(np.array([[1.0, 1.0]]))
+    res = polish(_himmelblau_residuals(calls), [[1.0, 1.0]], xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=1,
+                 start_residuals=r0)
+    assert res.evaluations == sum(calls) == 0
+    assert res.cost[0] == pytest.approx(0.5 * float(r0[0] @ r0[0]))
+
+
+def test_polish_never_exceeds_its_budget_and_goes_through_the_starts_in_order():
+    calls = []
+    starts = [[1.0, 1.0], [4.5, 0.5], [0.5, 4.5]]
+    res = polish(_himmelblau_residuals(calls), starts, xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=25)
+    assert res.evaluations == sum(calls) <= 25
+    assert np.isfinite(res.cost[0]) and res.cost[0] < 0.5 * (5.0**2 + 5.0**2)  # improved on the start
+    calls.clear()
+    res = polish(_himmelblau_residuals(calls), starts, xl=[0.0, 0.0], xu=[5.0, 5.0], max_evaluations=1000)
+    assert np.all(res.cost < 1e-12)  # every start polished when the budget allows
+    assert np.all(res.x >= 0.0) and np.all(res.x <= 5.0)
+
+
+def test_polish_stays_inside_the_bounds_when_the_zero_lies_outside():
+    """r = x - 2 on [0, 1]: the bounded least-squares optimum is the bound x = 1."""
+    seen = []
+
+    def residuals(X):
+        seen.append(X.copy())
+        return X - 2.0
+
+    res = polish(residuals, [[0.2]], xl=[0.0], xu=[1.0], max_evaluations=60)
+    assert res.x[0, 0] == pytest.approx(1.0, abs=1e-6)
+    X = np.concatenate(seen)
+    assert X.min() >= 0.0 and X.max() <= 1.0  # the forward differences turn back at the upper bound
 
 
 def test_optimizer_without_constraint_handling_gets_the_violation_as_a_penalty():

@@ -1,5 +1,9 @@
 """Local polish of a search result: bounded nonlinear least squares from the best candidates.
 
+After the search, `polish_archive` ([polish] of the study file) refines the best feasible candidates of a
+ReconstructionProblem's archive with `polish`; it runs by default with POLISH_SHARE of the search budget
+(at least POLISH_MIN evaluations, crashlab.reconstruction.schema); `[polish] evaluations = 0` turns it off.
+
 A population search finds the basin of a good reconstruction quickly and closes in on its bottom
 slowly (the thesis's NSGA has no elitism and shares fitness to keep the population spread). The
 polish takes the best few candidates and runs ``scipy.optimize.least_squares`` (trust-region
@@ -22,9 +26,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 DEFAULT_REL_STEP = 0.01
+# least distance between polish starts, normalised decision space: with 0.1 every start of twin 4 at
+# seed 9 lay in one wrong basin (0.14 m); with 0.2 the fifty twin runs (5 studies x 10 seeds) end <= 7.6 cm
+POLISH_SPACING = 0.2
 
 
 class _BudgetSpent(Exception):
@@ -46,6 +52,7 @@ def polish(residuals, starts, xl, xu, max_evaluations: int, rel_step: float = DE
     than ``max_evaluations`` points in all. The starts are polished in the order given until the
     budget is spent. ``start_residuals`` (n_starts, m), when known, saves evaluating the starts again.
     """
+    from scipy.optimize import least_squares  # imported when needed: it takes a while
     xl, xu = np.asarray(xl, float), np.asarray(xu, float)
     span = xu - xl
     starts = np.atleast_2d(np.asarray(starts, float))
@@ -96,3 +103,34 @@ def polish(residuals, starts, xl, xu, max_evaluations: int, rel_step: float = DE
         if used + 1 + len(z0) > max_evaluations:
             break
     return PolishResult(used, best_x, best_cost)
+
+
+def spaced_starts(X, xl, xu, spacing: float = POLISH_SPACING):
+    """The rows of X (best first) that lie at least `spacing` (normalised decision space) from every
+    earlier pick, and their indices: one start per basin rather than several in the best one."""
+    Z = (X - xl) / (xu - xl)
+    picked: list[int] = []
+    for k in range(len(Z)):
+        if not picked or np.min(np.linalg.norm(Z[picked] - Z[k], axis=1)) >= spacing:
+            picked.append(k)
+    return X[picked], np.array(picked, dtype=int)
+
+
+def polish_archive(problem, spec, repair=None, budget: int | None = None):
+    """Least-squares polish (`polish`) from the best feasible candidates so far, ranked
+    by their worse objective and spaced apart, until the budget is spent; every polish evaluation
+    enters the archive. With a repair, each point is repaired before it is evaluated: the back-off
+    makes the residual continuous across the start-overlap boundary, where repaired candidates sit."""
+    arch = problem.archive_arrays()
+    feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
+    if len(feasible) == 0:
+        return
+    order = feasible[np.argsort(arch["F"][feasible].max(axis=1), kind="stable")]
+    starts, picked = spaced_starts(arch["X"][order], problem.xl, problem.xu)
+
+    def residuals(X):
+        return problem.evaluate_residuals(X if repair is None else repair.apply(problem, X))
+
+    budget = spec.evaluations if budget is None else budget
+    polish(residuals, starts, problem.xl, problem.xu, budget, spec.step,
+           start_residuals=problem.residuals(arch["rest"][order[picked]]))

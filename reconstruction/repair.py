@@ -1,4 +1,4 @@
-"""Feasibility repair for reconstruction candidates (a pymoo Repair).
+"""Feasibility repair of reconstruction candidates (a pymoo Repair over a ReconstructionProblem).
 
 The thesis re-drew infeasible candidates and proposed a back-off operator as future work; this is it:
   1. vehicles that overlap at the start: the vehicle whose position is free is moved back along its
@@ -17,16 +17,11 @@ import numpy as np
 from numba import njit
 from pymoo.core.repair import Repair
 
-from crashlab.geometry import penetration, rect_corners
+from crashlab.geometry import rect_corners
+
+from .problem import outline_depth
 
 CLEARANCE = 0.01  # m
-
-
-@njit(cache=True)
-def _depth(poses, dims, i, j):
-    ci = rect_corners(poses[i, 0], poses[i, 1], poses[i, 2], dims[i, 0], dims[i, 1], dims[i, 2])
-    cj = rect_corners(poses[j, 0], poses[j, 1], poses[j, 2], dims[j, 0], dims[j, 1], dims[j, 2])
-    return penetration(ci, cj)
 
 
 @njit(cache=True)
@@ -40,7 +35,7 @@ def _least_separation(poses, dims, i, j, t_max, dt):
         for q in (i, j):
             moved[q, 0] = poses[q, 0] + poses[q, 3] * math.cos(poses[q, 2]) * t
             moved[q, 1] = poses[q, 1] + poses[q, 3] * math.sin(poses[q, 2]) * t
-        d, nx, ny, _ = _depth(moved, dims, i, j)
+        d, nx, ny, _ = outline_depth(moved, dims, i, j)
         if d > best:
             best, bx, by, bt = d, nx, ny, t
         if d > 0.0:
@@ -90,7 +85,7 @@ def _back_off(P, dims, i, j, mover):
     True if moved. The overlapping back-off distances form an interval starting at 0 (a line through the
     convex Minkowski difference), so bisection between 0 and a distance that clears the outlines along
     the heading finds its end, however the outlines are turned."""
-    if _depth(P, dims, i, j)[0] <= 0.0:
+    if outline_depth(P, dims, i, j)[0] <= 0.0:
         return False
     other = j if mover == i else i
     hx, hy = math.cos(P[mover, 2]), math.sin(P[mover, 2])
@@ -105,7 +100,7 @@ def _back_off(P, dims, i, j, mover):
     for _it in range(50):
         mid = 0.5 * (lo + hi)
         P[mover, 0], P[mover, 1] = x0 - mid * hx, y0 - mid * hy
-        if _depth(P, dims, i, j)[0] > 0.0:
+        if outline_depth(P, dims, i, j)[0] > 0.0:
             lo = mid
         else:
             hi = mid

@@ -1,0 +1,66 @@
+"""Reconstruction: search the pre-impact conditions whose simulated rest poses match the evidence.
+
+One module per reason to change:
+  schema   the study file (pydantic): sections, bounds, defaults;
+  study    load_study and the Study: the base scene, the evidence, the pieces a run is built from;
+  problem  the pymoo Problem: free variables <-> scenes, objectives, constraints, failed evaluations;
+  repair   the pymoo Repair that backs overlapping starts off and brings near misses onto a collision;
+  run      the search (pymoo's Algorithm.run with a Callback: checkpoints, resume, progress);
+  polish   the least-squares polish of the best candidates after the search;
+  report   the Pareto table, failures.csv, figures, summary.md, the result and its JSON form;
+  command  `crashlab reconstruct`.
+The package builds on the framework (crashlab) and reaches optimizers through the registry only.
+(The least-squares routine itself is crashlab.reconstruction.polish.polish.)
+"""
+from .command import run_cli
+from .polish import POLISH_SPACING, PolishResult, polish_archive, spaced_starts
+from .problem import FAILED_OBJECTIVE, ReconstructionProblem, largest_overlap, outline_depth
+from .repair import CollisionRepair, repair_poses
+from .report import (
+    DUPLICATE_TOL,
+    HEADING_WARN_DEG,
+    ReconstructionResult,
+    failure_counts,
+    pareto_table,
+    write_failures,
+    write_outputs,
+)
+from .run import CHECKPOINT_FORMAT, run_study
+from .schema import (
+    ANGLE_MAX,
+    FIELD_RANGES,
+    FRICTION_MAX,
+    GENERATIONS_MAX,
+    IMPACT_FIELDS,
+    POLISH_MIN,
+    POLISH_SHARE,
+    POP_SIZE_RANGE,
+    POSITION_MAX,
+    SEED_MAX,
+    SPEED_MAX,
+    VEHICLE_FIELDS,
+    WORKERS_MAX,
+    Evidence,
+    ExecutionSection,
+    FreeVariable,
+    Int,
+    ObjectiveSection,
+    OptimizerSection,
+    PolishSection,
+    Real,
+    RepairSection,
+    RestPose,
+    StudyFile,
+)
+from .study import Study, crashlab_version, load_study
+
+__all__ = [
+    "ANGLE_MAX", "CHECKPOINT_FORMAT", "DUPLICATE_TOL", "FAILED_OBJECTIVE", "FIELD_RANGES", "FRICTION_MAX",
+    "GENERATIONS_MAX", "HEADING_WARN_DEG", "IMPACT_FIELDS", "POLISH_MIN", "POLISH_SHARE", "POLISH_SPACING",
+    "POP_SIZE_RANGE", "POSITION_MAX", "SEED_MAX", "SPEED_MAX", "VEHICLE_FIELDS", "WORKERS_MAX",
+    "CollisionRepair", "Evidence", "ExecutionSection", "FreeVariable", "Int", "ObjectiveSection",
+    "OptimizerSection", "PolishResult", "PolishSection", "Real", "ReconstructionProblem", "ReconstructionResult",
+    "RepairSection", "RestPose", "Study", "StudyFile", "crashlab_version", "failure_counts", "largest_overlap",
+    "load_study", "outline_depth", "pareto_table", "polish_archive", "repair_poses", "run_cli",
+    "run_study", "spaced_starts", "write_failures", "write_outputs",
+]

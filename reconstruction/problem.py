@@ -1,0 +1,209 @@
+"""The reconstruction problem (a pymoo Problem): free variables -> scenes -> rest poses -> objectives.
+
+Objectives, one per vehicle with evidence (thesis eqs 4.13-4.14, 5.4-5.8):
+f_k = |r_k - r_k*| + heading_weight * |wrap(psi_k - psi_k*)|. Constraints: g1 = overlap depth of the
+outlines at the start <= 0 (crashlab.geometry), g2 = 0 when the vehicles collide, 1 when they miss
+(added to the objectives as a penalty for an optimizer without constraint handling). A population is
+evaluated at a time through the model's `simulate_batch` (crashlab.execution).
+
+Failed evaluations. A candidate fails (objectives FAILED_OBJECTIVE, both constraints violated, so every
+optimizer is pushed away from it as from an infeasible one) when the model raises, times out, its worker
+dies, the Outcome is not ok (the physics guard's verdict included), or, after contact, a vehicle with
+evidence is still moving at the end of the run (a miss whose cars drive on is not a failure: it is
+infeasible by g2 and its end poses are not scored either). A moving vehicle's end pose is not a rest
+pose: scoring its distance to the measured rest position would reward a start that merely has not
+finished yet, and a penalty would have to trade km/h against metres with a weight nobody can justify;
+failing it is truthful, and the reason ("V1 still moving at 34 km/h at the end ...") tells the user that
+the scene's duration is too short when it happens often.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from numba import njit
+from pymoo.core.problem import Problem
+
+from crashlab.execution import Executor
+from crashlab.geometry import penetration, rect_corners
+from crashlab.scene import Scene
+from crashlab.units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
+
+from .schema import VEHICLE_FIELDS, FreeVariable
+
+FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluation
+# the one conversion of a free variable between file units (m, deg, km/h) and SI; x, y, restitution and
+# friction are the same in both
+TO_SI = {"heading": deg_to_rad, "speed": kmh_to_ms}
+FROM_SI = {"heading": rad_to_deg, "speed": ms_to_kmh}
+
+
+@njit(cache=True)
+def outline_depth(poses, dims, i, j):
+    """Overlap of the outlines of vehicles i and j (crashlab.geometry.penetration: depth [m], axis, ...).
+    poses (nv, >=3): x, y, heading [rad]; dims (nv, 3): front, rear, half width."""
+    ci = rect_corners(poses[i, 0], poses[i, 1], poses[i, 2], dims[i, 0], dims[i, 1], dims[i, 2])
+    cj = rect_corners(poses[j, 0], poses[j, 1], poses[j, 2], dims[j, 0], dims[j, 1], dims[j, 2])
+    return penetration(ci, cj)
+
+
+@njit(cache=True)
+def largest_overlap(poses, dims):
+    """(n,) largest outline overlap depth over every pair of vehicles of each candidate (<= 0: none)."""
+    n, nv = poses.shape[0], poses.shape[1]
+    out = np.full(n, -1.0)
+    for k in range(n):
+        for i in range(nv):
+            for j in range(i + 1, nv):
+                out[k] = max(out[k], outline_depth(poses[k], dims, i, j)[0])
+    return out
+
+
+class ReconstructionProblem(Problem):
+    """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
+
+    def __init__(self, scene: Scene, free: list[FreeVariable], evidence: dict, heading_weight: float,
+                 model: str, model_options: dict, constraints_as_penalty: bool = False):
+        self.scene, self.free, self.evidence = scene, free, evidence  # evidence: name -> (x, y, heading deg)
+        self.heading_weight, self.model, self.model_options = heading_weight, model, model_options
+        self.names = scene.vehicle_names
+        self.executor = None
+        self.archive = {"X": [], "F": [], "G": [], "rest": [], "contact": [], "ok": [], "reason": []}
+        self.n_failed = 0
+        self.outline_dims = np.array([[v.spec.cg_to_front, v.spec.cg_to_rear, v.spec.width / 2]
+                                      for v in scene.vehicles])
+        self.columns = {}  # (vehicle index, field) -> column of X
+        for c, f in enumerate(free):
+            if f.vehicle is not None:
+                self.columns[(self.names.index(f.vehicle), f.field)] = c
+        self.movable = np.array([(i, "x") in self.columns and (i, "y") in self.columns
+                                 for i in range(len(self.names))], bool)
+        # for an optimizer without constraint handling the violation is added to every objective
+        self.constraints_as_penalty = constraints_as_penalty
+        super().__init__(n_var=len(free), n_obj=len(evidence), n_ieq_constr=0 if constraints_as_penalty else 2,
+                         xl=np.array([f.lower for f in free]), xu=np.array([f.upper for f in free]),
+                         exclude_from_serialization=["executor"])  # a live pool or Dask client: no state
+
+    # -- variables <-> scenes
+    def to_si(self, X) -> np.ndarray:
+        """(n, n_var) free variables in SI (m, rad, m/s) from X in file units (m, deg, km/h)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        S = X.copy()
+        for c, f in enumerate(self.free):
+            if f.field in TO_SI:
+                S[:, c] = TO_SI[f.field](X[:, c])
+        return S
+
+    def scenes_for(self, X) -> list[Scene]:
+        """The base scene with each row of X (file units) put in."""
+        scenes = []
+        for row in self.to_si(X):
+            vehicles: dict[str, dict] = {}
+            impact = {}
+            for f, val in zip(self.free, row):
+                (impact if f.vehicle is None else vehicles.setdefault(f.vehicle, {}))[f.field] = float(val)
+            scene = self.scene
+            for name, changes in vehicles.items():
+                scene = scene.with_vehicle(name, **changes)
+            if impact:
+                scene = scene.replace(impact=dataclasses.replace(scene.impact, **impact))
+            scenes.append(scene)
+        return scenes
+
+    def scene_for(self, x) -> Scene:
+        return self.scenes_for(x)[0]
+
+    def base_values(self) -> np.ndarray:
+        """Each free variable's value in the base scene (file units): the truth of a twin experiment."""
+        out = []
+        for f in self.free:
+            owner = self.scene.impact if f.vehicle is None else self.scene.vehicle(f.vehicle)
+            value = getattr(owner, f.field)
+            out.append(FROM_SI[f.field](value) if f.field in FROM_SI else value)
+        return np.array(out, dtype=float)
+
+    def start_poses(self, X) -> np.ndarray:
+        """(n, nv, 4): x, y, heading [rad], speed [m/s] of every vehicle at the start."""
+        S = self.to_si(X)
+        poses = np.empty((len(S), len(self.names), 4))
+        poses[:] = [(v.x, v.y, v.heading, v.speed) for v in self.scene.vehicles]
+        for (i, field), c in self.columns.items():
+            poses[:, i, VEHICLE_FIELDS.index(field)] = S[:, c]
+        return poses
+
+    def with_positions(self, X, poses) -> np.ndarray:
+        """X with the free x, y columns taken from poses, clipped to the bounds."""
+        X = np.array(X, dtype=float, copy=True)
+        for (i, field), c in self.columns.items():
+            if field in ("x", "y"):
+                X[:, c] = poses[:, i, 0 if field == "x" else 1]
+        return np.clip(X, self.xl, self.xu)
+
+    def start_overlap(self, X) -> np.ndarray:
+        """Largest outline overlap at the start per candidate (<= 0: none). A scene at its collision
+        position (a given point of impact) overlaps by design: no constraint then."""
+        if self.scene.impact.point is not None:
+            return np.full(len(np.atleast_2d(X)), -1.0)
+        return largest_overlap(self.start_poses(X), self.outline_dims)
+
+    # -- evaluation
+    def objectives(self, rest: np.ndarray) -> np.ndarray:
+        """rest (n, nv, 3) SI -> F (n, n_obj) [m]."""
+        F = np.empty((len(rest), len(self.evidence)))
+        for col, (name, (ex, ey, eh)) in enumerate(self.evidence.items()):
+            i = self.names.index(name)
+            F[:, col] = np.hypot(rest[:, i, 0] - ex, rest[:, i, 1] - ey)
+            if self.heading_weight and eh is not None:
+                F[:, col] += self.heading_weight * np.abs(wrap_deg(np.degrees(rest[:, i, 2]) - eh))
+        return F
+
+    def residuals(self, rest: np.ndarray) -> np.ndarray:
+        """rest (n, nv, 3) SI -> (n, m) residual vector whose parts make the objectives: dx, dy per
+        vehicle [m], and heading_weight * wrapped heading error [m] where the heading counts."""
+        parts = []
+        for name, (ex, ey, eh) in self.evidence.items():
+            i = self.names.index(name)
+            parts += [rest[:, i, 0] - ex, rest[:, i, 1] - ey]
+            if self.heading_weight and eh is not None:
+                parts.append(self.heading_weight * wrap_deg(np.degrees(rest[:, i, 2]) - eh))
+        return np.column_stack(parts)
+
+    def evaluate_residuals(self, X) -> np.ndarray:
+        """Evaluate X (recorded in the archive like any evaluation) -> residuals; a failed or
+        infeasible candidate gets FAILED_OBJECTIVE in every component."""
+        G, rest = self.evaluate(np.atleast_2d(X), return_values_of=["constraints", "rest"])
+        R = self.residuals(rest)
+        R[np.any(G > 0, axis=1) | ~np.isfinite(R).all(axis=1)] = FAILED_OBJECTIVE
+        return R
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        scenes = self.scenes_for(X)
+        executor = self.executor or Executor()
+        ev = executor.evaluate(self.model, self.model_options, scenes)
+        ok, reason = ev.ok.copy(), ev.reason.copy()
+        hit = ev.n_impacts > 0
+        moving = np.zeros(len(X), bool)
+        for name in self.evidence:  # a vehicle with evidence must be at rest: its end pose is scored as one
+            i = self.names.index(name)
+            moving |= ev.ok & ~ev.at_rest[:, i]
+            for k in np.flatnonzero(ev.ok & hit & ~ev.at_rest[:, i]):
+                reason[k] = (reason[k] + "; " if reason[k] else "") + (
+                    f"{name} still moving at {ms_to_kmh(ev.end_speed[k, i]):.0f} km/h at the end "
+                    "(scene duration too short?)")
+        ok &= ~(moving & hit)  # a miss that drives on is no failure: it is infeasible (g2) and not scored
+        F = self.objectives(ev.rest)
+        F[~ok | moving] = FAILED_OBJECTIVE
+        G = np.column_stack([self.start_overlap(X), np.where(ev.n_impacts > 0, 0.0, 1.0)])
+        G[~ok] = 1.0
+        self.n_failed += int((~ok).sum())
+        for key, val in (("X", X), ("F", F), ("G", G), ("rest", ev.rest), ("contact", ev.contact), ("ok", ok),
+                         ("reason", reason)):
+            self.archive[key].append(np.asarray(val))
+        out["constraints"], out["rest"] = G, ev.rest
+        if self.constraints_as_penalty:
+            out["F"] = F + FAILED_OBJECTIVE * np.maximum(G, 0.0).sum(axis=1, keepdims=True)
+        else:
+            out["F"], out["G"] = F, G
+
+    def archive_arrays(self) -> dict:
+        return {k: np.concatenate(v) if v else np.empty(0) for k, v in self.archive.items()}

@@ -1,0 +1,205 @@
+"""What a reconstruction reports: the Pareto table, failures.csv, objectives.png, top views of chosen
+solutions, summary.md, and the result object with its JSON form.
+
+The tables come first; a figure that cannot be drawn is named in summary.md instead of ending the run.
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from crashlab.units import ms_to_kmh, rad_to_deg, wrap_deg
+
+DUPLICATE_TOL = 1e-6  # Pareto rows whose every free variable lies this close (share of its bound width) are one
+HEADING_WARN_DEG = 15.0  # deg: a rest heading this far off is plain on any site sketch or photo
+
+
+class ReconstructionResult:
+    """What Study.run returns: the Pareto table, counts, wall time, the problem (its archive holds every
+    evaluation) and facts about the search (algorithm_info)."""
+
+    def __init__(self, pareto, evaluations, failed, feasible_fraction, wall_time_s, problem, algorithm_info):
+        self.pareto, self.evaluations, self.failed = pareto, evaluations, failed
+        self.feasible_fraction, self.wall_time_s = feasible_fraction, wall_time_s
+        self.problem, self.algorithm_info = problem, algorithm_info
+
+    def to_json_dict(self) -> dict:
+        p = self.problem
+
+        def num(v):
+            v = float(v)
+            return None if math.isnan(v) else v
+        items = []
+        for _, row in self.pareto.iterrows():
+            items.append({"start": {f.label: float(row[f.label]) for f in p.free},
+                          "objectives": {f"f_{n}": float(row[f"f_{n}"]) for n in p.evidence},
+                          "rest": {n: {**{k: float(row[f"rest_{n}_{k}"]) for k in ("x", "y", "heading")},
+                                       "dheading": num(row[f"dheading_{n}"])} for n in p.names}})
+        arch = p.archive_arrays()
+        reasons = failure_counts(arch["reason"][~arch["ok"]]) if len(arch["X"]) else {}
+        return {"pareto": items, "evaluations": self.evaluations, "failed": self.failed,
+                "failure_reasons": reasons, "feasible_fraction": self.feasible_fraction,
+                "wall_time_s": round(self.wall_time_s, 3), **self.algorithm_info}
+
+
+def failure_counts(reasons) -> dict:
+    """Failure reasons grouped with their numbers replaced by N, most frequent first."""
+    counts: dict[str, int] = {}
+    for r in reasons:
+        key = re.sub(r"(?<![\w.])[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w.])", "N", str(r))
+        counts[key] = counts.get(key, 0) + 1
+    return dict(sorted(counts.items(), key=lambda kv: -kv[1]))
+
+
+def pareto_table(problem, arch: dict):
+    """Non-dominated feasible solutions among every evaluated candidate, one row each, best (smallest sum
+    of objectives) first: free variables, objectives f_<vehicle>, dheading_<vehicle> (simulated minus
+    measured rest heading [deg], wrapped to -180..180; empty where no heading was measured: it is there
+    whatever heading_weight, so a good position with a wrong heading shows), rest poses and the state at
+    first contact (file units). Rows whose every free variable lies within DUPLICATE_TOL of its bound
+    width of a better row's are the same solution and kept once."""
+    import pandas as pd
+    from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
+    feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
+    if len(feasible) == 0:
+        return pd.DataFrame()
+    _, first = np.unique(arch["X"][feasible], axis=0, return_index=True)  # exact repeats (cheap, first)
+    idx = feasible[np.sort(first)]
+    front = NonDominatedSorting().do(arch["F"][idx], only_non_dominated_front=True)
+    idx = idx[front]
+    idx = idx[np.argsort(arch["F"][idx].sum(axis=1), kind="stable")]
+    Z = (arch["X"][idx] - problem.xl) / (problem.xu - problem.xl)
+    keep: list[int] = []
+    for k in range(len(idx)):
+        if not keep or np.min(np.max(np.abs(Z[keep] - Z[k]), axis=1)) > DUPLICATE_TOL:
+            keep.append(k)
+    idx = idx[keep]
+    rows = []
+    for k in idx:
+        row = {f.label: arch["X"][k, c] for c, f in enumerate(problem.free)}
+        row.update({f"f_{n}": arch["F"][k, c] for c, n in enumerate(problem.evidence)})
+        for i, n in enumerate(problem.names):
+            eh = problem.evidence.get(n, (None, None, None))[2]
+            row[f"dheading_{n}"] = math.nan if eh is None else float(wrap_deg(rad_to_deg(arch["rest"][k, i, 2]) - eh))
+        for i, n in enumerate(problem.names):
+            r, c = arch["rest"][k, i], arch["contact"][k, i]
+            row.update({f"rest_{n}_x": r[0], f"rest_{n}_y": r[1], f"rest_{n}_heading": rad_to_deg(r[2])})
+            row.update({f"contact_{n}_x": c[0], f"contact_{n}_y": c[1], f"contact_{n}_heading": rad_to_deg(c[2]),
+                        f"contact_{n}_speed": ms_to_kmh(c[3])})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def write_failures(problem, arch: dict, path: Path, n_search: int):
+    """failures.csv: one row per failed evaluation: its index, phase (search/polish), free variables
+    (file units) and the reason. Written (with its header) also when nothing failed."""
+    import pandas as pd
+    bad = np.flatnonzero(~arch["ok"]) if len(arch["X"]) else np.empty(0, int)
+    table = pd.DataFrame({"evaluation": bad, "phase": np.where(bad < n_search, "search", "polish")})
+    for c, f in enumerate(problem.free):
+        table[f.label] = arch["X"][bad, c] if len(bad) else []
+    table["reason"] = arch["reason"][bad] if len(bad) else []
+    table.to_csv(path, index=False)
+
+
+def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path):
+    """pareto.csv, failures.csv, objectives.png, top views of chosen solutions, summary.md. The tables
+    come first; a figure that cannot be drawn is named in summary.md instead of ending the run."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from crashlab.execution import model_for
+    from crashlab.plotting import top_view
+    problem = result.problem
+    info = result.algorithm_info
+    result.pareto.to_csv(out_dir / "pareto.csv", index=False)
+    write_failures(problem, arch, out_dir / "failures.csv", info["search_evaluations"])
+    names = list(problem.evidence)
+    notes = []
+    if len(names) >= 2:
+        try:
+            fig, ax = plt.subplots(figsize=(6, 5))
+            feas = np.all(arch["G"] <= 0, axis=1) & arch["ok"]
+            F = arch["F"][feas]
+            ax.scatter(F[:, 0], F[:, 1], s=6, color="0.6", label="dominated / evaluated")
+            if len(result.pareto):
+                ax.scatter(result.pareto[f"f_{names[0]}"], result.pareto[f"f_{names[1]}"], s=24, color="C3",
+                           label="non-dominated")
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel(f"f_{names[0]} [m]")
+            ax.set_ylabel(f"f_{names[1]} [m]")
+            ax.legend()
+            ax.grid(alpha=0.3, which="both")
+            fig.tight_layout()
+            fig.savefig(out_dir / "objectives.png", dpi=120)
+        except Exception as err:  # noqa: BLE001 - the search's result is in the tables already
+            notes.append(f"objectives.png could not be drawn: {type(err).__name__}: {err}")
+        finally:
+            plt.close("all")
+    model = model_for(problem.model, problem.model_options)
+    chosen = []
+    if len(result.pareto):
+        cols = [f.label for f in problem.free]
+        for k in sorted({0, *[int(result.pareto[f"f_{n}"].idxmin()) for n in names]}):
+            chosen.append((k, result.pareto.loc[k, cols].to_numpy(dtype=float)))
+    figures = []
+    for k, x in chosen[:3]:
+        scene = problem.scene_for(x)
+        try:
+            top_view(scene, model.simulate(scene), out_dir / f"solution_{k}.png",
+                     title=f"Pareto solution {k}", measured=problem.evidence)
+            figures.append(f"solution_{k}.png")
+        except Exception as err:  # noqa: BLE001
+            notes.append(f"solution_{k}.png could not be drawn: {type(err).__name__}: {err}")
+        finally:
+            plt.close("all")
+    hw = problem.heading_weight
+    lines = [f"# Reconstruction: {study.spec.name or study.path.stem}", "",
+             f"- study: `{study.path}`; model `{problem.model}`; optimizer `{info['optimizer']}`",
+             f"- evaluations {result.evaluations} (search {info['search_evaluations']}, least-squares polish "
+             f"{info['polish_evaluations']} of a budget of {info['polish_budget']}), failed {result.failed}, "
+             f"feasible fraction {result.feasible_fraction:.1%}, wall time {result.wall_time_s:.1f} s"]
+    if result.failed:
+        counts = failure_counts(arch["reason"][~arch["ok"]])
+        lines.append("- failed evaluations by reason (every one in failures.csv): " + "; ".join(
+            f"{c} x {r}" for r, c in list(counts.items())[:5]) + ("; ..." if len(counts) > 5 else ""))
+    for key in ("sigma_share", "repaired"):
+        if key in info:
+            lines.append(f"- {key}: {info[key]}")
+    lines += ["", "Evidence (measured rest poses): " + "; ".join(
+        f"{n} ({x:.2f}, {y:.2f}" + (f", {h:.1f} deg)" if h is not None else ", heading not measured)")
+        for n, (x, y, h) in problem.evidence.items()), ""]
+    if study.spec.evidence.twin:
+        lines += ["Twin experiment: the evidence is the model's own run of the base scene, whose start is the "
+                  "truth: " + ", ".join(f"{f.label} = {v:.3f}" for f, v in zip(problem.free, problem.base_values())),
+                  ""]
+    measured_h = [n for n, ev in problem.evidence.items() if ev[2] is not None]
+    lines += [f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
+    if measured_h:
+        lines += ["dheading_<vehicle>: simulated minus measured rest heading [deg], wrapped to -180..180; " +
+                  (f"weighted {hw:g} m/deg in the objectives." if hw else
+                   "**not part of the objectives** (heading_weight = 0): a small f_ does not mean the "
+                   "headings match."), ""]
+    if len(result.pareto):
+        best = result.pareto.iloc[0]
+        off = [f"{n} {best[f'dheading_{n}']:+.0f} deg" for n in measured_h
+               if abs(best[f"dheading_{n}"]) > HEADING_WARN_DEG]
+        if off:
+            lines += [f"**Warning: the first solution's rest headings are off the measured ones: {', '.join(off)}.**",
+                      ""]
+        show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names] +
+                             [f"dheading_{n}" for n in measured_h]].head(15)
+        lines.append(show.to_markdown(index=False, floatfmt=".3f"))
+    else:
+        lines.append("No feasible solution.")
+    if figures:
+        lines += ["", "Top views (start dotted, first contact dashed, rest solid, measured rest pose thick and "
+                  "pale, heading arrows in each vehicle's colour): " + ", ".join(figures)]
+    if notes:
+        lines += [""] + [f"- {n}" for n in notes]
+    (out_dir / "summary.md").write_text("\n".join(lines) + "\n")

@@ -1,0 +1,168 @@
+"""A reconstruction study: its file loaded and checked (crashlab.reconstruction.schema), the base scene,
+the evidence (measured, or a twin's: the model's own run of the base scene), and what a run is built from.
+
+A study file names a base scene, a model, an optimizer, the free variables with bounds and the measured
+rest poses; `Study.run` searches (crashlab.reconstruction.run), polishes and reports.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+from pydantic import ValidationError
+
+from crashlab.errors import InputError
+from crashlab.execution import outcome_reason
+from crashlab.options import OptionError
+from crashlab.registry import (
+    OPTIMIZERS,
+    UnknownPluginError,
+    available_models,
+    available_optimizers,
+    get_model,
+    load,
+)
+from crashlab.scene import Scene, load_scene
+from crashlab.units import ms_to_kmh
+from crashlab.vehicle import pydantic_error, read_toml
+
+from .problem import ReconstructionProblem
+from .repair import CollisionRepair
+from .run import run_study
+from .schema import StudyFile
+
+
+def _canonical(obj) -> str:
+    def default(o):
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        if isinstance(o, (np.floating, np.integer, np.bool_)):
+            return o.item()
+        return repr(o)
+    return json.dumps(obj, sort_keys=True, default=default)
+
+
+def _digest(obj) -> str:
+    return hashlib.sha256(_canonical(obj).encode()).hexdigest()[:16]
+
+
+def crashlab_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("crashlab")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+class Study:
+    """A loaded study: its file (spec), base scene and evidence (vehicle -> x, y [m], heading [deg] or None)."""
+
+    def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict):
+        self.path, self.spec, self.scene, self.evidence = path, spec, scene, evidence
+
+    def fingerprint(self) -> dict:
+        """What a result depends on, part by part (crashlab.reconstruction.run, "Resume"): part -> digest."""
+        study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}})
+        scene = dataclasses.asdict(self.scene)
+        for key in ("source", "references"):
+            scene.pop(key, None)
+        for v in scene["vehicles"]:
+            v.pop("spec", None)
+        parts = {"study file": _digest(study), "scene file": _digest(scene)}
+        for v in self.scene.vehicles:
+            parts[f"vehicle data of {v.name}"] = _digest(dataclasses.asdict(v.spec))
+        parts["evidence"] = _digest({n: [None if e is None else float(e) for e in ev]
+                                     for n, ev in self.evidence.items()})
+        parts["model and its options"] = _digest([self.spec.model, self.spec.model_options])
+        parts["crashlab version"] = crashlab_version()
+        return parts
+
+    def make_problem(self, constraints_as_penalty: bool = False) -> ReconstructionProblem:
+        return ReconstructionProblem(self.scene, self.spec.free, self.evidence, self.spec.objective.heading_weight,
+                                     self.spec.model, self.spec.model_options, constraints_as_penalty)
+
+    def make_repair(self):
+        """The study's CollisionRepair, or None (switched off, or a scene at its collision position)."""
+        if not self.spec.repair.enabled or self.scene.impact.point is not None:
+            return None
+        return CollisionRepair(max_shift=self.spec.repair.max_shift)
+
+    def make_algorithm(self, optimizer: str | None = None):
+        o = self.spec.optimizer
+        name = optimizer or o.name
+        opts = dict(o.options)
+        repair = self.make_repair()
+        if repair is not None:
+            opts["repair"] = repair
+        try:
+            factory = load(OPTIMIZERS, name)
+            if getattr(factory, "takes_n_obj", False):  # conventions: optimizers/pymoo_algorithms.py
+                opts.setdefault("n_obj", len(self.evidence))
+            return name, factory(pop_size=o.pop_size, **opts)
+        except UnknownPluginError as err:
+            raise InputError(self.path, "optimizer.name", str(err)) from None
+        except (TypeError, ValueError) as err:
+            raise InputError(self.path, "optimizer.options", str(err)) from None
+
+    def polish_budget(self) -> int:
+        o = self.spec.optimizer
+        return self.spec.polish.budget(o.pop_size, o.generations)
+
+    def run(self, optimizer: str | None = None, workers: int | None = None, scheduler: str | None = None,
+            out_dir: str | Path | None = None, resume: bool = False, progress: bool = False,
+            stop_after: int | None = None):
+        """Search, polish, and (with out_dir) write the outputs. stop_after: stop after that many
+        generations as a kill would (checkpoint written, no polish, no outputs; returns None): tests."""
+        return run_study(self, optimizer, workers, scheduler, out_dir, resume, progress, stop_after)
+
+
+def load_study(path) -> Study:
+    """The study in a TOML file, checked; InputError (file, key, problem) when it is not right."""
+    path = Path(path)
+    data = read_toml(path, "study")
+    try:
+        spec = StudyFile.model_validate(data)
+    except ValidationError as err:
+        raise pydantic_error(path, err) from None
+    if spec.model not in available_models():
+        raise InputError(path, "model", str(UnknownPluginError("model", spec.model, available_models())))
+    if spec.optimizer.name not in available_optimizers():
+        raise InputError(path, "optimizer.name",
+                         str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
+    try:
+        model = get_model(spec.model, **spec.model_options)
+    except OptionError as err:
+        raise InputError(path, f"model_options.{err.key}", err.problem) from None
+    except (TypeError, ValueError) as err:
+        raise InputError(path, "model_options", str(err)) from None
+    scene_path = path.parent / spec.scene
+    if not scene_path.is_file():
+        raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
+    scene = load_scene(scene_path)
+    names = scene.vehicle_names
+    for k, f in enumerate(spec.free):
+        if f.vehicle is not None and f.vehicle not in names:
+            raise InputError(path, f"free.{k}.vehicle", f"no vehicle {f.vehicle!r} in the scene ({', '.join(names)})")
+    if spec.evidence.twin:
+        out = model.simulate(scene)
+        if not out.outcome_ok:
+            raise InputError(path, "evidence.twin", f"the model's run of the base scene failed: {outcome_reason(out)}")
+        moving = [f"{n} still moving at {ms_to_kmh(out.end_speed_si[i]):.0f} km/h"
+                  for i, n in enumerate(names) if not out.at_rest_mask[i]]
+        if moving:
+            raise InputError(path, "evidence.twin", f"{', '.join(moving)} at the end of the base scene: an end pose "
+                             "is no rest pose (lengthen the scene's duration)")
+        evidence = {n: (out.rest_si[i, 0], out.rest_si[i, 1], math.degrees(out.rest_si[i, 2]))
+                    for i, n in enumerate(names)}
+    else:
+        for n in spec.evidence.rest:
+            if n not in names:
+                raise InputError(path, f"evidence.rest.{n}", f"no vehicle {n!r} in the scene")
+        evidence = {n: (p.x, p.y, p.heading) for n, p in spec.evidence.rest.items()}
+    if not evidence:
+        raise InputError(path, "evidence.rest", "no measured rest pose given")
+    return Study(path, spec, scene, evidence)
