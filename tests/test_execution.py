@@ -239,19 +239,19 @@ def test_pool_stops_its_workers_when_the_run_ends():
 def test_dask_a_dying_worker_fails_its_evaluations_and_the_run_goes_on(reference):
     """Dask retries a task whose worker died (3 times), then reports KilledWorker: the chunk is split and
     run again scene by scene, so only the deadly scenes fail."""
-    pytest.importorskip("dask.distributed")
-    with Executor("dask", workers=2, timeout_s=60.0) as ex:
-        ev = ex.evaluate("test_execution:DyingModel", {}, _scenes())
-        again = ex.evaluate("test_execution:EchoModel", {}, _scenes())
-    _check(ev, reference, "Dask worker died")
-    np.testing.assert_array_equal(again.rest, reference.rest)
+    _dask_then_echo("DyingModel", 60.0, reference, "Dask worker died")
 
 
 @pytest.mark.slow
 def test_dask_a_hanging_evaluation_times_out(reference, short_grace):
+    _dask_then_echo("HangingModel", 2.0, reference, "timeout: evaluation ran longer than 2 s")
+
+
+def _dask_then_echo(model: str, timeout_s: float, reference, words: str):
+    """On a local Dask cluster: `model` fails with `words`, and the cluster then evaluates as before."""
     pytest.importorskip("dask.distributed")
-    with Executor("dask", workers=2, timeout_s=2.0) as ex:
-        ev = ex.evaluate("test_execution:HangingModel", {}, _scenes())
+    with Executor("dask", workers=2, timeout_s=timeout_s) as ex:
+        ev = ex.evaluate(f"test_execution:{model}", {}, _scenes())
         again = ex.evaluate("test_execution:EchoModel", {}, _scenes())
-    _check(ev, reference, "timeout: evaluation ran longer than 2 s")
+    _check(ev, reference, words)
     np.testing.assert_array_equal(again.rest, reference.rest)

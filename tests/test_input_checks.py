@@ -30,12 +30,18 @@ def one_line_error(res, file, key):
 
 
 SCENE = """name = "t"
+duration = 2.0
+{top}
 [[vehicles]]
 name = "V1"
 vehicle = "clio"
 speed = 40.0
 {extra}
 """
+
+
+def scene_text(extra: str = "", top: str = "") -> str:
+    return SCENE.format(top=top, extra=extra)
 
 
 @pytest.mark.parametrize("extra, key", [
@@ -45,7 +51,7 @@ speed = 40.0
 ])
 def test_bad_scene_values(tmp_path, extra, key):
     f = tmp_path / "s.toml"
-    f.write_text(SCENE.format(extra=extra))
+    f.write_text(scene_text(extra))
     one_line_error(cli("simulate", f), f, key)
 
 
@@ -54,7 +60,7 @@ def test_errors_in_a_vehicle_file_are_blamed_on_it(tmp_path):
     text = (REPO / "framework" / "vehicles" / "clio.toml").read_text().replace("track = 1.405", "")
     veh.write_text(text)
     f = tmp_path / "s.toml"
-    f.write_text(SCENE.format(extra="").replace('"clio"', '"car.toml"') + "[vehicles.overrides]\nmass = 900.0\n")
+    f.write_text(scene_text().replace('"clio"', '"car.toml"') + "[vehicles.overrides]\nmass = 900.0\n")
     one_line_error(cli("simulate", f), veh, "track")
 
 
@@ -77,7 +83,7 @@ def test_given_point_joins_the_pair_that_meets_there():
 
 def test_a_given_point_far_from_every_pair_is_refused(tmp_path):
     f = tmp_path / "s.toml"
-    f.write_text(SCENE.format(extra="") + '[impact]\npoint = [30.0, 0.0]\nplane_angle = 90.0\n')
+    f.write_text(scene_text() + '[impact]\npoint = [30.0, 0.0]\nplane_angle = 90.0\n')
     one_line_error(cli("simulate", f), f, "impact.point")
 
 
@@ -147,17 +153,6 @@ def refused(capsys, file, key, *argv):
     return lines[0]
 
 
-SCENE_TOP = """name = "t"
-duration = 2.0
-{top}
-[[vehicles]]
-name = "V1"
-vehicle = "clio"
-speed = 40.0
-{extra}
-"""
-
-
 @pytest.mark.parametrize("top, extra, key", [
     # a traceback before (ZeroDivisionError in the outline geometry; math domain error in sin/cos)
     ("", "x = 1e30", "vehicles.0.x"),
@@ -185,7 +180,7 @@ speed = 40.0
 ])
 def test_scene_numbers_finite_and_bounded(tmp_path, capsys, top, extra, key):
     f = tmp_path / "s.toml"
-    f.write_text(SCENE_TOP.format(top=top, extra=extra))
+    f.write_text(scene_text(extra, top))
     refused(capsys, f, key)
 
 
@@ -199,8 +194,8 @@ def test_a_vehicle_file_and_an_override_pass_the_same_checks(tmp_path, capsys, k
     (tmp_path / "bad.toml").write_text(good.replace(line, f"{key} = {bad}"))
     (tmp_path / "good.toml").write_text(good)
     f1, f2 = tmp_path / "s1.toml", tmp_path / "s2.toml"
-    f1.write_text(SCENE_TOP.format(top="", extra="").replace('"clio"', '"bad.toml"'))
-    override = SCENE_TOP.format(top="", extra=f"[vehicles.overrides]\n{key} = {bad}")
+    f1.write_text(scene_text().replace('"clio"', '"bad.toml"'))
+    override = scene_text(f"[vehicles.overrides]\n{key} = {bad}")
     f2.write_text(override.replace('"clio"', '"good.toml"'))
     in_file = refused(capsys, tmp_path / "bad.toml", key, "simulate", f1)
     in_override = refused(capsys, f2, f"vehicles.0.overrides.{key}")
@@ -211,9 +206,9 @@ def test_mass_override_refused_when_the_inertias_are_not_scaled(tmp_path, capsys
     """3000 kg on the Clio's inertias is a plausible (dense) car; 60 t on them is a radius of gyration of
     14 cm about the yaw axis (0.03 x the diagonal): refused, naming the overridden key."""
     f = tmp_path / "s.toml"
-    f.write_text(SCENE_TOP.format(top="", extra="[vehicles.overrides]\nmass = 3000.0"))
+    f.write_text(scene_text("[vehicles.overrides]\nmass = 3000.0"))
     assert crashlab.load_scene(f).vehicles[0].spec.mass == 3000.0
-    f.write_text(SCENE_TOP.format(top="", extra="[vehicles.overrides]\nmass = 60000.0"))
+    f.write_text(scene_text("[vehicles.overrides]\nmass = 60000.0"))
     line = refused(capsys, f, "vehicles.0.overrides.mass")
     assert "yaw_inertia" in line and "radius of gyration" in line
 
