@@ -39,7 +39,7 @@ SEED = 20240610
 CHILD_MEMORY = 4 << 30  # bytes of data segment (heap and private maps) for the child
 DEFAULT_SHARE = {"scene": 0.3, "study": 0.2}  # of the cases in the default run; the rest is slow
 
-# Known failures that live outside the input checks (framework/reconstruction.py, the models): case id ->
+# Known failures that live outside the input checks (crashlab.reconstruction, the models): case id ->
 # reason. They are xfail (not strict) until fixed there.
 KNOWN_FAILURES: dict[str, str] = {}
 
