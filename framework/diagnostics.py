@@ -10,31 +10,25 @@ import dataclasses
 import math
 from collections.abc import MutableMapping
 
-# core field -> (type, meaning); the meanings are the documentation of the contract
-CORE = {
-    "steps": (int, "accepted integration steps (for an event-driven model: its fixed or fine steps)"),
-    "rejected_steps": (int, "steps rejected and repeated shorter (error control, contact onset, load iteration)"),
-    "episodes": (int, "impacts or contact episodes between vehicles, or vehicles and barriers"),
-    "t_end": (float, "simulated time reached [s]"),
-    "max_penetration": (float, "deepest contact overlap during the run [m] (0 for an impulse model)"),
-    "energy_start": (float, "kinetic energy of all vehicles at the start [J] (filled by the guard)"),
-    "energy_end": (float, "kinetic energy of all vehicles at the end [J] (filled by the guard)"),
-    "energy_impacts": (float, "energy dissipated by the impacts or contact episodes [J] (filled by the guard)"),
-    "wall_time_s": (float, "wall-clock time of the simulation [s]"),
-}
+
+def _core(meaning: str):
+    """A core field: None until the model (or the guard, or Outcome) reports it; `meaning` documents it."""
+    return dataclasses.field(default=None, metadata={"meaning": meaning})
 
 
 @dataclasses.dataclass
 class Diagnostics(MutableMapping):
-    steps: int | None = None
-    rejected_steps: int | None = None
-    episodes: int | None = None
-    t_end: float | None = None
-    max_penetration: float | None = None
-    energy_start: float | None = None
-    energy_end: float | None = None
-    energy_impacts: float | None = None
-    wall_time_s: float | None = None
+    steps: int | None = _core("accepted integration steps (an event-driven model: its fixed or fine steps)")
+    rejected_steps: int | None = _core("steps rejected and repeated shorter (error control, contact onset, "
+                                       "load iteration)")
+    episodes: int | None = _core("impacts or contact episodes between vehicles, or vehicles and barriers")
+    t_end: float | None = _core("simulated time reached [s]")
+    max_penetration: float | None = _core("deepest contact overlap during the run [m] (0: an impulse model)")
+    energy_start: float | None = _core("kinetic energy of all vehicles at the start [J] (filled by the guard)")
+    energy_end: float | None = _core("kinetic energy of all vehicles at the end [J] (filled by the guard)")
+    energy_impacts: float | None = _core("energy dissipated by the impacts or contact episodes [J] (filled by "
+                                         "the guard)")
+    wall_time_s: float | None = _core("wall-clock time of the simulation [s]")
     extra: dict = dataclasses.field(default_factory=dict)
 
     @classmethod
@@ -57,8 +51,7 @@ class Diagnostics(MutableMapping):
 
     def __setitem__(self, key, value):
         if key in CORE:
-            kind = CORE[key][0]
-            value = None if value is None else kind(value)
+            value = None if value is None else CORE[key](value)
             setattr(self, key, value)
         else:
             self.extra[key] = value
@@ -88,3 +81,8 @@ class Diagnostics(MutableMapping):
                 return v.tolist()
             return v
         return {k: clean(v) for k, v in self.items()}
+
+
+# core field -> its type (int or float); the meanings are in the fields' metadata
+CORE = {f.name: (int if f.type.startswith("int") else float) for f in dataclasses.fields(Diagnostics)
+        if f.name != "extra"}

@@ -11,13 +11,11 @@ from numba.extending import register_jitable
 
 from crashlab.units import G
 
+from .wheel_states import BRAKED, LOCKED, WHEEL_CODES
+
 # vehicle parameter vector layout
 P_MASS, P_IZ, P_A, P_B, P_TRACK, P_H, P_FRR, P_CALPHA, P_FRONT, P_REAR, P_HALFW, P_WHEELS, P_STEER = range(13)
 N_PARAMS = 13
-# wheel states (scene `wheels`)
-ROLLING, LOCKED, LOCKED_AFTER_IMPACT, BRAKED = 0, 1, 2, 3
-WHEEL_CODES = {"rolling": ROLLING, "locked": LOCKED, "locked_after_impact": LOCKED_AFTER_IMPACT,
-               "braked": BRAKED}
 
 V_REG = 0.05  # m/s: regularisation of Coulomb friction and rolling resistance near zero slip speed
 V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it defined near standstill

@@ -35,9 +35,6 @@ N_S = 16
 (T_WHEEL, T_KNUCKLE, T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR, T_SIG_S, T_SIG_A, T_CS, T_CA,
  T_MODE, T_ETA) = range(16)
 N_T = 16
-# wheel modes (the scene's `wheels`)
-ROLLING, LOCKED, LOCKED_AFTER_IMPACT, BRAKED = 0, 1, 2, 3
-MODES = {"rolling": ROLLING, "locked": LOCKED, "locked_after_impact": LOCKED_AFTER_IMPACT, "braked": BRAKED}
 CLIO_R = 0.28
 DEFAULTS = {
     # wheel + tyre: the Clio's 9 kg and inertias scaled with (R/0.28)^3 (mass) and m R^2 (inertia)

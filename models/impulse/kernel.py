@@ -23,8 +23,6 @@ from numba import njit, prange
 
 from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners
 from crashlab.models.common.planar_vehicle import (
-    LOCKED,
-    LOCKED_AFTER_IMPACT,
     P_FRONT,
     P_HALFW,
     P_IZ,
@@ -35,6 +33,7 @@ from crashlab.models.common.planar_vehicle import (
     stiffest_rate,
     vehicle_derivative,
 )
+from crashlab.models.common.wheel_states import LOCKED, LOCKED_AFTER_IMPACT
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
@@ -83,6 +82,13 @@ def _centre(S, B, k, nv):
     if k < nv:
         return S[k, 0], S[k, 1]
     return B[k - nv, 0], B[k - nv, 1]
+
+
+@njit(cache=True)
+def _circles_apart(S, B, radius, i, k, nv):
+    """Vehicle i and vehicle or barrier k cannot touch: their bounding circles do not meet."""
+    ckx, cky = _centre(S, B, k, nv)
+    return math.hypot(S[i, 0] - ckx, S[i, 1] - cky) > radius[i] + radius[k]
 
 
 @njit(cache=True)
@@ -345,8 +351,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             for k in range(i + 1, nk):
                 if asleep[i] and (k >= nv or asleep[k]):
                     continue
-                ckx, cky = _centre(Snew, B, k, nv)
-                if math.hypot(Snew[i, 0] - ckx, Snew[i, 1] - cky) > radius[i] + radius[k]:
+                if _circles_apart(Snew, B, radius, i, k, nv):
                     continue
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
                 if in_contact[i, k]:
@@ -384,8 +389,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             for k in range(i + 1, nk):
                 if asleep[i] and (k >= nv or asleep[k]):
                     continue
-                ckx, cky = _centre(S, B, k, nv)
-                if math.hypot(S[i, 0] - ckx, S[i, 1] - cky) > radius[i] + radius[k]:
+                if _circles_apart(S, B, radius, i, k, nv):
                     in_contact[i, k] = False
                     episode[i, k] = -1
                     allowed[i, k] = 0.0

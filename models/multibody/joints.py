@@ -18,7 +18,8 @@ import numpy as np
 from numba import njit
 
 from crashlab.models.common.rotations import add, cross, dot, mtv, mv, scale, sub
-from crashlab.models.common.vehicle_3d import LOCKED, NW
+from crashlab.models.common.vehicle_3d import NW
+from crashlab.models.common.wheel_states import LOCKED
 
 SPHERICAL, REVOLUTE, CYLINDRICAL, TRANSLATIONAL, REVOLUTE_LOCKED = 0, 1, 2, 3, 4
 (J_TYPE, J_I, J_J) = range(3)
@@ -126,7 +127,7 @@ def joint_rows(J, A, R, V, W, D, phi, gam, rowb, ispos, row):
 
 
 def vehicle_joints(veh, modes, deltas) -> np.ndarray:
-    """Joint table of a 9-body vehicle (common/vehicle_3d.py) for wheel modes (per wheel, vehicle_3d.MODES
+    """Joint table of a 9-body vehicle (common/vehicle_3d.py) for wheel modes (per wheel, wheel_states.WHEEL_CODES
     codes) and steer angles: chassis-knuckle TRANSLATIONAL, knuckle-wheel REVOLUTE (REVOLUTE_LOCKED for a
     locked wheel)."""
     J = np.zeros((2 * NW, N_J))

@@ -30,8 +30,6 @@ from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICT
 from crashlab.models.common.rotations import from_matrix, matrix, rot_z
 from crashlab.models.common.vehicle_3d import (
     CORNERS,
-    LOCKED,
-    MODES,
     NB,
     NW,
     T_R1,
@@ -39,6 +37,7 @@ from crashlab.models.common.vehicle_3d import (
     build_scene_vehicles,
     steer_angles,
 )
+from crashlab.models.common.wheel_states import LOCKED, WHEEL_CODES
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.units import G
@@ -179,7 +178,7 @@ class MultibodyModel(CollisionModel):
         """The packed arrays of a scene (start state Y, parameters, cfg); `run` integrates them."""
         vehs, Ys, Js, Ts = [], [], [], []
         for vs, veh in zip(scene.vehicles, build_scene_vehicles(scene)):
-            modes = [MODES["rolling"] if vs.wheels == "locked_after_impact" else MODES[vs.wheels]] * NW
+            modes = [WHEEL_CODES["rolling"] if vs.wheels == "locked_after_impact" else WHEEL_CODES[vs.wheels]] * NW
             deltas = steer_angles(veh, vs.steer)
             vehs.append(veh)
             Ys.append(self.place(veh, self.settled(veh), vs, deltas, modes))

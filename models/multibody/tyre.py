@@ -36,7 +36,6 @@ from numba import njit
 from crashlab.models.common.rotations import add, cross, dot, mtv, mv, scale, sub
 from crashlab.models.common.tyre_moments import brake_moment, rolling_resistance_moment
 from crashlab.models.common.vehicle_3d import (
-    BRAKED,
     T_CA,
     T_CS,
     T_CZ,
@@ -54,6 +53,7 @@ from crashlab.models.common.vehicle_3d import (
     T_SIG_S,
     T_WHEEL,
 )
+from crashlab.models.common.wheel_states import BRAKED
 
 V_EPS = 0.01        # m/s: smooths V_ref = max(|V_x|, |V_c|) at standstill
 DELTA_RAMP = 1e-3   # m: radial damping fades in over the first mm of deflection (no jump at touchdown)
@@ -187,7 +187,7 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
 
 
 def tyres_for(veh, modes):
-    """The vehicle's tyre rows with the wheel modes (per wheel, vehicle_3d.MODES codes) set."""
+    """The vehicle's tyre rows with the wheel modes (per wheel, wheel_states.WHEEL_CODES codes) set."""
     T = veh.TYR.copy()
     T[:, T_MODE] = modes
     return T

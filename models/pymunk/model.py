@@ -14,14 +14,13 @@ from crashlab.geometry import rect_corners
 from crashlab.model import CollisionModel
 from crashlab.models.common.impact_rows import pair_rows
 from crashlab.models.common.planar_vehicle import (
-    LOCKED,
     N_PARAMS,
     P_IZ,
     P_MASS,
     P_WHEELS,
-    ROLLING,
     pack_vehicle,
 )
+from crashlab.models.common.wheel_states import LOCKED, ROLLING
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.scene import barrier_outline
