@@ -84,10 +84,13 @@ def _centre(S, B, k, nv):
     return B[k - nv, 0], B[k - nv, 1]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined: called for every pair at every step
 def _circles_apart(S, B, radius, i, k, nv):
     """Vehicle i and vehicle or barrier k cannot touch: their bounding circles do not meet."""
-    ckx, cky = _centre(S, B, k, nv)
+    if k < nv:
+        ckx, cky = S[k, 0], S[k, 1]
+    else:
+        ckx, cky = B[k - nv, 0], B[k - nv, 1]
     return math.hypot(S[i, 0] - ckx, S[i, 1] - cky) > radius[i] + radius[k]
 
 
