@@ -96,7 +96,7 @@ class MultibodyTyre(_MultibodyPart):
 
 
 class MultibodySection(_MultibodyPart):
-    """[multibody] of a vehicle file (models/multibody/vehicle_build.py reads it; defaults there)."""
+    """[multibody] of a vehicle file (models/common/vehicle_3d.py reads it; defaults there)."""
     chassis: MultibodyChassis | None = None
     wheel: MultibodyWheel | None = None
     knuckle: MultibodyKnuckle | None = None
