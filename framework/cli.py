@@ -1,4 +1,4 @@
-"""Command line: crashlab models | simulate | compare | reconstruct | bench | stress.
+"""Command line: crashlab models | simulate | compare | reconstruct | study | bench | stress.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
@@ -149,6 +149,11 @@ def cmd_reconstruct(args):
     return run_cli(args)
 
 
+def cmd_study(args):
+    from crashlab.comparison.command import run_cli
+    return run_cli(args)
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -189,6 +194,13 @@ def build_parser():
     r.add_argument("--json", action="store_true")
     r.add_argument("--no-progress", action="store_true")
     r.set_defaults(fn=cmd_reconstruct)
+    sd = sub.add_parser("study", help="comparison studies of the models: run time against error, stability, "
+                        "scaling, validation")
+    sd.add_argument("name", help="workprecision | stability | scaling | validation | all")
+    sd.add_argument("--models", default=None, help="comma-separated model names (default: every registered model)")
+    sd.add_argument("--quick", action="store_true", help="a small configuration (minutes, not hours)")
+    sd.add_argument("--out", required=True, metavar="DIR", help="folder for the CSV files and figures")
+    sd.set_defaults(fn=cmd_study)
     return p
 
 

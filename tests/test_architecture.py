@@ -4,7 +4,7 @@
   its own package and third-party libraries: models build on a common layer, never on each other;
 - crashlab.models.common imports only the framework and third-party libraries;
 - the framework never imports a model, an optimizer or the reconstruction; only the entry points at the
-  top (cli.py, and the package's `crashlab.load_study`) reach the reconstruction.
+  top (cli.py, and the package's `crashlab.load_study`) reach the reconstruction and the comparison studies.
 """
 import ast
 from pathlib import Path
@@ -64,7 +64,9 @@ def test_framework_imports_no_model_optimizer_or_reconstruction():
     bad = []
     for f in sorted((REPO / "framework").glob("*.py")):
         for name in _imports(f, "crashlab"):
-            entry = f.name in ("cli.py", "__init__.py") and name.startswith("crashlab.reconstruction")
-            if name.startswith(("crashlab.models", "crashlab.optimizers", "crashlab.reconstruction")) and not entry:
+            entry = f.name in ("cli.py", "__init__.py") and name.startswith(("crashlab.reconstruction",
+                                                                             "crashlab.comparison"))
+            if name.startswith(("crashlab.models", "crashlab.optimizers", "crashlab.reconstruction",
+                                "crashlab.comparison")) and not entry:
                 bad.append(f"framework/{f.name} imports {name}")
     assert not bad, "\n".join(bad)

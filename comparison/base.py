@@ -1,0 +1,79 @@
+"""What every comparison study shares: the models to compare, the output folder, timing, the scenes and
+the error of a result against another."""
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from crashlab.errors import InputError
+from crashlab.registry import MODELS, UnknownPluginError, available_models, load
+from crashlab.scene import Scene, load_scene
+from crashlab.units import wrap_deg
+
+STUDIES_DIR = Path(__file__).resolve().parent.parent / "studies"
+
+
+def resolve_models(spec: str | None) -> list[str]:
+    """The models named on the command line (comma-separated), all registered ones for None."""
+    if not spec:
+        return available_models()
+    names = [m.strip() for m in spec.split(",") if m.strip()]
+    for name in names:
+        try:
+            load(MODELS, name)
+        except UnknownPluginError as err:
+            raise InputError("command line", "--models", str(err)) from None
+    return names
+
+
+def output_dir(out) -> Path:
+    """`out` created if needed; InputError when it cannot be written."""
+    path = Path(out)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(path, "--out", err.strerror or str(err)) from None
+    if not path.is_dir() or not os.access(path, os.W_OK):
+        raise InputError(path, "--out", "not a writable directory")
+    return path
+
+
+def timed(fn, repeats: int):
+    """(last result, median wall time [s]) of `fn()` over `repeats` calls after one warm-up call (numba
+    compiles, caches fill)."""
+    result = fn()
+    times = []
+    for _ in range(max(1, repeats)):
+        t = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - t)
+    return result, statistics.median(times)
+
+
+def bundled_scene(relative: str) -> Scene:
+    """A scene file under studies/ (e.g. "pc_crash/side.toml")."""
+    return load_scene(STUDIES_DIR / relative)
+
+
+def pose_error(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """Largest distance [m] and largest wrapped heading difference [deg] between two sets of poses
+    (n, 3: x, y [m], heading [rad]); NaN when either is not finite."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape or not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return math.nan, math.nan
+    dist = float(np.max(np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])))
+    head = float(np.max([abs(wrap_deg(math.degrees(d))) for d in a[:, 2] - b[:, 2]]))
+    return dist, head
+
+
+def reference_poses(scene: Scene, source: str = "pc_crash") -> np.ndarray | None:
+    """A published reference's rest poses (n, 3, SI) in the scene's vehicle order, None without one."""
+    ref = scene.references.get(source)
+    if not ref or any(n not in ref for n in scene.vehicle_names):
+        return None
+    return np.array([[ref[n]["x"], ref[n]["y"], math.radians(ref[n]["heading"])] for n in scene.vehicle_names])

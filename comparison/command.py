@@ -1,0 +1,23 @@
+"""`crashlab study NAME [--models a,b] [--quick] --out DIR`."""
+from __future__ import annotations
+
+import importlib
+
+from crashlab.errors import InputError
+
+from . import STUDIES
+from .base import output_dir, resolve_models
+
+
+def run_cli(args) -> int:
+    names = list(STUDIES) if args.name == "all" else [args.name]
+    if args.name != "all" and args.name not in STUDIES:
+        raise InputError("command line", "study", f"unknown study {args.name!r}; known: "
+                         f"{', '.join(STUDIES)}, all")
+    models = resolve_models(args.models)
+    out = output_dir(args.out)
+    for name in names:
+        module = importlib.import_module(f"crashlab.comparison.{name}")
+        path = module.run(models, out, quick=args.quick)
+        print(f"{name}: {path}")
+    return 0
