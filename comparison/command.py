@@ -20,4 +20,7 @@ def run_cli(args) -> int:
         module = importlib.import_module(f"crashlab.comparison.{name}")
         path = module.run(models, out, quick=args.quick)
         print(f"{name}: {path}")
+    if args.name == "all":
+        from .report import write_report
+        print(f"report: {write_report(out)}")
     return 0
