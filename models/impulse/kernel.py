@@ -40,8 +40,9 @@ from .laws import collision_impulse, impact_matrix
 
 # configuration vector
 (C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
- C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME) = range(19)
-N_CFG = 19
+ C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME,
+ C_BROAD_PHASE, C_SLEEPING) = range(21)
+N_CFG = 21
 # impact record
 # impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
 # summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
@@ -228,6 +229,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
     mu, e, mu_imp, law = cfg[C_MU_ROAD], cfg[C_E], cfg[C_MU_IMP], int(cfg[C_LAW])
     duration, dt, coarse_dt, rec_dt = cfg[C_DURATION], cfg[C_DT], cfg[C_COARSE_DT], cfg[C_REC_DT]
     tol, v_rest, max_imp = cfg[C_ONSET_TOL], cfg[C_V_REST], min(int(cfg[C_MAX_IMPACTS]), imp.shape[0])
+    broad, sleeping = cfg[C_BROAD_PHASE] > 0.5, cfg[C_SLEEPING] > 0.5  # study switches (comparison scaling)
     S = S0.copy()
     Snew = np.empty_like(S)
     S_before = np.empty_like(S)
@@ -263,7 +265,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             modes[i] = 0  # rolling until the first impact
         if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
             S[i, 3:6] = 0.0
-            asleep[i] = True
+            asleep[i] = sleeping
     diag[:] = 0.0
     diag[D_CONTACT_T] = math.nan
     contact[:] = math.nan
@@ -354,7 +356,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             for k in range(i + 1, nk):
                 if asleep[i] and (k >= nv or asleep[k]):
                     continue
-                if _circles_apart(Snew, B, radius, i, k, nv):
+                if broad and _circles_apart(Snew, B, radius, i, k, nv):
                     continue
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
                 if in_contact[i, k]:
@@ -392,7 +394,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             for k in range(i + 1, nk):
                 if asleep[i] and (k >= nv or asleep[k]):
                     continue
-                if _circles_apart(S, B, radius, i, k, nv):
+                if broad and _circles_apart(S, B, radius, i, k, nv):
                     in_contact[i, k] = False
                     episode[i, k] = -1
                     allowed[i, k] = 0.0
@@ -493,8 +495,8 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             if not asleep[i]:
                 if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
                     S[i, 3:6] = 0.0
-                    asleep[i] = True
-                else:
+                    asleep[i] = sleeping
+                if not asleep[i]:
                     all_asleep = False
             if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
                 status = STATUS_NAN

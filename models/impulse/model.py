@@ -108,6 +108,10 @@ class ImpulseModel(CollisionModel):
         crush_time: float = option(0.036, "the point of impact is the middle of the zone the approach speed at "
                                    "first touch would crush in this time (0: the first-touch point)", "s",
                                    ge=0, le=1.0)
+        broad_phase: bool = option(True, "study switch: False tests every pair's outlines at every step (no "
+                                   "bounding-circle rejection; same results, more work)")
+        sleeping: bool = option(True, "study switch: False integrates a vehicle at rest at every step (no sleep; "
+                                "the run then lasts the scene's duration)")
 
         @model_validator(mode="after")
         def _coarse_not_finer(self):
@@ -139,6 +143,7 @@ class ImpulseModel(CollisionModel):
         cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
         cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
         cfg[K.C_CRUSH_TIME] = self.crush_time
+        cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
         return P, S0, B, cfg
 
     # ------------------------------------------------------------------ running
