@@ -96,6 +96,8 @@ class PymunkModel(CollisionModel):
         v_rest: float = option(0.03, "speed (m/s) and yaw rate (rad/s) below which a vehicle out of contact is at "
                                "rest", "m/s", gt=0, lt=10.0)
         ground_forces: bool = option(True, "test switch: False removes the tyre/road forces (momentum checks)")
+        sleeping: bool = option(True, "study switch: False never puts a vehicle at rest to sleep (tyre forces "
+                                "evaluated at every step; the run then lasts the scene's duration)")
 
     def __init__(self, **options):
         super().__init__(**options)
@@ -103,6 +105,7 @@ class PymunkModel(CollisionModel):
         self.dt, self.iterations, self.record_dt, self.v_rest = o.dt, o.iterations, o.record_dt, o.v_rest
         self.collision_slop, self.collision_bias, self.ground_forces = o.collision_slop, o.collision_bias, \
             o.ground_forces
+        self.sleeping = o.sleeping
 
     # ------------------------------------------------------------------ running
     def simulate(self, scene) -> Outcome:
@@ -250,8 +253,11 @@ class _Run:
         self._read(S)
         self.awake = np.array([not (math.hypot(S[q, 3], S[q, 4]) < m.v_rest and abs(S[q, 5]) < m.v_rest)
                                for q in range(nv)])
+        still = ~self.awake
+        if not m.sleeping:
+            self.awake[:] = True
         for q in range(nv):
-            if not self.awake[q]:
+            if still[q]:
                 self.bodies[q].velocity, self.bodies[q].angular_velocity = (0.0, 0.0), 0.0
         self._read(S)
         mass, iz = P[:, P_MASS], P[:, P_IZ]
@@ -300,7 +306,7 @@ class _Run:
                     pushed[k] |= moving[i]
             for q in range(nv):
                 if self.awake[q]:
-                    if not moving[q] and not pushed[q]:
+                    if not moving[q] and not pushed[q] and m.sleeping:
                         self.awake[q] = False
                         self.bodies[q].velocity, self.bodies[q].angular_velocity = (0.0, 0.0), 0.0
                         S[q, 3:6] = 0.0
