@@ -306,7 +306,8 @@ def heatmap(df, name: str, path: Path) -> Path:
         for b in range(na):
             if total[a, b]:
                 ax.text((ANGLE_BINS[b] + ANGLE_BINS[b + 1]) / 2, (SPEED_BINS[a] + SPEED_BINS[a + 1]) / 2,
-                        f"{int(bad[a, b])}/{int(total[a, b])}", ha="center", va="center", fontsize=9)
+                        f"{int(bad[a, b])}/{int(total[a, b])}", ha="center", va="center", fontsize=9,
+                        color="white" if share[a, b] > 0.5 else "black")
     ax.set_xlabel("impact angle [deg] (0 rear-end, 180 head-on)")
     ax.set_ylabel("speed of V1 [km/h]")
     ax.set_xticks(ANGLE_BINS)
