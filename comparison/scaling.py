@@ -202,11 +202,13 @@ t0 = time.perf_counter()
 import crashlab
 t1 = time.perf_counter()
 cache = os.environ.get("NUMBA_CACHE_DIR", "")
-files = sum(len(f) for _, _, f in os.walk(cache)) if cache and os.path.isdir(cache) else 0
+name = sys.argv[1]
+files = sum(len(os.listdir(os.path.join(cache, d))) for d in (os.listdir(cache) if os.path.isdir(cache) else ())
+            if d.startswith(name + "_") or d.startswith("common_"))  # numba's folders: <package>_<hash>
 from crashlab.comparison.scaling import scene
 sc = scene(2, "parked")
 t2 = time.perf_counter()
-m = crashlab.get_model(sys.argv[1])
+m = crashlab.get_model(name)
 out = m.simulate(sc)
 t3 = time.perf_counter()
 print(json.dumps({"import": t1 - t0, "first_use": t3 - t2, "cache_files": files, "ok": bool(out.outcome_ok)}))
@@ -248,7 +250,7 @@ def import_rows(models: list[str], quick: bool) -> list[dict]:
                 rows.append({"what": "first use", "model": name, "seconds": r["first_use"], "numba_cache": state,
                              "note": f"get_model + simulate the 2-vehicle scene in a fresh process, after "
                                      f"import crashlab ({r['import']:.2f} s); {r['cache_files']} numba cache "
-                                     f"files before" + ("" if r["ok"] else "; the run failed")})
+                                     f"files of the model and the common layer before" + ("" if r["ok"] else "; the run failed")})
             except Exception as err:
                 rows.append({"what": "first use", "model": name, "seconds": math.nan, "numba_cache": label,
                              "note": f"failed: {err}"[:200]})
