@@ -156,6 +156,8 @@ def free_energy_rise(out, vehicle) -> tuple[float, float, float]:
     for c0, c1 in _vehicle_contacts(out, vehicle.name):
         touched |= (t[1:] >= c0 - CONTACT_PAD) & (t[:-1] <= c1 + CONTACT_PAD)
     worst, t_worst = 0.0, math.nan
+    if not np.any((np.diff(e) > 0.0) & ~touched):
+        return worst, t_worst, tol  # never rises out of contact (parked, braking, coasting): no rise at all
     lowest = e[0]
     for k in range(1, len(t)):
         if touched[k - 1]:
