@@ -21,6 +21,10 @@ SLOW_RUN_S gets one refinement fewer on that scene (exudyn on the PC-Crash cases
 - Wall time: comparison.base.timed, the median of 3 runs after a warm-up (`--quick`: 1 run). The
   converged run and its check are timed once, without a warm-up.
 
+Time on this 2-core machine (shared): `--quick`, all four models 2 min 21 s (exudyn 80 s of it). The
+full run: impulse, pymunk and multibody 8 min 34 s (measured); exudyn about 24 min (estimated from its
+quick cells: about 100 default runs' worth per PC-Crash case and on three_vehicles), so about 35 min.
+
 A failed run (outcome_ok False, or an exception) is a row with error NaN and ok False; the study goes on.
 
 Outputs: DIR/workprecision.csv (the contract: model, scene, setting, wall_time_s, error_m, error_deg,
