@@ -54,7 +54,7 @@ import numpy as np
 from crashlab.options import accuracy_knobs, describe
 from crashlab.registry import MODELS, get_model, load
 from crashlab.scene import WHEEL_STATES
-from crashlab.stress import _scene as stress_scene  # the placement `crashlab stress` uses
+from crashlab.stress import crash_scene as stress_scene  # the placement `crashlab stress` uses
 
 from .base import output_dir
 

@@ -58,9 +58,10 @@ def _crash(name: str, v1: dict, v2: dict | None, angle: float, offset: float, im
             "impact": impact, "vehicles": vehicles, "barriers": barriers}
 
 
-def _scene(*args):
-    """The first scene of _crash(*args, t_meet) without overlapping outlines at the start, t_meet from 0.4 s
-    up to 4 s (vehicles on nearly the same path at nearly the same speed never part: None)."""
+def crash_scene(*args):
+    """Two vehicles placed to collide: the first scene of _crash(*args, t_meet) without overlapping outlines
+    at the start, t_meet from 0.4 s up to 4 s (vehicles on nearly the same path at nearly the same speed
+    never part: None)."""
     for t_meet in np.arange(0.4, 4.0, 0.2):
         data = _crash(*args, t_meet=t_meet)
         try:
@@ -90,7 +91,7 @@ def random_scenes(n: int, seed: int = 0) -> list:
             v2["speed"] = 0.0
         impact = {"restitution": float(rng.uniform(0.0, 0.5)), "friction": float(rng.uniform(0.1, 0.6)),
                   "law": str(rng.choice(["kudlich-slibar", "brach"]))}
-        scene = _scene(f"random {seed}:{k}", v1, v2, float(rng.uniform(0, 360)), float(rng.uniform(-1, 1)),
+        scene = crash_scene(f"random {seed}:{k}", v1, v2, float(rng.uniform(0, 360)), float(rng.uniform(-1, 1)),
                        impact, float(rng.uniform(0.3, 1.0)), barrier)
         k += 1
         if scene is not None:
@@ -113,7 +114,7 @@ def extreme_scenes() -> list:
         ("700 kg against 3000 kg", car(mass=700.0, speed=80.0), car("suv", 3000.0, 80.0), 180.0, 0.3, False),
         ("2 deg grazing contact", car(speed=100.0), car("saloon", 1500.0, 100.0), 178.0, 1.7, False),
     ]
-    return [_scene(name, v1, v2, angle, offset, imp, 0.8, barrier)
+    return [crash_scene(name, v1, v2, angle, offset, imp, 0.8, barrier)
             for name, v1, v2, angle, offset, barrier in specs]
 
 
