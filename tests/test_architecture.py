@@ -70,3 +70,11 @@ def test_framework_imports_no_model_optimizer_or_reconstruction():
                                 "crashlab.comparison")) and not entry:
                 bad.append(f"framework/{f.name} imports {name}")
     assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("pkg", ["reconstruction", "comparison"])
+def test_applications_reach_models_through_the_registry(pkg):
+    """The reconstruction and the comparison studies name models and optimizers, never import one."""
+    bad = [f"{f.relative_to(REPO)} imports {name}" for f in sorted((REPO / pkg).glob("*.py"))
+           for name in _imports(f, f"crashlab.{pkg}") if name.startswith(("crashlab.models", "crashlab.optimizers"))]
+    assert not bad, "\n".join(bad)
