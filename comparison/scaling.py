@@ -250,7 +250,8 @@ def import_rows(models: list[str], quick: bool) -> list[dict]:
                 rows.append({"what": "first use", "model": name, "seconds": r["first_use"], "numba_cache": state,
                              "note": f"get_model + simulate the 2-vehicle scene in a fresh process, after "
                                      f"import crashlab ({r['import']:.2f} s); {r['cache_files']} numba cache "
-                                     f"files of the model and the common layer before" + ("" if r["ok"] else "; the run failed")})
+                                     f"files of the model and the common layer before"
+                                     + ("" if r["ok"] else "; the run failed")})
             except Exception as err:
                 rows.append({"what": "first use", "model": name, "seconds": math.nan, "numba_cache": label,
                              "note": f"failed: {err}"[:200]})
@@ -314,8 +315,3 @@ def run(models: list[str], out, quick: bool) -> Path:
 def rows_frame(rows: list[dict]) -> pd.DataFrame:
     """Rows of scaling.csv as its frame (exact columns)."""
     return pd.DataFrame(rows, columns=COLUMNS)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    m = sys.argv[1].split(",") if len(sys.argv) > 1 else ["impulse"]
-    print(run(m, Path(sys.argv[2] if len(sys.argv) > 2 else "scaling_out"), quick=True))

@@ -21,9 +21,8 @@ from __future__ import annotations
 import csv
 import math
 import time
-from pathlib import Path
-
 import tomllib
+from pathlib import Path
 
 from .base import STUDIES_DIR
 

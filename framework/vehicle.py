@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Annotated
 
-import tomllib
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 from .errors import InputError

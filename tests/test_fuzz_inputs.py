@@ -25,10 +25,10 @@ import random
 import re
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
-import tomllib
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES = sorted((REPO / "studies" / "pc_crash").glob("*.toml")) + \
