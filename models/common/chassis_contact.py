@@ -78,12 +78,25 @@ def _zrange(kind, sh, r, A):
 @njit(cache=True)
 def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
              cfg_v1, cfg_vs, cfg_vmin):
+    """`contacts_awake` with every vehicle awake (every pair is evaluated)."""
+    contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+                   cfg_v1, cfg_vs, cfg_vmin, np.ones(0, np.bool_))
+
+
+@njit(cache=True)
+def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+                   cfg_v1, cfg_vs, cfg_vmin, awake):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
     CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
-    Broad phase (§11), cheapest first: plan bounding circles, height ranges, oriented boxes (a
+    awake (nv flags, or empty: all awake): a pair not in contact whose vehicles both sleep (a barrier
+    counts as asleep) is skipped (no force, psg[p, G_DEL] = -1, not counted in BPC): neither moves, so
+    it cannot come into contact (the integrator wakes a vehicle only through a pair evaluated with it awake).
+    Broad phase (§11), cheapest first: plan bounding circles (first a looser test on the chassis CGs with
+    the radii grown by the shapes' offsets, before any rotation is built), height ranges, oriented boxes (a
     superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
     also measures its separation speed); BPC counts what each stage removed."""
     nv = Y.shape[0]
+    use_awake = awake.shape[0] > 0
     FX[:, :] = 0.0
     A1 = np.empty((3, 3))
     A2 = np.empty((3, 3))
@@ -93,7 +106,27 @@ def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
         psg[p, :] = 0.0
         psg[p, G_DEL] = -1.0
+        if use_awake and PST[p, S_ACT] == 0.0 and not awake[i] and (j >= nv or not awake[j]):
+            PST[p, S_THOK] = 0.0
+            continue
         BPC[B_PAIRS] += 1
+        # cheap circle gate on the CGs: the shape centre lies within |(x_off, z_off)| of the CG
+        sh1 = CSH[i]
+        if j < nv:
+            sh2 = CSH[j]
+            cx2, cy2 = Y[j, 0], Y[j, 1]
+            o2 = math.sqrt(sh2[5] ** 2 + sh2[6] ** 2)
+        else:
+            sh2 = BOXE[j - nv]
+            cx2, cy2 = BOXR[j - nv, 0], BOXR[j - nv, 1]
+            o2 = 0.0
+        reach = (math.sqrt(sh1[0] ** 2 + sh1[1] ** 2) + math.sqrt(sh2[0] ** 2 + sh2[1] ** 2) + 0.05
+                 + math.sqrt(sh1[5] ** 2 + sh1[6] ** 2) + o2)
+        dx, dy = cx2 - Y[i, 0], cy2 - Y[i, 1]
+        if dx * dx + dy * dy > reach * reach:
+            PST[p, S_THOK] = 0.0
+            BPC[B_CIRCLE] += 1
+            continue
         r1, v1, om1 = chassis_pose(Y[i], nq, A1)
         sh1 = CSH[i]
         for k in range(3):

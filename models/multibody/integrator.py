@@ -3,7 +3,8 @@ vehicles of a scene at once (one step size, error norm over the awake vehicles).
 
 Scene awareness: step sizes grow up to h_max while nothing happens; a vehicle whose chassis has been
 still (speed < v_rest, angular speed < w_rest) for t_sleep goes to sleep (velocities zeroed, no more
-force evaluations); the run ends when every vehicle sleeps (stop_at_rest) or at t_end.
+force evaluations; a vehicle the scene starts at rest starts asleep, ASLEEP0); the run ends when every vehicle
+sleeps (stop_at_rest) or at t_end. Vehicle pairs of two sleeping vehicles are not evaluated.
 Vehicle contact (common/chassis_contact.py) is evaluated in every stage. First-contact control (Flores & Ambrosio 2010,
 docs/physics.md §15): a trial step that passes the error test but ends with a pair not yet in contact
 penetrating deeper than onset_tol is bisected (re-integrated from its start) until the new penetration
@@ -17,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts
+from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts_awake
 from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
 from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
 from crashlab.models.common.rotations import rotation_entries, rotation_into
@@ -94,8 +95,8 @@ def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
     CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
     KR, RSG = RD
     if PP.shape[0] > 0:
-        contacts(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, cfg[C_NEXP], cfg[C_CHI],
-                 cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN])
+        contacts_awake(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, cfg[C_NEXP],
+                       cfg[C_CHI], cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN], awake)
     else:
         FX[:, :] = 0.0
     # chassis-road contact (regularised Coulomb with the road's friction)
@@ -277,11 +278,13 @@ def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
 
 @njit(cache=True)
 def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events,
-             IMP, CONT, RD):
+             IMP, CONT, RD, ASLEEP0):
     """Integrate all vehicles from Y (modified in place) until rest or t_end, with vehicle contact
     (common/chassis_contact.py): first-contact control (no step ends with a new contact deeper than onset_tol),
     per-pair contact episodes recorded in IMP, state at first contact in CONT; chassis-road contact
-    (common/road_contact.py, RD = (KR, RSG[7, nv, N_RSG]))."""
+    (common/road_contact.py, RD = (KR, RSG[7, nv, N_RSG])). ASLEEP0[v]: vehicle v starts asleep in its
+    start state (velocities zeroed) unless it penetrates another body at the start; it wakes on contact like
+    any sleeping vehicle."""
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
@@ -306,6 +309,20 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
     _headings(Y, BODY, head, head)
     eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
     fz_start[:, :] = aux[:, AUX_FZ:AUX_FZ + 4]
+    # vehicles starting asleep (the first evaluation above had every vehicle awake: all pairs measured)
+    for v in range(nv):
+        if not ASLEEP0[v]:
+            continue
+        touching = False
+        for p in range(npair):
+            if (int(PP[p, P_I]) == v or int(PP[p, P_J]) == v) and PSG[0, p, G_DEL] > 0.0:
+                touching = True
+        if not touching:
+            awake[v] = False
+            fz_end[v, :] = aux[v, AUX_FZ:AUX_FZ + 4]
+            Y[v, nq:nvq] = 0.0
+            K[0, v, :] = 0.0
+    Ytmp[:, :] = Y    # a sleeping vehicle's stage state (dp_step writes only the awake ones)
     nfev = 1
     nrec = _record(traj, 0, 0.0, Y, BODY, head, aux, RSG[0], road, SPR, TYR, cfg[C_G])
     t_rec = rec_dt

@@ -121,7 +121,7 @@ class MultibodyModel(CollisionModel):
                                                                    np.zeros((0, 5)), 1),
                        np.zeros(1, np.bool_), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
                        np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, N_IMP)), np.zeros((1, 4)),
-                       _road_arrays([veh.mass]))
+                       _road_arrays([veh.mass]), np.zeros(1, np.bool_))
             y = Y[0]
             nq, nvq, _ = E.sizes(NB, NW)
             y[nq:] = 0.0
@@ -196,8 +196,13 @@ class MultibodyModel(CollisionModel):
         CSH = np.array([v.chassis_shape for v in vehs])
         PP = pair_table(len(vehs), len(scene.barriers), self.options.contact_stiffness, self.options.contact_exponent)
         LOCK = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles], dtype=np.bool_)
+        # a vehicle at rest in the scene starts asleep in its settled state (unless sleeping cannot happen in
+        # this run: t_sleep >= duration, e.g. the scaling study's sleeping off)
+        can_sleep = self.options.t_sleep < scene.duration
+        ASLEEP = np.array([can_sleep and vs.speed == 0 and vs.yaw_rate == 0 for vs in scene.vehicles],
+                          dtype=np.bool_)
         return {"Y": Y, "BODY": BODY, "SPR": SPR, "JNT": JNT, "TYR": TYR, "BAR": BAR, "cfg": cfg,
-                "vehicles": vehs, "CSH": CSH, "PP": PP, "LOCK": LOCK}
+                "vehicles": vehs, "CSH": CSH, "PP": PP, "LOCK": LOCK, "ASLEEP": ASLEEP}
 
     def run(self, scene, prep, t0=None) -> Outcome:
         t0 = time.perf_counter() if t0 is None else t0
@@ -217,7 +222,7 @@ class MultibodyModel(CollisionModel):
         IMP = np.zeros((MAX_IMP, N_IMP))
         CONT = np.full((nv, 4), np.nan)
         I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["LOCK"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
-                   CONT, _road_arrays([v.mass for v in vehs]))
+                   CONT, _road_arrays([v.mass for v in vehs]), prep["ASLEEP"])
         nr = int(diag[I.D_NREC])
         status = int(diag[I.D_STATUS])
         warnings, ok = [], True
