@@ -67,7 +67,7 @@ def pose_error(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     if a.shape != b.shape or not (np.isfinite(a).all() and np.isfinite(b).all()):
         return math.nan, math.nan
     dist = float(np.max(np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])))
-    head = float(np.max([abs(wrap_deg(math.degrees(d))) for d in a[:, 2] - b[:, 2]]))
+    head = float(np.max(np.abs(wrap_deg(np.degrees(a[:, 2] - b[:, 2])))))
     return dist, head
 
 
@@ -77,3 +77,48 @@ def reference_poses(scene: Scene, source: str = "pc_crash") -> np.ndarray | None
     if not ref or any(n not in ref for n in scene.vehicle_names):
         return None
     return np.array([[ref[n]["x"], ref[n]["y"], math.radians(ref[n]["heading"])] for n in scene.vehicle_names])
+
+
+# ----------------------------------------------------------------- accuracy knobs
+def model_schema(name: str):
+    """The model's option schema (None when it declares none)."""
+    return getattr(load(MODELS, name), "Options", None)
+
+
+def knob_value(default, direction: str, factor: float):
+    """The knob's value `factor` times its default in the finer direction (factor < 1: finer): for a
+    "smaller" knob default * factor, for a "larger" one default / factor; integers rounded (at least 1
+    step away from the default when the factor is not 1)."""
+    value = default * factor if direction == "smaller" else default / factor
+    if isinstance(default, bool):
+        return default
+    if isinstance(default, int):
+        value = int(round(value))
+        if factor != 1 and value == default:  # at least one step away from the default
+            finer_up = direction == "larger"
+            value += 1 if finer_up == (factor < 1) else -1
+    return value
+
+
+def valid_setting(schema, setting: dict) -> bool:
+    try:
+        schema(**setting)
+        return True
+    except Exception:  # pydantic ValidationError or a model validator's ValueError: out of range
+        return False
+
+
+def knob_values(schema, knob: str, direction: str, factors) -> list[tuple[float, object]]:
+    """(factor, value) of one knob, coarse -> fine, the schema's refused values and duplicates left out."""
+    default = schema.model_fields[knob].default
+    out, seen = [], set()
+    for f in factors:
+        try:
+            v = knob_value(default, direction, f)
+        except TypeError:  # a knob without a numeric default cannot be scaled
+            return [(1.0, default)]
+        if v in seen or not valid_setting(schema, {knob: v}):
+            continue
+        seen.add(v)
+        out.append((f, v))
+    return out

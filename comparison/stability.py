@@ -52,11 +52,11 @@ from pathlib import Path
 import numpy as np
 
 from crashlab.options import accuracy_knobs, describe
-from crashlab.registry import MODELS, get_model, load
+from crashlab.registry import get_model
 from crashlab.scene import WHEEL_STATES
 from crashlab.stress import crash_scene as stress_scene  # the placement `crashlab stress` uses
 
-from .base import output_dir
+from .base import knob_values, model_schema, output_dir
 
 SPEED = (5.0, 200.0)  # km/h, V1
 V2_SHARE = 0.5  # V2's speed over V1's
@@ -117,37 +117,20 @@ def sample(n: int, seed: int = 0) -> list[tuple[int, dict, object]]:
 
 
 # ---------------------------------------------------------------- settings
-def _model_class(name: str):
-    return load(MODELS, name)
-
-
 def step_knob(name: str) -> str | None:
     """The model's step-size knob: its first accuracy knob with unit s, else its first accuracy knob."""
-    rows = [r for r in describe(getattr(_model_class(name), "Options", None)) if r["accuracy"]]
+    rows = [r for r in describe(model_schema(name)) if r["accuracy"]]
     timed = [r["name"] for r in rows if r["unit"] == "s"]
     return (timed or [r["name"] for r in rows] or [None])[0]
 
 
 def coarse_settings(name: str, knobs: list[str] | None = None, factors=FACTORS) -> list[tuple[str, int, dict]]:
     """(knob, factor, setting) for each knob (all accuracy knobs for None) made coarser by each factor,
-    keeping only settings inside the option's declared range."""
-    schema = getattr(_model_class(name), "Options", None)
+    keeping only settings inside the option's declared range (base.knob_values, as the work-precision study)."""
+    schema = model_schema(name)
     directions = accuracy_knobs(schema)
-    out = []
-    for knob in (directions if knobs is None else knobs):
-        default = schema.model_fields[knob].default
-        for f in factors:
-            value = default * f if directions[knob] == "smaller" else default / f
-            if isinstance(default, int) and not isinstance(default, bool):
-                value = max(1, int(round(value)))
-                if value == default:
-                    continue
-            try:
-                schema(**{knob: value})
-            except ValueError:  # outside the declared range (pydantic's ValidationError is a ValueError)
-                continue
-            out.append((knob, f, {knob: value}))
-    return out
+    return [(knob, f, {knob: value}) for knob in (directions if knobs is None else knobs)
+            for f, value in knob_values(schema, knob, directions[knob], factors) if f != 1]
 
 
 # ---------------------------------------------------------------- runs
@@ -247,8 +230,8 @@ def largest_stable_step(df, name: str) -> tuple[float, int]:
     knob = step_knob(name)
     if knob is None:
         return math.nan, 0
-    default = _model_class(name).Options.model_fields[knob].default
-    finer_is_smaller = accuracy_knobs(_model_class(name).Options)[knob] == "smaller"
+    default = model_schema(name).model_fields[knob].default
+    finer_is_smaller = accuracy_knobs(model_schema(name))[knob] == "smaller"
     values = {default: df[(df.model == name) & (df.setting == "{}")]}
     for s, g in df[df.model == name].groupby("setting"):
         d = json.loads(s)
@@ -274,8 +257,8 @@ def summary_table(df):
         coarse = df[(df.model == m) & (df.setting != "{}")]
         stable, scenes = largest_stable_step(df, m)
         tested = [json.loads(x)[knob] for x in coarse.setting.unique() if knob and list(json.loads(x)) == [knob]]
-        default = _model_class(m).Options.model_fields[knob].default if knob else math.nan
-        coarsest = (max if accuracy_knobs(_model_class(m).Options)[knob] == "smaller" else min)(
+        default = model_schema(m).model_fields[knob].default if knob else math.nan
+        coarsest = (max if accuracy_knobs(model_schema(m))[knob] == "smaller" else min)(
             tested, default=default) if knob else math.nan
         rows.append({"model": m, **_cell(g), "step_knob": knob or "",
                      "default_step": default,

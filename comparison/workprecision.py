@@ -58,9 +58,19 @@ import pandas as pd
 
 from crashlab.errors import InputError
 from crashlab.options import accuracy_knobs
-from crashlab.registry import MODELS, get_model, load
+from crashlab.registry import get_model
 
-from .base import bundled_scene, output_dir, pose_error, reference_poses, timed
+from .base import (
+    bundled_scene,
+    knob_value,
+    knob_values,
+    model_schema,
+    output_dir,
+    pose_error,
+    reference_poses,
+    timed,
+    valid_setting,
+)
 
 SCENES = {
     "head_on": "pc_crash/head_on.toml",
@@ -83,45 +93,6 @@ CONVERGED_COLUMNS = ["model", "scene", "factor", "setting", "wall_time_s", "ok",
 
 
 # ----------------------------------------------------------------------------------- settings
-def knob_value(default, direction: str, factor: float):
-    """The knob's value `factor` times its default in the finer direction (factor < 1: finer): for a
-    "smaller" knob default * factor, for a "larger" one default / factor; integers rounded (at least 1
-    step away from the default when the factor is not 1)."""
-    value = default * factor if direction == "smaller" else default / factor
-    if isinstance(default, bool):
-        return default
-    if isinstance(default, int):
-        value = int(round(value))
-        if factor != 1 and value == default:  # at least one step away from the default
-            finer_up = direction == "larger"
-            value += 1 if finer_up == (factor < 1) else -1
-    return value
-
-
-def _valid(schema, setting: dict) -> bool:
-    try:
-        schema(**setting)
-        return True
-    except Exception:  # pydantic ValidationError or a model validator's ValueError: out of range
-        return False
-
-
-def knob_values(schema, knob: str, direction: str, factors) -> list[tuple[float, object]]:
-    """(factor, value) of one knob, coarse -> fine, the schema's refused values and duplicates left out."""
-    default = schema.model_fields[knob].default
-    out, seen = [], set()
-    for f in factors:
-        try:
-            v = knob_value(default, direction, f)
-        except TypeError:  # a knob without a numeric default cannot be scaled
-            return [(1.0, default)]
-        if v in seen or not _valid(schema, {knob: v}):
-            continue
-        seen.add(v)
-        out.append((f, v))
-    return out
-
-
 def all_knobs(schema, knobs: dict, factor: float) -> dict:
     """Every knob at `factor` at once (a knob whose value the schema refuses stays at its finest valid
     value of the factors down to 1)."""
@@ -135,7 +106,7 @@ def all_knobs(schema, knobs: dict, factor: float) -> dict:
             except TypeError:
                 v = default
                 break
-            if _valid(schema, {**setting, knob: v}) or f >= 1:
+            if valid_setting(schema, {**setting, knob: v}) or f >= 1:
                 break
             f *= 2
         if v != default:
@@ -148,11 +119,6 @@ def setting_json(setting: dict) -> str:
 
 
 # ----------------------------------------------------------------------------------- runs
-def model_schema(name: str):
-    """The model's option schema (None when it declares none)."""
-    return getattr(load(MODELS, name), "Options", None)
-
-
 def check_knobs(models) -> None:
     """InputError for a model that declares no accuracy knob (nothing to sweep)."""
     for name in models:
