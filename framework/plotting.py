@@ -4,18 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .scene import barrier_outline, vehicle_outline
-from .units import deg_to_rad, ms_to_kmh
-
-
-def _end_label(outcome, i: int) -> str:
-    """'rest' or 'end pose (moving N km/h)' (crashlab.outcome; computed here for an older Outcome)."""
-    if hasattr(outcome, "pose_label"):
-        return outcome.pose_label(i)
-    final = getattr(outcome, "final_si", None)
-    if final is None:
-        return "rest"
-    speed = float(np.hypot(final[i, 0], final[i, 1]))
-    return "rest" if speed <= 0.1 and abs(final[i, 2]) <= 0.1 else f"end pose (moving {ms_to_kmh(speed):.1f} km/h)"
+from .units import deg_to_rad
 
 
 def _arrow(ax, x, y, h, length, colour, **kw):
@@ -46,7 +35,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
         r = outcome.rest_si[i]
         if outcome.outcome_ok and np.all(np.isfinite(r)):
             heading = (np.degrees(r[2]) + 180.0) % 360.0 - 180.0
-            poses.append(((r[0], r[1], r[2]), "-", f"{_end_label(outcome, i)}, heading {heading:.1f} deg"))
+            poses.append(((r[0], r[1], r[2]), "-", f"{outcome.pose_label(i)}, heading {heading:.1f} deg"))
         for (x, y, h), ls, label in poses:
             poly = vehicle_outline(v, x, y, h)
             poly = np.vstack([poly, poly[:1]])

@@ -554,7 +554,6 @@ class _Run:
                        "vehicle_notes": {n: self.vehs[v].notes for v, n in enumerate(self.names)},
                        "solver": "exudyn generalized-alpha (index 3), adaptive step, trapezoidal contact loads"}
         wall = time.perf_counter() - t0
-        diagnostics["wall_time_s"] = wall
         out = Outcome(self.names, rest, final, self.contact, self.contact_time, trajectories, rows, diagnostics,
                       warnings, ok, "exudyn", wall, contact_intervals=sorted(self.intervals))
         if ok and overlap is not None:
