@@ -156,16 +156,17 @@ def free_energy_rise(out, vehicle) -> tuple[float, float, float]:
     for c0, c1 in _vehicle_contacts(out, vehicle.name):
         touched |= (t[1:] >= c0 - CONTACT_PAD) & (t[:-1] <= c1 + CONTACT_PAD)
     worst, t_worst = 0.0, math.nan
-    if not np.any((np.diff(e) > 0.0) & ~touched):
-        return worst, t_worst, tol  # never rises out of contact (parked, braking, coasting): no rise at all
-    lowest = e[0]
-    for k in range(1, len(t)):
-        if touched[k - 1]:
-            lowest = e[k]
+    # a touched step starts a new free stretch at its end sample; within a stretch the rise at sample k is
+    # e[k] minus the lowest energy since the stretch began
+    starts = np.concatenate(([0], np.flatnonzero(touched) + 1))
+    for s, end in zip(starts, np.append(starts[1:], len(t))):
+        if end - s < 2:
             continue
-        lowest = min(lowest, e[k - 1])
-        if e[k] - lowest > worst:
-            worst, t_worst = e[k] - lowest, t[k]
+        seg = e[s:end]
+        rise = seg[1:] - np.minimum.accumulate(seg)[:-1]
+        j = int(np.argmax(rise))
+        if rise[j] > worst:
+            worst, t_worst = float(rise[j]), float(t[s + 1 + j])
     return worst, t_worst, tol
 
 
