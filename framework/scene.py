@@ -44,9 +44,18 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+class ZoneFile(_Strict):
+    """A friction polygon of the road (docs/physics.md §2a): a wheel standing in it takes its friction."""
+    friction: Real = Field(ge=0, le=FRICTION_MAX, description=f"tyre-road friction in the zone; [0, {FRICTION_MAX:g}]")
+    polygon: list[tuple[Position, Position]] = Field(
+        min_length=3, description="m, corners [[x, y], ...] in order (either sense); at least three, not crossing")
+    name: Name | None = None
+
+
 class RoadFile(_Strict):
     friction: Real = Field(default=0.8, ge=0, le=FRICTION_MAX,
                            description=f"tyre-road friction coefficient; [0, {FRICTION_MAX:g}], 0 = ice")
+    zones: list[ZoneFile] = Field(default_factory=list, description="friction polygons; later zones win")
 
 
 class ImpactFile(_Strict):
@@ -66,6 +75,19 @@ Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\
                             description="1-64 characters, no control characters (it labels tables and plots)")]
 
 
+class ActionFile(_Strict):
+    """A driver action (docs/physics.md §2a): from `t` on, the wheel state and/or brake and steer change;
+    brake and steer move linearly from their previous values over `ramp`; each action holds until the next."""
+    t: Real = Field(ge=0, le=DURATION_MAX, description=f"s after the start; [0, {DURATION_MAX:g}]")
+    wheels: WheelState | None = None
+    brake: Real | None = Field(default=None, ge=0, le=1,
+                               description="fraction of full braking force without locking; [0, 1]")
+    steer: Real | None = Field(default=None, ge=-STEER_MAX, le=STEER_MAX,
+                               description=f"deg, front-wheel angle; |value| <= {STEER_MAX:g}")
+    ramp: Real = Field(default=0.0, ge=0, le=DURATION_MAX,
+                       description="s over which brake and steer move from their previous values; >= 0")
+
+
 class VehicleEntryFile(_Strict):
     name: Name
     vehicle: str = Field(min_length=1, description="a library name (crashlab models) or a .toml path")
@@ -78,6 +100,7 @@ class VehicleEntryFile(_Strict):
     wheels: WheelState = "rolling"
     steer: Real = Field(default=0.0, ge=-STEER_MAX, le=STEER_MAX, description=f"deg; |value| <= {STEER_MAX:g}")
     overrides: dict = Field(default_factory=dict, description="vehicle-file keys: checked as the vehicle file")
+    actions: list[ActionFile] = Field(default_factory=list, description="driver actions, in time order")
 
 
 class BarrierFile(_Strict):
@@ -114,8 +137,27 @@ class SceneFile(_Strict):
 
 # ---------------------------------------------------------------- the scene (SI)
 @dataclasses.dataclass(frozen=True)
+class Zone:
+    """A friction polygon (SI): corners as ((x, y), ...), counter-clockwise or clockwise."""
+    friction: float
+    polygon: tuple[tuple[float, float], ...]
+    name: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
 class Road:
     friction: float = 0.8
+    zones: tuple[Zone, ...] = ()  # later zones win where zones overlap
+
+
+@dataclasses.dataclass(frozen=True)
+class Action:
+    """A driver action (SI: s, rad): None keeps the previous value; brake and steer ramp linearly."""
+    t: float
+    wheels: str | None = None
+    brake: float | None = None
+    steer: float | None = None
+    ramp: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,6 +184,7 @@ class VehicleState:
     yaw_rate: float = 0.0
     wheels: str = "rolling"
     steer: float = 0.0
+    actions: tuple[Action, ...] = ()  # in time order (checked when read); wheels and steer hold before
 
 
 @dataclasses.dataclass(frozen=True)
@@ -245,6 +288,59 @@ def start_overlaps(scene: Scene) -> list[tuple[str, str]]:
     return hits
 
 
+def polygon_problem(points) -> str | None:
+    """Why a polygon (corners in order) cannot be a zone, or None: it must enclose an area and no two of its
+    edges may cross or touch except neighbours at their shared corner (segment test by orientations)."""
+    pts = [tuple(map(float, p)) for p in points]
+    n = len(pts)
+    area2 = sum(pts[k][0] * pts[(k + 1) % n][1] - pts[(k + 1) % n][0] * pts[k][1] for k in range(n))
+    if abs(area2) < 1e-9:
+        return "encloses no area"
+
+    def orient(a, b, c):
+        d = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        return (d > 1e-12) - (d < -1e-12)
+
+    def on_segment(a, b, c):  # c collinear with a-b: does it lie on the segment?
+        return min(a[0], b[0]) - 1e-12 <= c[0] <= max(a[0], b[0]) + 1e-12 and \
+            min(a[1], b[1]) - 1e-12 <= c[1] <= max(a[1], b[1]) + 1e-12
+
+    for i in range(n):
+        a, b = pts[i], pts[(i + 1) % n]
+        for j in range(i + 1, n):
+            if j == i + 1 or (i == 0 and j == n - 1):  # neighbours share a corner
+                continue
+            c, d = pts[j], pts[(j + 1) % n]
+            o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
+            if (o1 != o2 and o3 != o4) or (o1 == 0 and on_segment(a, b, c)) or (o2 == 0 and on_segment(a, b, d)) \
+                    or (o3 == 0 and on_segment(c, d, a)) or (o4 == 0 and on_segment(c, d, b)):
+                return f"edges {i} and {j} cross (the polygon intersects itself)"
+    return None
+
+
+def _actions(v, i: int, duration: float, source) -> tuple[Action, ...]:
+    """The vehicle's actions in SI, checked: in time order, within the run, each changing something, each
+    ramp over before the next action starts."""
+    acts = v.actions
+    for k, a in enumerate(acts):
+        key = f"vehicles.{i}.actions.{k}"
+        if a.wheels is None and a.brake is None and a.steer is None:
+            raise InputError(source, key, "an action sets wheels, brake and/or steer; this one sets none")
+        if a.t > duration:
+            raise InputError(source, f"{key}.t", f"t = {a.t:g} s is after the end of the run (duration "
+                             f"{duration:g} s)")
+        if k and a.t <= acts[k - 1].t:
+            raise InputError(source, f"{key}.t", f"actions out of time order: t = {a.t:g} s is not after "
+                             f"the previous action's t = {acts[k - 1].t:g} s")
+    for k, a in enumerate(acts):
+        key = f"vehicles.{i}.actions.{k}"
+        if k + 1 < len(acts) and a.t + a.ramp > acts[k + 1].t:
+            raise InputError(source, f"{key}.ramp", f"ramp = {a.ramp:g} s is longer than the {acts[k + 1].t - a.t:g}"
+                             " s to the next action")
+    return tuple(Action(t=a.t, wheels=a.wheels, brake=a.brake, ramp=a.ramp,
+                        steer=None if a.steer is None else deg_to_rad(a.steer)) for a in acts)
+
+
 def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path | None = None) -> Scene:
     """Validate a scene given as a dict in file units and convert it to SI."""
     try:
@@ -260,8 +356,15 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
             name=v.name,
             spec=load_vehicle(v.vehicle, base_dir, v.overrides, where=f"vehicles.{i}", scene_file=source),
             x=v.x, y=v.y, heading=deg_to_rad(v.heading), speed=kmh_to_ms(v.speed),
-            yaw_rate=deg_to_rad(v.yaw_rate), wheels=v.wheels, steer=deg_to_rad(v.steer))
+            yaw_rate=deg_to_rad(v.yaw_rate), wheels=v.wheels, steer=deg_to_rad(v.steer),
+            actions=_actions(v, i, f.duration, source))
         for i, v in enumerate(f.vehicles))
+    for k, z in enumerate(f.road.zones):
+        why = polygon_problem(z.polygon)
+        if why:
+            raise InputError(source, f"road.zones.{k}.polygon", why)
+    zones = tuple(Zone(friction=z.friction, polygon=tuple(tuple(p) for p in z.polygon), name=z.name or f"zone {k}")
+                  for k, z in enumerate(f.road.zones))
     imp = f.impact
     if (imp.point is None) != (imp.plane_angle is None):
         raise InputError(source, "impact.point" if imp.point is None else "impact.plane_angle",
@@ -269,7 +372,7 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
     scene = Scene(
         name=f.name,
         vehicles=vehicles,
-        road=Road(friction=f.road.friction),
+        road=Road(friction=f.road.friction, zones=zones),
         impact=Impact(restitution=imp.restitution, friction=imp.friction, law=imp.law,
                       force_law=imp.force_law, friction_law=imp.friction_law,
                       point=None if imp.point is None else tuple(imp.point),

@@ -1,0 +1,141 @@
+"""What a wheel gets at time t at a point of the road (docs/physics.md §2a), one implementation for every model.
+
+* Driver actions: each vehicle's wheel state, brake fraction and front-wheel steer angle over time, from the
+  scene's start state and its `actions` (each holds until the next; brake and steer move linearly over the
+  action's ramp). `pack_actions` turns them into a table once; `driver_inputs(A, n, t)` reads it (compiled or
+  pure Python: register_jitable).
+* Friction zones: the road friction at a point from the scene's friction polygons (later zones win).
+  `pack_zones` packs them once; `road_friction(x, y, ...)` reads them.
+
+A zone boundary is blended over a tyre contact patch: the friction at a wheel is the friction of the zone
+weighted by the share of a patch of length PATCH centred on the wheel that lies inside it (linear in the
+signed distance to the boundary). The friction force then has no jump as a wheel crosses a boundary within a
+step (fixed-step models see at most a change of (mu_in - mu_out) / PATCH per metre travelled; adaptive ones no
+discontinuity to reject steps over), and the work of friction across a boundary equals that of the sharp
+boundary, because the blend is symmetric about it: a stopping distance across a zone keeps its analytic value.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from .wheel_states import BRAKED, LOCKED, LOCKED_AFTER_IMPACT, ROLLING, WHEEL_CODES
+
+# one row per action of one vehicle, row 0 the start state:
+# t at which the action starts, t at which its ramp ends, wheel-state code, brake and steer before and after
+A_T, A_T_END, A_MODE, A_BRAKE_FROM, A_BRAKE_TO, A_STEER_FROM, A_STEER_TO = range(7)
+N_ACTION_COLUMNS = 7
+
+PATCH = 0.2  # m: length of a passenger-car tyre's contact patch (about 0.15-0.2 m), the zone-boundary blend
+
+
+def pack_actions(vs) -> np.ndarray:
+    """The action table (rows x N_ACTION_COLUMNS) of one VehicleState: row 0 holds the start state (wheels,
+    steer, brake 0) from t = -inf; each action a row from its t."""
+    mode, brake, steer = WHEEL_CODES[vs.wheels], 0.0, vs.steer
+    rows = [(-math.inf, -math.inf, mode, brake, brake, steer, steer)]
+    for a in vs.actions:
+        mode = WHEEL_CODES[a.wheels] if a.wheels is not None else mode
+        brake_to = brake if a.brake is None else a.brake
+        steer_to = steer if a.steer is None else a.steer
+        rows.append((a.t, a.t + a.ramp, mode, brake, brake_to, steer, steer_to))
+        brake, steer = brake_to, steer_to
+    return np.array(rows, dtype=np.float64)
+
+
+def pack_action_tables(vehicles) -> tuple[np.ndarray, np.ndarray]:
+    """All vehicles' tables in one array (vehicles x rows x columns, padded with the last row) and the
+    number of rows of each."""
+    tables = [pack_actions(v) for v in vehicles]
+    n = np.array([len(t) for t in tables], dtype=np.int64)
+    A = np.empty((len(tables), int(n.max()), N_ACTION_COLUMNS))
+    for i, t in enumerate(tables):
+        A[i, :len(t)] = t
+        A[i, len(t):] = t[-1]
+    return A, n
+
+
+@register_jitable
+def driver_inputs(A, n, t):
+    """(wheel-state code, brake fraction, steer angle [rad]) of one vehicle at time t from its action table
+    A (n rows). A `braked` wheel state brakes fully without locking: its brake fraction is 1."""
+    k = n - 1
+    while k > 0 and t < A[k, A_T]:
+        k -= 1
+    mode = int(A[k, A_MODE])
+    if t >= A[k, A_T_END]:
+        brake, steer = A[k, A_BRAKE_TO], A[k, A_STEER_TO]
+    else:
+        f = (t - A[k, A_T]) / (A[k, A_T_END] - A[k, A_T])
+        brake = A[k, A_BRAKE_FROM] + f * (A[k, A_BRAKE_TO] - A[k, A_BRAKE_FROM])
+        steer = A[k, A_STEER_FROM] + f * (A[k, A_STEER_TO] - A[k, A_STEER_FROM])
+    if mode == BRAKED:
+        brake = 1.0
+    return mode, brake, steer
+
+
+@register_jitable
+def effective_mode(mode, struck):
+    """The wheel state the tyre law uses: `locked_after_impact` rolls until the vehicle is struck, then locks
+    (until an action sets another wheel state)."""
+    if mode == LOCKED_AFTER_IMPACT:
+        return LOCKED if struck else ROLLING
+    return mode
+
+
+def pack_zones(road) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The road's zones as arrays: corners (all zones, x y), start index of each zone's corners (zones + 1),
+    friction per zone, bounding box per zone (x_min, x_max, y_min, y_max, widened by PATCH / 2)."""
+    zones = road.zones
+    corners = np.array([p for z in zones for p in z.polygon], dtype=np.float64).reshape(-1, 2)
+    start = np.zeros(len(zones) + 1, dtype=np.int64)
+    start[1:] = np.cumsum([len(z.polygon) for z in zones])
+    mu = np.array([z.friction for z in zones], dtype=np.float64)
+    box = np.empty((len(zones), 4))
+    for k, z in enumerate(zones):
+        pts = np.asarray(z.polygon, dtype=np.float64)
+        box[k] = (pts[:, 0].min() - PATCH / 2, pts[:, 0].max() + PATCH / 2,
+                  pts[:, 1].min() - PATCH / 2, pts[:, 1].max() + PATCH / 2)
+    return corners, start, mu, box
+
+
+@register_jitable
+def _signed_distance(x, y, C, i0, i1):
+    """Distance from (x, y) to the boundary of the polygon C[i0:i1], positive inside (crossing number)."""
+    best = math.inf
+    inside = False
+    n = i1 - i0
+    for k in range(n):
+        ax, ay = C[i0 + k, 0], C[i0 + k, 1]
+        bx, by = C[i0 + (k + 1) % n, 0], C[i0 + (k + 1) % n, 1]
+        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+            inside = not inside
+        ex, ey = bx - ax, by - ay
+        s = min(max(((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        best = min(best, math.hypot(x - ax - s * ex, y - ay - s * ey))
+    return best if inside else -best
+
+
+@register_jitable
+def road_friction(x, y, mu_road, C, start, mu, box):
+    """Road friction at (x, y): `mu_road`, overlaid by each zone in order (later zones win), each blended
+    over the contact patch across its boundary (module docstring)."""
+    f = mu_road
+    for z in range(mu.shape[0]):
+        if x < box[z, 0] or x > box[z, 1] or y < box[z, 2] or y > box[z, 3]:
+            continue
+        w = min(max(0.5 + _signed_distance(x, y, C, start[z], start[z + 1]) / PATCH, 0.0), 1.0)
+        f += w * (mu[z] - f)
+    return f
+
+
+def largest_friction(road) -> float:
+    """The largest friction anywhere on the road (for step-size bounds)."""
+    return max([road.friction] + [z.friction for z in road.zones])
+
+
+def action_modes(vs) -> set[int]:
+    """Every wheel-state code the vehicle's wheels take during the run (for step-size bounds)."""
+    return {int(m) for m in pack_actions(vs)[:, A_MODE]}

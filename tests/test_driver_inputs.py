@@ -1,0 +1,78 @@
+"""Driver actions and friction zones: the shared look-ups (docs/physics.md §2a) and their input checks."""
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import assert_one_error_line, build_scene
+from crashlab.errors import InputError
+from crashlab.models.common.driver_inputs import (PATCH, driver_inputs, pack_action_tables, pack_actions,
+                                                  pack_zones, road_friction)
+from crashlab.models.common.wheel_states import BRAKED, LOCKED, ROLLING
+
+WET = {"friction": 0.3, "polygon": [[10.0, -5.0], [30.0, -5.0], [30.0, 5.0], [10.0, 5.0]], "name": "wet patch"}
+
+
+def test_actions_hold_and_ramp():
+    sc = build_scene([{"steer": 2.0, "actions": [
+        {"t": 0.9, "wheels": "locked"},
+        {"t": 2.0, "wheels": "rolling", "brake": 0.6, "steer": -4.0, "ramp": 0.5},
+        {"t": 3.0, "wheels": "braked"}]}])
+    A = pack_actions(sc.vehicles[0])
+    n = len(A)
+    assert driver_inputs(A, n, 0.0) == (ROLLING, 0.0, pytest.approx(math.radians(2.0)))
+    assert driver_inputs(A, n, 0.9)[0] == LOCKED and driver_inputs(A, n, 0.8999)[0] == ROLLING
+    mode, brake, steer = driver_inputs(A, n, 2.25)  # half-way through the ramp
+    assert mode == ROLLING and brake == pytest.approx(0.3) and steer == pytest.approx(math.radians(-1.0))
+    assert driver_inputs(A, n, 2.6)[1:] == (pytest.approx(0.6), pytest.approx(math.radians(-4.0)))
+    assert driver_inputs(A, n, 3.5) == (BRAKED, 1.0, pytest.approx(math.radians(-4.0)))  # braked: full brake
+    tables, rows = pack_action_tables(sc.vehicles + build_scene([{}]).vehicles)
+    assert tables.shape == (2, 4, 7) and list(rows) == [4, 1]
+
+
+def test_zone_friction_blends_over_the_patch_and_keeps_the_friction_work():
+    sc = build_scene(road={"friction": 0.8, "zones": [WET, {"friction": 0.1, "polygon": [[20, 0], [25, 0], [25, 2]]}]})
+    Z = pack_zones(sc.road)
+    assert road_friction(0.0, 0.0, 0.8, *Z) == 0.8
+    assert road_friction(15.0, 0.0, 0.8, *Z) == pytest.approx(0.3)
+    assert road_friction(24.0, 0.5, 0.8, *Z) == pytest.approx(0.1)  # the later zone wins
+    assert road_friction(10.0, 0.0, 0.8, *Z) == pytest.approx(0.55)  # on the boundary: half the patch inside
+    # the friction work along a path across the boundary equals the sharp boundary's (symmetric blend)
+    xs = np.linspace(9.0, 11.0, 20001)
+    mu = np.array([road_friction(x, 0.0, 0.8, *Z) for x in xs])
+    assert np.trapezoid(mu, xs) == pytest.approx(0.8 * 1.0 + 0.3 * 1.0, rel=1e-6)
+    assert np.all(mu[xs < 10 - PATCH / 2] == 0.8) and np.all(np.abs(mu[xs > 10 + PATCH / 2] - 0.3) < 1e-12)
+
+
+@pytest.mark.parametrize("change, key, words", [
+    ({"vehicles": [{"actions": [{"t": 1.0, "brake": 0.5}, {"t": 0.5, "brake": 1.0}]}]},
+     "vehicles.0.actions.1.t", ["time order"]),
+    ({"vehicles": [{"actions": [{"t": 1.0, "brake": 0.5, "ramp": 0.8}, {"t": 1.5, "steer": 2.0}]}]},
+     "vehicles.0.actions.0.ramp", ["longer"]),
+    ({"vehicles": [{"actions": [{"t": 1.0, "brake": 1.5}]}]}, "vehicles.0.actions.0.brake", []),
+    ({"vehicles": [{"actions": [{"t": 1.0}]}]}, "vehicles.0.actions.0", ["none"]),
+    ({"vehicles": [{"actions": [{"t": 9.0, "brake": 1.0}]}]}, "vehicles.0.actions.0.t", ["duration"]),
+    ({"road": {"zones": [{"friction": 2.5, "polygon": WET["polygon"]}]}}, "road.zones.0.friction", []),
+    ({"road": {"zones": [{"friction": 0.3, "polygon": [[0, 0], [1, 0]]}]}}, "road.zones.0.polygon", []),
+    ({"road": {"zones": [{"friction": 0.3, "polygon": [[0, 0], [3, 2], [3, 0], [0, 3]]}]}},
+     "road.zones.0.polygon", ["cross"]),
+    ({"road": {"zones": [{"friction": 0.3, "polygon": [[0, 0], [1, 1], [2, 2]]}]}},
+     "road.zones.0.polygon", ["area"]),
+])
+def test_bad_actions_and_zones_are_one_line_naming_the_key(change, key, words):
+    vehicle = {"speed": 50.0} | change.get("vehicles", [{}])[0]
+    with pytest.raises(InputError) as err:
+        build_scene([vehicle], source="bad.toml", road=change.get("road", {}))
+    line = str(err.value)
+    assert line.startswith(f"bad.toml: {key}: ") and "\n" not in line, line
+    assert all(w in line for w in words), line
+
+
+def test_bad_action_from_the_command_line(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('duration = 5.0\n[[vehicles]]\nname = "V1"\nvehicle = "clio"\nspeed = 50.0\n'
+                    '[[vehicles.actions]]\nt = 1.0\nbrake = 0.5\n[[vehicles.actions]]\nt = 0.5\nsteer = 2.0\n')
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(path)], capture_output=True, text=True)
+    assert_one_error_line(res, path, "vehicles.0.actions.1.t", ["time order"])
