@@ -7,13 +7,26 @@ import functools
 from . import guard
 from .options import ModelOptions, parse
 from .outcome import Outcome
-from .scene import Scene
+from .errors import InputError
+from .scene import Scene, driver_input_key
+
+
+def _refuse_unhonoured_inputs(model, scenes) -> None:
+    """A model that does not declare `driver_inputs` must not quietly ignore driver actions or friction
+    zones: such a scene is refused (InputError naming the scene's key)."""
+    for scene in ([scenes] if isinstance(scenes, Scene) else scenes):
+        key = driver_input_key(scene)
+        if key:
+            raise InputError(scene.source, key, f"model {model.name!r} does not honour driver actions and "
+                             "friction zones; use a model that does (crashlab models)")
 
 
 def _guarded(method, check):
     """`method` (simulate or simulate_batch) followed by the physics guard's `check` on what it returns."""
     @functools.wraps(method)
     def wrapper(self, scenes, *args, **kwargs):
+        if not self.driver_inputs:
+            _refuse_unhonoured_inputs(self, scenes)
         outs = method(self, scenes, *args, **kwargs)
         check(scenes, outs, self.guard_skip)
         return outs
@@ -35,6 +48,9 @@ class CollisionModel(abc.ABC):
 
     name: str = ""
     guard_skip: frozenset = frozenset()
+    # True: the model honours driver actions and friction zones (docs/physics.md §2a); a model that does not
+    # is refused scenes that have them instead of quietly ignoring them
+    driver_inputs: bool = False
     # the model's options as a schema (crashlab.options): meaning, unit, range, default, accuracy knobs;
     # None: the model takes no options
     Options: type[ModelOptions] | None = None

@@ -229,6 +229,15 @@ class Scene:
         return dataclasses.replace(self, vehicles=vs)
 
 
+def driver_input_key(scene: Scene) -> str | None:
+    """The first scene key holding driver actions or friction zones (`vehicles.N.actions`, `road.zones`),
+    or None for a scene without them."""
+    for i, v in enumerate(scene.vehicles):
+        if v.actions:
+            return f"vehicles.{i}.actions"
+    return "road.zones" if scene.road.zones else None
+
+
 def vehicle_outline(v: VehicleState, x=None, y=None, heading=None):
     from .geometry import rect_corners
     s = v.spec

@@ -76,3 +76,22 @@ def test_bad_action_from_the_command_line(tmp_path):
                     '[[vehicles.actions]]\nt = 1.0\nbrake = 0.5\n[[vehicles.actions]]\nt = 0.5\nsteer = 2.0\n')
     res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(path)], capture_output=True, text=True)
     assert_one_error_line(res, path, "vehicles.0.actions.1.t", ["time order"])
+
+
+def test_a_model_that_does_not_honour_actions_refuses_them():
+    import crashlab
+    from crashlab.model import CollisionModel
+
+    class Plain(CollisionModel):
+        name = "plain"
+
+        def simulate(self, scene):  # pragma: no cover - must not be reached
+            raise AssertionError("a scene with actions reached a model that ignores them")
+
+    sc = build_scene([{"speed": 50.0, "actions": [{"t": 1.0, "wheels": "locked"}]}], source="s.toml")
+    with pytest.raises(InputError, match="s.toml: vehicles.0.actions: model 'plain' does not honour"):
+        Plain().simulate(sc)
+    zoned = build_scene([{"speed": 50.0}], source="z.toml", road={"zones": [WET]})
+    with pytest.raises(InputError, match="z.toml: road.zones: "):
+        Plain().simulate_batch([zoned])
+    assert crashlab.scene.driver_input_key(build_scene([{"speed": 50.0}])) is None
