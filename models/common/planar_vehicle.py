@@ -11,6 +11,7 @@ from numba.extending import register_jitable
 
 from crashlab.units import G
 
+from .driver_inputs import road_friction
 from .wheel_states import BRAKED, LOCKED, WHEEL_CODES
 
 # vehicle parameter vector layout
@@ -22,12 +23,13 @@ V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it 
 
 
 @register_jitable
-def wheel_force(vwx, vwy, normal, mu, mode, f_rr, c_alpha):
+def wheel_force(vwx, vwy, normal, mu, mode, brake, f_rr, c_alpha):
     """Force (Fx, Fy) of the road on one wheel, in the wheel frame, from its contact velocity.
 
-    rolling: rolling resistance f_rr N and lateral force -mu N tanh(C_alpha alpha / (mu N)) (slip angle
-    alpha, saturating at mu N); locked: Coulomb against the sliding velocity; braked (ABS-like): the
-    lateral force of a rolling wheel and the friction left in the friction circle as braking force.
+    rolling: lateral force -mu N tanh(C_alpha alpha / (mu N)) (slip angle alpha, saturating at mu N) and the
+    longitudinal force of the brake fraction `brake` of the friction left beside it, at least the rolling
+    resistance f_rr N (docs/physics.md §2a); locked: Coulomb against the sliding velocity; braked (ABS-like):
+    the lateral force of a rolling wheel and the friction left in the friction circle as braking force.
     """
     fmax = mu * normal
     if fmax <= 0.0:  # wheel off the ground, or a frictionless road (ice): no force
@@ -40,7 +42,10 @@ def wheel_force(vwx, vwy, normal, mu, mode, f_rr, c_alpha):
     if mode == BRAKED:
         fx = -math.sqrt(max(fmax * fmax - fy * fy, 0.0)) * math.tanh(vwx / V_REG)
         return fx, fy
-    fx = -f_rr * normal * math.tanh(vwx / V_REG)
+    retard = f_rr * normal
+    if brake > 0.0:
+        retard = max(retard, brake * math.sqrt(max(fmax * fmax - fy * fy, 0.0)))
+    fx = -retard * math.tanh(vwx / V_REG)
     f = math.hypot(fx, fy)
     if f > fmax:
         return fx * fmax / f, fy * fmax / f
@@ -48,19 +53,23 @@ def wheel_force(vwx, vwy, normal, mu, mode, f_rr, c_alpha):
 
 
 @register_jitable
-def vehicle_derivative(p, s, mu, mode, acc_body, out):
-    """Time derivative of one vehicle's state s = (x, y, psi, vx, vy, r) into out[0:6].
+def vehicle_motion(p, s, mu_road, mode, brake, steer, C, start, zmu, box, acc_body, out):
+    """Time derivative of one vehicle's state s = (x, y, psi, vx, vy, r) into out[0:6], with the driver's
+    wheel state `mode`, brake fraction and steer angle of this instant (common/driver_inputs.driver_inputs)
+    and each wheel's road friction from the zones (C, start, zmu, box: driver_inputs.pack_zones; no zones:
+    `mu_road` everywhere).
 
     acc_body = (ax, ay) of the previous evaluation, for quasi-static load transfer from the CG height;
     it is updated in place.
     """
     m, iz, a, b = p[P_MASS], p[P_IZ], p[P_A], p[P_B]
-    track, h, steer = p[P_TRACK], p[P_H], p[P_STEER]
+    track, h = p[P_TRACK], p[P_H]
     wb = a + b
     c, sn = math.cos(s[2]), math.sin(s[2])
     u = c * s[3] + sn * s[4]  # body-frame velocity
     v = -sn * s[3] + c * s[4]
     r = s[5]
+    zoned = zmu.shape[0] > 0
     # axle loads with longitudinal transfer m a_x h / L, then lateral transfer m a_y h / track per side,
     # shared between the axles as the static loads (§2, pycrash style)
     nf = m * (G * b - acc_body[0] * h) / wb
@@ -76,15 +85,18 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
         nax = nf if front else nr
         share = b / wb if front else a / wb
         normal = 0.5 * nax + (-1.0 if left else 1.0) * dlat * share  # side transfer m a_y h / track
+        mu = mu_road
+        if zoned:  # the friction where the wheel stands (§2a)
+            mu = road_friction(s[0] + c * xw - sn * yw, s[1] + sn * xw + c * yw, mu_road, C, start, zmu, box)
         vx_w = u - r * yw
         vy_w = v + r * xw
         if front and steer != 0.0:
             wx = cs * vx_w + ss * vy_w
             wy = -ss * vx_w + cs * vy_w
-            fx, fy = wheel_force(wx, wy, normal, mu, mode, p[P_FRR], p[P_CALPHA])
+            fx, fy = wheel_force(wx, wy, normal, mu, mode, brake, p[P_FRR], p[P_CALPHA])
             fx, fy = cs * fx - ss * fy, ss * fx + cs * fy
         else:
-            fx, fy = wheel_force(vx_w, vy_w, normal, mu, mode, p[P_FRR], p[P_CALPHA])
+            fx, fy = wheel_force(vx_w, vy_w, normal, mu, mode, brake, p[P_FRR], p[P_CALPHA])
         fx_t += fx
         fy_t += fy
         mz += xw * fy - yw * fx
@@ -94,6 +106,18 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
     out[3] = c * ax_b - sn * ay_b
     out[4] = sn * ax_b + c * ay_b
     out[5] = mz / iz
+
+
+# no friction zones (compile-time constants: no allocation in the compiled callers)
+_NO_CORNERS, _NO_START, _NO_MU, _NO_BOX = np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0), np.zeros((0, 4))
+
+
+@register_jitable
+def vehicle_derivative(p, s, mu, mode, acc_body, out):
+    """vehicle_motion with the start state's wheels and steer held and one road friction (scenes without
+    actions or zones)."""
+    vehicle_motion(p, s, mu, mode, 1.0 if mode == BRAKED else 0.0, p[P_STEER], _NO_CORNERS, _NO_START, _NO_MU,
+                   _NO_BOX, acc_body, out)
 
 
 @register_jitable
