@@ -6,7 +6,10 @@ scenes runs in parallel with `prange`. Step-size policy:
     tyre forces) (planar_vehicle.stiffest_rate), whenever a tyre force can change or vehicles are close;
   * while every moving vehicle runs straight and no pair can touch within the step, the step grows up
     to `coarse_dt` (straight running has constant forces, Heun is exact for it);
-  * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it;
+  * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it; the loops of a step run
+    over the awake vehicles and the pairs with an awake member only (lists rebuilt when a vehicle sleeps or
+    wakes, pairs in the order of the full i < k loop, so results do not depend on the skipping), and the
+    bounding circles reject distant pairs before the outline test: a parked vehicle costs (nearly) nothing;
   * the run ends when every vehicle sleeps (stop_at_rest) or at `duration`.
 Contact onset is located by bisection of the step until the outlines overlap by at most `onset_tol`.
 
@@ -51,8 +54,8 @@ N_CFG = 21
 N_IMP = 20
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
- D_E_IMPACT, D_FOLLOW, D_PROJECTED) = range(13)
-N_DIAG = 13
+ D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
+N_DIAG = 15  # D_VEHICLE_STEPS: awake vehicles integrated, summed over steps; D_NARROW: outline tests
 STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
 V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)
@@ -92,16 +95,39 @@ def _circles_apart(S, B, radius, i, k, nv):
         ckx, cky = S[k, 0], S[k, 1]
     else:
         ckx, cky = B[k - nv, 0], B[k - nv, 1]
-    return math.hypot(S[i, 0] - ckx, S[i, 1] - cky) > radius[i] + radius[k]
+    dx, dy, r = S[i, 0] - ckx, S[i, 1] - cky, radius[i] + radius[k]
+    if abs(dx) > r or abs(dy) > r:  # hypot(dx, dy) >= max(|dx|, |dy|) in floating point too: same answer
+        return True
+    return math.hypot(dx, dy) > r
 
 
 @njit(cache=True)
-def _heun(P, S, modes, asleep, mu, acc, h, out, k1, k2, tmp):
-    nv = S.shape[0]
+def _awake_sets(asleep, nk, awake, pair_i, pair_k):
+    """The awake vehicles (ascending) and the pairs (vehicle i, vehicle or barrier k > i) with an awake
+    member, in the order of the full double loop over i < k. Returns their counts."""
+    nv = asleep.shape[0]
+    na, n_pairs = 0, 0
     for i in range(nv):
-        if asleep[i]:
-            out[i] = S[i]
-            continue
+        if not asleep[i]:
+            awake[na] = i
+            na += 1
+            for k in range(i + 1, nk):
+                pair_i[n_pairs], pair_k[n_pairs] = i, k
+                n_pairs += 1
+        else:
+            for k in range(i + 1, nv):
+                if not asleep[k]:
+                    pair_i[n_pairs], pair_k[n_pairs] = i, k
+                    n_pairs += 1
+    return na, n_pairs
+
+
+@njit(cache=True)
+def _heun(P, S, modes, awake, na, mu, acc, h, out, k1, k2, tmp):
+    """Heun step of the awake vehicles awake[:na]; a sleeping vehicle's row of `out` is left as it is (the
+    caller keeps it equal to its row of S)."""
+    for a in range(na):
+        i = awake[a]
         vehicle_derivative(P[i], S[i], mu, modes[i], acc[i], k1[i])
         for q in range(6):
             tmp[i, q] = S[i, q] + h * k1[i, q]
@@ -253,8 +279,13 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
     cl_p = np.empty((nv * nk, 2))
     cl_v = np.empty((nv * nk, 8, 2))  # and the overlap polygon's vertices
     cl_m = np.zeros(nv * nk, np.int64)
+    awake = np.empty(nv, np.int64)  # the awake vehicles and the pairs with an awake member (_awake_sets)
+    pair_i = np.empty(nv * nk, np.int64)
+    pair_k = np.empty(nv * nk, np.int64)
     for i in range(nv):  # outlines that overlap at the start are in contact (a collision position)
         for k in range(i + 1, nk):
+            if broad and _circles_apart(S, B, radius, i, k, nv):
+                continue
             d0 = penetration(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv))[0]
             if d0 > 0.0:
                 in_contact[i, k] = True
@@ -302,6 +333,8 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             _struck(P, i0, j, nv, hit, asleep, modes)
             in_contact[i0, j] = True
 
+    na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
+    Snew[:] = S  # a sleeping vehicle's row of Snew stays equal to its row of S (_heun leaves it)
     steps = 0
     while t < duration - 1e-12:
         if rec_dt > 0.0 and t >= next_rec - 1e-12 and n_rec < traj.shape[0] - 1:
@@ -312,76 +345,75 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         # ---- step size: the fine step within the tyre forces' stability limit, coarse while every
         # moving vehicle runs straight and nothing can touch
         h = dt
-        for i in range(nv):
-            if not asleep[i]:
-                rate = stiffest_rate(P[i], mu, modes[i])  # 0 for locked wheels on ice: no tyre force
-                if rate > 0.0:
-                    h = min(h, 1.0 / rate)
+        for a in range(na):
+            i = awake[a]
+            rate = stiffest_rate(P[i], mu, modes[i])  # 0 for locked wheels on ice: no tyre force
+            if rate > 0.0:
+                h = min(h, 1.0 / rate)
         quiet = True
-        for i in range(nv):
-            if not asleep[i]:
-                lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
-                if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or P[i, P_STEER] != 0.0:
-                    quiet = False
-                # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
-                # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
-                if math.hypot(S[i, 3], S[i, 4]) < 2.0 * mu * G * coarse_dt + STOP_MARGIN:
-                    quiet = False
+        for a in range(na):
+            i = awake[a]
+            lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
+            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or P[i, P_STEER] != 0.0:
+                quiet = False
+            # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
+            # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
+            if math.hypot(S[i, 3], S[i, 4]) < 2.0 * mu * G * coarse_dt + STOP_MARGIN:
+                quiet = False
         if quiet and coarse_dt > dt:
             h_gap = coarse_dt
-            for i in range(nv):
-                for k in range(i + 1, nk):
-                    if k < nv and asleep[i] and asleep[k]:
-                        continue
-                    ckx, cky = _centre(S, B, k, nv)
-                    gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
-                    closing = math.hypot(S[i, 3], S[i, 4])
-                    if k < nv:
-                        closing += math.hypot(S[k, 3], S[k, 4])
-                    if closing > 0.0:
-                        h_gap = min(h_gap, 0.5 * gap / closing)
+            for p in range(n_pairs):  # (a sleeping vehicle and a barrier: not listed, closing 0)
+                i, k = pair_i[p], pair_k[p]
+                ckx, cky = _centre(S, B, k, nv)
+                gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
+                closing = math.hypot(S[i, 3], S[i, 4])
+                if k < nv:
+                    closing += math.hypot(S[k, 3], S[k, 4])
+                if closing > 0.0:
+                    h_gap = min(h_gap, 0.5 * gap / closing)
             if h_gap > h:
                 h = h_gap
                 diag[D_COARSE] += 1
         h = min(h, duration - t)
-        _heun(P, S, modes, asleep, mu, acc, h, Snew, k1, k2, tmp)
+        _heun(P, S, modes, awake, na, mu, acc, h, Snew, k1, k2, tmp)
         steps += 1
+        diag[D_VEHICLE_STEPS] += na
         if steps > MAX_STEPS:
             status = STATUS_STEP_LIMIT
             break
         # ---- onset of a new contact: bisect the step until the overlap is at most tol; a touching pair
         # whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
         # rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN
-        for i in range(nv):
-            for k in range(i + 1, nk):
-                if asleep[i] and (k >= nv or asleep[k]):
+        for p in range(n_pairs):
+            i, k = pair_i[p], pair_k[p]
+            if broad and _circles_apart(Snew, B, radius, i, k, nv):
+                continue
+            diag[D_NARROW] += 1
+            depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
+            if in_contact[i, k]:
+                if allowed[i, k] > 0.0 or depth <= DEEPEN:
                     continue
-                if broad and _circles_apart(Snew, B, radius, i, k, nv):
+                lo_d, hi_d = CONTACT_SLOP, DEEPEN
+            else:
+                if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
                     continue
+                lo_d, hi_d = 0.0, tol
+            lo, hi = 0.0, h
+            for _ in range(60):
+                hm = 0.5 * (lo + hi)
+                _heun(P, S, modes, awake, na, mu, acc, hm, Snew, k1, k2, tmp)
+                diag[D_BISECT] += 1
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
-                if in_contact[i, k]:
-                    if allowed[i, k] > 0.0 or depth <= DEEPEN:
-                        continue
-                    lo_d, hi_d = CONTACT_SLOP, DEEPEN
+                if depth > hi_d:
+                    hi = hm
+                elif depth <= lo_d:
+                    lo = hm
                 else:
-                    if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
-                        continue
-                    lo_d, hi_d = 0.0, tol
-                lo, hi = 0.0, h
-                for _ in range(60):
-                    hm = 0.5 * (lo + hi)
-                    _heun(P, S, modes, asleep, mu, acc, hm, Snew, k1, k2, tmp)
-                    diag[D_BISECT] += 1
-                    depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
-                    if depth > hi_d:
-                        hi = hm
-                    elif depth <= lo_d:
-                        lo = hm
-                    else:
-                        break
-                h = hm
+                    break
+            h = hm
         t += h
-        S[:] = Snew
+        for a in range(na):
+            S[awake[a]] = Snew[awake[a]]
         # ---- contacts: an impact (the first touch of an episode) gets its own row; a pair in an open
         # episode that overlaps and approaches gets a plastic contact impulse booked into the episode's
         # row. Several contacts at once (a car squeezed between a car and a wall) are
@@ -390,39 +422,39 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         # impulses of this instant, so its further impulses are plastic and booked into its row. Then a
         # projection keeps each overlap below CONTACT_SLOP.
         nc = 0
-        for i in range(nv):
-            for k in range(i + 1, nk):
-                if asleep[i] and (k >= nv or asleep[k]):
-                    continue
-                if broad and _circles_apart(S, B, radius, i, k, nv):
-                    in_contact[i, k] = False
+        for p in range(n_pairs):
+            i, k = pair_i[p], pair_k[p]
+            if broad and _circles_apart(S, B, radius, i, k, nv):
+                in_contact[i, k] = False
+                episode[i, k] = -1
+                allowed[i, k] = 0.0
+                continue
+            diag[D_NARROW] += 1
+            ci, ck = _outline(P, S, B, i, nv), _outline(P, S, B, k, nv)
+            depth, nx, ny, owner = penetration(ci, ck)
+            if depth <= 0.0:
+                in_contact[i, k] = False
+                allowed[i, k] = 0.0
+                if -depth > SEPARATION:
                     episode[i, k] = -1
-                    allowed[i, k] = 0.0
-                    continue
-                ci, ck = _outline(P, S, B, i, nv), _outline(P, S, B, k, nv)
-                depth, nx, ny, owner = penetration(ci, ck)
-                if depth <= 0.0:
-                    in_contact[i, k] = False
-                    allowed[i, k] = 0.0
-                    if -depth > SEPARATION:
-                        episode[i, k] = -1
-                    continue
-                in_contact[i, k] = True
-                if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
-                    # a collision position's start overlap, not deepening: the given impulse resolved it
-                    allowed[i, k] = min(allowed[i, k], depth)
-                    continue
-                diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
-                px, py, area = overlap_centroid(ci, ck)
-                if math.isnan(px):
-                    continue
-                poly, npoly = clip_convex(ci, ck)
-                cl_m[nc] = min(npoly, cl_v.shape[1])
-                cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
-                cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
-                cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
-                nc += 1
+                continue
+            in_contact[i, k] = True
+            if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
+                # a collision position's start overlap, not deepening: the given impulse resolved it
+                allowed[i, k] = min(allowed[i, k], depth)
+                continue
+            diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
+            px, py, area = overlap_centroid(ci, ck)
+            if math.isnan(px):
+                continue
+            poly, npoly = clip_convex(ci, ck)
+            cl_m[nc] = min(npoly, cl_v.shape[1])
+            cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
+            cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
+            cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
+            nc += 1
         stop = False
+        woke = False
         for _ in range(MAX_SWEEPS if nc > 1 else 1):
             active = False
             for c in range(nc):
@@ -475,11 +507,14 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                     _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
                     diag[D_FOLLOW] += 1
                 diag[D_E_IMPACT] += energy
+                woke = woke or asleep[i] or (k < nv and asleep[k])
                 _struck(P, i, k, nv, hit, asleep, modes)
             if stop or not active:
                 break
         if stop:
             break
+        if woke:
+            na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
         # non-penetration at the position level: the velocity-level contact impulse stops the approach at
         # the end of a step but not the overlap gained within it (~ a h^2 / 2)
         for c in range(nc):
@@ -488,18 +523,27 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             if depth > target:
                 _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
                 diag[D_PROJECTED] += depth - target
+                Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
+                if k < nv:
+                    Snew[k] = S[k]
             allowed[i, k] = min(allowed[i, k], depth)
         # ---- rest: a vehicle that has (almost) stopped goes to sleep; an impulse wakes it
-        all_asleep = True
-        for i in range(nv):
+        # (a sleeping vehicle's state is only moved by the projection, finite: NaN can arise in awake ones)
+        all_asleep, slept = True, False
+        for a in range(na):
+            i = awake[a]
+            if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
+                S[i, 3:6] = 0.0
+                asleep[i] = sleeping
+                if sleeping:
+                    Snew[i] = S[i]
+                    slept = True
             if not asleep[i]:
-                if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
-                    S[i, 3:6] = 0.0
-                    asleep[i] = sleeping
-                if not asleep[i]:
-                    all_asleep = False
+                all_asleep = False
             if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
                 status = STATUS_NAN
+        if slept:
+            na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
         if status == STATUS_NAN or (all_asleep and cfg[C_STOP_AT_REST] > 0.5):
             break
     if rec_dt > 0.0 and n_rec < traj.shape[0]:

@@ -198,7 +198,10 @@ class ImpulseModel(CollisionModel):
                        "rejected_steps": int(diag[K.D_BISECT]), "episodes": n_imp,
                        "t_end": diag[K.D_T_END], "max_penetration": diag[K.D_MAX_DEPTH],
                        "kinetic_energy_start": diag[K.D_KE0], "energy_dissipated_impacts": diag[K.D_E_IMPACT],
-                       "contact_impulses": int(diag[K.D_FOLLOW]), "projected": diag[K.D_PROJECTED]}
+                       "contact_impulses": int(diag[K.D_FOLLOW]), "projected": diag[K.D_PROJECTED],
+                       # the work: awake vehicles integrated (summed over steps), outline tests of pairs
+                       # the bounding circles did not reject (sleeping vehicles and distant pairs skipped)
+                       "vehicle_steps": int(diag[K.D_VEHICLE_STEPS]), "outline_tests": int(diag[K.D_NARROW])}
         if diag[K.D_IMPACTS] == 0:
             warnings.append("no contact between the vehicles")
         return Outcome(names, rest.copy(), final.copy(), contact.copy(), diag[K.D_CONTACT_T], None, rows,
