@@ -28,6 +28,7 @@ import numpy as np
 from exudyn.utilities import RigidBodyInertia
 
 from crashlab.models.common.rotations import rot_z
+from crashlab.models.common.wheel_states import LOCKED, LOCKED_AFTER_IMPACT
 from crashlab.models.common.vehicle_3d import NW, S_C, S_K, S_L0, S_P, S_Q, T_CZ, T_KZ, T_R1, T_R2, steer_angles
 from crashlab.units import G
 
@@ -43,9 +44,15 @@ def _body(mbs, row, pos, A, vel, omega):
                                initialAngularVelocity=omega, gravity=[0.0, 0.0, -G], returnDict=True)
 
 
-def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
+def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone, modes):
     """Create one vehicle of the scene (`veh` from vehicle_3d.build, `vs` the scene's VehicleState) at
-    its start pose and speed. Returns a dict of item indices (see keys below)."""
+    its start pose and speed; `modes`: every wheel-state code its wheels take in the run
+    (driver_inputs.action_modes). Returns a dict of item indices (see keys below).
+
+    A vehicle locked for the whole run gets the six-axis generic joint; one that locks at some time
+    (an action, locked_after_impact) gets the revolute joint plus a spin lock (active from the start when it
+    starts locked), switched by `set_locks`. The prismatic joints' chassis markers are returned (`steer`)
+    with their build frames, so that `steer` can turn the knuckles between steps."""
     Rz = rot_z(vs.heading)
     origin = np.array([vs.x, vs.y, 0.0])
     vel0 = vs.speed * np.array([math.cos(vs.heading), math.sin(vs.heading), 0.0])
@@ -67,7 +74,9 @@ def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
         return vel0 + np.cross(om0, np.array([r[0], r[1], 0.0]))
 
     chassis = _body(mbs, veh.BODY[0], pos[0], Rz, v_at(pos[0]), om0)
-    knuckles, wheels, discs, locks = [], [], [], []
+    knuckles, wheels, discs, locks, steer_markers = [], [], [], [], []
+    always_locked = modes == {LOCKED}
+    lockable = not always_locked and bool(modes & {LOCKED, LOCKED_AFTER_IMPACT})
     for k in range(NW):
         Ak = Rz @ rot_z(deltas[k])
         kn = _body(mbs, veh.BODY[1 + k], pos[1 + k], Ak, v_at(pos[1 + k]), om0)
@@ -78,20 +87,22 @@ def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
         wh = _body(mbs, veh.BODY[5 + k], pos[5 + k], Ak, vw, om0 + spin * Ak[:, 1])
         knuckles.append(kn)
         wheels.append(wh)
-        mbs.CreatePrismaticJoint(itemNumbers=[chassis["bodyNumber"], kn["bodyNumber"]], position=pos[1 + k],
-                                 axis=Rz[:, 2], useGlobalFrame=True, show=False)
-        if vs.wheels == "locked":
+        pj = mbs.CreatePrismaticJoint(itemNumbers=[chassis["bodyNumber"], kn["bodyNumber"]], position=pos[1 + k],
+                                      axis=Rz[:, 2], useGlobalFrame=True, show=False)
+        m0 = mbs.GetObject(pj)["markerNumbers"][0]
+        steer_markers.append((m0, np.array(mbs.GetMarkerParameter(m0, "localHT"), dtype=float)))
+        if always_locked:
             mbs.CreateGenericJoint(itemNumbers=[kn["bodyNumber"], wh["bodyNumber"]], position=pos[5 + k],
                                    rotationMatrixAxes=Ak, constrainedAxes=[1, 1, 1, 1, 1, 1], useGlobalFrame=True,
                                    show=False)
         else:
             mbs.CreateRevoluteJoint(itemNumbers=[kn["bodyNumber"], wh["bodyNumber"]], position=pos[5 + k],
                                     axis=Ak[:, 1], useGlobalFrame=True, show=False)
-        if vs.wheels == "locked_after_impact":
+        if lockable:
             lk = mbs.CreateGenericJoint(itemNumbers=[kn["bodyNumber"], wh["bodyNumber"]], position=pos[5 + k],
                                         rotationMatrixAxes=Ak, constrainedAxes=[0, 0, 0, 0, 1, 0],
                                         useGlobalFrame=True, show=False)
-            mbs.SetObjectParameter(lk, "activeConnector", False)
+            mbs.SetObjectParameter(lk, "activeConnector", vs.wheels == "locked")
             locks.append(lk)
         # suspension: chassis point SPR[S_P] (chassis frame) to knuckle point SPR[S_Q] (knuckle frame)
         S = veh.SPR[k]
@@ -110,17 +121,23 @@ def build_vehicle(mbs, ground, veh, vs, mu, friction_zone, linear_zone):
     torque = mbs.CreateTorque(itemNumber=chassis["bodyNumber"], loadVector=[0.0, 0.0, 0.0], bodyFixed=False,
                               show=False)
     return {"chassis": chassis, "knuckles": knuckles, "wheels": wheels, "discs": discs, "locks": locks,
-            "force": force, "torque": torque,
+            "force": force, "torque": torque, "steer": steer_markers, "deltas": np.array(deltas, dtype=float),
+            "always_locked": always_locked,
             "nodes": [chassis["nodeNumber"]] + [b["nodeNumber"] for b in knuckles + wheels],
             "mass": m.copy()}
 
 
-def lock(mbs, items):
-    """Activate the spin locks of a `locked_after_impact` vehicle. Each lock's wheel-side frame is set to the
-    current relative orientation (A_k R0 = A_w R1 with R the marker frames, so the constraint starts without
-    violation); the wheel's spin relative to the knuckle is then removed by the constraint within the next
-    steps."""
+def set_locks(mbs, items, on):
+    """Switch the spin locks of a vehicle (a wheel-state change: rolling/braked <-> locked, or
+    locked_after_impact at the first contact). Off: the connector is deactivated (the wheel spins up from
+    the tyre's friction). On: each lock's wheel-side frame is first set to the current relative orientation
+    (A_k R0 = A_w R1 with R the marker frames, so the constraint starts without violation); the wheel's spin
+    relative to the knuckle is then removed by the constraint within the next steps."""
     import exudyn as exu
+    if not on:
+        for lk in items["locks"]:
+            mbs.SetObjectParameter(lk, "activeConnector", False)
+        return
     for k, lk in enumerate(items["locks"]):
         nk, nw = items["knuckles"][k]["nodeNumber"], items["wheels"][k]["nodeNumber"]
         Ak = np.asarray(mbs.GetNodeOutput(nk, exu.OutputVariableType.RotationMatrix)).reshape(3, 3)
@@ -133,3 +150,15 @@ def lock(mbs, items):
         HT1[:3, :3] = Aw.T @ Ak @ R0 @ R1m.T          # marker frame (localHT) x rotationMarker1 = Aw^T Ak R0
         mbs.SetMarkerParameter(m1, "localHT", HT1)
         mbs.SetObjectParameter(lk, "activeConnector", True)
+
+
+def steer(mbs, items, deltas):
+    """Turn the knuckles to the steer angles `deltas` (per wheel, chassis frame, rad) by turning the chassis
+    marker of each prismatic joint about the chassis z axis by the change from the build angle: the joint
+    keeps A_c R0 = A_k R1, so A_k = A_c rot_z(delta). Between steps the change is one step's share of a
+    ramp (5 deg/s: 0.005 deg per 1 ms step), which the index-3 constraint takes up in the next step."""
+    for k, (m0, HT0) in enumerate(items["steer"]):
+        d = float(deltas[k] - items["deltas"][k])
+        HT = HT0.copy()
+        HT[:3, :3] = rot_z(d) @ HT0[:3, :3]
+        mbs.SetMarkerParameter(m0, "localHT", HT)

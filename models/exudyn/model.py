@@ -17,10 +17,12 @@ from crashlab.model import CollisionModel
 from crashlab.models.common import chassis_contact as C
 from crashlab.models.common import contact_episodes as EP
 from crashlab.models.common import road_contact as R
+from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
 from crashlab.models.common.rotations import from_matrix
-from crashlab.models.common.tyre_moments import brake_moment, rolling_resistance_moment
-from crashlab.models.common.vehicle_3d import CORNERS, NW, T_ETA, T_R1, T_R2, build_scene_vehicles
+from crashlab.models.common.tyre_moments import OMEGA_BRAKE, brake_moment, rolling_resistance_moment
+from crashlab.models.common.vehicle_3d import CORNERS, NW, T_ETA, T_R1, T_R2, build_scene_vehicles, steer_angles
+from crashlab.models.common.wheel_states import BRAKED, LOCKED
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.units import G
@@ -28,6 +30,7 @@ from crashlab.units import G
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
 LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
 MAX_LOAD_ITER = 4      # load passes per step before the step is halved (exudyn allows 5 iterations)
+FY_LOCAL = 0           # the lateral component of the rolling disc's ForceLocal (x lateral, y forward, z normal)
 ADAPT_RECOVERY = 5     # accepted steps before exudyn doubles a shortened step again
 
 
@@ -101,6 +104,7 @@ class ExudynModel(CollisionModel):
     """
 
     name = "exudyn"
+    driver_inputs = True   # actions and friction zones (docs/physics.md §2a): see _Run._driver
     # the guard's interpenetration check compares rectangular outlines; the contact bodies here are
     # superellipsoids (2/eps = 4) whose rounded corners lie up to ~0.3 m inside the rectangle's: a car at rest
     # 3 cm from a barrier with its corner towards it "overlapped" by 0.26 m (stress scene random 2:17). The
@@ -163,14 +167,24 @@ class _Run:
         mbs = self.mbs = self.SC.AddSystem()
         ground = mbs.CreateGround()
         self.vehs = vehicles
-        self.items = [build_vehicle(mbs, ground, veh, vs, scene.road.friction, opts["friction_zone"], True)
-                      for veh, vs in zip(self.vehs, scene.vehicles)]
+        # driver actions and friction zones (docs/physics.md §2a, common/driver_inputs.py)
+        self.AT, self.nAT = DI.pack_action_tables(scene.vehicles)
+        self.timed = np.array([len(vs.actions) > 0 for vs in scene.vehicles])
+        self.zones = DI.pack_zones(scene.road) if scene.road.zones else None
+        modes = [DI.action_modes(vs) for vs in scene.vehicles]
+        self.items = [build_vehicle(mbs, ground, veh, vs, scene.road.friction, opts["friction_zone"], True, md)
+                      for veh, vs, md in zip(self.vehs, scene.vehicles, modes)]
+        self.mu_wheel = np.full((nv, NW), float(scene.road.friction))   # road friction under each wheel
+        self.brake = np.zeros(nv)                                        # brake fraction b of each vehicle
+        self.steer_now = np.array([vs.steer for vs in scene.vehicles], dtype=float)
+        self.v_hub = np.zeros((nv, NW, 3))   # hub velocities at the last step start (brake: wheel inertia)
+        self.t_hub = np.full((nv, NW), -math.inf)
         # rolling resistance and brake: a torque pair wheel/knuckle per wheel that turns (when either acts)
         self.wheel_torques = []
         for v, (veh, vs) in enumerate(zip(self.vehs, scene.vehicles)):
             fr = float(vs.spec.rolling_resistance)
-            braked = vs.wheels == "braked"
-            if (fr > 0.0 or braked) and vs.wheels != "locked":
+            braked = BRAKED in modes[v] or bool((self.AT[v, :, DI.A_BRAKE_TO] > 0.0).any())
+            if (fr > 0.0 or braked) and not self.items[v]["always_locked"]:
                 it = self.items[v]
                 for k in range(NW):
                     tw = mbs.CreateTorque(itemNumber=it["wheels"][k]["bodyNumber"], loadVector=[0.0, 0.0, 0.0],
@@ -178,7 +192,7 @@ class _Run:
                     tk = mbs.CreateTorque(itemNumber=it["knuckles"][k]["bodyNumber"], loadVector=[0.0, 0.0, 0.0],
                                           bodyFixed=False, show=False)
                     radius = veh.TYR[k, T_R1] + veh.TYR[k, T_R2]
-                    eta = veh.TYR[k, T_ETA] if braked else 0.0
+                    eta = veh.TYR[k, T_ETA]
                     self.wheel_torques.append((v, k, fr, eta, radius, tw, tk))
         # contact arrays, exactly as the multibody model prepares them
         imp = scene.impact
@@ -193,7 +207,7 @@ class _Run:
         self.road_chi = R.road_chi()
         self.RSG = np.zeros((nv, R.N_RSG))
         self.Y = np.zeros((nv, 13))        # chassis state in the multibody layout: r, p, r_dot, w' (nq = 7)
-        self.lock_pending = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles])
+        self.struck = np.zeros(nv, dtype=bool)   # first contact seen (locked_after_impact)
         mbs.Assemble()
 
     # ------------------------------------------------------------------ state access
@@ -262,8 +276,16 @@ class _Run:
                        self.cchi, self.mu_c, self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, self.o["v_min"])
         else:
             FX[:, :] = 0.0
-        R.road_contacts(self.Y, 7, self.CSH, self.KR, R.N_ROAD, self.road_chi, self.scene.road.friction,
-                        R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
+        mu = self.scene.road.friction
+        if self.zones is None:
+            R.road_contacts(self.Y, 7, self.CSH, self.KR, R.N_ROAD, self.road_chi, mu,
+                            R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
+        else:  # each chassis on the friction of the zone under its CG (§2a)
+            for v in range(self.nv):
+                mv = DI.road_friction(self.Y[v, 0], self.Y[v, 1], mu, *self.zones)
+                w = slice(v, v + 1)
+                R.road_contacts(self.Y[w], 7, self.CSH[w], self.KR[w], R.N_ROAD, self.road_chi, mv,
+                                R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX[w], self.RSG[w])
         return FX.copy(), psg.copy(), self.RSG.copy()
 
     def _apply(self, L):
@@ -290,6 +312,7 @@ class _Run:
             self.dF, self.h_last = ((F - self.F0) / (s - self.s_cur), s - self.s_cur) if self.s_cur is not None \
                 else (np.zeros_like(F), 0.0)
             self.s_cur, self.F0, self.psg0, self.rsg0 = s, F, psg, rsg
+            self._driver(s, t)
             self._wheel_torques(mbs)
             if s >= self.t_rec - 1e-12:
                 self._record(s)
@@ -343,26 +366,86 @@ class _Run:
                 d = max(d, rsg1[v, R.R_DEL])
         return d
 
+    def _driver(self, s, t):
+        """Driver actions and friction zones for the step [s, t] (docs/physics.md §2a), read at its middle
+        from common/driver_inputs: the wheel state (locked_after_impact through effective_mode with the
+        vehicle's first contact) switches the spin locks, the steer angle turns the knuckles (Ackermann angles
+        of vehicle_3d.steer_angles), the brake fraction goes to _wheel_torques; each wheel's road friction
+        is that of the zones at its contact point half a step on (the predicted middle of the step), set as
+        the rolling disc's dry friction and held over the step."""
+        from .build import set_locks, steer
+        tm = 0.5 * (s + t)
+        out = self.exu.OutputVariableType
+        g = self.mbs.GetNodeOutput
+        for v in range(self.nv):
+            it = self.items[v]
+            if not (self.timed[v] or it["locks"]):
+                continue
+            mode, b, st = DI.driver_inputs(self.AT[v], self.nAT[v], tm)
+            mode = DI.effective_mode(mode, self.struck[v])
+            self.mode[v], self.brake[v] = mode, b
+            lock = mode == LOCKED
+            if it["locks"] and lock != self.locked[v]:
+                set_locks(self.mbs, it, lock)
+                self.locked[v] = lock
+            if st != self.steer_now[v]:
+                steer(self.mbs, it, steer_angles(self.vehs[v], st))
+                self.steer_now[v] = st
+        if self.zones is None:
+            return
+        mu_road = self.scene.road.friction
+        for v in range(self.nv):
+            it = self.items[v]
+            for k in range(NW):
+                nw = it["wheels"][k]["nodeNumber"]
+                r, vel = g(nw, out.Position), g(nw, out.Velocity)
+                mu = DI.road_friction(r[0] + vel[0] * (t - s) / 2, r[1] + vel[1] * (t - s) / 2, mu_road,
+                                      *self.zones)
+                if mu != self.mu_wheel[v, k]:
+                    self.mbs.SetObjectParameter(it["discs"][k], "dryFriction", [mu, mu])
+                    self.mu_wheel[v, k] = mu
+
     def _wheel_torques(self, mbs):
         """Rolling resistance and brake moments (common/tyre_moments.py) against the wheel's spin relative to
-        its knuckle, with the tyre's radius as the arm, held over the step."""
+        its knuckle, with the tyre's radius as the arm, held over the step. `braked`: the UA tyre's brake
+        moment (eta of the locking torque, as before actions existed); a brake fraction b on a rolling wheel
+        (§2a): b times the friction left beside the lateral force, b R sqrt((mu F_z)^2 - F_y^2), the rolling
+        resistance its floor."""
         if not self.wheel_torques:
             return
         out = self.exu.OutputVariableType
         g = self.mbs.GetNodeOutput
-        mu = self.scene.road.friction
         for v, k, fr, eta, radius, tw, tk in self.wheel_torques:
             it = self.items[v]
-            if self.locked[v]:
+            mode, b = self.mode[v], self.brake[v]
+            if self.locked[v] or (fr == 0.0 and mode != BRAKED and b == 0.0):
                 M = np.zeros(3)
             else:
+                mu = self.mu_wheel[v, k]
                 nw, nk = it["wheels"][k]["nodeNumber"], it["knuckles"][k]["nodeNumber"]
                 Aw = np.asarray(g(nw, out.RotationMatrix)).reshape(3, 3)
                 axis = Aw[:, 1]
                 w_rel = float((np.asarray(g(nw, out.AngularVelocity)) - np.asarray(g(nk, out.AngularVelocity)))
                               @ axis)
-                fz = max(float(mbs.GetObjectOutput(it["discs"][k], out.ForceLocal)[2]), 0.0)
-                M = (rolling_resistance_moment(fr, fz, radius, w_rel) + brake_moment(eta, mu, fz, radius, w_rel)) * axis
+                f = mbs.GetObjectOutput(it["discs"][k], out.ForceLocal)
+                fz = max(float(f[2]), 0.0)
+                m = rolling_resistance_moment(fr, fz, radius, w_rel)
+                if mode == BRAKED:
+                    m += brake_moment(eta, mu, fz, radius, w_rel)
+                elif b > 0.0:
+                    fy = float(f[FY_LOCAL])
+                    mb = brake_moment(b, 1.0, math.sqrt(max((mu * fz) ** 2 - fy * fy, 0.0)), radius, w_rel)
+                    # the share of the brake moment that decelerates the wheel's own spin, I_yy a_fwd / R
+                    # (a_fwd: the hub's acceleration over the last step): the road force is then b times the
+                    # friction left, not 2 % less (a Clio wheel's I_yy / R^2 = 4.7 kg)
+                    vel = np.asarray(g(nw, out.Velocity))
+                    fwd = np.cross(axis, (0.0, 0.0, 1.0))
+                    dt = self.s_cur - self.t_hub[v, k]     # a hub velocity of the previous step only
+                    a_fwd = float((vel - self.v_hub[v, k]) @ fwd) / dt if 0.0 < dt <= 1.5 * self.o["step"] else 0.0
+                    self.v_hub[v, k], self.t_hub[v, k] = vel, self.s_cur
+                    mb += self.vehs[v].BODY[5 + k, 2] * a_fwd / radius * math.tanh(abs(w_rel) / OMEGA_BRAKE)
+                    m = mb if abs(mb) > abs(m) else m
+                M = m * axis
             mbs.SetLoadParameter(tw, "loadVector", M.tolist())
             mbs.SetLoadParameter(tk, "loadVector", (-M).tolist())
 
@@ -392,11 +475,8 @@ class _Run:
                         pv = self._pose(v)
                         self.contact[v] = [pv[0], pv[1], pv[3], math.hypot(pv[6], pv[7])]
                 for v in (i, j):
-                    if v < self.nv and self.lock_pending[v]:
-                        from .build import lock
-                        lock(self.mbs, self.items[v])
-                        self.lock_pending[v] = False
-                        self.locked[v] = True
+                    if v < self.nv:
+                        self.struck[v] = True   # locked_after_impact locks in the next pre-step (_driver)
             for q in (psg0, psg1):
                 EP.accumulate(PST, p, 0.5 * h, q[p])
                 EP.track_peak(PST, p, q[p])
@@ -455,6 +535,7 @@ class _Run:
         self.head = np.array([vs.heading for vs in scene.vehicles], dtype=float)
         self.chassisA = [np.eye(3) for _ in range(nv)]
         self.locked = np.array([vs.wheels == "locked" for vs in scene.vehicles])
+        self.mode = np.array([DI.effective_mode(DI.WHEEL_CODES[vs.wheels], False) for vs in scene.vehicles])
         self.contact = np.full((nv, 4), np.nan)
         self.contact_time = math.nan
         self.traj = [[] for _ in range(nv)]
