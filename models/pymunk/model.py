@@ -12,15 +12,9 @@ import numpy as np
 
 from crashlab.geometry import rect_corners
 from crashlab.model import CollisionModel
+from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
 from crashlab.models.common.impact_rows import pair_rows
-from crashlab.models.common.planar_vehicle import (
-    N_PARAMS,
-    P_IZ,
-    P_MASS,
-    P_WHEELS,
-    pack_vehicle,
-)
-from crashlab.models.common.wheel_states import LOCKED, ROLLING
+from crashlab.models.common.planar_vehicle import N_PARAMS, P_IZ, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.scene import barrier_outline
@@ -81,6 +75,7 @@ class PymunkModel(CollisionModel):
     """
 
     name = "pymunk"
+    driver_inputs = True  # actions and friction zones (docs/physics.md §2a) through ground.ground_forces
 
     class Options(ModelOptions):
         dt: float = option(0.00025, "fixed step of the engine (Chipmunk's contact friction breaks angular "
@@ -142,9 +137,8 @@ class _Run:
         self.m, self.scene = model, scene
         self.nv = len(scene.vehicles)
         self.P = np.array([pack_vehicle(v.spec, v.wheels, v.steer) for v in scene.vehicles]).reshape(-1, N_PARAMS)
-        self.wheels = [v.wheels for v in scene.vehicles]
-        self.modes = np.array([ROLLING if w == "locked_after_impact" else int(self.P[i, P_WHEELS])
-                               for i, w in enumerate(self.wheels)], dtype=np.int64)
+        self.actions, self.n_actions = pack_action_tables(scene.vehicles)  # driver inputs (§2a)
+        self.zones = pack_zones(scene.road)
         space = pymunk.Space()
         space.gravity = (0.0, 0.0)  # plan view: the road's reaction is in the tyre forces
         space.damping = 1.0
@@ -203,9 +197,7 @@ class _Run:
         self.episodes.append(ep)
         for q in (i, k):
             if q < self.nv and not self.hit[q]:
-                self.hit[q] = True
-                if self.wheels[q] == "locked_after_impact":
-                    self.modes[q] = LOCKED
+                self.hit[q] = True  # locked_after_impact wheels lock from here (driver_inputs.effective_mode)
 
     def _pre_solve(self, arb, space, data):
         imp = self.scene.impact
@@ -273,7 +265,8 @@ class _Run:
                 nr += 1
                 next_rec += rec_dt
             if m.ground_forces:
-                self.ground(P, S, self.modes, self.awake, mu, acc, F)
+                self.ground(P, S, self.t, self.actions, self.n_actions, self.hit, self.awake, mu, *self.zones,
+                            acc, F)
             for q, b in enumerate(self.bodies):
                 b.force = (F[q, 0], F[q, 1])  # global frame; Chipmunk clears it after the step
                 b.torque = F[q, 2]
