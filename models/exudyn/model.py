@@ -157,7 +157,8 @@ class _Run:
     def __init__(self, opts, scene, vehicles):
         import exudyn as exu
 
-        from .build import build_vehicle
+        from .build import build_vehicle, set_locks, steer
+        self.set_locks, self.steer = set_locks, steer
         self.exu = exu
         self.o = opts
         self.scene = scene
@@ -207,7 +208,11 @@ class _Run:
         self.road_chi = R.road_chi()
         self.RSG = np.zeros((nv, R.N_RSG))
         self.Y = np.zeros((nv, 13))        # chassis state in the multibody layout: r, p, r_dot, w' (nq = 7)
-        self.struck = np.zeros(nv, dtype=bool)   # first contact seen (locked_after_impact)
+        self.struck = [False] * nv   # first contact seen (locked_after_impact)
+        self.struck_seen = [False] * nv
+        self.timed = [bool(x) for x in self.timed]
+        # vehicles whose wheel state, brake or steer can change in the run
+        self.driven = [v for v in range(nv) if self.timed[v] or self.items[v]["locks"]]
         mbs.Assemble()
 
     # ------------------------------------------------------------------ state access
@@ -373,26 +378,27 @@ class _Run:
         of vehicle_3d.steer_angles), the brake fraction goes to _wheel_torques; each wheel's road friction
         is that of the zones at its contact point half a step on (the predicted middle of the step), set as
         the rolling disc's dry friction and held over the step."""
-        from .build import set_locks, steer
         tm = 0.5 * (s + t)
-        out = self.exu.OutputVariableType
-        g = self.mbs.GetNodeOutput
-        for v in range(self.nv):
+        for v in self.driven:
             it = self.items[v]
-            if not (self.timed[v] or it["locks"]):
+            # without actions the wheel state changes at most once, at the first contact
+            if not self.timed[v] and self.struck[v] == self.struck_seen[v]:
                 continue
+            self.struck_seen[v] = self.struck[v]
             mode, b, st = DI.driver_inputs(self.AT[v], self.nAT[v], tm)
             mode = DI.effective_mode(mode, self.struck[v])
             self.mode[v], self.brake[v] = mode, b
             lock = mode == LOCKED
             if it["locks"] and lock != self.locked[v]:
-                set_locks(self.mbs, it, lock)
+                self.set_locks(self.mbs, it, lock)
                 self.locked[v] = lock
             if st != self.steer_now[v]:
-                steer(self.mbs, it, steer_angles(self.vehs[v], st))
+                self.steer(self.mbs, it, steer_angles(self.vehs[v], st))
                 self.steer_now[v] = st
         if self.zones is None:
             return
+        out = self.exu.OutputVariableType
+        g = self.mbs.GetNodeOutput
         mu_road = self.scene.road.friction
         for v in range(self.nv):
             it = self.items[v]
