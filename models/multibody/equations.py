@@ -17,6 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
+from crashlab.models.common.driver_inputs import road_friction
 from crashlab.models.common.rotations import cross, p_dot, rotation_into
 from crashlab.models.common.vehicle_3d import B_IXX, B_IYY, B_IZZ, B_MASS, T_KZ
 
@@ -58,9 +59,12 @@ def unpack(y, nb, A, R, V, W):
 
 
 @njit(cache=True)
-def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, aux, fext):
+def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, aux, fext, phit, brake,
+        ZC, ZS, ZM, ZB):
     """fext: external load on the chassis (body 0): global force [0:3], global moment about its CG [3:6],
-    its power [6] (added to the non-conservative work)."""
+    its power [6] (added to the non-conservative work). brake: the driver's brake fraction b of the rolling
+    wheels now; ZC, ZS, ZM, ZB: the road's friction zones (common/driver_inputs.pack_zones): each tyre takes
+    the friction at its contact point (docs/physics.md §2a)."""
     nb, nw = BODY.shape[0], TYR.shape[0]
     nq, nvq = 7 * nb, 13 * nb
     unpack(y, nb, A, R, V, W)
@@ -86,21 +90,26 @@ def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos
         pnc -= diss
     dsl = np.empty(2)
     for k in range(nw):
-        fz, pw = tyre(TYR[k], A, R, V, W, Q, y[nvq + 2 * k], y[nvq + 2 * k + 1], cfg[C_MU], cfg[C_FRICTION],
-                      cfg[C_DAMPING], dsl)
+        mu = cfg[C_MU]
+        if ZM.shape[0] > 0:
+            _, C, _ = deflection(TYR[k], A, R)
+            mu = road_friction(C[0], C[1], mu, ZC, ZS, ZM, ZB)
+        fz, pw = tyre(TYR[k], A, R, V, W, Q, y[nvq + 2 * k], y[nvq + 2 * k + 1], mu, cfg[C_FRICTION],
+                      cfg[C_DAMPING], dsl, brake)
         dy[nvq + 2 * k], dy[nvq + 2 * k + 1] = dsl[0], dsl[1]
         aux[AUX_FZ + k] = fz
         pnc += pw
     dy[nvq + 2 * nw] = pnc
     # constraints
     m = 0
+    phit[:] = 0.0
     for k in range(JNT.shape[0]):
-        m = joint_rows(JNT[k], A, R, V, W, D, phi, gam, rowb, ispos, m)
+        m = joint_rows(JNT[k], A, R, V, W, D, phi, gam, rowb, ispos, m, phit)
     dpos, dang = 0.0, 0.0
     a2, b2 = 2.0 * cfg[C_ALPHA], cfg[C_BETA] * cfg[C_BETA]
     for r in range(m):
         i, j = rowb[r, 0], rowb[r, 1]
-        phid = 0.0
+        phid = phit[r]
         mq = 0.0
         for k in range(3):
             phid += D[r, k] * V[i, k] + D[r, 3 + k] * W[i, k] + D[r, 6 + k] * V[j, k] + D[r, 9 + k] * W[j, k]

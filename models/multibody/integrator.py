@@ -18,6 +18,14 @@ import math
 import numpy as np
 from numba import njit
 
+from crashlab.models.common.driver_inputs import (
+    A_STEER_FROM,
+    A_STEER_TO,
+    A_T,
+    A_T_END,
+    driver_inputs,
+    effective_mode,
+)
 from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts_awake
 from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
 from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
@@ -56,7 +64,10 @@ from .equations import (
     energy,
     rhs,
 )
-from .joints import J_I, J_J, J_TYPE, J_XI, J_XJ, REVOLUTE, REVOLUTE_LOCKED
+from crashlab.models.common.vehicle_3d import NW, T_MODE
+from crashlab.models.common.wheel_states import LOCKED
+
+from .joints import J_DDELTA, J_I, J_J, J_TYPE, J_XI, J_XJ, J_YI, REVOLUTE, REVOLUTE_LOCKED
 
 # Dormand-Prince 5(4) tableau
 _A = np.array([
@@ -67,6 +78,7 @@ _A = np.array([
     [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
     [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
     [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]])
+_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
 _E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
 
 STATUS_OK, STATUS_NAN, STATUS_STEP = 0, 2, 3
@@ -86,12 +98,14 @@ def make_work(nv, nb):
     return (np.empty((nv, nb, 3, 3)), np.empty((nv, nb, 3)), np.empty((nv, nb, 3)), np.empty((nv, nb, 3)),
             np.empty((nv, nb, 6)), np.empty((nv, MAX_ROWS, 12)), np.empty((nv, MAX_ROWS)),
             np.empty((nv, MAX_ROWS)), np.empty((nv, MAX_ROWS, 2), np.int64), np.empty((nv, MAX_ROWS), np.bool_),
-            np.empty((nv, MAX_ROWS, MAX_ROWS)), np.empty((nv, MAX_ROWS)))
+            np.empty((nv, MAX_ROWS, MAX_ROWS)), np.empty((nv, MAX_ROWS)), np.zeros((nv, MAX_ROWS)))
 
 
 @njit(cache=True)
-def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
-    A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam = wk
+def eval_all(Y, K, s, te, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
+    """All forces and accelerations at stage s, time te (the driver's inputs; DV: driver_arrays)."""
+    A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, phit = wk
+    ACT, NACT, GEO, ZC, ZS, ZM, ZB = DV
     CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
     KR, RSG = RD
     if PP.shape[0] > 0:
@@ -104,15 +118,100 @@ def eval_all(Y, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
                   cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], FX, RSG[s])
     for v in range(Y.shape[0]):
         if awake[v]:
+            brake = 0.0
+            if NACT[v] > 1:
+                brake = _drive(ACT[v], NACT[v], GEO[v], JNT[v], te)
             rhs(Y[v], K[s, v], BODY[v], JNT[v], SPR[v], TYR[v], cfg, A[v], R[v], V[v], W[v], Q[v], D[v],
-                phi[v], gam[v], rowb[v], ispos[v], S[v], lam[v], aux[v], FX[v])
+                phi[v], gam[v], rowb[v], ispos[v], S[v], lam[v], aux[v], FX[v], phit[v], brake, ZC, ZS, ZM, ZB)
         else:
             K[s, v, :] = 0.0
 
 
 @njit(cache=True)
-def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD):
-    """One Dormand-Prince step from Y (K[0] = f(Y) given); fills Ynew and K[1..6] (K[6] = f(Ynew))."""
+def ackermann(L, yk, steer):
+    """Steer angle of a front wheel at lateral position yk on an Ackermann linkage with `steer` at the axle
+    centre (as common/vehicle_3d.steer_angles, compiled)."""
+    if steer == 0.0:
+        return 0.0
+    rr = L / math.tan(steer)
+    if rr > 0:
+        return math.atan2(L, rr - yk)
+    return -math.atan2(L, -(rr - yk))
+
+
+@njit(cache=True)
+def steer_rate(A, n, t):
+    """d(steer)/dt of the driver's steer at t from the action table (nonzero within a steer ramp)."""
+    k = n - 1
+    while k > 0 and t < A[k, A_T]:
+        k -= 1
+    if t >= A[k, A_T_END]:
+        return 0.0
+    return (A[k, A_STEER_TO] - A[k, A_STEER_FROM]) / (A[k, A_T_END] - A[k, A_T])
+
+
+@njit(cache=True)
+def _drive(A, n, geo, JNT, te):
+    """The driver's inputs of one vehicle at time te (common/driver_inputs.py): turns the front knuckles'
+    steering axes to the Ackermann angles of the steer now, with its rate (the rheonomic steering row,
+    joints.J_DDELTA), if the vehicle steers at all (geo[3]); returns the brake fraction."""
+    _, brake, steer = driver_inputs(A, n, te)
+    if geo[3] > 0.0:
+        sd = steer_rate(A, n, te)
+        eps = 1e-6
+        for k in range(2):
+            d = ackermann(geo[0], geo[1 + k], steer)
+            row = JNT[k]
+            row[J_XI], row[J_XI + 1], row[J_XI + 2] = math.cos(d), math.sin(d), 0.0
+            row[J_YI], row[J_YI + 1], row[J_YI + 2] = -math.sin(d), math.cos(d), 0.0
+            row[J_DDELTA] = 0.0
+            if sd != 0.0:
+                row[J_DDELTA] = sd * (ackermann(geo[0], geo[1 + k], steer + eps)
+                                      - ackermann(geo[0], geo[1 + k], steer - eps)) / (2 * eps)
+    return brake
+
+
+@njit(cache=True)
+def next_break(ACT, NACT, t):
+    """The first time after t at which a driver's input changes its law: an action's start (wheel state,
+    brake or steer jump or ramp start) or the end of its ramp (a kink); inf if none. No step straddles one."""
+    tb = math.inf
+    for v in range(ACT.shape[0]):
+        for k in range(1, NACT[v]):
+            for c in (A_T, A_T_END):
+                tk = ACT[v, k, c]
+                if tk > t + 1e-12 * (1.0 + abs(t)) and tk < tb:
+                    tb = tk
+    return tb
+
+
+@njit(cache=True)
+def apply_modes(y, JNT, TYR, A, n, t, struck, nb):
+    """Set one vehicle's wheel states to the driver's state at t (locked_after_impact: locked once struck):
+    a wheel that locks gets its knuckle-wheel joint locked at its present orientation (lock_joint), one that
+    is released gets its revolute joint back; the tyre rows carry the state (braked: ABS torque; rolling: the
+    brake fraction). Returns True if anything changed."""
+    mode = effective_mode(driver_inputs(A, n, t)[0], struck)
+    changed = False
+    for k in range(NW):
+        row = JNT[NW + k]
+        typ = int(row[J_TYPE])
+        if mode == LOCKED and typ == REVOLUTE:
+            lock_joint(y, row, nb)
+            changed = True
+        elif mode != LOCKED and typ == REVOLUTE_LOCKED:
+            row[J_TYPE] = REVOLUTE
+            changed = True
+        if int(TYR[k, T_MODE]) != mode:
+            TYR[k, T_MODE] = mode
+            changed = True
+    return changed
+
+
+@njit(cache=True)
+def dp_step(Y, t, h, t_lim, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
+    """One Dormand-Prince step from Y at t (K[0] = f(Y) given); fills Ynew and K[1..6] (K[6] = f(Ynew)).
+    Stage times are held just below t_lim (the next change of the driver's law; the step ends there)."""
     nv, ny = Y.shape
     for s in range(1, 7):
         for v in range(nv):
@@ -128,7 +227,8 @@ def dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, R
             for v in range(nv):
                 if not awake[v]:
                     Ynew[v] = Y[v]
-        eval_all(Ytmp, K, s, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
+        eval_all(Ytmp, K, s, min(t + _C[s] * h, t_lim - 1e-12), awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD,
+                 DV)
 
 
 @njit(cache=True)
@@ -219,35 +319,40 @@ def _record(traj, n, t, Y, BODY, head, aux, RSG0, road, SPR, TYR, g):
 
 @njit(cache=True)
 def lock_wheels(y, JNT, nb):
-    """Lock every free revolute joint of one vehicle (locked_after_impact): the joint becomes
-    REVOLUTE_LOCKED with its reference axis set to the current relative orientation (zero violation),
-    and the wheel's spin relative to its knuckle is removed (an impulsive lock). Returns True if changed."""
-    nq = 7 * nb
-    A = np.empty((nb, 3, 3))
+    """Lock every free revolute joint of one vehicle (lock_joint). Returns True if changed."""
     changed = False
     for jn in range(JNT.shape[0]):
-        row = JNT[jn]
-        if int(row[J_TYPE]) != REVOLUTE:
-            continue
-        bk, bw = int(row[J_I]), int(row[J_J])
-        for b in (bk, bw):
-            rotation_into(y[7 * b + 3], y[7 * b + 4], y[7 * b + 5], y[7 * b + 6], A, b)
-        # reference: the knuckle's local axis x_i' = row[J_XI] (perpendicular to the spin axis and to
-        # y_i') expressed in the wheel frame, so that n1(y_i, x_j) = 0 now
-        xg = np.zeros(3)
-        for k in range(3):
-            xg[k] = A[bk, k, 0] * row[J_XI] + A[bk, k, 1] * row[J_XI + 1] + A[bk, k, 2] * row[J_XI + 2]
-        for k in range(3):
-            row[J_XJ + k] = A[bw, 0, k] * xg[0] + A[bw, 1, k] * xg[1] + A[bw, 2, k] * xg[2]
-        row[J_TYPE] = REVOLUTE_LOCKED
-        wk = y[nq + 6 * bk + 3:nq + 6 * bk + 6]
-        wg = np.zeros(3)
-        for k in range(3):
-            wg[k] = A[bk, k, 0] * wk[0] + A[bk, k, 1] * wk[1] + A[bk, k, 2] * wk[2]
-        for k in range(3):
-            y[nq + 6 * bw + 3 + k] = A[bw, 0, k] * wg[0] + A[bw, 1, k] * wg[1] + A[bw, 2, k] * wg[2]
-        changed = True
+        if int(JNT[jn, J_TYPE]) == REVOLUTE:
+            lock_joint(y, JNT[jn], nb)
+            changed = True
     return changed
+
+
+@njit(cache=True)
+def lock_joint(y, row, nb):
+    """Lock one revolute knuckle-wheel joint (a wheel that locks: locked_after_impact struck, or a driver's
+    action): the joint becomes REVOLUTE_LOCKED with its reference axis set to the current relative
+    orientation (zero violation), and the wheel's spin relative to its knuckle is removed (an impulsive
+    lock)."""
+    nq = 7 * nb
+    A = np.empty((nb, 3, 3))
+    bk, bw = int(row[J_I]), int(row[J_J])
+    for b in (bk, bw):
+        rotation_into(y[7 * b + 3], y[7 * b + 4], y[7 * b + 5], y[7 * b + 6], A, b)
+    # reference: the knuckle's local axis x_i' = row[J_XI] (perpendicular to the spin axis and to
+    # y_i') expressed in the wheel frame, so that n1(y_i, x_j) = 0 now
+    xg = np.zeros(3)
+    for k in range(3):
+        xg[k] = A[bk, k, 0] * row[J_XI] + A[bk, k, 1] * row[J_XI + 1] + A[bk, k, 2] * row[J_XI + 2]
+    for k in range(3):
+        row[J_XJ + k] = A[bw, 0, k] * xg[0] + A[bw, 1, k] * xg[1] + A[bw, 2, k] * xg[2]
+    row[J_TYPE] = REVOLUTE_LOCKED
+    wk = y[nq + 6 * bk + 3:nq + 6 * bk + 6]
+    wg = np.zeros(3)
+    for k in range(3):
+        wg[k] = A[bk, k, 0] * wk[0] + A[bk, k, 1] * wk[1] + A[bk, k, 2] * wk[2]
+    for k in range(3):
+        y[nq + 6 * bw + 3 + k] = A[bw, 0, k] * wg[0] + A[bw, 1, k] * wg[1] + A[bw, 2, k] * wg[2]
 
 
 @njit(cache=True)
@@ -277,14 +382,16 @@ def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
 
 
 @njit(cache=True)
-def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events,
+def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_start, fz_end, check_events,
              IMP, CONT, RD, ASLEEP0):
     """Integrate all vehicles from Y (modified in place) until rest or t_end, with vehicle contact
     (common/chassis_contact.py): first-contact control (no step ends with a new contact deeper than onset_tol),
     per-pair contact episodes recorded in IMP, state at first contact in CONT; chassis-road contact
     (common/road_contact.py, RD = (KR, RSG[7, nv, N_RSG])). ASLEEP0[v]: vehicle v starts asleep in its
     start state (velocities zeroed) unless it penetrates another body at the start; it wakes on contact like
-    any sleeping vehicle."""
+    any sleeping vehicle. DV (model.driver_arrays): the drivers' action tables and the road's friction zones
+    (docs/physics.md §2a): no step straddles a change of a driver's law (next_break); at one, the wheel
+    states are set anew (apply_modes) and the accelerations re-evaluated. JNT and TYR are changed in place."""
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
@@ -297,7 +404,9 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
     Ytmp, Ynew, Y0 = np.empty_like(Y), np.empty_like(Y), np.empty_like(Y)
     aux = np.zeros((nv, N_AUX))
     awake = np.ones(nv, np.bool_)
-    locked = np.zeros(nv, np.bool_)
+    struck = np.zeros(nv, np.bool_)
+    ACT, NACT = DV[0], DV[1]
+    t_lim = next_break(ACT, NACT, 0.0)
     still = np.zeros(nv)
     hnew = np.empty(nv)
     rtol, atol, hmax = cfg[C_RTOL], cfg[C_ATOL], cfg[C_HMAX]
@@ -307,7 +416,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
     diag[D_H_MIN] = 1e300
     diag[D_MAX_NORM_ERR] = normalise(Y, nb)
     _headings(Y, BODY, head, head)
-    eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
+    eval_all(Y, K, 0, 0.0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV)
     fz_start[:, :] = aux[:, AUX_FZ:AUX_FZ + 4]
     # vehicles starting asleep (the first evaluation above had every vehicle awake: all pairs measured)
     for v in range(nv):
@@ -331,7 +440,11 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
     bw = _A[6]
     while t < t_end * (1 - 1e-12):
         h = min(h, hmax, t_end - t)
-        dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
+        h_free = h
+        at_break = t + h >= t_lim - 1e-10
+        if at_break:
+            h = t_lim - t
+        dp_step(Y, t, h, t_lim, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV)
         nfev += 6
         err = error_norm(Y, Ynew, K, h, awake, nq, nvq, nslip, rtol, atol)
         if not (err == err):
@@ -339,11 +452,13 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                 status = STATUS_NAN
                 break
             h *= 0.1
+            h_free = h
             diag[D_REJECTED] += 1
             continue
         if err > 1.0:
             diag[D_REJECTED] += 1
             h *= max(0.2, 0.9 * err ** -0.2)
+            h_free = h
             if h < 1e-10:
                 status = STATUS_STEP
                 break
@@ -354,7 +469,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
             found = False
             for _ in range(60):
                 mid = 0.5 * (lo + hi)
-                dp_step(Y, mid, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
+                dp_step(Y, t, mid, t_lim, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV)
                 nfev += 6
                 dm = _new_penetration(PST, PSG[6])
                 if dm > tol:
@@ -369,13 +484,14 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                     break
             if not found:
                 h = hi
-                dp_step(Y, h, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
+                dp_step(Y, t, h, t_lim, K, Ytmp, Ynew, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV)
                 nfev += 6
             diag[D_ONSET_BISECT] += 1
+            at_break = False
         # accepted
         Y0[:, :] = Y
         Y[:, :] = Ynew
-        t += h
+        t = t_lim if at_break else t + h
         diag[D_STEPS] += 1
         diag[D_H_MIN] = min(diag[D_H_MIN], h)
         diag[D_H_MAX] = max(diag[D_H_MAX], h)
@@ -411,9 +527,9 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                     for v in (i, j):
                         if v >= nv:
                             continue
-                        if LOCK[v] and not locked[v]:
-                            locked[v] = True
-                            if lock_wheels(Y[v], JNT[v], nb):
+                        if not struck[v]:
+                            struck[v] = True
+                            if apply_modes(Y[v], JNT[v], TYR[v], ACT[v], NACT[v], t, True, nb):
                                 need_k0 = True
                         if not awake[v]:
                             awake[v] = True
@@ -438,8 +554,14 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
                     road[v] = 1.0
             for k in range(RSG.shape[2]):
                 RSG[0, v, k] = RSG[6, v, k]
+        if at_break:
+            # a driver's law changes at t (next_break): new wheel states, new brake / steer law from t on
+            for v in range(nv):
+                apply_modes(Y[v], JNT[v], TYR[v], ACT[v], NACT[v], t, struck[v], nb)
+            t_lim = next_break(ACT, NACT, t)
+            need_k0 = True
         if need_k0:
-            eval_all(Y, K, 0, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD)
+            eval_all(Y, K, 0, t, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV)
             nfev += 1
         # rest: a vehicle still for t_sleep goes to sleep (not while it is in contact)
         for v in range(nv):
@@ -462,6 +584,8 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, LOCK, cfg, nslip, traj, diag, head, fz_
         if cfg[C_STOP_AT_REST] > 0 and not awake.any():
             break
         h *= min(5.0, max(0.2, 0.9 * err ** -0.2)) if err > 0 else 5.0
+        if at_break:
+            h = max(h, h_free)    # the step was shortened to end at the change, not for accuracy
     for p in range(npair):
         if PST[p, S_ACT] > 0.0:
             _close(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, 1.0)

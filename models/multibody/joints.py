@@ -24,7 +24,10 @@ from crashlab.models.common.wheel_states import LOCKED
 SPHERICAL, REVOLUTE, CYLINDRICAL, TRANSLATIONAL, REVOLUTE_LOCKED = 0, 1, 2, 3, 4
 (J_TYPE, J_I, J_J) = range(3)
 J_SP, J_SQ, J_XI, J_YI, J_ZI, J_XJ, J_ZJ = 3, 6, 9, 12, 15, 18, 21
-N_J = 24
+# steer rate d(delta)/dt of a TRANSLATIONAL chassis-knuckle joint whose axes x_i, y_i turn with the driver's
+# steer (rheonomic steering constraint, docs/physics.md §2a; 0 for a fixed steer angle)
+J_DDELTA = 24
+N_J = 25
 
 
 @njit(cache=True, inline="always")
@@ -88,9 +91,11 @@ def sph_rows(A, i, j, ri, rj, wi, wj, sp_, sq_, D, phi, gam, row):
 
 
 @njit(cache=True)
-def joint_rows(J, A, R, V, W, D, phi, gam, rowb, ispos, row):
+def joint_rows(J, A, R, V, W, D, phi, gam, rowb, ispos, row, phit):
     """Rows of one joint (J: its table row) from `row` on; returns the next free row.
-    R, V: (nb, 3) positions and global velocities; W: (nb, 3) body-fixed angular velocities."""
+    R, V: (nb, 3) positions and global velocities; W: (nb, 3) body-fixed angular velocities.
+    phit[row]: the explicit time derivative dPhi/dt of a row (nonzero only for the steering row of a knuckle
+    turned by the driver, J_DDELTA != 0; else 0)."""
     t = int(J[J_TYPE])
     i, j = int(J[J_I]), int(J[J_J])
     ri, rj = (R[i, 0], R[i, 1], R[i, 2]), (R[j, 0], R[j, 1], R[j, 2])
@@ -119,11 +124,28 @@ def joint_rows(J, A, R, V, W, D, phi, gam, rowb, ispos, row):
     if t == TRANSLATIONAL or t == REVOLUTE_LOCKED:
         n1_row(A, i, j, wi, wj, yi, xj, D, phi, gam, row)
         ispos[row] = False
+        dd = J[J_DDELTA] if t == TRANSLATIONAL else 0.0
+        if dd != 0.0:
+            _steer_terms(A, i, j, wi, wj, xi, yi, xj, dd, gam, phit, row)
         row += 1
     for k in range(r0, row):
         rowb[k, 0] = i
         rowb[k, 1] = j
     return row
+
+
+@njit(cache=True)
+def _steer_terms(A, i, j, wi, wj, xi_, yi_, xj_, dd, gam, phit, row):
+    """Rheonomic part of the steering row Phi = a . c, a = A_i y_i'(delta), c = A_j x_j', with the steer angle
+    delta(t) turning x_i', y_i' about z_i' at rate dd (d(y_i')/d(delta) = -x_i', d(x_i')/d(delta) = y_i';
+    delta_ddot = 0: the driver's steer is piecewise linear in time, kinks at step boundaries):
+    Phi_t = -dd X . c (X = A_i x_i') and, from Phi_ddot = D v_dot - gamma,
+    gamma += 2 dd (A_i (w_i' x x_i')) . c + dd^2 a . c + 2 dd X . c_dot."""
+    a, c, X = mv(A, i, yi_), mv(A, j, xj_), mv(A, i, xi_)
+    Xd = mv(A, i, cross(wi, xi_))
+    cd = mv(A, j, cross(wj, xj_))
+    phit[row] = -dd * dot(X, c)
+    gam[row] += 2.0 * dd * dot(Xd, c) + dd * dd * dot(a, c) + 2.0 * dd * dot(X, cd)
 
 
 def vehicle_joints(veh, modes, deltas) -> np.ndarray:

@@ -37,7 +37,19 @@ from crashlab.models.common.vehicle_3d import (
     build_scene_vehicles,
     steer_angles,
 )
-from crashlab.models.common.wheel_states import LOCKED, WHEEL_CODES
+from crashlab.models.common.driver_inputs import (
+    A_MODE,
+    A_STEER_FROM,
+    A_STEER_TO,
+    A_T,
+    A_T_END,
+    N_ACTION_COLUMNS,
+    driver_inputs,
+    effective_mode,
+    pack_action_tables,
+    pack_zones,
+)
+from crashlab.models.common.wheel_states import LOCKED
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.units import G
@@ -53,6 +65,7 @@ class MultibodyModel(CollisionModel):
     (documented defaults, the same for every scene) are `Options` below, the model is described in README.md."""
 
     name = "multibody"
+    driver_inputs = True    # actions and friction zones (docs/physics.md §2a; README "Driver actions")
     # the guard's interpenetration check compares rectangular outlines; the contact bodies here are
     # superellipsoids (2/eps = 4) whose rounded corners lie up to ~0.3 m inside the rectangle's: an SUV at rest
     # 8 mm into a barrier with its corner towards it "overlapped" by 0.11 m (stress scene random 0:0). The model
@@ -119,7 +132,7 @@ class MultibodyModel(CollisionModel):
             I.simulate(Y, veh.BODY[None], vehicle_joints(veh, modes, np.zeros(NW))[None], veh.SPR[None],
                        tyres_for(veh, modes)[None], contact_arrays(veh.chassis_shape[None], np.zeros((0, N_PP)),
                                                                    np.zeros((0, 5)), 1),
-                       np.zeros(1, np.bool_), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
+                       _no_driver(), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
                        np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, N_IMP)), np.zeros((1, 4)),
                        _road_arrays([veh.mass]), np.zeros(1, np.bool_))
             y = Y[0]
@@ -177,9 +190,15 @@ class MultibodyModel(CollisionModel):
     def prepare(self, scene) -> dict:
         """The packed arrays of a scene (start state Y, parameters, cfg); `run` integrates them."""
         vehs, Ys, Js, Ts = [], [], [], []
-        for vs, veh in zip(scene.vehicles, build_scene_vehicles(scene)):
-            modes = [WHEEL_CODES["rolling"] if vs.wheels == "locked_after_impact" else WHEEL_CODES[vs.wheels]] * NW
-            deltas = steer_angles(veh, vs.steer)
+        ACT, NACT = pack_action_tables(scene.vehicles)
+        GEO = np.zeros((len(scene.vehicles), 4))
+        for v, (vs, veh) in enumerate(zip(scene.vehicles, build_scene_vehicles(scene))):
+            # the wheel state and steer at t = 0 (common/driver_inputs.py; locked_after_impact rolls until struck)
+            mode, _, steer = driver_inputs(ACT[v], NACT[v], 0.0)
+            modes = [effective_mode(mode, False)] * NW
+            deltas = steer_angles(veh, steer)
+            GEO[v] = (veh.wheelbase, veh.axle_y[0], veh.axle_y[1],
+                      float(np.any(ACT[v, :NACT[v], A_STEER_FROM] != ACT[v, :NACT[v], A_STEER_TO])))
             vehs.append(veh)
             Ys.append(self.place(veh, self.settled(veh), vs, deltas, modes))
             Js.append(vehicle_joints(veh, modes, deltas))
@@ -195,20 +214,20 @@ class MultibodyModel(CollisionModel):
         cfg[E.C_MU_C], cfg[E.C_FCODE] = imp.friction, friction_code(imp.friction_law)
         CSH = np.array([v.chassis_shape for v in vehs])
         PP = pair_table(len(vehs), len(scene.barriers), self.options.contact_stiffness, self.options.contact_exponent)
-        LOCK = np.array([vs.wheels == "locked_after_impact" for vs in scene.vehicles], dtype=np.bool_)
+        DV = (ACT, NACT, GEO) + pack_zones(scene.road)
         # a vehicle at rest in the scene starts asleep in its settled state (unless sleeping cannot happen in
         # this run: t_sleep >= duration, e.g. the scaling study's sleeping off)
         can_sleep = self.options.t_sleep < scene.duration
         ASLEEP = np.array([can_sleep and vs.speed == 0 and vs.yaw_rate == 0 for vs in scene.vehicles],
                           dtype=np.bool_)
         return {"Y": Y, "BODY": BODY, "SPR": SPR, "JNT": JNT, "TYR": TYR, "BAR": BAR, "cfg": cfg,
-                "vehicles": vehs, "CSH": CSH, "PP": PP, "LOCK": LOCK, "ASLEEP": ASLEEP}
+                "vehicles": vehs, "CSH": CSH, "PP": PP, "DV": DV, "ASLEEP": ASLEEP}
 
     def run(self, scene, prep, t0=None) -> Outcome:
         t0 = time.perf_counter() if t0 is None else t0
         names = scene.vehicle_names
         nv = len(names)
-        Y, BODY, SPR, JNT, TYR = prep["Y"].copy(), prep["BODY"], prep["SPR"], prep["JNT"].copy(), prep["TYR"]
+        Y, BODY, SPR, JNT, TYR = prep["Y"].copy(), prep["BODY"], prep["SPR"], prep["JNT"].copy(), prep["TYR"].copy()
         BAR, cfg, vehs = prep["BAR"], prep["cfg"], prep["vehicles"]
         nq, nvq, ny = E.sizes(NB, NW)
         e_start = [self._energy(Y[v], BODY[v], SPR[v], TYR[v]) for v in range(nv)]
@@ -221,7 +240,7 @@ class MultibodyModel(CollisionModel):
         CT = contact_arrays(prep["CSH"], prep["PP"], BAR, nv)
         IMP = np.zeros((MAX_IMP, N_IMP))
         CONT = np.full((nv, 4), np.nan)
-        I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["LOCK"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
+        I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["DV"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
                    CONT, _road_arrays([v.mass for v in vehs]), prep["ASLEEP"])
         nr = int(diag[I.D_NREC])
         status = int(diag[I.D_STATUS])
@@ -293,6 +312,15 @@ class MultibodyModel(CollisionModel):
         A = np.zeros((NB, 3, 3))
         R, V, W = np.zeros((NB, 3)), np.zeros((NB, 3)), np.zeros((NB, 3))
         return float(E.energy(y, BODY, SPR, TYR, G, A, R, V, W))
+
+
+def _no_driver():
+    """Driver arrays of a run without actions or zones (the static settling): one start row, wheels locked."""
+    ACT = np.zeros((1, 1, N_ACTION_COLUMNS))
+    ACT[0, 0, A_T] = ACT[0, 0, A_T_END] = -math.inf
+    ACT[0, 0, A_MODE] = LOCKED
+    return (ACT, np.ones(1, np.int64), np.zeros((1, 4)), np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0),
+            np.zeros((0, 4)))
 
 
 def _road_arrays(masses):

@@ -53,11 +53,12 @@ from crashlab.models.common.vehicle_3d import (
     T_SIG_S,
     T_WHEEL,
 )
-from crashlab.models.common.wheel_states import BRAKED
+from crashlab.models.common.wheel_states import BRAKED, ROLLING
 
 V_EPS = 0.01        # m/s: smooths V_ref = max(|V_x|, |V_c|) at standstill
 DELTA_RAMP = 1e-3   # m: radial damping fades in over the first mm of deflection (no jump at touchdown)
 TAU_AIR = 0.01      # s: relaxation of the slip states (tread deflection) of a wheel off the road
+V_BRAKE = 0.05      # m/s: the brake-fraction force reaches its full value above this speed (tanh)
 SAT_BAND = 0.05     # the slip states stop growing once S_c exceeds 3 mu F_z by this fraction
 
 
@@ -76,9 +77,10 @@ def deflection(Tw, A, R):
 
 
 @njit(cache=True)
-def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
+def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip, brake=0.0):
     """Adds the road's force on one wheel (and a brake's torque on wheel and knuckle) to Q; writes the
-    slip-state derivatives into dslip[0:2]; returns (F_z, power of the non-conservative parts)."""
+    slip-state derivatives into dslip[0:2]; returns (F_z, power of the non-conservative parts).
+    brake: the driver's brake fraction b of a rolling wheel (docs/physics.md §2a; README "Driver actions")."""
     bw, bk = int(Tw[T_WHEEL]), int(Tw[T_KNUCKLE])
     delta, C, w = deflection(Tw, A, R)
     c = (R[bw, 0], R[bw, 1], R[bw, 2])
@@ -152,11 +154,23 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
         cd *= 1.0 - z * z * (3.0 - 2.0 * z)
     fx = -fxi - cd * Tw[T_CS] * Tw[T_SIG_S] * ds
     fy = -feta - cd * Tw[T_CA] * Tw[T_SIG_A] * da
+    # brake fraction b of a rolling wheel (§2a): the brake regulates the tyre's longitudinal force to
+    # b sqrt((mu F_z)^2 - F_y^2) (rolling resistance its floor): the part the slip law does not already give
+    # (fxi, the force of the wheel's own longitudinal slip, which decelerates the wheel's spin) is applied at
+    # the contact point with the brake torque that keeps the wheel's spin free of it (below); both fade out
+    # below V_BRAKE, where the tread's own force holds the stopped car
+    fb = 0.0
+    if brake > 0.0 and int(Tw[T_MODE]) == ROLLING and fmax > 0.0:
+        left = math.sqrt(max(fmax * fmax - feta * feta, 0.0))
+        th = math.tanh(vx / V_BRAKE)
+        fb = max(brake * left - Tw[T_FRR] * fz * friction_on, 0.0) * th - fxi * abs(th)
+        fx -= fb
     fh = math.sqrt(fx * fx + fy * fy)
     if fh > fmax:
         r = fmax / fh if fh > 0.0 else 0.0
         fx *= r
         fy *= r
+        fb *= r
     F = (fx * xc[0] + fy * yc[0], fx * xc[1] + fy * yc[1], fz)
     P = (C[0], C[1], 0.0)
     sP = sub(P, c)
@@ -173,6 +187,18 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip):
     Q[bw, 5] += n[2]
     vP = add(vw, cross(om, sP))
     power = dot(F, vP) + tz * om[2] + myr * spin - Tw[T_KZ] * delta * vP[2]
+    if fb != 0.0:
+        # the brake torque between wheel and knuckle that cancels the brake force's moment about the spin axis
+        Fb = (-fb * xc[0], -fb * xc[1], 0.0)
+        tb = -dot(cross(sP, Fb), w)
+        omk = mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2]))
+        rel = spin - dot(omk, w)
+        nb = mtv(A, bw, scale(tb, w))
+        nk = mtv(A, bk, scale(-tb, w))
+        for k in range(3):
+            Q[bw, 3 + k] += nb[k]
+            Q[bk, 3 + k] += nk[k]
+        power += tb * rel
     if int(Tw[T_MODE]) == BRAKED:
         omk = mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2]))
         rel = spin - dot(omk, w)
