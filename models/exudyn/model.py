@@ -82,10 +82,15 @@ class ExudynModel(CollisionModel):
     updated before every step; `braked` (ABS-like) adds the UA tyre's brake moment
     eta mu F_z R tanh(omega_rel / 1 rad/s), eta = 0.95 of the locking torque, the same way.
 
-    Wheels: rolling (revolute joint), locked (generic joint, all six axes), locked_after_impact (revolute
-    joint + a spin-lock generic joint activated at the vehicle's first contact), braked (revolute joint +
-    the brake moment above).
-    Steer: the knuckles are built at the Ackermann angles of vehicle_3d.steer_angles (constant).
+    Wheels: rolling (revolute joint), locked for the whole run (generic joint, all six axes); a vehicle whose
+    wheels lock at some time (an action, locked_after_impact) has the revolute joint plus a spin-lock generic
+    joint that is switched on and off between steps; braked (revolute joint + the brake moment above).
+    Driver actions and friction zones (docs/physics.md §2a) come from common/driver_inputs, read before every
+    step at its middle (`_Run._driver`): wheel state (locked_after_impact through effective_mode with the first
+    contact) -> spin locks; brake fraction b -> a brake moment giving the road force b sqrt((mu F_z)^2 - F_y^2)
+    (with the wheel's spin inertia I_yy a / R added); steer -> the prismatic joints' chassis markers turned to
+    the Ackermann angles of vehicle_3d.steer_angles; zones -> each rolling disc's dry friction at its wheel's
+    position predicted half a step on (and the chassis-road contact's at the CG).
 
     Contact: the numba `common.chassis_contact.contacts` shared with multibody (superellipsoids, horizontal gap search,
     normal_force_chi with the scene's force_law and restitution, the scene's friction law and impact friction) and
