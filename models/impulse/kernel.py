@@ -64,6 +64,7 @@ SEPARATION = 0.05  # m: a pair further apart than this has ended its contact epi
 DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this within a step is bisected
 MAX_SWEEPS = 50  # sequential-impulse sweeps over simultaneous contacts per step
 STOP_MARGIN = 0.5  # m/s: coarse steps end this far above the speed a coarse step could brake away
+REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left out until a vehicle moved REACH
 
 
 @njit(cache=True)
@@ -120,6 +121,46 @@ def _awake_sets(asleep, nk, awake, pair_i, pair_k):
                     pair_i[n_pairs], pair_k[n_pairs] = i, k
                     n_pairs += 1
     return na, n_pairs
+
+
+@njit(cache=True)
+def _moved(S, Snew, awake, na, ref, reach):
+    """Some awake vehicle is more than `reach` from ref at the start (S) or the end (Snew) of the step."""
+    for a in range(na):
+        i = awake[a]
+        if (math.hypot(S[i, 0] - ref[i, 0], S[i, 1] - ref[i, 1]) > reach
+                or math.hypot(Snew[i, 0] - ref[i, 0], Snew[i, 1] - ref[i, 1]) > reach):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, reach, near_i, near_k,
+                in_contact, episode, allowed):
+    """The listed pairs without those of an awake vehicle and a static partner (a sleeping vehicle or a
+    barrier) whose bounding circles are more than 2 reach apart: while no awake vehicle is more than reach
+    (plus the curvature of a step) from ref = its position now, those stay apart, so the broad phase
+    would skip them and reset their contact state, done here once. Returns the count."""
+    nv = S.shape[0]
+    for a in range(na):
+        ref[awake[a], 0], ref[awake[a], 1] = S[awake[a], 0], S[awake[a], 1]
+    n = 0
+    for p in range(n_pairs):
+        i, k = pair_i[p], pair_k[p]
+        if (k >= nv or asleep[k] or asleep[i]) and _gap(S, B, radius, i, k, nv) > 2.0 * reach:
+            in_contact[i, k] = False
+            episode[i, k] = -1
+            allowed[i, k] = 0.0
+            continue
+        near_i[n], near_k[n] = i, k
+        n += 1
+    return n
+
+
+@njit(cache=True)
+def _gap(S, B, radius, i, k, nv):
+    ckx, cky = _centre(S, B, k, nv)
+    return math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
 
 
 @njit(cache=True)
@@ -282,6 +323,10 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
     awake = np.empty(nv, np.int64)  # the awake vehicles and the pairs with an awake member (_awake_sets)
     pair_i = np.empty(nv * nk, np.int64)
     pair_k = np.empty(nv * nk, np.int64)
+    near_i = np.empty(nv * nk, np.int64)  # the listed pairs that can touch soon (_near_pairs)
+    near_k = np.empty(nv * nk, np.int64)
+    ref = np.zeros((nv, 2))
+    n_near, near_stale = 0, True
     for i in range(nv):  # outlines that overlap at the start are in contact (a collision position)
         for k in range(i + 1, nk):
             if broad and _circles_apart(S, B, radius, i, k, nv):
@@ -381,11 +426,23 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         if steps > MAX_STEPS:
             status = STATUS_STEP_LIMIT
             break
+        # ---- the pairs tested this step: with the broad phase, pairs with a static partner far away
+        # are left out (_near_pairs, rebuilt once an awake vehicle has moved REACH); a step longer
+        # than REACH tests every listed pair
+        li, lk, nl = pair_i, pair_k, n_pairs
+        if broad and (na < nv or nb > 0):
+            if near_stale or _moved(S, Snew, awake, na, ref, REACH):
+                near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
+                if not near_stale:
+                    n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, REACH,
+                                         near_i, near_k, in_contact, episode, allowed)
+            if not near_stale:
+                li, lk, nl = near_i, near_k, n_near
         # ---- onset of a new contact: bisect the step until the overlap is at most tol; a touching pair
         # whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
         # rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN
-        for p in range(n_pairs):
-            i, k = pair_i[p], pair_k[p]
+        for p in range(nl):
+            i, k = li[p], lk[p]
             if broad and _circles_apart(Snew, B, radius, i, k, nv):
                 continue
             diag[D_NARROW] += 1
@@ -422,8 +479,8 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
         # impulses of this instant, so its further impulses are plastic and booked into its row. Then a
         # projection keeps each overlap below CONTACT_SLOP.
         nc = 0
-        for p in range(n_pairs):
-            i, k = pair_i[p], pair_k[p]
+        for p in range(nl):
+            i, k = li[p], lk[p]
             if broad and _circles_apart(S, B, radius, i, k, nv):
                 in_contact[i, k] = False
                 episode[i, k] = -1
@@ -515,6 +572,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             break
         if woke:
             na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
+            near_stale = True
         # non-penetration at the position level: the velocity-level contact impulse stops the approach at
         # the end of a step but not the overlap gained within it (~ a h^2 / 2)
         for c in range(nc):
@@ -526,6 +584,8 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                 Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
                 if k < nv:
                     Snew[k] = S[k]
+                    near_stale = near_stale or asleep[k]  # a static partner moved
+                near_stale = near_stale or asleep[i]
             allowed[i, k] = min(allowed[i, k], depth)
         # ---- rest: a vehicle that has (almost) stopped goes to sleep; an impulse wakes it
         # (a sleeping vehicle's state is only moved by the projection, finite: NaN can arise in awake ones)
@@ -544,6 +604,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                 status = STATUS_NAN
         if slept:
             na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
+            near_stale = True
         if status == STATUS_NAN or (all_asleep and cfg[C_STOP_AT_REST] > 0.5):
             break
     if rec_dt > 0.0 and n_rec < traj.shape[0]:
