@@ -10,8 +10,9 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-import crashlab  # noqa: E402
 from conftest import build_scene  # noqa: E402
+
+import crashlab  # noqa: E402
 from crashlab.models.common.vehicle_3d import T_R1, T_R2, build_scene_vehicles  # noqa: E402
 from crashlab.units import G  # noqa: E402
 

@@ -28,8 +28,8 @@ import numpy as np
 from exudyn.utilities import RigidBodyInertia
 
 from crashlab.models.common.rotations import rot_z
-from crashlab.models.common.wheel_states import LOCKED, LOCKED_AFTER_IMPACT
 from crashlab.models.common.vehicle_3d import NW, S_C, S_K, S_L0, S_P, S_Q, T_CZ, T_KZ, T_R1, T_R2, steer_angles
+from crashlab.models.common.wheel_states import LOCKED, LOCKED_AFTER_IMPACT
 from crashlab.units import G
 
 

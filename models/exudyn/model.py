@@ -16,8 +16,8 @@ from pydantic import model_validator
 from crashlab.model import CollisionModel
 from crashlab.models.common import chassis_contact as C
 from crashlab.models.common import contact_episodes as EP
-from crashlab.models.common import road_contact as R
 from crashlab.models.common import driver_inputs as DI
+from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
 from crashlab.models.common.rotations import from_matrix
 from crashlab.models.common.tyre_moments import OMEGA_BRAKE, brake_moment, rolling_resistance_moment
