@@ -13,6 +13,30 @@ def _arrow(ax, x, y, h, length, colour, **kw):
                                 shrinkA=0, shrinkB=0, mutation_scale=12))
 
 
+def _zones(ax, road):
+    """Friction zones shaded (darker for lower friction) and named with their friction."""
+    for z in road.zones:
+        poly = np.asarray(z.polygon + z.polygon[:1])
+        shade = 0.55 + 0.4 * min(z.friction / max(road.friction, 1e-9), 1.0)
+        ax.fill(poly[:, 0], poly[:, 1], color=(shade, shade, 1.0), alpha=0.6, zorder=0)
+        ax.text(*poly[:-1].mean(axis=0), f"{z.name} (mu {z.friction:g})", ha="center", va="center", fontsize=7,
+                color="0.25", zorder=0)
+
+
+def _action_marks(ax, v, tr, colour):
+    """A marker on the CG path where each driver action starts, labelled with what it sets."""
+    t = np.asarray(tr["t"])
+    for a in v.actions:
+        if not len(t) or a.t > t[-1]:
+            continue
+        x, y = np.interp(a.t, t, tr["x"]), np.interp(a.t, t, tr["y"])
+        what = [s for s in (a.wheels, None if a.brake is None else f"brake {a.brake:g}",
+                            None if a.steer is None else f"steer {np.degrees(a.steer):.1f} deg") if s]
+        ax.plot([x], [y], "v", color=colour, ms=7, mec="k", mew=0.5)
+        ax.annotate(f"{a.t:g} s: {', '.join(what)}", (x, y), textcoords="offset points", xytext=(4, 6),
+                    fontsize=7, color=colour)
+
+
 def top_view(scene, outcome, path, title=None, measured=None):
     """Outlines at start (dotted), at first contact (dashed) and at the end (solid: 'rest', or 'end pose
     (moving N km/h)' for a vehicle still moving), CG paths, and a heading arrow on every pose, one colour
@@ -25,6 +49,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
 
     fig, ax = plt.subplots(figsize=(8, 6))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    _zones(ax, scene.road)
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]
         arrow_len = 0.8 * v.spec.cg_to_front
@@ -44,6 +69,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
         tr = getattr(outcome, "trajectories", None) or getattr(outcome, "_trajectories", {})
         if v.name in tr:
             ax.plot(tr[v.name]["x"], tr[v.name]["y"], "-", color=c, lw=0.8, alpha=0.6)
+            _action_marks(ax, v, tr[v.name], c)
         if measured and v.name in measured:
             mx, my, mh = measured[v.name]
             if mh is None:  # a measured position without heading: a cross

@@ -34,8 +34,8 @@ from .schema import VEHICLE_FIELDS, FreeVariable
 FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluation
 # the one conversion of a free variable between file units (m, deg, km/h) and SI; x, y, restitution and
 # friction are the same in both
-TO_SI = {"heading": deg_to_rad, "speed": kmh_to_ms}
-FROM_SI = {"heading": rad_to_deg, "speed": ms_to_kmh}
+TO_SI = {"heading": deg_to_rad, "speed": kmh_to_ms, "steer": deg_to_rad}
+FROM_SI = {"heading": rad_to_deg, "speed": ms_to_kmh, "steer": rad_to_deg}
 
 
 @njit(cache=True)
@@ -59,6 +59,57 @@ def largest_overlap(poses, dims):
     return out
 
 
+def _owner(scene: Scene, f: FreeVariable):
+    """The scene object that holds a free field, and the attribute."""
+    kind, k, quantity = f.parts
+    if kind == "vehicle":
+        return scene.vehicle(f.vehicle), quantity
+    if kind == "action":
+        return scene.vehicle(f.vehicle).actions[k], quantity
+    if kind == "zone":
+        return scene.road.zones[k], quantity
+    return (scene.road if kind == "road" else scene.impact), quantity
+
+
+def field_value(scene: Scene, f: FreeVariable) -> float:
+    """A free field's value in the scene (SI)."""
+    owner, attr = _owner(scene, f)
+    return getattr(owner, attr)
+
+
+def scene_with(scene: Scene, free: list[FreeVariable], row) -> Scene:
+    """The scene with the free fields set to row (SI): one dataclass copy per vehicle, impact and road."""
+    vehicles: dict[str, dict] = {}
+    impact, road = {}, {}
+    for f, val in zip(free, row):
+        kind, k, quantity = f.parts
+        val = float(val)
+        if kind == "vehicle":
+            vehicles.setdefault(f.vehicle, {})[quantity] = val
+        elif kind == "action":
+            changes = vehicles.setdefault(f.vehicle, {})
+            acts = changes.setdefault("actions", list(scene.vehicle(f.vehicle).actions))
+            acts[k] = dataclasses.replace(acts[k], **{quantity: val})
+        elif kind == "zone":
+            zones = road.setdefault("zones", list(scene.road.zones))
+            zones[k] = dataclasses.replace(zones[k], friction=val)
+        elif kind == "road":
+            road["friction"] = val
+        else:
+            impact[quantity] = val
+    for name, changes in vehicles.items():
+        if "actions" in changes:
+            changes["actions"] = tuple(changes["actions"])
+        scene = scene.with_vehicle(name, **changes)
+    if impact:
+        scene = scene.replace(impact=dataclasses.replace(scene.impact, **impact))
+    if road:
+        if "zones" in road:
+            road["zones"] = tuple(road["zones"])
+        scene = scene.replace(road=dataclasses.replace(scene.road, **road))
+    return scene
+
+
 class ReconstructionProblem(Problem):
     """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
 
@@ -74,7 +125,7 @@ class ReconstructionProblem(Problem):
                                       for v in scene.vehicles])
         self.columns = {}  # (vehicle index, field) -> column of X
         for c, f in enumerate(free):
-            if f.vehicle is not None:
+            if f.parts[0] == "vehicle":
                 self.columns[(self.names.index(f.vehicle), f.field)] = c
         self.movable = np.array([(i, "x") in self.columns and (i, "y") in self.columns
                                  for i in range(len(self.names))], bool)
@@ -90,25 +141,13 @@ class ReconstructionProblem(Problem):
         X = np.atleast_2d(np.asarray(X, dtype=float))
         S = X.copy()
         for c, f in enumerate(self.free):
-            if f.field in TO_SI:
-                S[:, c] = TO_SI[f.field](X[:, c])
+            if f.parts[2] in TO_SI:
+                S[:, c] = TO_SI[f.parts[2]](X[:, c])
         return S
 
     def scenes_for(self, X) -> list[Scene]:
         """The base scene with each row of X (file units) put in."""
-        scenes = []
-        for row in self.to_si(X):
-            vehicles: dict[str, dict] = {}
-            impact = {}
-            for f, val in zip(self.free, row):
-                (impact if f.vehicle is None else vehicles.setdefault(f.vehicle, {}))[f.field] = float(val)
-            scene = self.scene
-            for name, changes in vehicles.items():
-                scene = scene.with_vehicle(name, **changes)
-            if impact:
-                scene = scene.replace(impact=dataclasses.replace(scene.impact, **impact))
-            scenes.append(scene)
-        return scenes
+        return [scene_with(self.scene, self.free, row) for row in self.to_si(X)]
 
     def scene_for(self, x) -> Scene:
         return self.scenes_for(x)[0]
@@ -117,9 +156,8 @@ class ReconstructionProblem(Problem):
         """Each free variable's value in the base scene (file units): the truth of a twin experiment."""
         out = []
         for f in self.free:
-            owner = self.scene.impact if f.vehicle is None else self.scene.vehicle(f.vehicle)
-            value = getattr(owner, f.field)
-            out.append(FROM_SI[f.field](value) if f.field in FROM_SI else value)
+            value = field_value(self.scene, f)
+            out.append(FROM_SI[f.parts[2]](value) if f.parts[2] in FROM_SI else value)
         return np.array(out, dtype=float)
 
     def start_poses(self, X) -> np.ndarray:

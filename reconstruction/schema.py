@@ -8,14 +8,21 @@ the same thing.
 from __future__ import annotations
 
 import math
+import re
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, field_validator, model_validator
 
 from crashlab.execution import DEFAULT_TIMEOUT_S
 
 VEHICLE_FIELDS = ("x", "y", "heading", "speed")
 IMPACT_FIELDS = ("restitution", "friction")
+# a driver action's value (vehicle given): actions.K.t|brake|steer|ramp; the road: road.friction and a zone's
+# friction zones.K.friction (no vehicle); docs/physics.md §2a
+ACTION_FIELD = re.compile(r"^actions\.(\d+)\.(t|brake|steer|ramp)$")
+ZONE_FIELD = re.compile(r"^zones\.(\d+)\.friction$")
+ROAD_FIELDS = ("road.friction",)
+DURATION_MAX = 120.0  # s, as a scene's duration
 # default polish budget: this share of pop_size x generations, at least POLISH_MIN evaluations (a
 # least-squares iteration costs n_var + 1 evaluations: 100 are ~10 iterations with all eight variables
 # of case 5 free). The twins need it: the search alone leaves 0.16-0.23 m on twin 4 (README)
@@ -30,7 +37,28 @@ SPEED_MAX = 400.0  # km/h
 FRICTION_MAX = 2.0
 FIELD_RANGES = {"x": (-POSITION_MAX, POSITION_MAX), "y": (-POSITION_MAX, POSITION_MAX),
                 "heading": (-ANGLE_MAX, ANGLE_MAX), "speed": (0.0, SPEED_MAX),
-                "restitution": (0.0, 1.0), "friction": (0.0, FRICTION_MAX)}
+                "restitution": (0.0, 1.0), "friction": (0.0, FRICTION_MAX),
+                "t": (0.0, DURATION_MAX), "brake": (0.0, 1.0), "steer": (-45.0, 45.0), "ramp": (0.0, DURATION_MAX)}
+UNITS = {"x": " m", "y": " m", "heading": " deg", "speed": " km/h", "t": " s", "steer": " deg", "ramp": " s"}
+
+
+def field_parts(field: str) -> tuple[str, int | None, str]:
+    """(kind, index, quantity) of a free field: ("vehicle", None, "speed"), ("impact", None, "friction"),
+    ("action", 0, "t"), ("road", None, "friction"), ("zone", 1, "friction"). ValueError for anything else."""
+    if field in VEHICLE_FIELDS:
+        return "vehicle", None, field
+    if field in IMPACT_FIELDS:
+        return "impact", None, field
+    if field in ROAD_FIELDS:
+        return "road", None, "friction"
+    m = ACTION_FIELD.match(field)
+    if m:
+        return "action", int(m.group(1)), m.group(2)
+    m = ZONE_FIELD.match(field)
+    if m:
+        return "zone", int(m.group(1)), "friction"
+    raise ValueError(f"unknown field {field!r}: one of {', '.join(VEHICLE_FIELDS + IMPACT_FIELDS + ROAD_FIELDS)}, "
+                     "actions.K.t|brake|steer|ramp, zones.K.friction")
 POP_SIZE_RANGE = (4, 100_000)  # 4: two mating pairs; 1e5 x the largest sensible number of free variables
 GENERATIONS_MAX = 100_000
 SEED_MAX = 2**32 - 1  # numpy's seed range
@@ -54,30 +82,43 @@ class OptimizerSection(_Strict):
 
 
 class FreeVariable(_Strict):
-    vehicle: str | None = None  # None for the impact's restitution / friction
-    field: Literal["x", "y", "heading", "speed", "restitution", "friction"]
+    vehicle: str | None = None  # None for the impact's and the road's fields
+    field: str  # field_parts: x, y, heading, speed, restitution, friction, road.friction, actions.K.*, zones.K.*
     lower: Real
     upper: Real
 
+    @field_validator("field")
+    @classmethod
+    def _known(cls, value: str) -> str:
+        field_parts(value)  # ValueError names the fields there are
+        return value
+
     @model_validator(mode="after")
     def _check(self):
-        lo, hi = FIELD_RANGES[self.field]
-        unit = {"x": " m", "y": " m", "heading": " deg", "speed": " km/h"}.get(self.field, "")
+        kind, _, quantity = self.parts
+        lo, hi = FIELD_RANGES[quantity]
         for key in ("lower", "upper"):
             val = getattr(self, key)
             if not lo <= val <= hi:
-                raise ValueError(f"{key} = {val:g} is outside [{lo:g}, {hi:g}]{unit} for {self.field}")
+                raise ValueError(f"{key} = {val:g} is outside [{lo:g}, {hi:g}]{UNITS.get(quantity, '')} for "
+                                 f"{self.field}")
         if not self.lower < self.upper:
             raise ValueError(f"lower ({self.lower}) must be below upper ({self.upper})")
-        if self.field in VEHICLE_FIELDS and self.vehicle is None:
+        if kind in ("vehicle", "action") and self.vehicle is None:
             raise ValueError(f"field {self.field!r} needs a vehicle")
-        if self.field in IMPACT_FIELDS and self.vehicle is not None:
-            raise ValueError(f"field {self.field!r} belongs to the impact: give no vehicle")
+        if kind in ("impact", "road", "zone") and self.vehicle is not None:
+            raise ValueError(f"field {self.field!r} belongs to the {kind}: give no vehicle")
         return self
 
     @property
+    def parts(self) -> tuple[str, int | None, str]:
+        return field_parts(self.field)
+
+    @property
     def label(self) -> str:
-        return f"{self.vehicle}.{self.field}" if self.vehicle else f"impact.{self.field}"
+        if self.vehicle:
+            return f"{self.vehicle}.{self.field}"
+        return self.field if self.parts[0] in ("road", "zone") else f"impact.{self.field}"
 
 
 class RestPose(_Strict):

@@ -120,6 +120,42 @@ class Study:
         return run_study(self, optimizer, workers, scheduler, out_dir, resume, progress, stop_after)
 
 
+def _check_free_driver_fields(path, free, scene) -> None:
+    """Free action and zone fields name an existing action or zone, and no value within the bounds can put
+    a vehicle's actions out of time order, a ramp past the next action or an action past the duration
+    (docs/physics.md §2a): such a candidate would be no valid scene."""
+    for k, f in enumerate(free):
+        kind, index, _ = f.parts
+        have = len(scene.vehicle(f.vehicle).actions) if kind == "action" else \
+            len(scene.road.zones) if kind == "zone" else None
+        if have is not None and index >= have:
+            what = f"vehicle {f.vehicle!r} has {have} action(s)" if kind == "action" else \
+                f"the scene has {have} zone(s)"
+            raise InputError(path, f"free.{k}.field", f"{f.field}: {what} (counted from 0)")
+    for name in scene.vehicle_names:
+        acts = scene.vehicle(name).actions
+        if not acts:
+            continue
+        span = {(j, q): [getattr(a, q), getattr(a, q), None] for j, a in enumerate(acts) for q in ("t", "ramp")}
+        for k, f in enumerate(free):
+            kind, index, quantity = f.parts
+            if kind == "action" and f.vehicle == name and quantity in ("t", "ramp"):
+                span[(index, quantity)] = [f.lower, f.upper, k]
+        for j in range(len(acts)):
+            t_lo, t_hi, kt = span[(j, "t")]
+            _, r_hi, kr = span[(j, "ramp")]
+            if t_hi > scene.duration:
+                raise InputError(path, f"free.{kt}.upper", f"action {j} of {name} could start after the end of "
+                                 f"the run ({scene.duration:g} s)")
+            if j + 1 < len(acts):
+                n_lo, _, kn = span[(j + 1, "t")]
+                if t_hi + r_hi > n_lo:
+                    key = next(f"free.{c}.{b}" for c, b in ((kt, "upper"), (kr, "upper"), (kn, "lower"))
+                               if c is not None)
+                    raise InputError(path, key, f"within the bounds action {j} of {name} (and its ramp) could "
+                                     f"reach past action {j + 1}: keep the actions in time order")
+
+
 def load_study(path) -> Study:
     """The study in a TOML file, checked; InputError (file, key, problem) when it is not right."""
     path = Path(path)
@@ -147,6 +183,7 @@ def load_study(path) -> Study:
     for k, f in enumerate(spec.free):
         if f.vehicle is not None and f.vehicle not in names:
             raise InputError(path, f"free.{k}.vehicle", f"no vehicle {f.vehicle!r} in the scene ({', '.join(names)})")
+    _check_free_driver_fields(path, spec.free, scene)
     if spec.evidence.twin:
         out = model.simulate(scene)
         if not out.outcome_ok:
