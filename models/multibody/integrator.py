@@ -29,7 +29,7 @@ from crashlab.models.common.driver_inputs import (
 from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts_awake
 from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
 from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
-from crashlab.models.common.rotations import rotation_entries, rotation_into
+from crashlab.models.common.rotations import cross, dot, rotation_entries, rotation_into
 
 from .equations import (
     AUX_DRIFT_ANG,
@@ -169,6 +169,43 @@ def _drive(A, n, geo, JNT, te):
                 row[J_DDELTA] = sd * (ackermann(geo[0], geo[1 + k], steer + eps)
                                       - ackermann(geo[0], geo[1 + k], steer - eps)) / (2 * eps)
     return brake
+
+
+@njit(cache=True)
+def _dackermann(L, yk, steer):
+    eps = 1e-6
+    return (ackermann(L, yk, steer + eps) - ackermann(L, yk, steer - eps)) / (2 * eps)
+
+
+@njit(cache=True)
+def steer_jump(y, A, n, geo, t, nb):
+    """At a change of the driver's steer law at t: turn the front knuckles and wheels about the chassis's
+    vertical by the jump of their Ackermann angle (a steer without ramp) and give them the jump of the steer
+    rate (a ramp starting or ending), so that the rheonomic steering row (joints._steer_terms) holds at
+    position and velocity level from t on instead of being pulled there by Baumgarte."""
+    tb = t - 1e-9 * (1.0 + abs(t))
+    s0, s1 = driver_inputs(A, n, tb)[2], driver_inputs(A, n, t)[2]
+    r0, r1 = steer_rate(A, n, tb), steer_rate(A, n, t)
+    if s0 == s1 and r0 == r1:
+        return
+    nq = 7 * nb
+    a = rotation_entries(y[3], y[4], y[5], y[6])
+    zc = (a[2], a[5], a[8])
+    for k in range(2):
+        dd = ackermann(geo[0], geo[1 + k], s1) - ackermann(geo[0], geo[1 + k], s0)
+        dr = r1 * _dackermann(geo[0], geo[1 + k], s1) - r0 * _dackermann(geo[0], geo[1 + k], s0)
+        q0, sh = math.cos(0.5 * dd), math.sin(0.5 * dd)
+        q = (sh * zc[0], sh * zc[1], sh * zc[2])
+        for b in (1 + k, 5 + k):
+            o = 7 * b + 3
+            p0, pv = y[o], (y[o + 1], y[o + 2], y[o + 3])
+            c = cross(q, pv)
+            y[o] = q0 * p0 - dot(q, pv)
+            for i in range(3):
+                y[o + 1 + i] = q0 * pv[i] + p0 * q[i] + c[i]
+            e = rotation_entries(y[o], y[o + 1], y[o + 2], y[o + 3])
+            for i in range(3):
+                y[nq + 6 * b + 3 + i] += dr * (e[i] * zc[0] + e[3 + i] * zc[1] + e[6 + i] * zc[2])
 
 
 @njit(cache=True)
@@ -557,6 +594,8 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
         if at_break:
             # a driver's law changes at t (next_break): new wheel states, new brake / steer law from t on
             for v in range(nv):
+                if awake[v] and DV[2][v, 3] > 0.0:
+                    steer_jump(Y[v], ACT[v], NACT[v], DV[2][v], t, nb)
                 apply_modes(Y[v], JNT[v], TYR[v], ACT[v], NACT[v], t, struck[v], nb)
             t_lim = next_break(ACT, NACT, t)
             need_k0 = True
