@@ -9,7 +9,9 @@ scenes runs in parallel with `prange`. Step-size policy:
   * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it; the loops of a step run
     over the awake vehicles and the pairs with an awake member only (lists rebuilt when a vehicle sleeps or
     wakes, pairs in the order of the full i < k loop, so results do not depend on the skipping), and the
-    bounding circles reject distant pairs before the outline test: a parked vehicle costs (nearly) nothing;
+    bounding circles reject distant pairs before the outline test; a pair of an awake vehicle and a static
+    partner (sleeping vehicle, barrier) more than 2 REACH apart is left out until a vehicle has moved REACH
+    (_near_pairs): a parked or distant vehicle costs (nearly) nothing;
   * the run ends when every vehicle sleeps (stop_at_rest) or at `duration`.
 Contact onset is located by bisection of the step until the outlines overlap by at most `onset_tol`.
 
