@@ -18,6 +18,8 @@ import math
 import numpy as np
 from numba import njit
 
+from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts_awake
+from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
 from crashlab.models.common.driver_inputs import (
     A_STEER_FROM,
     A_STEER_TO,
@@ -26,10 +28,10 @@ from crashlab.models.common.driver_inputs import (
     driver_inputs,
     effective_mode,
 )
-from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts_awake
-from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
 from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
 from crashlab.models.common.rotations import cross, dot, rotation_entries, rotation_into
+from crashlab.models.common.vehicle_3d import NW, T_MODE
+from crashlab.models.common.wheel_states import LOCKED
 
 from .equations import (
     AUX_DRIFT_ANG,
@@ -64,9 +66,6 @@ from .equations import (
     energy,
     rhs,
 )
-from crashlab.models.common.vehicle_3d import NW, T_MODE
-from crashlab.models.common.wheel_states import LOCKED
-
 from .joints import J_DDELTA, J_I, J_J, J_TYPE, J_XI, J_XJ, J_YI, REVOLUTE, REVOLUTE_LOCKED
 
 # Dormand-Prince 5(4) tableau

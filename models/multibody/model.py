@@ -27,16 +27,6 @@ from crashlab.models.common.contact_episodes import (
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
-from crashlab.models.common.rotations import from_matrix, matrix, rot_z
-from crashlab.models.common.vehicle_3d import (
-    CORNERS,
-    NB,
-    NW,
-    T_R1,
-    T_R2,
-    build_scene_vehicles,
-    steer_angles,
-)
 from crashlab.models.common.driver_inputs import (
     A_MODE,
     A_STEER_FROM,
@@ -48,6 +38,16 @@ from crashlab.models.common.driver_inputs import (
     effective_mode,
     pack_action_tables,
     pack_zones,
+)
+from crashlab.models.common.rotations import from_matrix, matrix, rot_z
+from crashlab.models.common.vehicle_3d import (
+    CORNERS,
+    NB,
+    NW,
+    T_R1,
+    T_R2,
+    build_scene_vehicles,
+    steer_angles,
 )
 from crashlab.models.common.wheel_states import LOCKED
 from crashlab.options import ModelOptions, option
