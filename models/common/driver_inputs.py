@@ -31,9 +31,7 @@ N_ACTION_COLUMNS = 7
 PATCH = 0.2  # m: length of a passenger-car tyre's contact patch (about 0.15-0.2 m), the zone-boundary blend
 
 
-def pack_actions(vs) -> np.ndarray:
-    """The action table (rows x N_ACTION_COLUMNS) of one VehicleState: row 0 holds the start state (wheels,
-    steer, brake 0) from t = -inf; each action a row from its t."""
+def _rows(vs) -> list[tuple]:
     mode, brake, steer = WHEEL_CODES[vs.wheels], 0.0, vs.steer
     rows = [(-math.inf, -math.inf, mode, brake, brake, steer, steer)]
     for a in vs.actions:
@@ -42,27 +40,66 @@ def pack_actions(vs) -> np.ndarray:
         steer_to = steer if a.steer is None else a.steer
         rows.append((a.t, a.t + a.ramp, mode, brake, brake_to, steer, steer_to))
         brake, steer = brake_to, steer_to
-    return np.array(rows, dtype=np.float64)
+    return rows
+
+
+def pack_actions(vs) -> np.ndarray:
+    """The action table (rows x N_ACTION_COLUMNS) of one VehicleState: row 0 holds the start state (wheels,
+    steer, brake 0) from t = -inf; each action a row from its t."""
+    return np.array(_rows(vs), dtype=np.float64)
 
 
 def pack_action_tables(vehicles) -> tuple[np.ndarray, np.ndarray]:
     """All vehicles' tables in one array (vehicles x rows x columns, padded with the last row) and the
     number of rows of each."""
-    tables = [pack_actions(v) for v in vehicles]
-    n = np.array([len(t) for t in tables], dtype=np.int64)
-    A = np.empty((len(tables), int(n.max()), N_ACTION_COLUMNS))
-    for i, t in enumerate(tables):
-        A[i, :len(t)] = t
-        A[i, len(t):] = t[-1]
-    return A, n
+    tables = [_rows(v) for v in vehicles]
+    k = max(len(t) for t in tables)
+    A = np.array([t + t[-1:] * (k - len(t)) for t in tables], dtype=np.float64)
+    return A, np.array([len(t) for t in tables], dtype=np.int64)
 
 
 @register_jitable
-def driver_inputs(A, n, t):
-    """(wheel-state code, brake fraction, steer angle [rad]) of one vehicle at time t from its action table
-    A (n rows). A `braked` wheel state brakes fully without locking: its brake fraction is 1."""
+def next_change(A, n, t):
+    """The first time after t at which the vehicle's inputs change their law: an action's start (a jump of
+    wheel state, brake or steer, or a ramp's start) or a ramp's end (a kink); inf if none. A step that ends
+    there does not straddle a change."""
+    tol = 1e-12 * (1.0 + abs(t))
+    for k in range(1, n):
+        if A[k, A_T] > t + tol:
+            return A[k, A_T]
+        if A[k, A_T_END] > t + tol:
+            return A[k, A_T_END]
+    return math.inf
+
+
+@register_jitable
+def steer_rate(A, n, t):
+    """d(steer)/dt at t [rad/s]: nonzero within a steer ramp."""
     k = n - 1
     while k > 0 and t < A[k, A_T]:
+        k -= 1
+    if t >= A[k, A_T_END]:
+        return 0.0
+    return (A[k, A_STEER_TO] - A[k, A_STEER_FROM]) / (A[k, A_T_END] - A[k, A_T])
+
+
+@register_jitable
+def ramping(A, n, t):
+    """True within a ramp that moves the brake or the steer (the inputs change continuously)."""
+    k = n - 1
+    while k > 0 and t < A[k, A_T]:
+        k -= 1
+    return t < A[k, A_T_END] and (A[k, A_BRAKE_TO] != A[k, A_BRAKE_FROM] or A[k, A_STEER_TO] != A[k, A_STEER_FROM])
+
+
+@register_jitable
+def driver_inputs(A, n, t, before=False):
+    """(wheel-state code, brake fraction, steer angle [rad]) of one vehicle at time t from its action table
+    A (n rows). A `braked` wheel state brakes fully without locking: its brake fraction is 1.
+    before=True gives the left limit at t (an action starting exactly at t not yet applied): the end of a
+    step that ends at an action's time belongs to the law of the step (next_change)."""
+    k = n - 1
+    while k > 0 and (t < A[k, A_T] or (before and t <= A[k, A_T])):
         k -= 1
     mode = int(A[k, A_MODE])
     if t >= A[k, A_T_END]:

@@ -33,12 +33,11 @@ from crashlab.models.common.planar_vehicle import (
     P_IZ,
     P_MASS,
     P_REAR,
-    P_STEER,
-    P_WHEELS,
     stiffest_rate,
-    vehicle_derivative,
+    vehicle_motion,
 )
-from crashlab.models.common.wheel_states import LOCKED, LOCKED_AFTER_IMPACT
+from crashlab.models.common.driver_inputs import PATCH, driver_inputs, effective_mode, next_change, ramping
+from crashlab.models.common.wheel_states import BRAKED, ROLLING
 from crashlab.units import G
 
 from .laws import collision_impulse, impact_matrix
@@ -166,17 +165,37 @@ def _gap(S, B, radius, i, k, nv):
 
 
 @njit(cache=True)
-def _heun(P, S, modes, awake, na, mu, acc, h, out, k1, k2, tmp):
-    """Heun step of the awake vehicles awake[:na]; a sleeping vehicle's row of `out` is left as it is (the
-    caller keeps it equal to its row of S)."""
+def _motion(P, S, i, t, before, A, NA, hit, zones, mu, acc, out):
+    """vehicle_motion of vehicle i at time t with the driver's inputs of that instant (docs/physics.md §2a;
+    before: their left limit, for the end of a step)."""
+    mode, brake, steer = driver_inputs(A[i], NA[i], t, before)
+    vehicle_motion(P[i], S[i], mu, effective_mode(mode, hit[i]), brake, steer, zones[0], zones[1], zones[2],
+                   zones[3], acc[i], out[i])
+
+
+@njit(cache=True)
+def _heun(P, S, t, A, NA, hit, zones, awake, na, mu, acc, h, out, k1, k2, tmp):
+    """Heun step from t of the awake vehicles awake[:na] (inputs at t and just before t + h: a step never
+    straddles an action's time, and one ending there keeps its own law); a sleeping vehicle's row of
+    `out` is left as it is (the caller keeps it equal to its row of S)."""
     for a in range(na):
         i = awake[a]
-        vehicle_derivative(P[i], S[i], mu, modes[i], acc[i], k1[i])
+        _motion(P, S, i, t, False, A, NA, hit, zones, mu, acc, k1)
         for q in range(6):
             tmp[i, q] = S[i, q] + h * k1[i, q]
-        vehicle_derivative(P[i], tmp[i], mu, modes[i], acc[i], k2[i])
+        _motion(P, tmp, i, t + h, True, A, NA, hit, zones, mu, acc, k2)  # the step's own law at its end
         for q in range(6):
             out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
+
+
+@njit(cache=True)
+def _near_zone(S, i, reach, box):
+    """Whether vehicle i's CG lies within `reach` of a zone's bounding box (its friction may change within
+    the step)."""
+    for z in range(box.shape[0]):
+        if box[z, 0] - reach < S[i, 0] < box[z, 1] + reach and box[z, 2] - reach < S[i, 1] < box[z, 3] + reach:
+            return True
+    return False
 
 
 @njit(cache=True)
@@ -263,15 +282,13 @@ def _merge_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, energy, nx, ny):
 
 
 @njit(cache=True)
-def _struck(P, i, j, nv, hit, asleep, modes):
-    """The vehicles of an impulse between i and j (a vehicle or a barrier): marked hit, woken, and their
-    wheels locked if they lock after the impact."""
+def _struck(i, j, nv, hit, asleep):
+    """The vehicles of an impulse between i and j (a vehicle or a barrier): marked hit (wheels locked after
+    the impact lock from here: driver_inputs.effective_mode) and woken."""
     for q in (i, j):
         if q < nv:
             hit[q] = True
             asleep[q] = False
-            if int(P[q, P_WHEELS]) == LOCKED_AFTER_IMPACT:
-                modes[q] = LOCKED
 
 
 @njit(cache=True)
@@ -290,9 +307,10 @@ def _project_apart(P, S, i, k, nv, nx, ny, shift):
 
 
 @njit(cache=True)
-def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
+def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag):
     """Simulate one scene. P (nv, N_PARAMS), S0 (nv, 6) start states, B (nb, 5) barriers
-    (x, y, heading, half length, half width). Outputs are written into the arrays passed in."""
+    (x, y, heading, half length, half width), A, NA the driver's action tables, zones the friction zones
+    (common/driver_inputs.pack_action_tables, pack_zones). Outputs are written into the arrays passed in."""
     nv, nb = P.shape[0], B.shape[0]
     nk = nv + nb
     mu, e, mu_imp, law = cfg[C_MU_ROAD], cfg[C_E], cfg[C_MU_IMP], int(cfg[C_LAW])
@@ -306,7 +324,6 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
     k2 = np.empty_like(S)
     tmp = np.empty_like(S)
     acc = np.zeros((nv, 2))
-    modes = np.empty(nv, np.int64)
     asleep = np.zeros(nv, np.bool_)
     hit = np.zeros(nv, np.bool_)
     radius = np.empty(nk)
@@ -337,10 +354,11 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             if d0 > 0.0:
                 in_contact[i, k] = True
                 allowed[i, k] = d0
+    mu_max = mu  # the largest road friction anywhere (zones): bounds the step and the stopping speed
+    for z in range(zones[2].shape[0]):
+        mu_max = max(mu_max, zones[2][z])
+    zoned = zones[2].shape[0] > 0
     for i in range(nv):
-        modes[i] = int(P[i, P_WHEELS])
-        if modes[i] == LOCKED_AFTER_IMPACT:
-            modes[i] = 0  # rolling until the first impact
         if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
             S[i, 3:6] = 0.0
             asleep[i] = sleeping
@@ -377,7 +395,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             # the given impulse keeps its own row (the collision position's impulse as given); contact
             # after it, where the pair's overlap deepens, opens an episode of its own
             diag[D_E_IMPACT] += energy
-            _struck(P, i0, j, nv, hit, asleep, modes)
+            _struck(i0, j, nv, hit, asleep)
             in_contact[i0, j] = True
 
     na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
@@ -391,21 +409,30 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             next_rec += rec_dt
         # ---- step size: the fine step within the tyre forces' stability limit, coarse while every
         # moving vehicle runs straight and nothing can touch
+        # (a step ends where a driver's input changes its law: an action's start or its ramp's end; it is
+        # fine within a ramp and near a friction zone)
         h = dt
-        for a in range(na):
-            i = awake[a]
-            rate = stiffest_rate(P[i], mu, modes[i])  # 0 for locked wheels on ice: no tyre force
-            if rate > 0.0:
-                h = min(h, 1.0 / rate)
+        t_change = math.inf
         quiet = True
         for a in range(na):
             i = awake[a]
+            mode, brake, steer = driver_inputs(A[i], NA[i], t)
+            mode = effective_mode(mode, hit[i])
+            if mode == ROLLING and brake > 0.0:
+                mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
+            rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
+            if rate > 0.0:
+                h = min(h, 1.0 / rate)
+            t_change = min(t_change, next_change(A[i], NA[i], t))
             lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
-            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or P[i, P_STEER] != 0.0:
+            speed = math.hypot(S[i, 3], S[i, 4])
+            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0 or ramping(A[i], NA[i], t):
+                quiet = False
+            elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
                 quiet = False
             # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
             # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
-            if math.hypot(S[i, 3], S[i, 4]) < 2.0 * mu * G * coarse_dt + STOP_MARGIN:
+            if speed < 2.0 * mu_max * G * coarse_dt + STOP_MARGIN:
                 quiet = False
         if quiet and coarse_dt > dt:
             h_gap = coarse_dt
@@ -421,8 +448,8 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             if h_gap > h:
                 h = h_gap
                 diag[D_COARSE] += 1
-        h = min(h, duration - t)
-        _heun(P, S, modes, awake, na, mu, acc, h, Snew, k1, k2, tmp)
+        h = min(h, duration - t, t_change - t)
+        _heun(P, S, t, A, NA, hit, zones, awake, na, mu, acc, h, Snew, k1, k2, tmp)
         steps += 1
         diag[D_VEHICLE_STEPS] += na
         if steps > MAX_STEPS:
@@ -460,7 +487,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
             lo, hi = 0.0, h
             for _ in range(60):
                 hm = 0.5 * (lo + hi)
-                _heun(P, S, modes, awake, na, mu, acc, hm, Snew, k1, k2, tmp)
+                _heun(P, S, t, A, NA, hit, zones, awake, na, mu, acc, hm, Snew, k1, k2, tmp)
                 diag[D_BISECT] += 1
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
                 if depth > hi_d:
@@ -567,7 +594,7 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
                     diag[D_FOLLOW] += 1
                 diag[D_E_IMPACT] += energy
                 woke = woke or asleep[i] or (k < nv and asleep[k])
-                _struck(P, i, k, nv, hit, asleep, modes)
+                _struck(i, k, nv, hit, asleep)
             if stop or not active:
                 break
         if stop:
@@ -620,8 +647,10 @@ def simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag):
 
 
 @njit(cache=True, parallel=True)
-def simulate_many(P, S0, B, cfg, rest, final, contact, imp, diag):
-    """A batch of scenes of the same composition, in parallel, without trajectories."""
+def simulate_many(P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX, rest, final, contact, imp, diag):
+    """A batch of scenes of the same composition (vehicles, barriers, action rows, zone corners), in
+    parallel, without trajectories."""
     no_traj = np.empty((0, P.shape[1], 7))
     for s in prange(P.shape[0]):
-        simulate_one(P[s], S0[s], B[s], cfg[s], rest[s], final[s], contact[s], imp[s], no_traj, diag[s])
+        simulate_one(P[s], S0[s], B[s], cfg[s], A[s], NA[s], (ZC[s], ZS[s], ZMU[s], ZBOX[s]), rest[s], final[s],
+                     contact[s], imp[s], no_traj, diag[s])

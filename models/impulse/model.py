@@ -9,6 +9,7 @@ import numpy as np
 from pydantic import model_validator
 
 from crashlab.model import CollisionModel
+from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
 from crashlab.models.common.impact_rows import pair_rows
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
@@ -92,6 +93,7 @@ class ImpulseModel(CollisionModel):
     """
 
     name = "impulse"
+    driver_inputs = True  # actions and friction zones (docs/physics.md §2a): the kernel's _motion and step policy
 
     class Options(ModelOptions):
         dt: float = option(0.005, "largest fine step of the Heun integrator (also kept below 1 / the fastest "
@@ -128,7 +130,8 @@ class ImpulseModel(CollisionModel):
 
     # ------------------------------------------------------------------ packing
     def pack(self, scene):
-        """Arrays (P, S0, B, cfg) of one scene for the kernel."""
+        """Arrays (P, S0, B, cfg, A, NA, zones) of one scene for the kernel (A, NA: the driver's action
+        tables, zones: the friction zones; common/driver_inputs)."""
         P = np.array([pack_vehicle(v.spec, v.wheels, v.steer) for v in scene.vehicles]).reshape(-1, N_PARAMS)
         S0 = np.array([[v.x, v.y, v.heading, v.speed * math.cos(v.heading), v.speed * math.sin(v.heading),
                         v.yaw_rate] for v in scene.vehicles])
@@ -144,18 +147,19 @@ class ImpulseModel(CollisionModel):
         cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
         cfg[K.C_CRUSH_TIME] = self.crush_time
         cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
-        return P, S0, B, cfg
+        A, NA = pack_action_tables(scene.vehicles)
+        return P, S0, B, cfg, A, NA, pack_zones(scene.road)
 
     # ------------------------------------------------------------------ running
     def simulate(self, scene) -> Outcome:
         t0 = time.perf_counter()
-        P, S0, B, cfg = self.pack(scene)
+        P, S0, B, cfg, A, NA, zones = self.pack(scene)
         nv = P.shape[0]
         rest, final, contact = np.empty((nv, 3)), np.empty((nv, 3)), np.empty((nv, 4))
         imp, diag = np.zeros((self.max_impacts, K.N_IMP)), np.zeros(K.N_DIAG)
         n_rec = int(scene.duration / self.record_dt) + 3 if self.record_dt > 0 else 0
         traj = np.zeros((n_rec, nv, 7))
-        K.simulate_one(P, S0, B, cfg, rest, final, contact, imp, traj, diag)
+        K.simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag)
         out = self._outcome(scene, P, rest, final, contact, imp, diag, time.perf_counter() - t0)
         nr = int(diag[K.D_NREC])
         out._trajectories = {v.name: {"t": traj[:nr, i, 0], "x": traj[:nr, i, 1], "y": traj[:nr, i, 2],
@@ -170,14 +174,15 @@ class ImpulseModel(CollisionModel):
             return []
         t0 = time.perf_counter()
         packs = [self.pack(s) for s in scenes]
-        shapes = {(p[0].shape, p[2].shape) for p in packs}
+        shapes = {(p[0].shape, p[2].shape, p[4].shape, p[6][0].shape, p[6][2].shape) for p in packs}
         if len(shapes) > 1:
             return [self.simulate(s) for s in scenes]
-        P, S0, B, cfg = (np.stack([p[k] for p in packs]) for k in range(4))
+        P, S0, B, cfg, A, NA = (np.stack([p[k] for p in packs]) for k in range(6))
+        ZC, ZS, ZMU, ZBOX = (np.stack([p[6][k] for p in packs]) for k in range(4))
         n, nv = P.shape[0], P.shape[1]
         rest, final, contact = np.empty((n, nv, 3)), np.empty((n, nv, 3)), np.empty((n, nv, 4))
         imp, diag = np.zeros((n, self.max_impacts, K.N_IMP)), np.zeros((n, K.N_DIAG))
-        K.simulate_many(P, S0, B, cfg, rest, final, contact, imp, diag)
+        K.simulate_many(P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX, rest, final, contact, imp, diag)
         wall = (time.perf_counter() - t0) / n
         return [self._outcome(s, P[k], rest[k], final[k], contact[k], imp[k], diag[k], wall)
                 for k, s in enumerate(scenes)]
