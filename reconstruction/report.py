@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from crashlab.units import ms_to_kmh, rad_to_deg, wrap_deg
 
@@ -61,7 +62,6 @@ def pareto_table(problem, arch: dict):
     whatever heading_weight, so a good position with a wrong heading shows), rest poses and the state at
     first contact (file units). Rows whose every free variable lies within DUPLICATE_TOL of its bound
     width of a better row's are the same solution and kept once."""
-    import pandas as pd
     from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
     feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
     if len(feasible) == 0:
@@ -96,13 +96,42 @@ def pareto_table(problem, arch: dict):
 def write_failures(problem, arch: dict, path: Path, n_search: int):
     """failures.csv: one row per failed evaluation: its index, phase (search/polish), free variables
     (file units) and the reason. Written (with its header) also when nothing failed."""
-    import pandas as pd
     bad = np.flatnonzero(~arch["ok"]) if len(arch["X"]) else np.empty(0, int)
     table = pd.DataFrame({"evaluation": bad, "phase": np.where(bad < n_search, "search", "polish")})
     for c, f in enumerate(problem.free):
         table[f.label] = arch["X"][bad, c] if len(bad) else []
     table["reason"] = arch["reason"][bad] if len(bad) else []
     table.to_csv(path, index=False)
+
+
+def near_optimal_table(problem, arch: dict, tol: float) -> pd.DataFrame:
+    """The evaluated starts (ok and feasible) whose every objective is at most `tol` [m], free variables and
+    objectives, sorted by the largest objective."""
+    cols = [f.label for f in problem.free]
+    names = list(problem.evidence)
+    if not len(arch["X"]):
+        return pd.DataFrame(columns=cols + [f"f_{n}" for n in names])
+    good = arch["ok"] & np.all(arch["G"] <= 0, axis=1) & np.all(arch["F"] <= tol, axis=1)
+    table = pd.DataFrame(arch["X"][good], columns=cols)
+    for j, n in enumerate(names):
+        table[f"f_{n}"] = arch["F"][good, j]
+    return table.iloc[np.argsort(arch["F"][good].max(axis=1), kind="stable")].reset_index(drop=True)
+
+
+def _near_optimal_figure(problem, near, path, plt) -> str:
+    """The first two free variables of the near-optimal starts, coloured by their largest objective."""
+    a, b = problem.free[0].label, problem.free[1].label
+    worst = near[[c for c in near.columns if c.startswith("f_")]].max(axis=1)
+    fig, ax = plt.subplots(figsize=(6, 5))
+    sc = ax.scatter(near[a], near[b], c=worst, s=12, cmap="viridis")
+    fig.colorbar(sc, ax=ax, label="largest objective [m]")
+    ax.set_xlabel(a)
+    ax.set_ylabel(b)
+    ax.set_title("starts that explain the evidence equally well")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    return path.name
 
 
 def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path):
@@ -141,6 +170,18 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             notes.append(f"objectives.png could not be drawn: {type(err).__name__}: {err}")
         finally:
             plt.close("all")
+    near = near_optimal_table(problem, arch, study.spec.objective.near_optimal)
+    near.to_csv(out_dir / "near_optimal.csv", index=False)
+    if len(near) and len(problem.free) >= 2:
+        try:
+            figures_near = _near_optimal_figure(problem, near, out_dir / "near_optimal.png", plt)
+        except Exception as err:  # noqa: BLE001
+            figures_near = None
+            notes.append(f"near_optimal.png could not be drawn: {type(err).__name__}: {err}")
+        finally:
+            plt.close("all")
+    else:
+        figures_near = None
     model = model_for(problem.model, problem.model_options)
     chosen = []
     if len(result.pareto):
@@ -197,6 +238,17 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         lines.append(show.to_markdown(index=False, floatfmt=".3f"))
     else:
         lines.append("No feasible solution.")
+    tol = study.spec.objective.near_optimal
+    lines += ["", f"## Starts that explain the evidence within {tol:g} m ({len(near)} evaluated)", ""]
+    if len(near):
+        cols = [f.label for f in problem.free]
+        lines += [f"Every objective at most {tol:g} m (`[objective] near_optimal`); all in near_optimal.csv"
+                  + (", the first two free variables in near_optimal.png" if figures_near else "") +
+                  ". The evidence cannot tell these starts apart: their range is what it leaves open.", "",
+                  pd.DataFrame({"variable": cols, "min": near[cols].min().to_numpy(),
+                                "max": near[cols].max().to_numpy()}).to_markdown(index=False, floatfmt=".3f")]
+    else:
+        lines.append("None: no evaluated start explains every vehicle's rest pose that well.")
     if figures:
         lines += ["", "Top views (start dotted, first contact dashed, rest solid, measured rest pose thick and "
                   "pale, heading arrows in each vehicle's colour): " + ", ".join(figures)]

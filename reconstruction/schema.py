@@ -137,6 +137,10 @@ class ObjectiveSection(_Strict):
     # m per deg of rest-heading error; 100 m/deg would already let 0.01 deg outweigh a metre
     heading_weight: Real = Field(default=0.0, ge=0, le=100.0, description="m/deg; [0, 100]")
     hv_reference: Real = Field(default=10.0, gt=0, le=1e6)  # m, hypervolume reference point per objective
+    # m: an evaluated start explains the evidence "as well" when every objective is at most this (about the
+    # accuracy of a rest position measured on site); summary.md and near_optimal.csv list those starts: the
+    # range of answers the evidence leaves open (e.g. brake onset against speed, README)
+    near_optimal: Real = Field(default=0.1, gt=0, le=1e3, description="m; (0, 1000]")
 
 
 class ExecutionSection(_Strict):

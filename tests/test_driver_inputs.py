@@ -95,3 +95,15 @@ def test_a_model_that_does_not_honour_actions_refuses_them():
     with pytest.raises(InputError, match="z.toml: road.zones: "):
         Plain().simulate_batch([zoned])
     assert crashlab.scene.driver_input_key(build_scene([{"speed": 50.0}])) is None
+
+
+def test_next_change_and_ramping_bound_the_steps():
+    from crashlab.models.common.driver_inputs import next_change, ramping, steer_rate
+    sc = build_scene([{"actions": [{"t": 1.0, "wheels": "locked"}, {"t": 2.0, "steer": 4.0, "ramp": 0.5}]}])
+    A = pack_actions(sc.vehicles[0])
+    n = len(A)
+    assert [next_change(A, n, t) for t in (0.0, 1.0, 1.5, 2.0, 2.2, 2.5)] == [1.0, 2.0, 2.0, 2.5, 2.5, math.inf]
+    assert [ramping(A, n, t) for t in (1.5, 2.0, 2.4, 2.5)] == [False, True, True, False]
+    assert steer_rate(A, n, 2.2) == pytest.approx(math.radians(4.0) / 0.5) and steer_rate(A, n, 2.6) == 0.0
+    # the left limit at an action's time keeps the law of the step that ends there
+    assert driver_inputs(A, n, 1.0, True)[0] == ROLLING and driver_inputs(A, n, 1.0)[0] == LOCKED
