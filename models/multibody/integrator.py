@@ -20,14 +20,7 @@ from numba import njit
 
 from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT, contacts_awake
 from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
-from crashlab.models.common.driver_inputs import (
-    A_STEER_FROM,
-    A_STEER_TO,
-    A_T,
-    A_T_END,
-    driver_inputs,
-    effective_mode,
-)
+from crashlab.models.common.driver_inputs import driver_inputs, effective_mode, next_change, steer_rate
 from crashlab.models.common.road_contact import R_DEL, R_ZMIN, ROAD_FRICTION_LAW, road_contacts
 from crashlab.models.common.rotations import cross, dot, rotation_entries, rotation_into
 from crashlab.models.common.vehicle_3d import NW, T_MODE
@@ -139,17 +132,6 @@ def ackermann(L, yk, steer):
 
 
 @njit(cache=True)
-def steer_rate(A, n, t):
-    """d(steer)/dt of the driver's steer at t from the action table (nonzero within a steer ramp)."""
-    k = n - 1
-    while k > 0 and t < A[k, A_T]:
-        k -= 1
-    if t >= A[k, A_T_END]:
-        return 0.0
-    return (A[k, A_STEER_TO] - A[k, A_STEER_FROM]) / (A[k, A_T_END] - A[k, A_T])
-
-
-@njit(cache=True)
 def _drive(A, n, geo, JNT, te):
     """The driver's inputs of one vehicle at time te (common/driver_inputs.py): turns the front knuckles'
     steering axes to the Ackermann angles of the steer now, with its rate (the rheonomic steering row,
@@ -209,15 +191,11 @@ def steer_jump(y, A, n, geo, t, nb):
 
 @njit(cache=True)
 def next_break(ACT, NACT, t):
-    """The first time after t at which a driver's input changes its law: an action's start (wheel state,
-    brake or steer jump or ramp start) or the end of its ramp (a kink); inf if none. No step straddles one."""
+    """The first time after t at which any vehicle's driver input changes its law (common/driver_inputs.
+    next_change: an action's start or its ramp's end); inf if none. No step straddles one."""
     tb = math.inf
     for v in range(ACT.shape[0]):
-        for k in range(1, NACT[v]):
-            for c in (A_T, A_T_END):
-                tk = ACT[v, k, c]
-                if tk > t + 1e-12 * (1.0 + abs(t)) and tk < tb:
-                    tb = tk
+        tb = min(tb, next_change(ACT[v], NACT[v], t))
     return tb
 
 

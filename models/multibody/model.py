@@ -319,8 +319,8 @@ def _no_driver():
     ACT = np.zeros((1, 1, N_ACTION_COLUMNS))
     ACT[0, 0, A_T] = ACT[0, 0, A_T_END] = -math.inf
     ACT[0, 0, A_MODE] = LOCKED
-    return (ACT, np.ones(1, np.int64), np.zeros((1, 4)), np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0),
-            np.zeros((0, 4)))
+    return (ACT, np.ones(1, np.int64), np.zeros((1, 4)), np.zeros((0, 7)), np.zeros(1, np.int64), np.zeros(0),
+            np.zeros((0, 5)))
 
 
 def _road_arrays(masses):
