@@ -190,26 +190,24 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip, brake=0.0)
     if fb != 0.0:
         # the brake torque between wheel and knuckle that cancels the brake force's moment about the spin axis
         Fb = (-fb * xc[0], -fb * xc[1], 0.0)
-        tb = -dot(cross(sP, Fb), w)
-        omk = mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2]))
-        rel = spin - dot(omk, w)
-        nb = mtv(A, bw, scale(tb, w))
-        nk = mtv(A, bk, scale(-tb, w))
-        for k in range(3):
-            Q[bw, 3 + k] += nb[k]
-            Q[bk, 3 + k] += nk[k]
-        power += tb * rel
+        power += _wheel_torque(Q, A, W, bw, bk, w, spin, -dot(cross(sP, Fb), w))
     if int(Tw[T_MODE]) == BRAKED:
-        omk = mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2]))
-        rel = spin - dot(omk, w)
-        tb = friction_on * brake_moment(Tw[T_ETA], mu, fz, Re, rel)
-        nb = mtv(A, bw, scale(tb, w))
-        nk = mtv(A, bk, scale(-tb, w))
-        for k in range(3):
-            Q[bw, 3 + k] += nb[k]
-            Q[bk, 3 + k] += nk[k]
-        power += tb * rel
+        rel = spin - dot(mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2])), w)
+        power += _wheel_torque(Q, A, W, bw, bk, w, spin, friction_on * brake_moment(Tw[T_ETA], mu, fz, Re, rel))
     return fz, power
+
+
+@njit(cache=True)
+def _wheel_torque(Q, A, W, bw, bk, w, spin, tb):
+    """A torque tb about the spin axis w between wheel bw and knuckle bk (body frames into Q); returns its
+    power on the wheel's spin relative to the knuckle."""
+    rel = spin - dot(mv(A, bk, (W[bk, 0], W[bk, 1], W[bk, 2])), w)
+    nb = mtv(A, bw, scale(tb, w))
+    nk = mtv(A, bk, scale(-tb, w))
+    for k in range(3):
+        Q[bw, 3 + k] += nb[k]
+        Q[bk, 3 + k] += nk[k]
+    return tb * rel
 
 
 def tyres_for(veh, modes):
