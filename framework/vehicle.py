@@ -13,7 +13,7 @@ import math
 import tomllib
 from importlib import resources
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
@@ -104,13 +104,23 @@ class MultibodySection(_MultibodyPart):
     tyre: MultibodyTyre | None = None
 
 
+VEHICLE_CLASSES = ("small", "compact", "mid-size", "large", "SUV", "pickup", "van", "heavy")
+# keys of a vehicle file that describe it (for people and `crashlab vehicles`) and reach no model
+METADATA_KEYS = ("class", "sources")
+
+
 class VehicleFile(BaseModel):
     """Schema of a vehicle file (SI units). Per-model sections (e.g. [multibody]) are kept as they are,
     after the checks of their known keys."""
 
-    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False, populate_by_name=True)
 
     name: str = ""
+    vehicle_class: Literal[VEHICLE_CLASSES] | None = Field(  # type: ignore[valid-type]
+        None, alias="class", description="vehicle class of the library listing: " + ", ".join(VEHICLE_CLASSES))
+    sources: dict[str, str] | None = Field(
+        None, description="[sources] table: for each key of the file (a table such as multibody by its "
+        "name) where its number comes from; an estimated number's entry starts with 'estimate:'")
     mass: Real = _num(*MASS_RANGE, "kg, total")
     yaw_inertia: Real = Field(gt=0, description="kg m^2 about the vertical axis through the CG; radius of "
                               "gyration sqrt(I/m) in 0.1-1 x the diagonal of length and width")
@@ -306,8 +316,43 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
         spec = _validate(data, scene_file, f"{where}.overrides.", overrides)
     core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k != "sections"}
     # per-model sections as written (not the schema's dump, which would add None for absent keys)
-    sections = {k: v for k, v in data.items() if k not in VehicleSpec.__dataclass_fields__}
+    sections = {k: v for k, v in data.items()
+                if k not in VehicleSpec.__dataclass_fields__ and k not in METADATA_KEYS}
     core["name"] = core["name"] or ref
     if core["cg_to_front"] is None:
         core["cg_to_front"] = spec.length / 2
     return VehicleSpec(**core, sections=sections)
+
+
+def library_table() -> list[dict]:
+    """The library's vehicles with their key numbers (SI), one dict each, sorted by class then mass:
+    file (library name), name, class, mass, length, width, wheelbase, yaw_inertia, yaw_inertia_source
+    ('measured' or 'estimate', from the file's [sources] entry) and source (the yaw inertia's entry)."""
+    order = {c: i for i, c in enumerate(VEHICLE_CLASSES)}
+    rows = []
+    for ref in library():
+        spec = load_vehicle(ref)
+        path = Path(str(resources.files("crashlab").joinpath("vehicles", ref + ".toml")))
+        data = read_toml(path, "vehicle")
+        src = (data.get("sources") or {}).get("yaw_inertia", "")
+        rows.append(dict(file=ref, name=spec.name, vehicle_class=data.get("class", ""), mass=spec.mass,
+                         length=spec.length, width=spec.width, wheelbase=spec.wheelbase,
+                         yaw_inertia=spec.yaw_inertia,
+                         yaw_inertia_source="estimate" if src.lower().startswith("estimate") else
+                         "measured" if src else "",
+                         source=src))
+    rows.sort(key=lambda r: (order.get(r["vehicle_class"], len(order)), r["mass"], r["file"]))
+    return rows
+
+
+def format_library_table(rows: list[dict] | None = None) -> str:
+    """`crashlab vehicles`: one line per library vehicle, units in the header."""
+    rows = library_table() if rows is None else rows
+    head = (f"{'vehicle':<16} {'class':<9} {'mass [kg]':>9} {'length [m]':>10} {'width [m]':>9} "
+            f"{'wheelbase [m]':>13} {'yaw inertia [kg m^2]':>20}  yaw inertia is  name")
+    lines = [head]
+    for r in rows:
+        lines.append(f"{r['file']:<16} {r['vehicle_class']:<9} {r['mass']:>9.1f} {r['length']:>10.3f} "
+                     f"{r['width']:>9.3f} {r['wheelbase']:>13.3f} {r['yaw_inertia']:>20.1f}  "
+                     f"{r['yaw_inertia_source']:<14}  {r['name']}")
+    return "\n".join(lines)
