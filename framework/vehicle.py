@@ -327,7 +327,7 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
 def library_table() -> list[dict]:
     """The library's vehicles with their key numbers (SI), one dict each, sorted by class then mass:
     file (library name), name, class, mass, length, width, wheelbase, yaw_inertia, yaw_inertia_source
-    ('measured' or 'estimate', from the file's [sources] entry) and source (the yaw inertia's entry)."""
+    ('measured', 'estimate' or 'published', by the start of the file's [sources] entry) and source (the yaw inertia's entry)."""
     order = {c: i for i, c in enumerate(VEHICLE_CLASSES)}
     rows = []
     for ref in library():
@@ -338,8 +338,8 @@ def library_table() -> list[dict]:
         rows.append(dict(file=ref, name=spec.name, vehicle_class=data.get("class", ""), mass=spec.mass,
                          length=spec.length, width=spec.width, wheelbase=spec.wheelbase,
                          yaw_inertia=spec.yaw_inertia,
-                         yaw_inertia_source="estimate" if src.lower().startswith("estimate") else
-                         "measured" if src else "",
+                         yaw_inertia_source=next((w for w in ("estimate", "measured")
+                                                  if src.lower().startswith(w)), "published" if src else ""),
                          source=src))
     rows.sort(key=lambda r: (order.get(r["vehicle_class"], len(order)), r["mass"], r["file"]))
     return rows
