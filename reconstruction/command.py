@@ -22,7 +22,7 @@ def run_cli(args) -> int:
         return 0
     import pandas as pd
     with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 200, "display.max_columns", 40):
-        cols = [f.label for f in study.spec.free] + [f"f_{n}" for n in study.evidence]
+        cols = [f.label for f in study.spec.free] + [f"f_{n}" for n in study.objective_names]
         cols += [f"dheading_{n}" for n, ev in study.evidence.items() if ev[2] is not None]
         print(res.pareto[cols].to_string(index=False) if len(res.pareto) else "no feasible solution")
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "

@@ -133,4 +133,4 @@ def polish_archive(problem, spec, repair=None, budget: int | None = None):
 
     budget = spec.evaluations if budget is None else budget
     polish(residuals, starts, problem.xl, problem.xu, budget, spec.step,
-           start_residuals=problem.residuals(arch["rest"][order[picked]]))
+           start_residuals=arch["R"][order[picked]])

@@ -1,7 +1,15 @@
 """The reconstruction problem (a pymoo Problem): free variables -> scenes -> rest poses -> objectives.
 
-Objectives, one per vehicle with evidence (thesis eqs 4.13-4.14, 5.4-5.8):
-f_k = |r_k - r_k*| + heading_weight * |wrap(psi_k - psi_k*)|. Constraints: g1 = overlap depth of the
+Objectives, one per vehicle with evidence. The thesis's (thesis eqs 4.13-4.14, 5.4-5.8; [objective] mode =
+"thesis"): f_k = |r_k - r_k*| + heading_weight * |wrap(psi_k - psi_k*)| [m]. The normalised misfit (mode =
+"misfit", crashlab.reconstruction.evidence): f_k = sqrt(sum (residual / sigma)^2) over the evidence items
+that concern vehicle k (rest pose, point of impact, marks, EDR); the polish then minimises the sum of
+squares of all normalised residuals, each item once: the negative Gaussian log-likelihood.
+
+Where the evidence needs more than rest poses and contact speeds (the point of impact, a delta-V, a mark)
+the candidates are simulated in this process (EvidenceSet.simulate: crashlab.execution.Evaluations carries
+neither impact rows nor paths), without the executor's parallel backends and timeout; every other study
+runs on the executor as before. Constraints: g1 = overlap depth of the
 outlines at the start <= 0 (crashlab.geometry), g2 = 0 when the vehicles collide, 1 when they miss
 (added to the objectives as a penalty for an optimizer without constraint handling). A population is
 evaluated at a time through the model's `simulate_batch` (crashlab.execution).
@@ -24,7 +32,7 @@ import numpy as np
 from numba import njit
 from pymoo.core.problem import Problem
 
-from crashlab.execution import Executor
+from crashlab.execution import Evaluations, Executor, empty_evaluations, model_for, outcome_reason
 from crashlab.geometry import penetration, rect_corners
 from crashlab.scene import Scene
 from crashlab.units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
@@ -114,12 +122,15 @@ class ReconstructionProblem(Problem):
     """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
 
     def __init__(self, scene: Scene, free: list[FreeVariable], evidence: dict, heading_weight: float,
-                 model: str, model_options: dict, constraints_as_penalty: bool = False):
+                 model: str, model_options: dict, constraints_as_penalty: bool = False, evidence_set=None):
         self.scene, self.free, self.evidence = scene, free, evidence  # evidence: name -> (x, y, heading deg)
         self.heading_weight, self.model, self.model_options = heading_weight, model, model_options
+        self.evidence_set = evidence_set  # None: the thesis objective; else the misfit (module docstring)
         self.names = scene.vehicle_names
+        self.objective_names = list(evidence) if evidence_set is None else list(evidence_set.objective_names)
         self.executor = None
-        self.archive = {"X": [], "F": [], "G": [], "rest": [], "contact": [], "ok": [], "reason": []}
+        # R: the residual vector of every evaluation (`residuals`; normalised with the misfit objective)
+        self.archive = {"X": [], "F": [], "G": [], "R": [], "rest": [], "contact": [], "ok": [], "reason": []}
         self.n_failed = 0
         self.outline_dims = np.array([[v.spec.cg_to_front, v.spec.cg_to_rear, v.spec.width / 2]
                                       for v in scene.vehicles])
@@ -131,7 +142,7 @@ class ReconstructionProblem(Problem):
                                  for i in range(len(self.names))], bool)
         # for an optimizer without constraint handling the violation is added to every objective
         self.constraints_as_penalty = constraints_as_penalty
-        super().__init__(n_var=len(free), n_obj=len(evidence), n_ieq_constr=0 if constraints_as_penalty else 2,
+        super().__init__(n_var=len(free), n_obj=len(self.objective_names), n_ieq_constr=0 if constraints_as_penalty else 2,
                          xl=np.array([f.lower for f in free]), xu=np.array([f.upper for f in free]),
                          exclude_from_serialization=["executor"])  # a live pool or Dask client: no state
 
@@ -207,17 +218,30 @@ class ReconstructionProblem(Problem):
         return np.column_stack(parts)
 
     def evaluate_residuals(self, X) -> np.ndarray:
-        """Evaluate X (recorded in the archive like any evaluation) -> residuals; a failed or
-        infeasible candidate gets FAILED_OBJECTIVE in every component."""
-        G, rest = self.evaluate(np.atleast_2d(X), return_values_of=["constraints", "rest"])
-        R = self.residuals(rest)
+        """Evaluate X (recorded in the archive like any evaluation) -> residuals (`residuals`, or the
+        normalised ones of the misfit objective); a failed or infeasible candidate gets FAILED_OBJECTIVE in
+        every component."""
+        G, R = self.evaluate(np.atleast_2d(X), return_values_of=["constraints", "residuals"])
+        R = np.array(R, dtype=float, copy=True)
         R[np.any(G > 0, axis=1) | ~np.isfinite(R).all(axis=1)] = FAILED_OBJECTIVE
         return R
 
+    def _simulate(self, scenes):
+        """(Evaluations, residuals R): on the executor, or in this process with the outcomes the evidence
+        needs (module docstring)."""
+        es = self.evidence_set
+        if es is None:
+            ev = (self.executor or Executor()).evaluate(self.model, self.model_options, scenes)
+            return ev, self.residuals(ev.rest)
+        if es.needs_outcomes:
+            outcomes = es.simulate(model_for(self.model, self.model_options), scenes)
+            return evaluations_of(outcomes, len(self.names)), es.residuals(outcomes)
+        ev = (self.executor or Executor()).evaluate(self.model, self.model_options, scenes)
+        return ev, es.residuals([_EvaluationView(ev, k) for k in range(len(scenes))])
+
     def _evaluate(self, X, out, *args, **kwargs):
         scenes = self.scenes_for(X)
-        executor = self.executor or Executor()
-        ev = executor.evaluate(self.model, self.model_options, scenes)
+        ev, R = self._simulate(scenes)
         ok, reason = ev.ok.copy(), ev.reason.copy()
         hit = ev.n_impacts > 0
         moving = np.zeros(len(X), bool)
@@ -229,15 +253,19 @@ class ReconstructionProblem(Problem):
                     f"{name} still moving at {ms_to_kmh(ev.end_speed[k, i]):.0f} km/h at the end "
                     "(scene duration too short?)")
         ok &= ~(moving & hit)  # a miss that drives on is no failure: it is infeasible (g2) and not scored
-        F = self.objectives(ev.rest)
+        if self.evidence_set is None:
+            F = self.objectives(ev.rest)
+        else:
+            F = self.evidence_set.objectives(R)
+            F[~np.isfinite(F).all(axis=1)] = FAILED_OBJECTIVE  # e.g. a miss where the point of impact is evidence
         F[~ok | moving] = FAILED_OBJECTIVE
         G = np.column_stack([self.start_overlap(X), np.where(ev.n_impacts > 0, 0.0, 1.0)])
         G[~ok] = 1.0
         self.n_failed += int((~ok).sum())
-        for key, val in (("X", X), ("F", F), ("G", G), ("rest", ev.rest), ("contact", ev.contact), ("ok", ok),
-                         ("reason", reason)):
+        for key, val in (("X", X), ("F", F), ("G", G), ("R", R), ("rest", ev.rest), ("contact", ev.contact),
+                         ("ok", ok), ("reason", reason)):
             self.archive[key].append(np.asarray(val))
-        out["constraints"], out["rest"] = G, ev.rest
+        out["constraints"], out["rest"], out["residuals"] = G, ev.rest, R
         if self.constraints_as_penalty:
             out["F"] = F + FAILED_OBJECTIVE * np.maximum(G, 0.0).sum(axis=1, keepdims=True)
         else:
@@ -245,3 +273,36 @@ class ReconstructionProblem(Problem):
 
     def archive_arrays(self) -> dict:
         return {k: np.concatenate(v) if v else np.empty(0) for k, v in self.archive.items()}
+
+
+class _EvaluationView:
+    """One evaluation of crashlab.execution.Evaluations seen as an Outcome with what it carries (rest pose,
+    state at first contact; no impact rows, no paths): for evidence that needs no more (EvidenceSet)."""
+
+    def __init__(self, ev: Evaluations, k: int):
+        self.outcome_ok, self.rest_si, self.contact_si = bool(ev.ok[k]), ev.rest[k], ev.contact[k]
+        self.impact_rows, self.trajectories = [], {}
+
+
+def evaluations_of(outcomes, nv: int) -> Evaluations:
+    """Evaluations of Outcomes simulated in this process, by the rules of crashlab.execution.evaluate_scenes
+    (an exception or a failed Outcome fails with its reason; a non-finite rest pose fails)."""
+    res = empty_evaluations(len(outcomes), nv)
+    for k, o in enumerate(outcomes):
+        if isinstance(o, BaseException):
+            res.reason[k] = " ".join(f"model raised {type(o).__name__}: {o}".split())[:300]
+            continue
+        if o is None or not getattr(o, "outcome_ok", False):
+            res.reason[k] = "the model returned no outcome" if o is None else outcome_reason(o)
+            continue
+        rest = np.asarray(o.rest_si, float)
+        if rest.shape != (nv, 3) or not np.all(np.isfinite(rest)):
+            res.reason[k] = "non-finite rest pose"
+            continue
+        res.ok[k], res.reason[k] = True, ""
+        res.rest[k], res.contact[k] = rest, o.contact_si
+        diag = getattr(o, "diagnostics", {}) or {}
+        res.n_impacts[k] = diag["episodes"] if "episodes" in diag else len(o.impact_rows)
+        res.end_speed[k] = o.end_speed_si
+        res.at_rest[k] = o.at_rest_mask
+    return res

@@ -14,6 +14,8 @@ import pandas as pd
 
 from crashlab.units import ms_to_kmh, rad_to_deg, wrap_deg
 
+from .evidence import log_likelihood_of
+
 DUPLICATE_TOL = 1e-6  # Pareto rows whose every free variable lies this close (share of its bound width) are one
 HEADING_WARN_DEG = 15.0  # deg: a rest heading this far off is plain on any site sketch or photo
 
@@ -36,9 +38,12 @@ class ReconstructionResult:
         items = []
         for _, row in self.pareto.iterrows():
             items.append({"start": {f.label: float(row[f.label]) for f in p.free},
-                          "objectives": {f"f_{n}": float(row[f"f_{n}"]) for n in p.evidence},
+                          "objectives": {f"f_{n}": float(row[f"f_{n}"]) for n in p.objective_names},
                           "rest": {n: {**{k: float(row[f"rest_{n}_{k}"]) for k in ("x", "y", "heading")},
-                                       "dheading": num(row[f"dheading_{n}"])} for n in p.names}})
+                                       "dheading": num(row[f"dheading_{n}"])} for n in p.names},
+                          **({} if p.evidence_set is None else {
+                              "misfit": {c: float(row[c]) for c in misfit_columns(p)},
+                              "log_likelihood": float(row["log_likelihood"])})})
         arch = p.archive_arrays()
         reasons = failure_counts(arch["reason"][~arch["ok"]]) if len(arch["X"]) else {}
         return {"pareto": items, "evaluations": self.evaluations, "failed": self.failed,
@@ -80,7 +85,12 @@ def pareto_table(problem, arch: dict):
     rows = []
     for k in idx:
         row = {f.label: arch["X"][k, c] for c, f in enumerate(problem.free)}
-        row.update({f"f_{n}": arch["F"][k, c] for c, n in enumerate(problem.evidence)})
+        row.update({f"f_{n}": arch["F"][k, c] for c, n in enumerate(problem.objective_names)})
+        if problem.evidence_set is not None:  # every evidence item's normalised misfit, the log-likelihood
+            es = problem.evidence_set
+            R = arch["R"][k][None]
+            row.update(dict(zip(misfit_columns(problem), es.item_misfits(R)[0])))
+            row["log_likelihood"] = float(log_likelihood_of(R)[0])
         for i, n in enumerate(problem.names):
             eh = problem.evidence.get(n, (None, None, None))[2]
             row[f"dheading_{n}"] = math.nan if eh is None else float(wrap_deg(rad_to_deg(arch["rest"][k, i, 2]) - eh))
@@ -91,6 +101,12 @@ def pareto_table(problem, arch: dict):
                         f"contact_{n}_speed": ms_to_kmh(c[3])})
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def misfit_columns(problem) -> list[str]:
+    """The Pareto table's columns misfit_<item> (crashlab.reconstruction.evidence: sqrt(sum (r / sigma)^2)
+    of that item's residual components) of a problem with the misfit objective."""
+    return [f"misfit_{it.label}" for it in problem.evidence_set.items] if problem.evidence_set is not None else []
 
 
 def write_failures(problem, arch: dict, path: Path, n_search: int):
@@ -108,7 +124,7 @@ def near_optimal_table(problem, arch: dict, tol: float) -> pd.DataFrame:
     """The evaluated starts (ok and feasible) whose every objective is at most `tol` [m], free variables and
     objectives, sorted by the largest objective."""
     cols = [f.label for f in problem.free]
-    names = list(problem.evidence)
+    names = list(problem.objective_names)
     if not len(arch["X"]):
         return pd.DataFrame(columns=cols + [f"f_{n}" for n in names])
     good = arch["ok"] & np.all(arch["G"] <= 0, axis=1) & np.all(arch["F"] <= tol, axis=1)
@@ -147,7 +163,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     info = result.algorithm_info
     result.pareto.to_csv(out_dir / "pareto.csv", index=False)
     write_failures(problem, arch, out_dir / "failures.csv", info["search_evaluations"])
-    names = list(problem.evidence)
+    names = list(problem.objective_names)
     notes = []
     if len(names) >= 2:
         try:
@@ -160,8 +176,9 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                            label="non-dominated")
             ax.set_xscale("log")
             ax.set_yscale("log")
-            ax.set_xlabel(f"f_{names[0]} [m]")
-            ax.set_ylabel(f"f_{names[1]} [m]")
+            funit = "[m]" if problem.evidence_set is None else "[normalised misfit]"
+            ax.set_xlabel(f"f_{names[0]} {funit}")
+            ax.set_ylabel(f"f_{names[1]} {funit}")
             ax.legend()
             ax.grid(alpha=0.3, which="both")
             fig.tight_layout()
@@ -170,7 +187,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             notes.append(f"objectives.png could not be drawn: {type(err).__name__}: {err}")
         finally:
             plt.close("all")
-    near = near_optimal_table(problem, arch, study.spec.objective.near_optimal)
+    tol = study.spec.objective.near_optimal_tol(study.mode)
+    near = near_optimal_table(problem, arch, tol)
     near.to_csv(out_dir / "near_optimal.csv", index=False)
     if len(near) and len(problem.free) >= 2:
         try:
@@ -212,18 +230,29 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     for key in ("sigma_share", "repaired"):
         if key in info:
             lines.append(f"- {key}: {info[key]}")
-    lines += ["", "Evidence (measured rest poses): " + "; ".join(
-        f"{n} ({x:.2f}, {y:.2f}" + (f", {h:.1f} deg)" if h is not None else ", heading not measured)")
-        for n, (x, y, h) in problem.evidence.items()), ""]
+    if problem.evidence_set is None:
+        lines += ["", "Evidence (measured rest poses): " + "; ".join(
+            f"{n} ({x:.2f}, {y:.2f}" + (f", {h:.1f} deg)" if h is not None else ", heading not measured)")
+            for n, (x, y, h) in problem.evidence.items()), "",
+            "Objectives (thesis): f_<vehicle> = |r - r*| + heading_weight |dpsi| [m].", ""]
+    else:
+        lines += ["", "Evidence, each with its standard deviation:", ""]
+        lines += [f"- {line}" for line in problem.evidence_set.describe()]
+        lines += ["", "Objectives (normalised misfit): f_<vehicle> = sqrt(sum (residual / sigma)^2) over the items "
+                  "that concern the vehicle (the point of impact: every vehicle); log_likelihood = -0.5 sum "
+                  "(residual / sigma)^2 over all items, each once (crashlab.reconstruction.evidence).", ""]
     if study.spec.evidence.twin:
         lines += ["Twin experiment: the evidence is the model's own run of the base scene, whose start is the "
-                  "truth: " + ", ".join(f"{f.label} = {v:.3f}" for f, v in zip(problem.free, problem.base_values())),
+                  "truth: " + ", ".join(f"{f.label} = {v:.3f}" for f, v in zip(problem.free, problem.base_values()))
+                  + ("" if study.spec.evidence.noise_seed is None else
+                     f"; Gaussian noise with the given sigmas added (noise_seed {study.spec.evidence.noise_seed})"),
                   ""]
     measured_h = [n for n, ev in problem.evidence.items() if ev[2] is not None]
     lines += [f"## Pareto set ({len(result.pareto)} solutions, sorted by the sum of objectives)", ""]
     if measured_h:
         lines += ["dheading_<vehicle>: simulated minus measured rest heading [deg], wrapped to -180..180; " +
-                  (f"weighted {hw:g} m/deg in the objectives." if hw else
+                  ("in the objectives divided by sigma_heading." if problem.evidence_set is not None else
+                   f"weighted {hw:g} m/deg in the objectives." if hw else
                    "**not part of the objectives** (heading_weight = 0): a small f_ does not mean the "
                    "headings match."), ""]
     if len(result.pareto):
@@ -236,13 +265,20 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names] +
                              [f"dheading_{n}" for n in measured_h]].head(15)
         lines.append(show.to_markdown(index=False, floatfmt=".3f"))
+        if problem.evidence_set is not None:
+            mcols = misfit_columns(problem)
+            lines += ["", f"### Misfit of every evidence item, every Pareto row ({len(result.pareto)})", "",
+                      "misfit_<item> = sqrt(sum (residual / sigma)^2) of the item's components: about 1 is a "
+                      "one-sigma match per component; the same columns are in pareto.csv.", "",
+                      result.pareto[mcols + ["log_likelihood"]].rename_axis("row").reset_index()
+                      .to_markdown(index=False, floatfmt=".3f")]
     else:
         lines.append("No feasible solution.")
-    tol = study.spec.objective.near_optimal
-    lines += ["", f"## Starts that explain the evidence within {tol:g} m ({len(near)} evaluated)", ""]
+    unit = " m" if problem.evidence_set is None else " (normalised misfit, sigmas)"
+    lines += ["", f"## Starts that explain the evidence within {tol:g}{unit} ({len(near)} evaluated)", ""]
     if len(near):
         cols = [f.label for f in problem.free]
-        lines += [f"Every objective at most {tol:g} m (`[objective] near_optimal`); all in near_optimal.csv"
+        lines += [f"Every objective at most {tol:g}{unit} (`[objective] near_optimal`); all in near_optimal.csv"
                   + (", the first two free variables in near_optimal.png" if figures_near else "") +
                   ". The evidence cannot tell these starts apart: their range is what it leaves open.", "",
                   pd.DataFrame({"variable": cols, "min": near[cols].min().to_numpy(),

@@ -32,7 +32,7 @@ from .polish import polish_archive
 from .report import ReconstructionResult, pareto_table, write_outputs
 from .schema import WORKERS_MAX
 
-CHECKPOINT_FORMAT = "crashlab reconstruction checkpoint 2"
+CHECKPOINT_FORMAT = "crashlab reconstruction checkpoint 3"  # 3: the archive keeps every residual vector
 
 
 def _atomic_pickle(path: Path, obj):

@@ -121,26 +121,93 @@ class FreeVariable(_Strict):
         return self.field if self.parts[0] in ("road", "zone") else f"impact.{self.field}"
 
 
+SIGMA_POSITION_MAX = 1e3  # m: a standard deviation of a measured position
+SIGMA_ANGLE_MAX = 180.0  # deg
+SIGMA_SPEED_MAX = SPEED_MAX  # km/h
+MARK_POINTS_MAX = 10_000
+
+
 class RestPose(_Strict):
-    x: Real = Field(ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
-    y: Real = Field(ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
+    """A measured rest pose (docs/physics.md, "Evidence and likelihood"). x, y are required unless the study
+    is a twin (the model's run fills them); sigma_xy [m] is the standard deviation of each coordinate,
+    sigma_heading [deg] that of the heading."""
+    x: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
+    y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
     # deg; without it the heading term is left out for this vehicle (dheading is empty)
     heading: Real | None = Field(default=None, ge=-ANGLE_MAX, le=ANGLE_MAX)
+    sigma_xy: Real | None = Field(default=None, gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
+    sigma_heading: Real | None = Field(default=None, gt=0, le=SIGMA_ANGLE_MAX, description=f"deg; (0, {SIGMA_ANGLE_MAX:g}]")
+
+
+class ImpactEvidence(_Strict):
+    """The point of impact [m] (debris, gouges): the point of the first impact row (crashlab.outcome);
+    sigma [m] per coordinate. x, y may be left to a twin's run."""
+    x: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
+    y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
+    sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
+
+
+Point = tuple[Annotated[float, Strict(), Field(ge=-POSITION_MAX, le=POSITION_MAX)],
+              Annotated[float, Strict(), Field(ge=-POSITION_MAX, le=POSITION_MAX)]]
+
+
+class MarkEvidence(_Strict):
+    """A tyre or CG mark: the vehicle's CG path passes within sigma [m] of each point (x, y) [m]. A twin
+    may leave the points out: then n_points points of the run's own CG path, evenly spaced in time."""
+    vehicle: str
+    points: list[Point] | None = Field(default=None, min_length=2, max_length=MARK_POINTS_MAX,
+                                       description=f"at least 2 points [x, y] (m), at most {MARK_POINTS_MAX}")
+    sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
+    n_points: Int | None = Field(default=None, ge=2, le=MARK_POINTS_MAX, description=f"[2, {MARK_POINTS_MAX}]; twin only")
+
+
+class EdrEvidence(_Strict):
+    """An event data recorder's values [km/h]: the speed at first contact and the delta-V (the magnitude of
+    the sum of the vehicle's impact-row velocity changes); each with its sigma [km/h]."""
+    speed_at_impact: Real | None = Field(default=None, ge=0, le=SPEED_MAX, description=f"km/h; [0, {SPEED_MAX:g}]")
+    sigma_speed: Real | None = Field(default=None, gt=0, le=SIGMA_SPEED_MAX, description=f"km/h; (0, {SIGMA_SPEED_MAX:g}]")
+    delta_v: Real | None = Field(default=None, ge=0, le=SPEED_MAX, description=f"km/h; [0, {SPEED_MAX:g}]")
+    sigma_delta_v: Real | None = Field(default=None, gt=0, le=SIGMA_SPEED_MAX, description=f"km/h; (0, {SIGMA_SPEED_MAX:g}]")
 
 
 class Evidence(_Strict):
     rest: dict[str, RestPose] = Field(default_factory=dict)
-    twin: StrictBool = False  # evidence = the model's own simulation of the base scene (twin experiment)
+    impact: ImpactEvidence | None = None
+    marks: list[MarkEvidence] = Field(default_factory=list, max_length=1000)
+    edr: dict[str, EdrEvidence] = Field(default_factory=dict)
+    # evidence = the model's own simulation of the base scene (twin experiment): it fills every value the
+    # file leaves out (all rest poses when the file gives no other evidence)
+    twin: StrictBool = False
+    # twin only: Gaussian noise with the given sigmas is added to every value the run fills (calibration)
+    noise_seed: Int | None = Field(default=None, ge=0, le=SEED_MAX, description=f"[0, {SEED_MAX}]")
+
+    @property
+    def has_uncertainty(self) -> bool:
+        """Any sigma or any evidence besides rest poses: the normalised misfit is then the default objective."""
+        return bool(self.impact or self.marks or self.edr or any(
+            p.sigma_xy is not None or p.sigma_heading is not None for p in self.rest.values()))
 
 
 class ObjectiveSection(_Strict):
+    # "thesis": f = |r - r*| + heading_weight |dpsi| per vehicle with a rest pose [m] (thesis eqs 4.13-4.14);
+    # "misfit": per vehicle the normalised misfit sqrt(sum (residual / sigma)^2) of its evidence items
+    # (crashlab.reconstruction.evidence). Default: "misfit" as soon as any sigma or any evidence besides
+    # rest poses is given, else "thesis"
+    mode: Literal["thesis", "misfit"] | None = None
     # m per deg of rest-heading error; 100 m/deg would already let 0.01 deg outweigh a metre
     heading_weight: Real = Field(default=0.0, ge=0, le=100.0, description="m/deg; [0, 100]")
     hv_reference: Real = Field(default=10.0, gt=0, le=1e6)  # m, hypervolume reference point per objective
     # m: an evaluated start explains the evidence "as well" when every objective is at most this (about the
     # accuracy of a rest position measured on site); summary.md and near_optimal.csv list those starts: the
     # range of answers the evidence leaves open (e.g. brake onset against speed, README)
-    near_optimal: Real = Field(default=0.1, gt=0, le=1e3, description="m; (0, 1000]")
+    # absent: 0.1 m with the thesis objective; 1.0 with the misfit (every vehicle's evidence within about one
+    # sigma), whose objectives are in units of sigma
+    near_optimal: Real | None = Field(default=None, gt=0, le=1e3, description="m (misfit: sigmas); (0, 1000]")
+
+    def near_optimal_tol(self, mode: str) -> float:
+        if self.near_optimal is not None:
+            return float(self.near_optimal)
+        return 0.1 if mode == "thesis" else 1.0
 
 
 class ExecutionSection(_Strict):

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,7 @@ from crashlab.scene import Scene, load_scene
 from crashlab.units import ms_to_kmh
 from crashlab.vehicle import pydantic_error, read_toml
 
+from .evidence import build_evidence
 from .problem import ReconstructionProblem
 from .repair import CollisionRepair
 from .run import run_study
@@ -59,10 +59,23 @@ def crashlab_version() -> str:
 
 
 class Study:
-    """A loaded study: its file (spec), base scene and evidence (vehicle -> x, y [m], heading [deg] or None)."""
+    """A loaded study: its file (spec), base scene, measured rest poses (evidence: vehicle -> x, y [m],
+    heading [deg] or None) and, with the misfit objective, every evidence item with its sigmas
+    (evidence_set, crashlab.reconstruction.evidence; None with the thesis objective)."""
 
-    def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict):
+    def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict, evidence_set=None):
         self.path, self.spec, self.scene, self.evidence = path, spec, scene, evidence
+        self.evidence_set = evidence_set
+
+    @property
+    def mode(self) -> str:
+        """The objective: "thesis" or "misfit" ([objective] mode, schema.ObjectiveSection)."""
+        return "thesis" if self.evidence_set is None else "misfit"
+
+    @property
+    def objective_names(self) -> list[str]:
+        """The vehicles with an objective f_<vehicle>, in objective order."""
+        return list(self.evidence) if self.evidence_set is None else self.evidence_set.objective_names
 
     def fingerprint(self) -> dict:
         """What a result depends on, part by part (crashlab.reconstruction.run, "Resume"): part -> digest."""
@@ -77,13 +90,17 @@ class Study:
             parts[f"vehicle data of {v.name}"] = _digest(dataclasses.asdict(v.spec))
         parts["evidence"] = _digest({n: [None if e is None else float(e) for e in ev]
                                      for n, ev in self.evidence.items()})
+        if self.evidence_set is not None:
+            parts["evidence"] = _digest([parts["evidence"]] + [
+                [it.label, it.components, it.values, it.sigmas, it.points] for it in self.evidence_set.items])
         parts["model and its options"] = _digest([self.spec.model, self.spec.model_options])
         parts["crashlab version"] = crashlab_version()
         return parts
 
     def make_problem(self, constraints_as_penalty: bool = False) -> ReconstructionProblem:
         return ReconstructionProblem(self.scene, self.spec.free, self.evidence, self.spec.objective.heading_weight,
-                                     self.spec.model, self.spec.model_options, constraints_as_penalty)
+                                     self.spec.model, self.spec.model_options, constraints_as_penalty,
+                                     evidence_set=self.evidence_set)
 
     def make_repair(self):
         """The study's CollisionRepair, or None (switched off, or a scene at its collision position)."""
@@ -101,7 +118,7 @@ class Study:
         try:
             factory = load(OPTIMIZERS, name)
             if getattr(factory, "takes_n_obj", False):  # conventions: optimizers/pymoo_algorithms.py
-                opts.setdefault("n_obj", len(self.evidence))
+                opts.setdefault("n_obj", len(self.objective_names))
             return name, factory(pop_size=o.pop_size, **opts)
         except UnknownPluginError as err:
             raise InputError(self.path, "optimizer.name", str(err)) from None
@@ -184,8 +201,9 @@ def load_study(path) -> Study:
         if f.vehicle is not None and f.vehicle not in names:
             raise InputError(path, f"free.{k}.vehicle", f"no vehicle {f.vehicle!r} in the scene ({', '.join(names)})")
     _check_free_driver_fields(path, spec.free, scene)
+    out = None
     if spec.evidence.twin:
-        out = model.simulate(scene)
+        out = model.simulate(scene)  # simulate, not simulate_batch: a mark needs the recorded CG path
         if not out.outcome_ok:
             raise InputError(path, "evidence.twin", f"the model's run of the base scene failed: {outcome_reason(out)}")
         moving = [f"{n} still moving at {ms_to_kmh(out.end_speed_si[i]):.0f} km/h"
@@ -193,13 +211,5 @@ def load_study(path) -> Study:
         if moving:
             raise InputError(path, "evidence.twin", f"{', '.join(moving)} at the end of the base scene: an end pose "
                              "is no rest pose (lengthen the scene's duration)")
-        evidence = {n: (out.rest_si[i, 0], out.rest_si[i, 1], math.degrees(out.rest_si[i, 2]))
-                    for i, n in enumerate(names)}
-    else:
-        for n in spec.evidence.rest:
-            if n not in names:
-                raise InputError(path, f"evidence.rest.{n}", f"no vehicle {n!r} in the scene")
-        evidence = {n: (p.x, p.y, p.heading) for n, p in spec.evidence.rest.items()}
-    if not evidence:
-        raise InputError(path, "evidence.rest", "no measured rest pose given")
-    return Study(path, spec, scene, evidence)
+    evidence_set, evidence, mode = build_evidence(path, spec, names, out)
+    return Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None)

@@ -1,0 +1,360 @@
+"""Evidence with its uncertainty, its normalised residuals and the Gaussian log-likelihood of a candidate.
+
+The contract (docs/physics.md, "Evidence and likelihood"; the posterior builds on it):
+
+    ev = study.evidence_set                      # an EvidenceSet: items, each with its sigmas
+    outcomes = ev.simulate(model, scenes)        # model.simulate where marks need a CG path, else simulate_batch
+    R = ev.residuals(outcomes)                   # (n, m): every residual component divided by its sigma
+    L = ev.log_likelihood(outcomes)              # (n,): -0.5 * sum(R**2, axis=1); -inf where R has a NaN
+
+Residual components (simulated minus measured, each divided by its sigma; file units km/h, deg, m):
+  rest.<V>       (x - x*) / sigma_xy, (y - y*) / sigma_xy; with a heading: wrap(psi - psi*) / sigma_heading
+                 [deg, wrapped to (-180, 180]]: the rest pose (Outcome.rest_si);
+  impact         (px - x*) / sigma, (py - y*) / sigma: the point of the first impact row (Outcome.impact_rows,
+                 point_x, point_y; the row with the smallest t); joint: counts in every vehicle's objective,
+                 once in the likelihood;
+  marks.<k>      d_p / sigma for every point p of the mark: d_p >= 0 the distance of p from the vehicle's
+                 CG path (the polyline of Outcome.trajectories, recorded by `model.simulate`; the impulse
+                 model's `simulate_batch` records none);
+  edr.<V>        (v_c - v*) / sigma_speed with v_c the speed at first contact (Outcome.contact_si[:, 3]);
+                 (|dv| - dv*) / sigma_delta_v with dv the sum of the vehicle's impact-row velocity changes
+                 (dvx, dvy) [km/h]; a vehicle in no impact row has dv = 0.
+A candidate that cannot be scored (Outcome not ok, None or an exception, no impact where the point of impact
+or an EDR speed is evidence, no CG path where marks are) has NaN residuals and log-likelihood -inf.
+
+The log-likelihood is that of independent Gaussian measurement errors, up to the additive constant
+-sum(log sigma) - m/2 log(2 pi), the same for every candidate (Davis, Law, Probability and Risk 2003):
+a posterior needs only differences. A mark's residual is a distance (>= 0), so its term is a half-normal
+of the distance, a standard choice for a point near a curve.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from crashlab.units import ms_to_kmh, wrap_deg
+
+
+@dataclass(frozen=True)
+class EvidenceItem:
+    """One piece of evidence. kind: "rest", "impact", "marks", "edr"; label: "rest.V1", "impact", "marks.0",
+    "edr.V1"; vehicles: whose objective it enters (the impact: every vehicle); components: the names of its
+    residual components (e.g. ("x", "y", "heading")); values / sigmas: measured values and their standard
+    deviations, per component, file units (m, deg, km/h); points: (p, 2) a mark's points [m]."""
+    kind: str
+    label: str
+    vehicles: tuple[str, ...]
+    components: tuple[str, ...]
+    values: tuple[float, ...]
+    sigmas: tuple[float, ...]
+    points: np.ndarray | None = field(default=None, compare=False)
+
+
+def polyline_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """(p,) distance of each point (p, 2) from the polyline path (k, 2) [m]; NaN for an empty path."""
+    points = np.asarray(points, float)
+    path = np.asarray(path, float)
+    if len(path) == 0 or not np.all(np.isfinite(path)):
+        return np.full(len(points), np.nan)
+    if len(path) == 1:
+        return np.hypot(*(points - path[0]).T)
+    a, b = path[:-1], path[1:]  # (k-1, 2) segments
+    ab = b - a
+    len2 = np.einsum("ij,ij->i", ab, ab)
+    ap = points[:, None, :] - a[None, :, :]  # (p, k-1, 2)
+    t = np.clip(np.einsum("pki,ki->pk", ap, ab) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
+    near = a[None] + t[..., None] * ab[None]
+    return np.min(np.hypot(*(points[:, None, :] - near).transpose(2, 0, 1)), axis=1)
+
+
+def first_impact_point(outcome) -> tuple[float, float]:
+    """(x, y) [m] of the first impact row (smallest t), NaN without one."""
+    rows = outcome.impact_rows
+    if not rows:
+        return math.nan, math.nan
+    r = min(rows, key=lambda row: row["t"])
+    return float(r["point_x"]), float(r["point_y"])
+
+
+def delta_v(outcome, name: str) -> float:
+    """|sum of the vehicle's impact-row velocity changes| [m/s]; 0 when it is in no row."""
+    dvx = sum(r["dvx"] for r in outcome.impact_rows if r["vehicle"] == name)
+    dvy = sum(r["dvy"] for r in outcome.impact_rows if r["vehicle"] == name)
+    return float(math.hypot(dvx, dvy))
+
+
+def cg_path(outcome, name: str) -> np.ndarray:
+    """(k, 2) the vehicle's recorded CG path [m] (empty when the run recorded none)."""
+    tr = (outcome.trajectories or {}).get(name)
+    if not tr or len(tr.get("x", ())) == 0:
+        return np.empty((0, 2))
+    return np.column_stack([tr["x"], tr["y"]])
+
+
+class EvidenceSet:
+    """The study's evidence items over the scene's vehicles (names, in scene order)."""
+
+    def __init__(self, names, items: list[EvidenceItem]):
+        self.names = list(names)
+        self.items = list(items)
+        self.labels = [f"{it.label}.{c}" for it in self.items for c in it.components]
+        # objective vehicles: every vehicle some item concerns, in scene order
+        self.objective_names = [n for n in self.names if any(n in it.vehicles for it in self.items)]
+
+    @property
+    def needs_trajectory(self) -> bool:
+        return any(it.kind == "marks" for it in self.items)
+
+    @property
+    def needs_outcomes(self) -> bool:
+        """Whether scoring needs more than rest poses and contact speeds (crashlab.execution.Evaluations
+        carries only those): the point of impact, a delta-V or a mark."""
+        return any(it.kind in ("impact", "marks") or (it.kind == "edr" and "delta_v" in it.components)
+                   for it in self.items)
+
+    @property
+    def n_residuals(self) -> int:
+        return len(self.labels)
+
+    def simulate(self, model, scenes) -> list:
+        """Outcomes of the scenes with what the evidence needs: `model.simulate` one by one when marks need
+        the CG path (the impulse model's simulate_batch records none), else `model.simulate_batch`. An
+        exception is returned in place of its outcome (scored NaN / -inf), never raised."""
+        if not self.needs_trajectory:
+            try:
+                return list(model.simulate_batch(list(scenes)))
+            except Exception:  # noqa: BLE001 - one by one, so a bad scene fails alone
+                pass
+        outs = []
+        for s in scenes:
+            try:
+                outs.append(model.simulate(s))
+            except Exception as err:  # noqa: BLE001
+                outs.append(err)
+        return outs
+
+    # ---------------------------------------------------------------- residuals
+    def _simulated(self, it: EvidenceItem, o) -> list[float]:
+        """The simulated counterparts of an item's components (file units), NaN where undefined."""
+        if it.kind == "rest":
+            i = self.names.index(it.vehicles[0])
+            x, y, h = o.rest_si[i]
+            return [x, y, math.degrees(h)][:len(it.components)]
+        if it.kind == "impact":
+            return list(first_impact_point(o))
+        if it.kind == "marks":
+            return list(polyline_distance(it.points, cg_path(o, it.vehicles[0])))
+        i = self.names.index(it.vehicles[0])
+        sim = {"speed_at_impact": lambda: ms_to_kmh(float(o.contact_si[i, 3])),  # NaN without contact
+               "delta_v": lambda: ms_to_kmh(delta_v(o, it.vehicles[0]))}
+        return [sim[c]() for c in it.components]
+
+    def residuals(self, outcomes) -> np.ndarray:
+        """(n, m) normalised residuals (simulated - measured) / sigma of a batch of Outcomes, columns as
+        `labels`; a row of NaN for a candidate that cannot be scored (module docstring)."""
+        R = np.full((len(outcomes), self.n_residuals), np.nan)
+        for k, o in enumerate(outcomes):
+            if o is None or isinstance(o, BaseException) or not getattr(o, "outcome_ok", False):
+                continue
+            row = []
+            for it in self.items:
+                sim = np.asarray(self._simulated(it, o), float)
+                if it.kind == "marks":  # the residual is the distance itself
+                    row.append(sim / np.asarray(it.sigmas))
+                    continue
+                diff = sim - np.asarray(it.values)
+                if it.kind == "rest" and len(it.components) == 3:
+                    diff[2] = wrap_deg(diff[2])
+                row.append(diff / np.asarray(it.sigmas))
+            r = np.concatenate(row)
+            if np.all(np.isfinite(r)):
+                R[k] = r
+        return R
+
+    def log_likelihood(self, outcomes) -> np.ndarray:
+        """(n,) Gaussian log-likelihood -0.5 * sum(R**2) of a batch of Outcomes (up to a constant, module
+        docstring); -inf for a candidate that cannot be scored."""
+        return log_likelihood_of(self.residuals(outcomes))
+
+    # ---------------------------------------------------------------- per item, per vehicle
+    def item_slices(self) -> list[slice]:
+        out, c = [], 0
+        for it in self.items:
+            out.append(slice(c, c + len(it.components)))
+            c += len(it.components)
+        return out
+
+    def item_misfits(self, R: np.ndarray) -> np.ndarray:
+        """(n, n_items) sqrt(sum (residual / sigma)^2) of each item's components."""
+        R = np.atleast_2d(R)
+        return np.column_stack([np.sqrt(np.sum(R[:, s] ** 2, axis=1)) for s in self.item_slices()])
+
+    def objectives(self, R: np.ndarray) -> np.ndarray:
+        """(n, len(objective_names)) per vehicle the normalised misfit sqrt(sum (residual / sigma)^2) over
+        the items that concern it (the point of impact in every vehicle's)."""
+        R = np.atleast_2d(R)
+        cols = []
+        for n in self.objective_names:
+            use = np.concatenate([np.arange(s.start, s.stop) for it, s in zip(self.items, self.item_slices())
+                                  if n in it.vehicles])
+            cols.append(np.sqrt(np.sum(R[:, use] ** 2, axis=1)))
+        return np.column_stack(cols)
+
+    def describe(self) -> list[str]:
+        """One line per item, for summary.md."""
+        lines = []
+        for it in self.items:
+            if it.kind == "marks":
+                pts = ", ".join(f"({x:.2f}, {y:.2f})" for x, y in it.points)
+                lines.append(f"{it.label}: {it.vehicles[0]}'s CG path within {it.sigmas[0]:g} m of {pts}")
+                continue
+            unit = {"x": "m", "y": "m", "heading": "deg", "speed_at_impact": "km/h", "delta_v": "km/h"}
+            lines.append(f"{it.label}: " + ", ".join(f"{c} = {v:.2f} ± {s:g} {unit[c]}"
+                                                      for c, v, s in zip(it.components, it.values, it.sigmas)))
+        return lines
+
+
+def log_likelihood_of(R: np.ndarray) -> np.ndarray:
+    """(n,) -0.5 * sum(R**2, axis=1) of normalised residuals R (n, m); -inf where a row has a NaN."""
+    R = np.atleast_2d(R)
+    L = -0.5 * np.sum(R ** 2, axis=1)
+    L[~np.all(np.isfinite(R), axis=1)] = -np.inf
+    return L
+
+
+# ---------------------------------------------------------------- from the study file
+def _noise(rng, sigma):
+    return 0.0 if rng is None else float(rng.normal(0.0, sigma))
+
+
+def build_evidence(path, spec, names, twin_outcome=None):
+    """(EvidenceSet, rest dict name -> (x, y, heading deg or None), mode) from a study file's [evidence] and
+    [objective]; twin_outcome: the model's run of the base scene (evidence.twin), which fills every value
+    the file leaves out (module docstring of crashlab.reconstruction.study). InputError names the key."""
+    from crashlab.errors import InputError
+    ev = spec.evidence
+    twin = ev.twin
+    if ev.noise_seed is not None and not twin:
+        raise InputError(path, "evidence.noise_seed", "noise is added to a twin's evidence only (twin = true)")
+    rng = np.random.default_rng(ev.noise_seed) if ev.noise_seed is not None else None
+    o = twin_outcome
+
+    def check_name(name, key):
+        if name not in names:
+            raise InputError(path, key, f"no vehicle {name!r} in the scene ({', '.join(names)})")
+
+    def given(value, key):
+        """A measured value of a file that is no twin's."""
+        if value is None:
+            raise InputError(path, key, "missing key (or set evidence.twin = true to take it from the model's run)")
+        return float(value)
+
+    items: list[EvidenceItem] = []
+    rest: dict = {}
+    only_rest_twin = twin and not (ev.rest or ev.impact or ev.marks or ev.edr)
+    if only_rest_twin:  # the thesis's twin: every vehicle's rest pose, as before
+        for i, n in enumerate(names):
+            rest[n] = (float(o.rest_si[i, 0]), float(o.rest_si[i, 1]), math.degrees(o.rest_si[i, 2]))
+    mode = spec.objective.mode or ("misfit" if ev.has_uncertainty else "thesis")
+    for n, p in ev.rest.items():
+        key = f"evidence.rest.{n}"
+        check_name(n, key)
+        i = names.index(n)
+        for k in ("x", "y", "heading"):
+            if twin and getattr(p, k) is not None:
+                raise InputError(path, f"{key}.{k}", "a twin's run gives this value: leave it out (or twin = false)")
+        if twin:
+            heading = math.degrees(o.rest_si[i, 2]) if (p.sigma_heading is not None or mode == "thesis") else None
+            x, y = o.rest_si[i, 0] + _noise(rng, p.sigma_xy or 0.0), o.rest_si[i, 1] + _noise(rng, p.sigma_xy or 0.0)
+            if heading is not None:
+                heading += _noise(rng, p.sigma_heading or 0.0)
+        else:
+            x, y, heading = given(p.x, f"{key}.x"), given(p.y, f"{key}.y"), p.heading
+        rest[n] = (float(x), float(y), heading)
+        if mode == "misfit":
+            if p.sigma_xy is None:
+                raise InputError(path, f"{key}.sigma_xy", "missing key: the misfit objective needs every sigma")
+            if heading is not None and p.sigma_heading is None:
+                raise InputError(path, f"{key}.sigma_heading", "missing key: a heading needs its sigma")
+            comps = ("x", "y", "heading") if heading is not None else ("x", "y")
+            vals = (rest[n][0], rest[n][1], heading) if heading is not None else rest[n][:2]
+            sig = (p.sigma_xy, p.sigma_xy, p.sigma_heading) if heading is not None else (p.sigma_xy,) * 2
+            items.append(EvidenceItem("rest", f"rest.{n}", (n,), comps, tuple(map(float, vals)), tuple(sig)))
+        elif p.sigma_heading is not None and heading is None:
+            raise InputError(path, f"{key}.sigma_heading", "a sigma without its heading")
+    if ev.impact is not None:
+        p = ev.impact
+        if twin:
+            for k in ("x", "y"):
+                if getattr(p, k) is not None:
+                    raise InputError(path, f"evidence.impact.{k}", "a twin's run gives this value: leave it out")
+            px, py = first_impact_point(o)
+            if not math.isfinite(px):
+                raise InputError(path, "evidence.impact", "the twin's run has no impact")
+            vals = (px + _noise(rng, p.sigma), py + _noise(rng, p.sigma))
+        else:
+            vals = (given(p.x, "evidence.impact.x"), given(p.y, "evidence.impact.y"))
+        items.append(EvidenceItem("impact", "impact", tuple(names), ("x", "y"), vals, (p.sigma, p.sigma)))
+    for k, m in enumerate(ev.marks):
+        key = f"evidence.marks.{k}"
+        check_name(m.vehicle, f"{key}.vehicle")
+        if m.points is not None:
+            if m.n_points is not None:
+                raise InputError(path, f"{key}.n_points", "give points or (twin) n_points, not both")
+            pts = np.asarray(m.points, float)
+        else:
+            if not twin:
+                raise InputError(path, f"{key}.points", "missing key: at least 2 points [x, y]")
+            path_xy = cg_path(o, m.vehicle)
+            if len(path_xy) < 2:
+                raise InputError(path, f"{key}", "the twin's run recorded no CG path (model option record_dt)")
+            idx = np.linspace(0, len(path_xy) - 1, m.n_points or 4).round().astype(int)
+            pts = path_xy[idx] + (0.0 if rng is None else rng.normal(0.0, m.sigma, (len(idx), 2)))
+        items.append(EvidenceItem("marks", f"marks.{k}", (m.vehicle,), tuple(f"p{j}" for j in range(len(pts))),
+                                  tuple([0.0] * len(pts)), tuple([m.sigma] * len(pts)), pts))
+    for n, e in ev.edr.items():
+        key = f"evidence.edr.{n}"
+        check_name(n, key)
+        i = names.index(n)
+        comps, vals, sig = [], [], []
+        for c, s, sim in (("speed_at_impact", "sigma_speed", lambda: ms_to_kmh(float(o.contact_si[i, 3]))),
+                          ("delta_v", "sigma_delta_v", lambda: ms_to_kmh(delta_v(o, n)))):
+            value, sigma = getattr(e, c), getattr(e, s)
+            if twin and value is not None:
+                raise InputError(path, f"{key}.{c}", "a twin's run gives this value: leave it out (give its sigma)")
+            if value is not None and sigma is None:
+                raise InputError(path, f"{key}.{s}", f"missing key: {c} needs its sigma")
+            if sigma is None:
+                continue
+            if twin:
+                value = sim()
+                if not math.isfinite(value):
+                    raise InputError(path, key, "the twin's run has no contact")
+                value = max(value + _noise(rng, sigma), 0.0)
+            elif value is None:
+                raise InputError(path, f"{key}.{c}", f"missing key: {s} is given without its value")
+            comps.append(c)
+            vals.append(float(value))
+            sig.append(float(sigma))
+        if not comps:
+            raise InputError(path, key, "no value: give speed_at_impact and sigma_speed and/or delta_v and sigma_delta_v")
+        items.append(EvidenceItem("edr", f"edr.{n}", (n,), tuple(comps), tuple(vals), tuple(sig)))
+    if mode == "thesis":
+        if items:
+            raise InputError(path, "objective.mode", "the thesis objective scores rest poses only: "
+                             "use mode = \"misfit\" with this evidence")
+        if not rest:
+            raise InputError(path, "evidence.rest", "no measured rest pose given")
+    else:
+        if spec.objective.heading_weight:
+            raise InputError(path, "objective.heading_weight", "the misfit objective weighs a heading by its "
+                             "sigma_heading: give no heading_weight (or mode = \"thesis\")")
+        if not items:
+            raise InputError(path, "evidence", "no evidence with a sigma given")
+    return EvidenceSet(names, items), rest, mode
+
+
+__all__ = ["EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "delta_v", "first_impact_point",
+           "log_likelihood_of", "polyline_distance"]
