@@ -1,4 +1,4 @@
-"""Command line: crashlab models | simulate | compare | reconstruct | study | bench | stress.
+"""Command line: crashlab models | simulate (--monte-carlo N) | compare | reconstruct | study | bench | stress.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
@@ -46,10 +46,40 @@ def _get_model(name, where):
         raise InputError(where, "--model", str(err)) from None
 
 
+def cmd_monte_carlo(args, scene, model):
+    """`simulate SCENE --monte-carlo N`: the scene's [[uncertain]] parameters drawn N times (crashlab.montecarlo)."""
+    from . import montecarlo
+    if args.monte_carlo < 1:
+        raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {args.monte_carlo}")
+    if args.seed is not None and not 0 <= args.seed < 2**32:
+        raise InputError("command line", "--seed", f"in [0, 2^32), got {args.seed}")
+    if args.plot:
+        raise InputError("command line", "--plot", "with --monte-carlo the figure goes to --out DIR")
+    if not scene.uncertain:
+        raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
+                         "(field, distribution and its parameters); this scene has none")
+    result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed)
+    written = montecarlo.write(result, args.out) if args.out else []
+    if args.json:
+        print(json.dumps(result.to_json_dict(), indent=2))
+    else:
+        montecarlo.print_summary(result)
+        if written:
+            print("wrote " + ", ".join(str(p) for p in written))
+        else:
+            print("(--out DIR writes the table of draws and the figure)")
+    return 0
+
+
 def cmd_simulate(args):
     from .scene import load_scene
     scene = load_scene(args.scene)
     model = _get_model(args.model, args.scene)
+    if args.monte_carlo is not None:
+        return cmd_monte_carlo(args, scene, model)
+    if args.seed is not None or args.out is not None:
+        raise InputError("command line", "--seed" if args.seed is not None else "--out",
+                         "only with --monte-carlo N")
     out = model.simulate(scene)
     if args.plot:
         from .plotting import top_view
@@ -166,6 +196,11 @@ def build_parser():
     s.add_argument("--model", default="impulse")
     s.add_argument("--json", action="store_true")
     s.add_argument("--plot", metavar="FILE", help="write the top view (PNG, PDF, SVG)")
+    s.add_argument("--monte-carlo", type=int, default=None, metavar="N",
+                   help="draw the scene's [[uncertain]] parameters N times and simulate each draw")
+    s.add_argument("--seed", type=int, default=None, help="seed of the Monte Carlo draws (default 1)")
+    s.add_argument("--out", default=None, metavar="DIR", help="Monte Carlo: write montecarlo.csv, summary.csv "
+                   "and montecarlo.png here")
     s.set_defaults(fn=cmd_simulate)
     c = sub.add_parser("compare", help="compare models with each other and with the published results")
     c.add_argument("scene")

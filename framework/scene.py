@@ -133,6 +133,9 @@ class SceneFile(_Strict):
     barriers: list[BarrierFile] = Field(default_factory=list)
     # published results to compare with: reference.<source>.<vehicle> = {x, y, heading, vx, vy, yaw_rate}
     reference: dict[str, dict[str, ReferenceFile]] = Field(default_factory=dict)
+    # uncertain parameters (crashlab.uncertainty): [[uncertain]] field, distribution and its parameters;
+    # checked against the scene in scene_from_dict; they do not change the simulation of the scene itself
+    uncertain: list[dict] = Field(default_factory=list)
 
 
 # ---------------------------------------------------------------- the scene (SI)
@@ -207,6 +210,9 @@ class Scene:
     stop_at_rest: bool = True
     source: str = "<scene>"
     references: dict = dataclasses.field(default_factory=dict, compare=False, hash=False)
+    # the scene file's [[uncertain]] parameters (crashlab.uncertainty.Uncertain, file units): what Monte Carlo,
+    # the posterior and the searches may vary; the scene's own values are the nominal ones
+    uncertain: tuple = dataclasses.field(default=(), compare=False, hash=False)
 
     def vehicle(self, name: str) -> VehicleState:
         for v in self.vehicles:
@@ -408,6 +414,9 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
             a, b = hits[0]
             raise InputError(source, "vehicles", f"{a} and {b} overlap at the start; move them apart or "
                              "give [impact] point and plane_angle (collision position)")
+    if f.uncertain:
+        from .uncertainty import parse as parse_uncertain
+        scene = dataclasses.replace(scene, uncertain=parse_uncertain(f.uncertain, scene, source))
     return scene
 
 

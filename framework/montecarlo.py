@@ -1,0 +1,312 @@
+"""Forward Monte Carlo: the scene's uncertain parameters drawn N times, every draw simulated, and where the
+vehicles come to rest (and their delta-V) as distributions (docs/physics.md, uncertain parameters).
+
+The draws are made at once (crashlab.uncertainty.sample, a seeded numpy Generator), the scenes by cheap
+copies (crashlab.fields.setter) and simulated in batches through the model's `simulate_batch` (the impulse
+model's runs in parallel). A draw fails, and is counted and named, never dropped silently, when its
+scene cannot be built, the model's run fails (the physics guard's verdict included), or a vehicle is
+still moving at the end of the run (its end pose is no rest pose: lengthen the duration). Statistics are
+over the draws that did not fail; a draw whose vehicles do not touch is no failure (delta-V 0).
+
+delta_v of a vehicle is the change of its CG velocity in its first impact [km/h] (what an event data
+recorder reports), 0 without contact. Headings are continuous (turns counted), as the model reports them.
+"""
+from __future__ import annotations
+
+import collections
+import dataclasses
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import uncertainty
+from .errors import InputError
+from .outcome import Outcome
+from .scene import Scene
+from .units import ms_to_kmh
+
+BATCH = 5000  # draws per simulate_batch call (bounds the memory of the outcomes held at once)
+QUANTILES = (0.05, 0.5, 0.95)
+PER_VEHICLE = ("x", "y", "heading", "delta_v", "ok")
+
+
+@dataclasses.dataclass
+class MonteCarloResult:
+    """table: one row per draw: draw, the sampled parameters (columns named by their field paths, file
+    units), per vehicle `V.x`, `V.y` [m], `V.heading` [deg], `V.delta_v` [km/h], `V.ok` (at rest at the end of
+    a run that did not fail), then `ok` and `reason` of the draw. nominal: the Outcome of the scene as written."""
+    scene: Scene
+    model: str
+    seed: int | None
+    table: object  # pandas DataFrame
+    nominal: object  # Outcome
+    wall_time_s: float
+    sim_time_s: float
+
+    @property
+    def names(self) -> list[str]:
+        return self.scene.vehicle_names
+
+    @property
+    def fields(self) -> list[str]:
+        return [e.field for e in self.scene.uncertain]
+
+    @property
+    def n(self) -> int:
+        return len(self.table)
+
+    @property
+    def failed(self):
+        return self.table[~self.table["ok"]]
+
+    def failure_reasons(self) -> dict[str, int]:
+        return dict(collections.Counter(self.failed["reason"]).most_common())
+
+    def summary(self):
+        """Per vehicle and quantity (x, y [m], heading [deg], delta_v [km/h]): the median and the 5 and 95 %
+        quantiles over the draws that did not fail, and the number of those draws."""
+        import pandas as pd
+        ok = self.table[self.table["ok"]]
+        rows = []
+        for n in self.names:
+            for q in ("x", "y", "heading", "delta_v"):
+                vals = ok[f"{n}.{q}"].to_numpy()
+                p5, p50, p95 = np.quantile(vals, QUANTILES) if len(vals) else (math.nan,) * 3
+                rows.append({"vehicle": n, "quantity": q, "median": p50, "p5": p5, "p95": p95, "draws": len(vals)})
+        return pd.DataFrame(rows)
+
+    def to_json_dict(self) -> dict:
+        def num(v):
+            return None if not math.isfinite(v) else round(float(v), 6)
+        return {"scene": self.scene.name, "model": self.model, "draws": self.n, "seed": self.seed,
+                "failed": int((~self.table["ok"]).sum()), "failure_reasons": self.failure_reasons(),
+                "no_contact": int(self.table["no_contact"].sum()),
+                "uncertain": [e.describe() for e in self.scene.uncertain],
+                "summary": [{k: (num(v) if isinstance(v, float) else v) for k, v in r.items()}
+                            for r in self.summary().to_dict(orient="records")],
+                "wall_time_s": round(self.wall_time_s, 3), "simulation_time_s": round(self.sim_time_s, 3)}
+
+
+def _first_delta_v(outcome, names) -> list[float]:
+    """Each vehicle's delta-V in its first impact [km/h]; 0 for a vehicle that touched nothing."""
+    dv = dict.fromkeys(names, 0.0)
+    seen = set()
+    for r in outcome.impact_rows:
+        if r["vehicle"] in dv and r["vehicle"] not in seen:
+            seen.add(r["vehicle"])
+            dv[r["vehicle"]] = ms_to_kmh(math.hypot(r["dvx"], r["dvy"]))
+    return [dv[n] for n in names]
+
+
+def _reason(outcome, names) -> str:
+    if not outcome.outcome_ok:
+        return "; ".join(outcome.warnings) or "the model's run failed"
+    moving = [n for i, n in enumerate(names) if not outcome.at_rest_mask[i]]
+    return f"{', '.join(moving)} still moving at the end of the run" if moving else ""
+
+
+def run(scene: Scene, model, n: int, seed: int | None = None, progress=None) -> MonteCarloResult:
+    """N draws of the scene's uncertain parameters simulated with `model` (a CollisionModel).
+    InputError when the scene has no [[uncertain]] entries."""
+    import pandas as pd
+    entries = scene.uncertain
+    if not entries:
+        raise InputError(scene.source, "uncertain", "the scene has no [[uncertain]] parameters to draw "
+                         "(crashlab.uncertainty: field, distribution and its parameters)")
+    if n < 1:
+        raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {n}")
+    t0 = time.perf_counter()
+    nominal = None
+    X = uncertainty.sample(entries, n, np.random.default_rng(seed))
+    build = uncertainty.setter(scene, entries)
+    names = scene.vehicle_names
+    nv = len(names)
+    rest = np.full((n, nv, 3), np.nan)
+    dv = np.full((n, nv), np.nan)
+    vok = np.zeros((n, nv), dtype=bool)
+    ok = np.zeros(n, dtype=bool)
+    no_contact = np.zeros(n, dtype=bool)
+    reasons = [""] * n
+    sim = 0.0
+    for start in range(0, n, BATCH):
+        idx, scenes = [], []
+        if nominal is None:  # the scene as written, in the first batch (one compiled path, not two)
+            idx.append(-1)
+            scenes.append(scene)
+        for k in range(start, min(start + BATCH, n)):
+            try:
+                scenes.append(build(X[k]))
+                idx.append(k)
+            except ValueError as err:  # a draw that is no valid scene (e.g. actions put out of order)
+                reasons[k] = f"no valid scene: {err}"
+        t1 = time.perf_counter()
+        outs = _simulate(model, scenes)
+        sim += time.perf_counter() - t1
+        for k, out in zip(idx, outs):
+            if k < 0:
+                nominal = out if not isinstance(out, str) else Outcome.failed(names, out, model.name)
+                continue
+            if isinstance(out, str):
+                reasons[k] = out
+                continue
+            rest[k] = out.rest_si
+            at_rest = out.at_rest_mask
+            vok[k] = at_rest & out.outcome_ok
+            reasons[k] = _reason(out, names)
+            ok[k] = not reasons[k]
+            if out.outcome_ok:
+                dv[k] = _first_delta_v(out, names)
+                no_contact[k] = not out.impact_rows
+        if progress:
+            progress(min(start + BATCH, n), n)
+    cols = {"draw": np.arange(n)}
+    for j, e in enumerate(entries):
+        cols[e.field] = X[:, j]
+    for i, name in enumerate(names):
+        cols[f"{name}.x"] = rest[:, i, 0]
+        cols[f"{name}.y"] = rest[:, i, 1]
+        cols[f"{name}.heading"] = np.degrees(rest[:, i, 2])
+        cols[f"{name}.delta_v"] = dv[:, i]
+        cols[f"{name}.ok"] = vok[:, i]
+    cols["ok"] = ok
+    cols["no_contact"] = no_contact
+    cols["reason"] = reasons
+    return MonteCarloResult(scene, model.name, seed, pd.DataFrame(cols), nominal,
+                            time.perf_counter() - t0, sim)
+
+
+def _simulate(model, scenes) -> list:
+    """Outcomes of the scenes, by batch; a batch that raises (not bad input) is run one by one, and a run
+    that raises becomes its reason (a string)."""
+    try:
+        return model.simulate_batch(scenes)
+    except InputError:
+        raise
+    except Exception:  # noqa: BLE001 - fall back to single runs to name the draw that breaks
+        outs = []
+        for s in scenes:
+            try:
+                outs.append(model.simulate(s))
+            except InputError:
+                raise
+            except Exception as err:  # noqa: BLE001
+                outs.append(f"model raised {type(err).__name__}: {err}")
+        return outs
+
+
+# ---------------------------------------------------------------- output
+def write(result: MonteCarloResult, out_dir) -> list[Path]:
+    """DIR/montecarlo.csv, DIR/montecarlo.png (rest clouds and delta-V histograms), DIR/summary.csv."""
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        paths = [out / "montecarlo.csv", out / "summary.csv", out / "montecarlo.png"]
+        result.table.to_csv(paths[0], index=False, float_format="%.6g")
+        result.summary().to_csv(paths[1], index=False, float_format="%.6g")
+        figure(result, paths[2])
+    except OSError as err:
+        raise InputError(out_dir, "--out", err.strerror or str(err)) from None
+    return paths
+
+
+def _ellipse(ax, xy, colour, share=0.90):
+    """The ellipse of the cloud's covariance holding `share` of a Gaussian with it (chi-square, 2 dof)."""
+    from matplotlib.patches import Ellipse
+    if len(xy) < 3:
+        return
+    cov = np.cov(xy.T)
+    if not np.all(np.isfinite(cov)):
+        return
+    vals, vecs = np.linalg.eigh(cov)
+    r = math.sqrt(-2.0 * math.log(1.0 - share))  # chi-square quantile, 2 dof
+    w, h = 2 * r * np.sqrt(np.maximum(vals, 0.0))
+    ang = math.degrees(math.atan2(vecs[1, 1], vecs[0, 1]))
+    ax.add_patch(Ellipse(xy.mean(axis=0), h, w, angle=ang, fill=False, color=colour, lw=1.5, ls="--"))
+
+
+def figure(result: MonteCarloResult, path) -> None:
+    """Left: top view with the nominal start (dotted) and rest (solid) outlines, each vehicle's cloud of
+    rest positions (CG), its 90 % covariance ellipse (dashed) and its 5-95 % ranges in x and y around the
+    median (cross). Right: the delta-V histogram of each vehicle (median and 5-95 % marked)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .scene import vehicle_outline
+    scene, tab, names = result.scene, result.table, result.names
+    ok = tab[tab["ok"]]
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig = plt.figure(figsize=(12, max(5.0, 2.6 * len(names))))
+    gs = fig.add_gridspec(len(names), 2, width_ratios=(2.2, 1.0))
+    ax = fig.add_subplot(gs[:, 0])
+    nom = result.nominal
+    for i, v in enumerate(scene.vehicles):
+        c = colours[i % len(colours)]
+        poly = vehicle_outline(v)
+        ax.plot(*np.vstack([poly, poly[:1]]).T, ":", color=c, label=f"{v.name} start")
+        if nom.outcome_ok:
+            r = nom.rest_si[i]
+            poly = vehicle_outline(v, r[0], r[1], r[2])
+            ax.plot(*np.vstack([poly, poly[:1]]).T, "-", color=c, lw=1.2, label=f"{v.name} nominal rest")
+        xy = ok[[f"{v.name}.x", f"{v.name}.y"]].to_numpy()
+        if len(xy):
+            ax.scatter(xy[:, 0], xy[:, 1], s=2, color=c, alpha=min(0.5, 300.0 / len(xy) + 0.05), lw=0,
+                       label=f"{v.name} rest CG ({len(xy)} draws)")
+            _ellipse(ax, xy, c)
+            (x5, x50, x95), (y5, y50, y95) = (np.quantile(xy[:, j], QUANTILES) for j in (0, 1))
+            ax.errorbar([x50], [y50], xerr=[[x50 - x5], [x95 - x50]], yerr=[[y50 - y5], [y95 - y50]],
+                        color="k", lw=1, capsize=3)
+    for b in scene.barriers:
+        from .scene import barrier_outline
+        ax.fill(*barrier_outline(b).T, color="0.3")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    failed = result.n - len(ok)
+    ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed\n"
+                 "rest CG clouds, 90 % ellipses (dashed), median with 5-95 % (cross)", fontsize=9)
+    ax.legend(fontsize=7, loc="best", markerscale=4)
+    ax.grid(alpha=0.3)
+    for i, n in enumerate(names):
+        h = fig.add_subplot(gs[i, 1])
+        vals = ok[f"{n}.delta_v"].to_numpy()
+        c = colours[i % len(colours)]
+        if len(vals):
+            h.hist(vals, bins=40, color=c, alpha=0.7)
+            for q, ls in zip(np.quantile(vals, QUANTILES), (":", "-", ":")):
+                h.axvline(q, color="k", ls=ls, lw=1)
+        h.set_title(f"{n}: delta-V in its first impact", fontsize=9)
+        h.set_xlabel("delta-V [km/h]")
+        h.set_ylabel("draws")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def print_summary(result: MonteCarloResult, file=None) -> None:
+    """The per-vehicle medians and 5-95 % ranges, the failed draws and their reasons."""
+    import sys
+    file = file or sys.stdout
+    tab = result.table
+    nfail = int((~tab["ok"]).sum())
+    print(f"{result.scene.name} — model {result.model}, Monte Carlo of {result.n} draws (seed {result.seed}), "
+          f"{result.wall_time_s:.2f} s ({result.sim_time_s:.2f} s simulating)", file=file)
+    print("uncertain parameters:", file=file)
+    for e in result.scene.uncertain:
+        print(f"  {e.describe()}", file=file)
+    print(f"rest pose and delta-V over the {result.n - nfail} draws that did not fail: median [5 %, 95 %]", file=file)
+    s = result.summary()
+    units = {"x": "m", "y": "m", "heading": "deg", "delta_v": "km/h"}
+    for n in result.names:
+        parts = []
+        for _, r in s[s.vehicle == n].iterrows():
+            parts.append(f"{r.quantity} {r['median']:.2f} [{r.p5:.2f}, {r.p95:.2f}] {units[r.quantity]}")
+        print(f"  {n}: " + "; ".join(parts), file=file)
+    nc = int(tab["no_contact"].sum())
+    if nc:
+        print(f"{nc} draws without contact between the vehicles (delta-V 0)", file=file)
+    print(f"failed draws: {nfail} of {result.n}" + (":" if nfail else ""), file=file)
+    for why, count in result.failure_reasons().items():
+        print(f"  {count} x {why}", file=file)
