@@ -2,6 +2,8 @@
 
 One module per reason to change:
   schema   the study file (pydantic): sections, bounds, defaults;
+  evidence evidence items with their sigmas, normalised residuals, the Gaussian log-likelihood (the contract
+           a posterior builds on);
   study    load_study and the Study: the base scene, the evidence, the pieces a run is built from;
   problem  the pymoo Problem: free variables <-> scenes, objectives, constraints, failed evaluations;
   repair   the pymoo Repair that backs overlapping starts off and brings near misses onto a collision;
@@ -13,6 +15,7 @@ The package builds on the framework (crashlab) and reaches optimizers through th
 (The least-squares routine itself is crashlab.reconstruction.polish.polish.)
 """
 from .command import run_cli
+from .evidence import EvidenceItem, EvidenceSet, log_likelihood_of
 from .polish import POLISH_SPACING, PolishResult, polish_archive, spaced_starts
 from .problem import FAILED_OBJECTIVE, ReconstructionProblem, largest_overlap, outline_depth
 from .repair import CollisionRepair, repair_poses
@@ -58,7 +61,7 @@ __all__ = [
     "ANGLE_MAX", "CHECKPOINT_FORMAT", "DUPLICATE_TOL", "FAILED_OBJECTIVE", "FIELD_RANGES", "FRICTION_MAX",
     "GENERATIONS_MAX", "HEADING_WARN_DEG", "IMPACT_FIELDS", "POLISH_MIN", "POLISH_SHARE", "POLISH_SPACING",
     "POP_SIZE_RANGE", "POSITION_MAX", "SEED_MAX", "SPEED_MAX", "VEHICLE_FIELDS", "WORKERS_MAX",
-    "CollisionRepair", "Evidence", "ExecutionSection", "FreeVariable", "Int", "ObjectiveSection",
+    "CollisionRepair", "Evidence", "EvidenceItem", "EvidenceSet", "log_likelihood_of", "ExecutionSection", "FreeVariable", "Int", "ObjectiveSection",
     "OptimizerSection", "PolishResult", "PolishSection", "Real", "ReconstructionProblem", "ReconstructionResult",
     "RepairSection", "RestPose", "Study", "StudyFile", "crashlab_version", "failure_counts", "largest_overlap",
     "load_study", "outline_depth", "pareto_table", "polish_archive", "repair_poses", "run_cli",

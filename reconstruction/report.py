@@ -270,8 +270,9 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             lines += ["", f"### Misfit of every evidence item, every Pareto row ({len(result.pareto)})", "",
                       "misfit_<item> = sqrt(sum (residual / sigma)^2) of the item's components: about 1 is a "
                       "one-sigma match per component; the same columns are in pareto.csv.", "",
-                      result.pareto[mcols + ["log_likelihood"]].rename_axis("row").reset_index()
-                      .to_markdown(index=False, floatfmt=".3f")]
+                      result.pareto[mcols + ["log_likelihood"]].set_axis(
+                          [f"row {k}" for k in range(len(result.pareto))]).rename_axis("Pareto")
+                      .to_markdown(floatfmt=".3f")]
     else:
         lines.append("No feasible solution.")
     unit = " m" if problem.evidence_set is None else " (normalised misfit, sigmas)"

@@ -1,8 +1,18 @@
 """A reconstruction study: its file loaded and checked (crashlab.reconstruction.schema), the base scene,
 the evidence (measured, or a twin's: the model's own run of the base scene), and what a run is built from.
 
-A study file names a base scene, a model, an optimizer, the free variables with bounds and the measured
-rest poses; `Study.run` searches (crashlab.reconstruction.run), polishes and reports.
+A study file names a base scene, a model, an optimizer, the free variables with bounds and the evidence:
+measured rest poses, and optionally (each with its sigma) the point of impact, marks and event-data-recorder
+values (crashlab.reconstruction.evidence); `Study.run` searches (crashlab.reconstruction.run), polishes and
+reports.
+
+Twins (`[evidence] twin = true`): the evidence is the model's own run (`model.simulate`) of the base scene,
+whose start is the truth. A file that gives no other evidence gets every vehicle's rest pose (the thesis's
+twins). Otherwise the run fills every value of the items the file names, which give only their sigmas: a
+rest pose's x, y (and its heading where sigma_heading is given, or with the thesis objective), the point of
+impact, a mark's points (n_points CG positions of the run, evenly spaced in time, default 4) and the EDR
+values whose sigma is given; a value given as well is refused. `noise_seed` adds Gaussian noise with the
+given sigmas to every filled value (calibration experiments: evidence = a known start's run + noise).
 """
 from __future__ import annotations
 
