@@ -54,6 +54,12 @@ def load(group: str, name: str):
     return _load(group, name)
 
 
+def origins(group: str) -> dict[str, str]:
+    """name -> "module:attribute" of each entry point of the group (without importing it): tells crashlab's
+    own plugins (module crashlab.*) from third parties'."""
+    return {name: ep.value for name, ep in _entry_points(group).items()}
+
+
 def available_models() -> list[str]:
     return names(MODELS)
 
