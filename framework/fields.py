@@ -226,13 +226,15 @@ def _copy(obj, **changes):
 
 
 def _actions_problem(acts, duration: float) -> str | None:
-    """Why changed actions are no valid sequence (as crashlab.scene checks a file's), or None."""
+    """Why changed actions are no valid sequence (the checks crashlab.scene makes of a file's, in its
+    order: time order first, then the ramps), or None."""
     for k, a in enumerate(acts):
         if a.t > duration:
             return f"action {k} starts at {a.t:g} s, after the end of the run ({duration:g} s)"
         if k and a.t <= acts[k - 1].t:
             return f"action {k} at {a.t:g} s is not after action {k - 1} at {acts[k - 1].t:g} s"
-        if k + 1 < len(acts) and a.t + a.ramp > acts[k + 1].t:
+    for k, a in enumerate(acts[:-1]):
+        if a.t + a.ramp > acts[k + 1].t:
             return f"action {k}'s ramp ({a.ramp:g} s) reaches past action {k + 1}"
     return None
 
