@@ -97,7 +97,8 @@ def status(problem, hv_ref) -> str:
         best_s = " ".join(f"{b:.2f}" for b in best)
     else:
         hv, best_s = 0.0, "-"
-    return f"evals {evals} feasible {feas.mean():.0%} best [{best_s}] m HV {hv:.2f}"
+    unit = "m" if getattr(problem, "evidence_set", None) is None else "sigma"  # the misfit is normalised
+    return f"evals {evals} feasible {feas.mean():.0%} best [{best_s}] {unit} HV {hv:.2f}"
 
 
 class _Stopped(Exception):
