@@ -319,8 +319,8 @@ def build_evidence(path, spec, names, twin_outcome=None):
         check_name(n, key)
         i = names.index(n)
         comps, vals, sig = [], [], []
-        for c, s, sim in (("speed_at_impact", "sigma_speed", lambda: ms_to_kmh(float(o.contact_si[i, 3]))),
-                          ("delta_v", "sigma_delta_v", lambda: ms_to_kmh(delta_v(o, n)))):
+        for c, s, sim in (("speed_at_impact", "sigma_speed", lambda i=i: ms_to_kmh(float(o.contact_si[i, 3]))),
+                          ("delta_v", "sigma_delta_v", lambda n=n: ms_to_kmh(delta_v(o, n)))):
             value, sigma = getattr(e, c), getattr(e, s)
             if twin and value is not None:
                 raise InputError(path, f"{key}.{c}", "a twin's run gives this value: leave it out (give its sigma)")
@@ -339,7 +339,8 @@ def build_evidence(path, spec, names, twin_outcome=None):
             vals.append(float(value))
             sig.append(float(sigma))
         if not comps:
-            raise InputError(path, key, "no value: give speed_at_impact and sigma_speed and/or delta_v and sigma_delta_v")
+            raise InputError(path, key, "no value: give speed_at_impact and sigma_speed and/or delta_v and "
+                             "sigma_delta_v")
         items.append(EvidenceItem("edr", f"edr.{n}", (n,), tuple(comps), tuple(vals), tuple(sig)))
     if mode == "thesis":
         if items:

@@ -142,7 +142,8 @@ class ReconstructionProblem(Problem):
                                  for i in range(len(self.names))], bool)
         # for an optimizer without constraint handling the violation is added to every objective
         self.constraints_as_penalty = constraints_as_penalty
-        super().__init__(n_var=len(free), n_obj=len(self.objective_names), n_ieq_constr=0 if constraints_as_penalty else 2,
+        super().__init__(n_var=len(free), n_obj=len(self.objective_names),
+                         n_ieq_constr=0 if constraints_as_penalty else 2,
                          xl=np.array([f.lower for f in free]), xu=np.array([f.upper for f in free]),
                          exclude_from_serialization=["executor"])  # a live pool or Dask client: no state
 

@@ -131,19 +131,25 @@ class RestPose(_Strict):
     """A measured rest pose (docs/physics.md, "Evidence and likelihood"). x, y are required unless the study
     is a twin (the model's run fills them); sigma_xy [m] is the standard deviation of each coordinate,
     sigma_heading [deg] that of the heading."""
-    x: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
-    y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
+    x: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX,
+                           description=f"m; |value| <= {POSITION_MAX:g}")
+    y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX,
+                           description=f"m; |value| <= {POSITION_MAX:g}")
     # deg; without it the heading term is left out for this vehicle (dheading is empty)
     heading: Real | None = Field(default=None, ge=-ANGLE_MAX, le=ANGLE_MAX)
-    sigma_xy: Real | None = Field(default=None, gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
-    sigma_heading: Real | None = Field(default=None, gt=0, le=SIGMA_ANGLE_MAX, description=f"deg; (0, {SIGMA_ANGLE_MAX:g}]")
+    sigma_xy: Real | None = Field(default=None, gt=0, le=SIGMA_POSITION_MAX,
+                                  description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
+    sigma_heading: Real | None = Field(default=None, gt=0, le=SIGMA_ANGLE_MAX,
+                                       description=f"deg; (0, {SIGMA_ANGLE_MAX:g}]")
 
 
 class ImpactEvidence(_Strict):
     """The point of impact [m] (debris, gouges): the point of the first impact row (crashlab.outcome);
     sigma [m] per coordinate. x, y may be left to a twin's run."""
-    x: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
-    y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX, description=f"m; |value| <= {POSITION_MAX:g}")
+    x: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX,
+                           description=f"m; |value| <= {POSITION_MAX:g}")
+    y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX,
+                           description=f"m; |value| <= {POSITION_MAX:g}")
     sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
 
 
@@ -158,16 +164,19 @@ class MarkEvidence(_Strict):
     points: list[Point] | None = Field(default=None, min_length=2, max_length=MARK_POINTS_MAX,
                                        description=f"at least 2 points [x, y] (m), at most {MARK_POINTS_MAX}")
     sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
-    n_points: Int | None = Field(default=None, ge=2, le=MARK_POINTS_MAX, description=f"[2, {MARK_POINTS_MAX}]; twin only")
+    n_points: Int | None = Field(default=None, ge=2, le=MARK_POINTS_MAX,
+                                 description=f"[2, {MARK_POINTS_MAX}]; twin only")
 
 
 class EdrEvidence(_Strict):
     """An event data recorder's values [km/h]: the speed at first contact and the delta-V (the magnitude of
     the sum of the vehicle's impact-row velocity changes); each with its sigma [km/h]."""
     speed_at_impact: Real | None = Field(default=None, ge=0, le=SPEED_MAX, description=f"km/h; [0, {SPEED_MAX:g}]")
-    sigma_speed: Real | None = Field(default=None, gt=0, le=SIGMA_SPEED_MAX, description=f"km/h; (0, {SIGMA_SPEED_MAX:g}]")
+    sigma_speed: Real | None = Field(default=None, gt=0, le=SIGMA_SPEED_MAX,
+                                     description=f"km/h; (0, {SIGMA_SPEED_MAX:g}]")
     delta_v: Real | None = Field(default=None, ge=0, le=SPEED_MAX, description=f"km/h; [0, {SPEED_MAX:g}]")
-    sigma_delta_v: Real | None = Field(default=None, gt=0, le=SIGMA_SPEED_MAX, description=f"km/h; (0, {SIGMA_SPEED_MAX:g}]")
+    sigma_delta_v: Real | None = Field(default=None, gt=0, le=SIGMA_SPEED_MAX,
+                                       description=f"km/h; (0, {SIGMA_SPEED_MAX:g}]")
 
 
 class Evidence(_Strict):
