@@ -33,8 +33,7 @@ import math
 import re
 from typing import Callable, Sequence
 
-from .scene import (ANGLE_MAX, DURATION_MAX, FRICTION_MAX, POSITION_MAX, SPEED_MAX, STEER_MAX, YAW_RATE_MAX,
-                    Scene)
+from .scene import ANGLE_MAX, DURATION_MAX, FRICTION_MAX, POSITION_MAX, SPEED_MAX, STEER_MAX, YAW_RATE_MAX, Scene
 from .units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg
 from .vehicle import GYRATION_SHARE, MASS_RANGE, consistency_problems
 
