@@ -1,0 +1,154 @@
+"""The outputs of `crashlab infer` (crashlab.reconstruction.infer): posterior.csv, summary.md, corner.png and
+posterior_top_view.png (the rest outlines and CG paths of posterior draws over the measured rest poses)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from crashlab.errors import InputError
+
+# emcee's rule: tau is reliable from a chain of 50 tau; a burn-in of a few tau forgets the start
+TAU_RELIABLE = 50
+BURN_TAUS = 5
+
+
+def write_posterior_csv(post, res, path: Path) -> None:
+    import pandas as pd
+    df = pd.DataFrame(res.samples, columns=res.labels)
+    df["log_likelihood"] = res.log_likelihood
+    df.to_csv(path, index=False, float_format="%.6g")
+
+
+def summary_lines(post, res) -> list[str]:
+    lo, med, hi = res.interval()
+    d = len(res.labels)
+    truth = res.truth
+    lines = [f"# Posterior: {post.study.spec.name or post.path.name}", "",
+             f"Study `{post.path.name}`, model `{post.study.spec.model}`, sampler {res.sampler} "
+             f"({res.walkers} walkers, {res.iterations} iterations of which {res.burn} burn-in discarded, "
+             f"thinned by {res.thin}): {len(res.samples)} samples from {res.evaluations} model evaluations in "
+             f"{res.wall_time_s:.1f} s; mean acceptance {res.acceptance:.2f}.", "",
+             "## Variables (median and 90 % interval)", ""]
+    head = "| variable | unit | prior | median | 5 % | 95 % | tau [it] | ESS |"
+    sep = "|---|---|---|---|---|---|---|---|"
+    if truth is not None:
+        head += " truth (twin) | inside |"
+        sep += "---|---|"
+    lines += [head, sep]
+    for j, v in enumerate(post.variables):
+        row = (f"| {v.label} | {v.unit} | {v.describe_prior()} | {med[j]:.3f} | {lo[j]:.3f} | {hi[j]:.3f} | "
+               f"{res.tau[j]:.1f} | {res.ess[j]:.0f} |")
+        if truth is not None:
+            row += f" {truth[j]:.3f} | {'yes' if lo[j] <= truth[j] <= hi[j] else 'NO'} |"
+        lines.append(row)
+    kept_iters = res.iterations - res.burn
+    tmax = float(np.nanmax(res.tau)) if np.isfinite(res.tau).any() else math.nan
+    lines += ["", f"Effective sample size: walkers x kept iterations / tau, tau the integrated autocorrelation "
+              f"time (emcee.autocorr.integrated_time); smallest ESS {np.nanmin(res.ess):.0f}."]
+    if res.sampler == "emcee" and not kept_iters >= TAU_RELIABLE * tmax:
+        lines.append(f"**Warning**: {kept_iters} kept iterations are fewer than {TAU_RELIABLE} tau "
+                     f"({TAU_RELIABLE * tmax:.0f}): tau and the ESS are rough; raise --samples.")
+    if res.sampler == "emcee" and not res.burn >= BURN_TAUS * tmax:
+        lines.append(f"**Warning**: the burn-in ({res.burn} iterations) is shorter than {BURN_TAUS} tau "
+                     f"({BURN_TAUS * tmax:.0f}): raise [infer] burn.")
+    if post.questions:
+        lines += ["", "## Questions", "", "| question | probability | MC standard error |", "|---|---|---|"]
+        cols = {lab: res.samples[:, j] for j, lab in enumerate(res.labels)}
+        for q in post.questions:
+            p = q.probability(cols)
+            ess = min((res.ess[res.labels.index(n)] for n in q.names), default=len(res.samples))
+            se = math.sqrt(max(p * (1 - p), 0.0) / max(ess, 1.0))
+            lines.append(f"| `{q.expr}` | {p:.3f} | {se:.3f} |")
+    lines += ["", "## Evidence", ""] + [f"- {s}" for s in post.study.evidence_set.describe()]
+    lines += ["", "Likelihood: Gaussian in the normalised residuals (crashlab.reconstruction.evidence); priors "
+              "as in the table; a start that overlaps, misses or fails has probability 0 "
+              "(crashlab.reconstruction.infer).", "",
+              "Files: posterior.csv (a row per sample, a column per variable in file units, log_likelihood), "
+              "corner.png, posterior_top_view.png."]
+    return lines
+
+
+def corner_plot(res, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import corner
+    import matplotlib.pyplot as plt
+    samples = res.samples
+    # corner refuses a variable with no spread (e.g. every draw at one bound): give it a hair of one
+    span = np.ptp(samples, axis=0)
+    if np.any(span == 0):
+        samples = samples + np.where(span == 0, 1e-9, 0.0) * np.arange(len(samples))[:, None] / len(samples)
+    fig = corner.corner(samples, labels=res.labels, truths=None if res.truth is None else list(res.truth),
+                        quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".2f")
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
+    """Rest outlines and CG paths of n posterior draws (one colour per vehicle), measured rest poses thick;
+    returns the number of draws drawn (a draw whose run fails is left out)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from crashlab.execution import model_for
+    from crashlab.scene import vehicle_outline
+
+    rng = np.random.default_rng(seed)
+    pick = rng.choice(len(res.samples), size=min(n, len(res.samples)), replace=False) if len(res.samples) else []
+    model = model_for(post.study.spec.model, post.study.spec.model_options)
+    fig, ax = plt.subplots(figsize=(8, 6))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    drawn = 0
+    for k in pick:
+        try:
+            scene = post.setter(res.samples[k])
+            o = model.simulate(scene)
+        except Exception:  # noqa: BLE001 - a draw that cannot be run is left out of the figure
+            continue
+        if not o.outcome_ok:
+            continue
+        drawn += 1
+        for i, v in enumerate(scene.vehicles):
+            c = colours[i % len(colours)]
+            x, y, h = o.rest_si[i]
+            poly = np.vstack([vehicle_outline(v, x, y, h)] * 1)
+            poly = np.vstack([poly, poly[:1]])
+            ax.plot(poly[:, 0], poly[:, 1], color=c, lw=0.8, alpha=0.35)
+            tr = (o.trajectories or {}).get(v.name)
+            if tr and len(tr.get("x", ())):
+                ax.plot(tr["x"], tr["y"], color=c, lw=0.5, alpha=0.3)
+    for i, v in enumerate(post.study.scene.vehicles):
+        c = colours[i % len(colours)]
+        ev = post.study.evidence.get(v.name)
+        if ev is None:
+            continue
+        x, y, h = ev
+        if h is None:
+            ax.plot([x], [y], "x", color=c, ms=12, mew=3)
+        else:
+            poly = vehicle_outline(v, x, y, math.radians(h))
+            poly = np.vstack([poly, poly[:1]])
+            ax.plot(poly[:, 0], poly[:, 1], color=c, lw=3.5, alpha=0.5, label=f"{v.name} measured rest")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"{drawn} posterior draws: rest outlines and CG paths")
+    ax.legend(loc="best", fontsize=8)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return drawn
+
+
+def write_outputs(post, res, out: Path) -> None:
+    out = Path(out)
+    try:
+        write_posterior_csv(post, res, out / "posterior.csv")
+        (out / "summary.md").write_text("\n".join(summary_lines(post, res)) + "\n")
+        corner_plot(res, out / "corner.png")
+        if post.settings.draws_plotted:
+            top_view_draws(post, res, out / "posterior_top_view.png", post.settings.draws_plotted)
+    except OSError as err:
+        raise InputError(out, "--out", err.strerror or str(err)) from None
