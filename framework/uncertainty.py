@@ -95,6 +95,12 @@ class Uncertain:
     def ppf(self, u) -> np.ndarray:
         return self.dist.ppf(u)
 
+    def interval(self, share: float = 0.998) -> tuple[float, float]:
+        """The central interval holding `share` of the distribution (finite bounds for a search that
+        treats the parameter as a free variable)."""
+        lo, hi = self.dist.interval(share)
+        return float(lo), float(hi)
+
     def describe(self) -> str:
         unit = "" if self.unit == "-" else f" {self.unit}"
         if self.distribution == "uniform":

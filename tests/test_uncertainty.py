@@ -173,6 +173,7 @@ def test_normal_sampling_statistics():
     assert abs(x.mean() - 0.8) < 4 * 0.05 / math.sqrt(20000)
     assert x.std(ddof=1) == pytest.approx(0.05, rel=0.04)
     assert uncertainty.logpdf([e], [0.83]) == pytest.approx(stats.norm(0.8, 0.05).logpdf(0.83), rel=1e-9)
+    assert e.interval(0.9) == pytest.approx((0.8 - 1.644854 * 0.05, 0.8 + 1.644854 * 0.05), rel=1e-6)
 
 
 def test_truncated_normal_stays_in_range():
