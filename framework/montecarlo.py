@@ -241,6 +241,8 @@ def figure(result: MonteCarloResult, path) -> None:
     fig = plt.figure(figsize=(12, max(5.0, 2.6 * len(names))))
     gs = fig.add_gridspec(len(names), 2, width_ratios=(2.2, 1.0))
     ax = fig.add_subplot(gs[:, 0])
+    from .plotting import _zones
+    _zones(ax, scene.road)  # friction zones shaded, as in the single run's top view
     nom = result.nominal
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]
@@ -267,7 +269,7 @@ def figure(result: MonteCarloResult, path) -> None:
     failed = result.n - len(ok)
     ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed\n"
                  "rest CG clouds, 90 % ellipses (dashed), median with 5-95 % (cross)", fontsize=9)
-    ax.legend(fontsize=7, loc="best", markerscale=4)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, markerscale=4)
     ax.grid(alpha=0.3)
     for i, n in enumerate(names):
         h = fig.add_subplot(gs[i, 1])
