@@ -1,4 +1,4 @@
-"""Command line: crashlab models | simulate (--monte-carlo N) | compare | reconstruct | study | bench | stress.
+"""Command line: crashlab models | vehicles | simulate (--monte-carlo N) | compare | reconstruct | study | bench | stress.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
@@ -11,6 +11,12 @@ import sys
 
 from .errors import InputError
 from .registry import UnknownPluginError
+
+
+def cmd_vehicles(args):
+    from .vehicle import format_library_table
+    print(format_library_table())
+    return 0
 
 
 def cmd_models(args):
@@ -191,6 +197,9 @@ def build_parser():
     mo.add_argument("--options", metavar="NAME", help="list the options of model NAME with unit, range, default "
                     "and accuracy direction")
     mo.set_defaults(fn=cmd_models)
+    ve = sub.add_parser("vehicles", help="list the vehicle library: class, mass, size, wheelbase, yaw inertia and "
+                        "whether it is measured, published or an estimate")
+    ve.set_defaults(fn=cmd_vehicles)
     s = sub.add_parser("simulate", help="simulate a scene file")
     s.add_argument("scene")
     s.add_argument("--model", default="impulse")
