@@ -16,6 +16,7 @@ boundary, because the blend is symmetric about it: a stopping distance across a 
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -122,50 +123,113 @@ def effective_mode(mode, struck):
     return mode
 
 
+@functools.lru_cache(maxsize=64)
 def pack_zones(road) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The road's zones as arrays: corners (all zones, x y), start index of each zone's corners (zones + 1),
-    friction per zone, bounding box per zone (x_min, x_max, y_min, y_max, widened by PATCH / 2)."""
+    """(Cached per road: a batch's scenes share theirs; the arrays are not to be written.) The road's zones
+    as arrays: edges of all zones (a_x, a_y, e_x, e_y, 1/|e|^2, n_x, n_y: start corner, edge vector to the
+    next corner, its inverse squared length, unit normal into the zone), start index of each zone's edges
+    (zones + 1), friction per zone, and per zone its bounding box widened by PATCH / 2 and whether it is
+    convex (x_min, x_max, y_min, y_max, convex 1/0)."""
     zones = road.zones
-    corners = np.array([p for z in zones for p in z.polygon], dtype=np.float64).reshape(-1, 2)
+    edges = np.zeros((sum(len(z.polygon) for z in zones), 7))
     start = np.zeros(len(zones) + 1, dtype=np.int64)
-    start[1:] = np.cumsum([len(z.polygon) for z in zones])
-    mu = np.array([z.friction for z in zones], dtype=np.float64)
-    box = np.empty((len(zones), 4))
+    box = np.empty((len(zones), 5))
     for k, z in enumerate(zones):
         pts = np.asarray(z.polygon, dtype=np.float64)
+        e = np.roll(pts, -1, axis=0) - pts
+        length = np.hypot(e[:, 0], e[:, 1])
+        turn = e[:, 0] * np.roll(e[:, 1], -1) - e[:, 1] * np.roll(e[:, 0], -1)  # cross of consecutive edges
+        ccw = np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]) > 0
+        inward = np.column_stack((-e[:, 1], e[:, 0])) / length[:, None] * (1.0 if ccw else -1.0)
+        start[k + 1] = start[k] + len(pts)
+        edges[start[k]:start[k + 1]] = np.column_stack((pts, e, 1.0 / length ** 2, inward))
+        convex = bool(np.all(turn >= 0) or np.all(turn <= 0))
         box[k] = (pts[:, 0].min() - PATCH / 2, pts[:, 0].max() + PATCH / 2,
-                  pts[:, 1].min() - PATCH / 2, pts[:, 1].max() + PATCH / 2)
-    return corners, start, mu, box
+                  pts[:, 1].min() - PATCH / 2, pts[:, 1].max() + PATCH / 2, float(convex))
+    return edges, start, np.array([z.friction for z in zones], dtype=np.float64), box
 
 
 @register_jitable
-def _signed_distance(x, y, C, i0, i1):
-    """Distance from (x, y) to the boundary of the polygon C[i0:i1], positive inside (crossing number)."""
-    best = math.inf
+def _boundary_distance(x, y, E, i0, i1):
+    """(inside, distance to the boundary) of (x, y) and the polygon with edges E[i0:i1] (crossing number)."""
     inside = False
-    n = i1 - i0
-    for k in range(n):
-        ax, ay = C[i0 + k, 0], C[i0 + k, 1]
-        bx, by = C[i0 + (k + 1) % n, 0], C[i0 + (k + 1) % n, 1]
-        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+    d2 = math.inf
+    for k in range(i0, i1):
+        ax, ay, ex, ey = E[k, 0], E[k, 1], E[k, 2], E[k, 3]
+        if (ay > y) != (ay + ey > y) and x < ax + (y - ay) * ex / ey:
             inside = not inside
-        ex, ey = bx - ax, by - ay
-        s = min(max(((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
-        best = min(best, math.hypot(x - ax - s * ex, y - ay - s * ey))
-    return best if inside else -best
+        s = min(max(((x - ax) * ex + (y - ay) * ey) * E[k, 4], 0.0), 1.0)
+        dx, dy = x - ax - s * ex, y - ay - s * ey
+        d2 = min(d2, dx * dx + dy * dy)
+    return inside, math.sqrt(d2)
 
 
 @register_jitable
-def road_friction(x, y, mu_road, C, start, mu, box):
+def _inside_weight(x, y, E, i0, i1, convex):
+    """Share of a contact patch centred on (x, y) that lies inside the polygon with edges E[i0:i1]:
+    0.5 + signed distance to the boundary / PATCH, clipped to [0, 1]. A convex zone takes the distances to
+    its edges' lines (inside: the smallest is the distance to the boundary; outside: the largest negative
+    one bounds it from below), the exact distance only within PATCH / 2 outside."""
+    half = 0.5 * PATCH
+    if convex:
+        d_min = math.inf
+        for k in range(i0, i1):
+            d_min = min(d_min, E[k, 5] * (x - E[k, 0]) + E[k, 6] * (y - E[k, 1]))
+        if d_min >= half:
+            return 1.0
+        if d_min >= 0.0:
+            return 0.5 + d_min / PATCH
+        if d_min <= -half:
+            return 0.0
+    inside, d = _boundary_distance(x, y, E, i0, i1)
+    if d >= half:
+        return 1.0 if inside else 0.0
+    return 0.5 + (d if inside else -d) / PATCH
+
+
+@register_jitable
+def road_friction(x, y, mu_road, E, start, mu, box):
     """Road friction at (x, y): `mu_road`, overlaid by each zone in order (later zones win), each blended
     over the contact patch across its boundary (module docstring)."""
     f = mu_road
     for z in range(mu.shape[0]):
         if x < box[z, 0] or x > box[z, 1] or y < box[z, 2] or y > box[z, 3]:
             continue
-        w = min(max(0.5 + _signed_distance(x, y, C, start[z], start[z + 1]) / PATCH, 0.0), 1.0)
-        f += w * (mu[z] - f)
+        w = _inside_weight(x, y, E, start[z], start[z + 1], box[z, 4] > 0.5)
+        if w > 0.0:
+            f += w * (mu[z] - f)
     return f
+
+
+@register_jitable
+def wheel_frictions(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, box):
+    """Road friction at the four wheels (front left, front right, rear left, rear right) of a vehicle at
+    (x, y) heading (c, s) = (cos, sin), axles `front` ahead of and `rear` behind the CG: road_friction at
+    each wheel, with each zone first tested against the circle about the CG that holds every wheel's patch
+    (a zone whose box misses it is skipped, a convex zone that holds it whole gives every wheel its friction)
+    so that a vehicle away from zone boundaries costs one test per zone, not four."""
+    xs = (x + c * front - s * half_track, x + c * front + s * half_track,
+          x - c * rear - s * half_track, x - c * rear + s * half_track)
+    ys = (y + s * front + c * half_track, y + s * front - c * half_track,
+          y - s * rear + c * half_track, y - s * rear - c * half_track)
+    f0 = f1 = f2 = f3 = mu_road
+    reach = math.sqrt(max(front, rear) ** 2 + half_track ** 2)
+    for z in range(mu.shape[0]):
+        if x + reach < box[z, 0] or x - reach > box[z, 1] or y + reach < box[z, 2] or y - reach > box[z, 3]:
+            continue
+        if box[z, 4] > 0.5:
+            d_min = math.inf
+            for k in range(start[z], start[z + 1]):
+                d_min = min(d_min, E[k, 5] * (x - E[k, 0]) + E[k, 6] * (y - E[k, 1]))
+            if d_min >= reach + 0.5 * PATCH:  # every wheel's patch wholly inside
+                f0 = f1 = f2 = f3 = mu[z]
+                continue
+        i0, i1, convex = start[z], start[z + 1], box[z, 4] > 0.5
+        f0 += _inside_weight(xs[0], ys[0], E, i0, i1, convex) * (mu[z] - f0)
+        f1 += _inside_weight(xs[1], ys[1], E, i0, i1, convex) * (mu[z] - f1)
+        f2 += _inside_weight(xs[2], ys[2], E, i0, i1, convex) * (mu[z] - f2)
+        f3 += _inside_weight(xs[3], ys[3], E, i0, i1, convex) * (mu[z] - f3)
+    return f0, f1, f2, f3
 
 
 def largest_friction(road) -> float:

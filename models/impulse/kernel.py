@@ -27,16 +27,26 @@ import numpy as np
 from numba import njit, prange
 
 from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners
+from crashlab.models.common.driver_inputs import (
+    PATCH,
+    driver_inputs,
+    effective_mode,
+    next_change,
+    ramping,
+    wheel_frictions,
+)
 from crashlab.models.common.planar_vehicle import (
+    P_A,
+    P_B,
     P_FRONT,
     P_HALFW,
     P_IZ,
     P_MASS,
     P_REAR,
+    P_TRACK,
     stiffest_rate,
-    vehicle_motion,
+    vehicle_forces,
 )
-from crashlab.models.common.driver_inputs import PATCH, driver_inputs, effective_mode, next_change, ramping
 from crashlab.models.common.wheel_states import BRAKED, ROLLING
 from crashlab.units import G
 
@@ -165,25 +175,48 @@ def _gap(S, B, radius, i, k, nv):
 
 
 @njit(cache=True)
-def _motion(P, S, i, t, before, A, NA, hit, zones, mu, acc, out):
-    """vehicle_motion of vehicle i at time t with the driver's inputs of that instant (docs/physics.md §2a;
-    before: their left limit, for the end of a step)."""
-    mode, brake, steer = driver_inputs(A[i], NA[i], t, before)
-    vehicle_motion(P[i], S[i], mu, effective_mode(mode, hit[i]), brake, steer, zones[0], zones[1], zones[2],
-                   zones[3], acc[i], out[i])
+def _zone_free(S, i, reach, box):
+    """Whether every wheel patch of vehicle i stays clear of every zone's bounding box (widened by PATCH / 2)
+    while its CG is within `reach` minus the wheels' reach of S[i]: driver_inputs.wheel_frictions then skips
+    every zone: each wheel gets the road's friction."""
+    x, y = S[i, 0], S[i, 1]
+    for z in range(box.shape[0]):
+        if not (x + reach < box[z, 0] or x - reach > box[z, 1] or y + reach < box[z, 2] or y - reach > box[z, 3]):
+            return False
+    return True
 
 
 @njit(cache=True)
-def _heun(P, S, t, A, NA, hit, zones, awake, na, mu, acc, h, out, k1, k2, tmp):
+def _heun(P, S, t, A, NA, hit, zones, wheel_reach, awake, na, mu, acc, h, out, k1, k2, tmp, in_mode, in_brake,
+          in_steer):
     """Heun step from t of the awake vehicles awake[:na] (inputs at t and just before t + h: a step never
     straddles an action's time, and one ending there keeps its own law); a sleeping vehicle's row of
-    `out` is left as it is (the caller keeps it equal to its row of S)."""
+    `out` is left as it is (the caller keeps it equal to its row of S). in_mode, in_brake, in_steer: each
+    awake vehicle's inputs at t (driver_inputs, effective_mode), read by the step policy; a vehicle without
+    actions (NA 1) keeps them through the step. The wheels' frictions: driver_inputs.wheel_frictions, the
+    road's for a vehicle whose wheels cannot reach a zone within the step (the predictor moves the CG by
+    h |v|; wheel_frictions would skip every zone), then planar_vehicle.vehicle_forces."""
+    ZC, ZS, ZMU, ZBOX = zones
+    zoned = ZMU.shape[0] > 0
     for a in range(na):
         i = awake[a]
-        _motion(P, S, i, t, False, A, NA, hit, zones, mu, acc, k1)
+        near = zoned and not _zone_free(S, i, wheel_reach[i] + h * math.hypot(S[i, 3], S[i, 4]) * (1.0 + 1e-9)
+                                        + 1e-9, ZBOX)
+        mode, brake, steer = in_mode[i], in_brake[i], in_steer[i]
+        f0 = f1 = f2 = f3 = mu
+        if near:
+            f0, f1, f2, f3 = wheel_frictions(S[i, 0], S[i, 1], math.cos(S[i, 2]), math.sin(S[i, 2]), P[i, P_A],
+                                             P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
+        vehicle_forces(P[i], S[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k1[i])
         for q in range(6):
             tmp[i, q] = S[i, q] + h * k1[i, q]
-        _motion(P, tmp, i, t + h, True, A, NA, hit, zones, mu, acc, k2)  # the step's own law at its end
+        if NA[i] > 1:  # the step's own law at its end (left limit)
+            mode, brake, steer = driver_inputs(A[i], NA[i], t + h, True)
+            mode = effective_mode(mode, hit[i])
+        if near:
+            f0, f1, f2, f3 = wheel_frictions(tmp[i, 0], tmp[i, 1], math.cos(tmp[i, 2]), math.sin(tmp[i, 2]),
+                                             P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
+        vehicle_forces(P[i], tmp[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k2[i])
         for q in range(6):
             out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
 
@@ -358,6 +391,18 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     for z in range(zones[2].shape[0]):
         mu_max = max(mu_max, zones[2][z])
     zoned = zones[2].shape[0] > 0
+    wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (driver_inputs.wheel_frictions)
+    in_mode = np.zeros(nv, np.int64)  # each vehicle's driver inputs at the step's start (_heun)
+    in_brake = np.zeros(nv)
+    in_steer = np.zeros(nv)
+    mode0 = np.zeros(nv, np.int64)  # the start state's inputs (those of every t without actions, NA 1)
+    brake0 = np.zeros(nv)
+    steer0 = np.zeros(nv)
+    rate_mode = np.full(nv, -1, np.int64)  # the wheel state of the vehicle's step bound rate_h (stiffest_rate)
+    rate_h = np.full(nv, math.inf)
+    for i in range(nv):
+        wheel_reach[i] = math.sqrt(max(P[i, P_A], P[i, P_B]) ** 2 + (0.5 * P[i, P_TRACK]) ** 2)
+        mode0[i], brake0[i], steer0[i] = driver_inputs(A[i], 1, 0.0)
     for i in range(nv):
         if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
             S[i, 3:6] = 0.0
@@ -416,17 +461,24 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         quiet = True
         for a in range(na):
             i = awake[a]
-            mode, brake, steer = driver_inputs(A[i], NA[i], t)
+            if NA[i] > 1:
+                mode, brake, steer = driver_inputs(A[i], NA[i], t)
+                t_change = min(t_change, next_change(A[i], NA[i], t))
+                if ramping(A[i], NA[i], t):
+                    quiet = False
+            else:  # no action: the start state's inputs throughout
+                mode, brake, steer = mode0[i], brake0[i], steer0[i]
             mode = effective_mode(mode, hit[i])
+            in_mode[i], in_brake[i], in_steer[i] = mode, brake, steer
             if mode == ROLLING and brake > 0.0:
                 mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
-            rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
-            if rate > 0.0:
-                h = min(h, 1.0 / rate)
-            t_change = min(t_change, next_change(A[i], NA[i], t))
+            if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
+                rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
+                rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
+            h = min(h, rate_h[i])
             lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
             speed = math.hypot(S[i, 3], S[i, 4])
-            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0 or ramping(A[i], NA[i], t):
+            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
                 quiet = False
             elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
                 quiet = False
@@ -449,7 +501,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 h = h_gap
                 diag[D_COARSE] += 1
         h = min(h, duration - t, t_change - t)
-        _heun(P, S, t, A, NA, hit, zones, awake, na, mu, acc, h, Snew, k1, k2, tmp)
+        _heun(P, S, t, A, NA, hit, zones, wheel_reach, awake, na, mu, acc, h, Snew, k1, k2, tmp, in_mode,
+              in_brake, in_steer)
         steps += 1
         diag[D_VEHICLE_STEPS] += na
         if steps > MAX_STEPS:
@@ -487,7 +540,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             lo, hi = 0.0, h
             for _ in range(60):
                 hm = 0.5 * (lo + hi)
-                _heun(P, S, t, A, NA, hit, zones, awake, na, mu, acc, hm, Snew, k1, k2, tmp)
+                _heun(P, S, t, A, NA, hit, zones, wheel_reach, awake, na, mu, acc, hm, Snew, k1, k2, tmp,
+                      in_mode, in_brake, in_steer)
                 diag[D_BISECT] += 1
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
                 if depth > hi_d:
@@ -499,7 +553,9 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             h = hm
         t += h
         for a in range(na):
-            S[awake[a]] = Snew[awake[a]]
+            i = awake[a]
+            for q in range(6):
+                S[i, q] = Snew[i, q]
         # ---- contacts: an impact (the first touch of an episode) gets its own row; a pair in an open
         # episode that overlaps and approaches gets a plastic contact impulse booked into the episode's
         # row. Several contacts at once (a car squeezed between a car and a wall) are
