@@ -107,3 +107,21 @@ def test_next_change_and_ramping_bound_the_steps():
     assert steer_rate(A, n, 2.2) == pytest.approx(math.radians(4.0) / 0.5) and steer_rate(A, n, 2.6) == 0.0
     # the left limit at an action's time keeps the law of the step that ends there
     assert driver_inputs(A, n, 1.0, True)[0] == ROLLING and driver_inputs(A, n, 1.0)[0] == LOCKED
+
+
+def test_wheel_frictions_equal_the_per_point_friction_at_each_wheel():
+    """The vehicle-level shortcut (skip a zone the wheels cannot reach, a convex zone holding them all) gives
+    exactly road_friction at each wheel: random poses over convex, non-convex and overlapping zones."""
+    from crashlab.models.common.driver_inputs import wheel_frictions
+    zones = [WET, {"friction": 0.1, "polygon": [[20, 0], [25, 0], [25, 2]]},
+             {"friction": 0.5, "polygon": [[0, -8], [8, -8], [8, 0], [4, -4], [0, 0]]},  # not convex
+             {"friction": 0.0, "polygon": [[12, -2], [14, -2], [14, 2], [12, 2]]}]
+    Z = pack_zones(build_scene(road={"friction": 0.8, "zones": zones}).road)
+    rng = np.random.default_rng(7)
+    front, rear, half = 1.24, 1.23, 0.70
+    for x, y, h in zip(rng.uniform(-5, 35, 3000), rng.uniform(-10, 7, 3000), rng.uniform(-np.pi, np.pi, 3000)):
+        c, s = math.cos(h), math.sin(h)
+        got = wheel_frictions(x, y, c, s, front, rear, half, 0.8, *Z)
+        body = [(front, half), (front, -half), (-rear, half), (-rear, -half)]
+        want = [road_friction(x + c * bx - s * by, y + s * bx + c * by, 0.8, *Z) for bx, by in body]
+        assert got == pytest.approx(want, abs=1e-12)
