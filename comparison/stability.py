@@ -225,8 +225,10 @@ def settings_table(df):
 
 def largest_stable_step(df, name: str) -> tuple[float, int]:
     """(value, scenes): the coarsest tested value of the model's step-size knob such that it and every finer
-    tested value (the default included) ran with zero violations and failures on the scenes they all ran
-    (a coarse setting runs a prefix of the default's sample); NaN when the default already fails there."""
+    tested value ran with zero violations and failures on the scenes they all ran and the default ran
+    clean (a coarse setting runs a prefix of the default's sample; a scene that fails at the default fails
+    for another reason than the step, and is counted in the default's violations); NaN when no scene is
+    left."""
     knob = step_knob(name)
     if knob is None:
         return math.nan, 0
@@ -237,7 +239,11 @@ def largest_stable_step(df, name: str) -> tuple[float, int]:
         d = json.loads(s)
         if list(d) == [knob]:
             values[d[knob]] = g
-    common = set.intersection(*(set(g.seed) for g in values.values()))
+    base = values[default]
+    clean = set(base.seed[(base.violation.fillna("") == "") & (base.failure.fillna("") == "")])
+    common = set.intersection(clean, *(set(g.seed) for g in values.values()))
+    if not common:
+        return math.nan, 0
     best = math.nan
     for v in sorted(values, reverse=not finer_is_smaller):
         g = values[v][values[v].seed.isin(common)]
