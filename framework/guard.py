@@ -151,6 +151,8 @@ def free_energy_rise(out, vehicle) -> tuple[float, float, float]:
         if "vz" in tr:
             e = e + 0.5 * m * np.square(tr["vz"])
     tol = ENERGY_TOL_J + ENERGY_TOL_REL * float(np.max(np.abs(e)))
+    if len(e) < 2 or float(np.ptp(e)) == 0.0:  # a constant energy (a parked car) rises nowhere
+        return 0.0, math.nan, tol
     # step k joins samples k-1 and k; it is in contact when one of the vehicle's contacts touches it
     touched = np.zeros(len(t) - 1, dtype=bool)
     for c0, c1 in _vehicle_contacts(out, vehicle.name):
