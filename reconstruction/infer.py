@@ -25,6 +25,12 @@ Burn-in and thinning: the first `burn` iterations of every walker are discarded;
 ESS = walkers x kept iterations / tau; summary.md reports both and warns when the chain is shorter than
 50 tau (emcee's own reliability threshold for tau) or the burn-in shorter than 5 tau.
 
+Execution: evidence of rest poses and EDR speeds is scored from the study's executor ([execution]:
+serial, processes, Dask, as `crashlab reconstruct`; --workers N: N processes). Evidence that needs the whole
+Outcome (the point of impact, a delta-V, a mark) is scored in this process as in the search
+(crashlab.reconstruction.problem); with N > 1 workers each batch is then split over N spawned processes
+(without the executor's per-evaluation timeout). The results do not depend on the backend.
+
 Checkpoints (DIR/infer_checkpoint.pkl, every `checkpoint_every` iterations, written atomically): the chain
 so far, the ensemble state and the random generator's state, and the fingerprint of what the posterior
 depends on (Study.fingerprint plus the uncertain parameters and the sampler settings). `--resume` continues
@@ -332,6 +338,7 @@ class Posterior:
             question.name = qf.name or qf.expr
             self.questions.append(question)
         self.evaluations = 0
+        self._pool, self._pool_size = None, 1  # worker processes (run_posterior, evidence beyond rest poses)
 
     def _truth(self):
         """The base scene's values (file units): the truth of a twin, else None."""
@@ -378,6 +385,10 @@ class Posterior:
         """(n,) Gaussian log-likelihood of rows X (file units); -inf where a candidate cannot be scored or
         is no valid collision (module docstring)."""
         X = np.atleast_2d(np.asarray(X, float))
+        if self._pool is not None and len(X) > 1:  # the batch split over the worker processes
+            parts = list(self._pool.map(_chunk_log_likelihood, np.array_split(X, min(len(X), self._pool_size))))
+            self.evaluations += sum(n for _, n in parts)
+            return np.concatenate([L for L, _ in parts])
         out = np.full(len(X), -np.inf)
         scenes, idx = [], []
         for k, row in enumerate(X):
@@ -407,6 +418,43 @@ class Posterior:
         if ok.any():
             lp[ok] += self.log_likelihood(X[ok])
         return lp
+
+
+_WORKER_POSTERIOR = None  # the Posterior of a worker process (_worker_pool)
+
+
+def _worker_init(path) -> None:
+    global _WORKER_POSTERIOR
+    from crashlab.execution import _single_thread
+    _single_thread()  # one thread per worker process, as the executor's workers
+    _WORKER_POSTERIOR = load_posterior(path)
+
+
+def _chunk_log_likelihood(X):
+    post = _WORKER_POSTERIOR
+    n0 = post.evaluations
+    L = post.log_likelihood(X)
+    return L, post.evaluations - n0
+
+
+@contextlib.contextmanager
+def _worker_pool(post, workers: int):
+    """Evidence beyond rest poses and contact speeds is scored in this process (the search's path,
+    crashlab.reconstruction.problem), not on the executor: with workers > 1 each batch is split over that
+    many spawned processes, each of which loads the study itself (no fork: numba's OpenMP threads)."""
+    import multiprocessing
+    if workers <= 1:
+        yield
+        return
+    from concurrent.futures import ProcessPoolExecutor  # a worker that cannot start breaks the pool: no retry loop
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_init,
+                               initargs=(str(post.path),))
+    post._pool, post._pool_size = pool, workers
+    try:
+        yield
+    finally:
+        post._pool, post._pool_size = None, 1
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _digest(obj) -> str:
@@ -524,7 +572,10 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         backend, nworkers = ("processes" if workers > 1 else "serial"), workers
     stream = sys.stderr if progress else None
     t0 = time.time()
-    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor:
+    in_process = post.study.evidence_set.needs_outcomes
+    pool_workers = nworkers if (in_process and backend != "serial") else 1
+    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor, \
+            _worker_pool(post, pool_workers):
         post.problem.executor = executor
         try:
             if s.sampler == "zeus":
