@@ -10,12 +10,15 @@ One module per reason to change:
   run      the search (pymoo's Algorithm.run with a Callback: checkpoints, resume, progress);
   polish   the least-squares polish of the best candidates after the search;
   report   the Pareto table, failures.csv, figures, summary.md, the result and its JSON form;
-  command  `crashlab reconstruct`.
+  command  `crashlab reconstruct`;
+  infer    the posterior of the free variables and uncertain parameters (`crashlab infer`), infer_report
+           its outputs.
 The package builds on the framework (crashlab) and reaches optimizers through the registry only.
 (The least-squares routine itself is crashlab.reconstruction.polish.polish.)
 """
 from .command import run_cli
 from .evidence import EvidenceItem, EvidenceSet, log_likelihood_of
+from .infer import Posterior, PosteriorResult, load_posterior, parse_question, run_posterior
 from .polish import POLISH_SPACING, PolishResult, polish_archive, spaced_starts
 from .problem import FAILED_OBJECTIVE, ReconstructionProblem, largest_overlap, outline_depth
 from .repair import CollisionRepair, repair_poses
@@ -65,6 +68,8 @@ __all__ = [
     "ExecutionSection", "FreeVariable", "Int", "ObjectiveSection",
     "OptimizerSection", "PolishResult", "PolishSection", "Real", "ReconstructionProblem", "ReconstructionResult",
     "RepairSection", "RestPose", "Study", "StudyFile", "crashlab_version", "failure_counts", "largest_overlap",
-    "load_study", "outline_depth", "pareto_table", "polish_archive", "repair_poses", "run_cli",
+    "load_posterior", "load_study", "outline_depth",
+    "parse_question", "Posterior", "PosteriorResult", "run_posterior", "pareto_table", "polish_archive",
+    "repair_poses", "run_cli",
     "run_study", "spaced_starts", "write_failures", "write_outputs",
 ]

@@ -23,7 +23,6 @@ def write_posterior_csv(post, res, path: Path) -> None:
 
 def summary_lines(post, res) -> list[str]:
     lo, med, hi = res.interval()
-    d = len(res.labels)
     truth = res.truth
     lines = [f"# Posterior: {post.study.spec.name or post.path.name}", "",
              f"Study `{post.path.name}`, model `{post.study.spec.model}`, sampler {res.sampler} "
