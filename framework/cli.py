@@ -1,4 +1,4 @@
-"""Command line: crashlab models | vehicles | simulate (--monte-carlo N) | compare | reconstruct | study | bench | stress.
+"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
@@ -185,6 +185,11 @@ def cmd_reconstruct(args):
     return run_cli(args)
 
 
+def cmd_infer(args):
+    from crashlab.reconstruction.infer import cmd_infer as run
+    return run(args)
+
+
 def cmd_study(args):
     from crashlab.comparison.command import run_cli
     return run_cli(args)
@@ -228,6 +233,16 @@ def build_parser():
     st.add_argument("--seed", type=int, default=1)
     st.add_argument("--csv", default=None, metavar="FILE", help="one row per run")
     st.set_defaults(fn=cmd_stress)
+    inf = sub.add_parser("infer", help="sample the posterior of a study's free variables and uncertain parameters "
+                         "given its evidence (with sigmas)")
+    inf.add_argument("study", help="study TOML file with the evidence's sigmas")
+    inf.add_argument("--out", required=True, help="output directory (posterior.csv, summary.md, figures, checkpoint)")
+    inf.add_argument("--samples", type=int, default=None, help="kept posterior samples (default: [infer] samples)")
+    inf.add_argument("--seed", type=int, default=None, help="sampler seed (default: [infer] seed)")
+    inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
+    inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
+    inf.add_argument("--no-progress", action="store_true", help="no progress line")
+    inf.set_defaults(fn=cmd_infer)
     r = sub.add_parser("reconstruct", help="search the pre-impact conditions that explain the evidence")
     r.add_argument("study")
     r.add_argument("--optimizer", default=None)

@@ -5,9 +5,9 @@ import abc
 import functools
 
 from . import guard
+from .errors import InputError
 from .options import ModelOptions, parse
 from .outcome import Outcome
-from .errors import InputError
 from .scene import Scene, driver_input_key
 
 

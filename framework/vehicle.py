@@ -327,7 +327,8 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
 def library_table() -> list[dict]:
     """The library's vehicles with their key numbers (SI), one dict each, sorted by class then mass:
     file (library name), name, class, mass, length, width, wheelbase, yaw_inertia, yaw_inertia_source
-    ('measured', 'estimate' or 'published', by the start of the file's [sources] entry) and source (the yaw inertia's entry)."""
+    ('measured', 'estimate' or 'published', by the start of the file's [sources] entry) and source (the yaw
+    inertia's entry)."""
     order = {c: i for i, c in enumerate(VEHICLE_CLASSES)}
     rows = []
     for ref in library():

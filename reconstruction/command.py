@@ -12,6 +12,10 @@ from .study import load_study
 def run_cli(args) -> int:
     """args: the parsed `crashlab reconstruct` options (crashlab.cli). Bad input raises InputError."""
     study = load_study(args.study)
+    if study.spec.uncertain:
+        raise InputError(args.study, "uncertain", "uncertain parameters are priors of `crashlab infer`; the search "
+                         "does not take them yet (run `crashlab infer`, or remove them to search with the scene's "
+                         "values)")
     if args.optimizer and args.optimizer not in available_optimizers():
         raise InputError(args.study, "--optimizer",
                          str(UnknownPluginError("optimizer", args.optimizer, available_optimizers())))

@@ -64,10 +64,10 @@ from typing_extensions import Annotated
 from crashlab import fields, uncertainty
 from crashlab.errors import InputError
 from crashlab.execution import Executor
-from crashlab.vehicle import pydantic_error, read_toml
+from crashlab.vehicle import pydantic_error
 
 from .evidence import log_likelihood_of
-from .schema import SEED_MAX, WORKERS_MAX, StudyFile
+from .schema import SEED_MAX, WORKERS_MAX
 from .study import Study, _canonical, load_study
 
 CHECKPOINT_FORMAT = "crashlab posterior checkpoint 1"
@@ -253,27 +253,10 @@ def parse_question(expr: str, names, source="<study>", key="questions.0.expr") -
     return Question(expr, expr, fn, tuple(sorted(p.used)))
 
 
-# ---------------------------------------------------------------- the study file's extra sections
-def _extras(path: Path, raw: dict) -> tuple[dict, dict]:
-    """(raw without the sections this module reads, those sections). Sections StudyFile itself knows stay."""
-    mine = {}
-    for k in ("questions", "uncertain", "infer"):
-        if k in raw and k not in StudyFile.model_fields:
-            mine[k] = raw.pop(k)
-    return raw, mine
-
-
-@contextlib.contextmanager
-def _reading(raw: dict):
-    """load_study reading `raw` instead of the file: StudyFile (crashlab.reconstruction.schema) refuses the
-    sections only the posterior reads, so they are taken out first and checked here."""
-    from . import study as study_module
-    keep = study_module.read_toml
-    study_module.read_toml = lambda path, what="file": raw
-    try:
-        yield
-    finally:
-        study_module.read_toml = keep
+# ---------------------------------------------------------------- the study file's sections for the posterior
+def _extras(spec) -> dict:
+    """The sections only the posterior reads (StudyFile keeps them unchecked; checked here)."""
+    return {k: getattr(spec, k) for k in ("questions", "uncertain", "infer") if k in spec.model_fields_set}
 
 
 @dataclass
@@ -466,10 +449,8 @@ def _digest(obj) -> str:
 def load_posterior(path) -> Posterior:
     """The study at `path` prepared for sampling; InputError (file, key, problem) for bad input."""
     path = Path(path)
-    raw, extras = _extras(path, read_toml(path, "study"))
-    with _reading(raw):
-        study = load_study(path)
-    return Posterior(path, study, extras)
+    study = load_study(path)
+    return Posterior(path, study, _extras(study.spec))
 
 
 # ---------------------------------------------------------------- the run
@@ -672,19 +653,9 @@ def _run_zeus(post, nw, total, s, stream, t0):
 
 
 # ---------------------------------------------------------------- command line
-def add_arguments(p) -> None:
-    """The `crashlab infer` options (crashlab.cli)."""
-    p.add_argument("study", help="study TOML file (reconstruction study with sigmas)")
-    p.add_argument("--out", required=True, help="output directory (posterior.csv, summary.md, figures, checkpoint)")
-    p.add_argument("--samples", type=int, default=None, help="kept posterior samples (default: [infer] samples)")
-    p.add_argument("--seed", type=int, default=None, help="sampler seed (default: [infer] seed)")
-    p.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
-    p.add_argument("--no-progress", action="store_true", help="no progress line")
-
-
 def cmd_infer(args) -> int:
-    """`crashlab infer`: bad input raises InputError (the CLI prints its one line and exits 2)."""
+    """`crashlab infer` (its options: crashlab.cli): bad input raises InputError (the CLI prints its one line
+    and exits 2)."""
     post = load_posterior(args.study)
     if args.samples is not None and not 10 <= args.samples <= 10_000_000:
         raise InputError(args.study, "--samples", f"{args.samples} is outside [10, 10000000]")
@@ -700,17 +671,5 @@ def cmd_infer(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    import argparse
-    p = argparse.ArgumentParser(prog="crashlab infer", description=__doc__.splitlines()[0])
-    add_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        return cmd_infer(args)
-    except InputError as err:
-        print(str(err), file=sys.stderr)
-        return 2
-
-
-__all__ = ["CHECKPOINT_FORMAT", "InferSection", "Posterior", "PosteriorResult", "Question", "add_arguments",
-           "cmd_infer", "load_posterior", "main", "parse_question", "run_posterior"]
+__all__ = ["CHECKPOINT_FORMAT", "InferSection", "Posterior", "PosteriorResult", "Question",
+           "cmd_infer", "load_posterior", "parse_question", "run_posterior"]

@@ -257,3 +257,9 @@ class StudyFile(_Strict):
     execution: ExecutionSection = ExecutionSection()
     repair: RepairSection = RepairSection()
     polish: PolishSection = PolishSection()
+    # read by `crashlab infer` (reconstruction/infer.py checks them: InferSection, QuestionFile,
+    # crashlab.uncertainty); `crashlab reconstruct` takes none of them (uncertain parameters: it refuses)
+    infer: dict = Field(default_factory=dict, description="the posterior sampler's settings (crashlab infer)")
+    questions: list[dict] = Field(default_factory=list, description="[[questions]] expr = ... (crashlab infer)")
+    uncertain: list[dict] = Field(default_factory=list,
+                                  description="[[uncertain]] parameters: priors of crashlab infer")

@@ -18,7 +18,7 @@ from crashlab.errors import InputError
 from crashlab.reconstruction.infer import load_posterior, parse_question, run_posterior
 
 REPO = Path(__file__).resolve().parent.parent
-TWIN = REPO / "studies" / "reconstruction" / "twin_infer.toml"
+TWIN = REPO / "studies" / "infer" / "twin_infer.toml"
 SIDE = REPO / "studies" / "pc_crash" / "side.toml"
 
 SMALL = {"walkers": 16, "burn": 60, "samples": 16 * 60, "draws_plotted": 3}
@@ -167,9 +167,8 @@ def test_bad_questions_are_refused(expr, words):
 
 
 def _cli(study, out):
-    code = ("import sys; from crashlab.reconstruction.infer import main; "
-            f"sys.exit(main([{str(study)!r}, '--out', {str(out)!r}, '--no-progress']))")
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    return subprocess.run([sys.executable, "-m", "crashlab.cli", "infer", str(study), "--out", str(out),
+                           "--no-progress"], capture_output=True, text=True, timeout=120)
 
 
 def test_a_question_that_does_not_parse_is_one_line_exit_2(tmp_path):
@@ -261,7 +260,7 @@ def test_point_of_impact_and_edr_speed_narrow_v1_speed_threefold():
     alone (the same noisy rest poses: noise_seed 1 in both files)."""
     width = {}
     for name in ("twin_infer8_rest.toml", "twin_infer8.toml"):
-        post = load_posterior(REPO / "studies" / "reconstruction" / name)
+        post = load_posterior(REPO / "studies" / "infer" / name)
         res = run_posterior(post, None, progress=False)
         lo, _, hi = res.interval()
         j = res.labels.index("V1.speed")
