@@ -5,11 +5,17 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import assert_one_error_line, build_scene
+
 from crashlab.errors import InputError
-from crashlab.models.common.driver_inputs import (PATCH, driver_inputs, pack_action_tables, pack_actions,
-                                                  pack_zones, road_friction)
+from crashlab.models.common.driver_inputs import (
+    PATCH,
+    driver_inputs,
+    pack_action_tables,
+    pack_actions,
+    pack_zones,
+    road_friction,
+)
 from crashlab.models.common.wheel_states import BRAKED, LOCKED, ROLLING
 
 WET = {"friction": 0.3, "polygon": [[10.0, -5.0], [30.0, -5.0], [30.0, 5.0], [10.0, 5.0]], "name": "wet patch"}

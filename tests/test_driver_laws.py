@@ -9,9 +9,9 @@ import math
 
 import numpy as np
 import pytest
+from conftest import build_scene
 
 import crashlab
-from conftest import build_scene
 from crashlab.units import G
 
 MODELS = ["impulse", "pymunk", "multibody", "exudyn"]

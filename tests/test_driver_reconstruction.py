@@ -10,7 +10,6 @@ import sys
 
 import pandas as pd
 import pytest
-
 from conftest import REPO, assert_one_error_line
 
 STUDY = REPO / "studies" / "reconstruction" / "brake_onset.toml"

@@ -9,11 +9,10 @@ The diagnostics count the work: awake vehicles integrated (vehicle_steps) and ou
 """
 import numpy as np
 import pytest
+from test_impulse_stress import stress_scenes
 
 import crashlab
 from crashlab.comparison.scaling import scene as scaling_scene
-
-from test_impulse_stress import stress_scenes
 
 
 def _same(a, b, n=None):
@@ -57,7 +56,8 @@ def test_broad_phase_and_skipping_give_the_results_of_every_pair_tested(seed, re
     bits with the broad phase and the skipping of far static pairs as with every listed pair's outlines
     tested at every step, with fewer outline tests."""
     on, off = crashlab.get_model("impulse"), crashlab.get_model("impulse", broad_phase=False)
-    scenes = stress_scenes(12, seed) + [crashlab.load_scene(repo_root / "studies" / "comparison" / "three_vehicles.toml")]
+    three = crashlab.load_scene(repo_root / "studies" / "comparison" / "three_vehicles.toml")
+    scenes = stress_scenes(12, seed) + [three]
     fewer = 0
     for sc in scenes:
         a, b = on.simulate(sc), off.simulate(sc)

@@ -20,8 +20,7 @@ import crashlab
 from crashlab.errors import InputError
 from crashlab.scene import scene_from_dict
 from crashlab.units import G
-from crashlab.vehicle import (METADATA_KEYS, VEHICLE_CLASSES, format_library_table, library, library_table,
-                              load_vehicle)
+from crashlab.vehicle import METADATA_KEYS, VEHICLE_CLASSES, format_library_table, library, library_table, load_vehicle
 
 VEHICLES = library()
 

@@ -1,6 +1,7 @@
 """Tyre/ground forces for the pymunk model: a compiled loop over the vehicles that calls the one
 implementation of the planar wheel forces (crashlab.models.common.planar_vehicle.vehicle_motion), with the
-driver's inputs of the instant and the zones' friction (crashlab.models.common.driver_inputs), and turns its accelerations into the force [N, global] and yaw moment [N m] applied to each body.
+driver's inputs of the instant and the zones' friction (crashlab.models.common.driver_inputs), and turns its
+accelerations into the force [N, global] and yaw moment [N m] applied to each body.
 """
 import numpy as np
 from numba import njit
