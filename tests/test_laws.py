@@ -3,7 +3,8 @@
 Each law has a tolerance table below: model -> Tol(value, reason). A model of crashlab's own (entry point in
 crashlab.models) registered without an entry fails the law's test until it is given one (or Tol(None,
 reason) where the law does not apply). The tolerances are those of the per-model tests these tests
-replaced; where a model needs a looser one than the others the reason says why. Only public APIs: crashlab.get_model, load_scene, the Outcome's fields.
+replaced; where a model needs a looser one than the others the reason says why. Only public APIs:
+crashlab.get_model, load_scene, the Outcome's fields.
 Laws: docs/physics.md §2 (braking, rolling), §3 (momentum, restitution), §13 (restitution of the
 continuous-contact force law); case 1: studies/pc_crash/head_on.toml (PC-Crash, thesis Table 3.10).
 """
