@@ -1,4 +1,4 @@
-"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress.
+"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress | schema.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
@@ -195,8 +195,44 @@ def cmd_study(args):
     return run_cli(args)
 
 
+def schema_roots() -> dict:
+    """kind -> (root model, extras) of the scene, vehicle and study files (crashlab.schema_docs). The study's
+    models live in the reconstruction, which only this entry point may import (tests/test_architecture.py)."""
+    from crashlab.reconstruction.infer import InferSection, QuestionFile
+    from crashlab.reconstruction.schema import StudyFile
+
+    from .schema_docs import scene_root, vehicle_root
+    from .uncertainty import UncertainFile
+    return {"scene": scene_root(), "vehicle": vehicle_root(),
+            "study": (StudyFile, {"infer": InferSection, "questions": QuestionFile, "uncertain": UncertainFile})}
+
+
+def cmd_schema(args):
+    from .schema_docs import TITLES, json_schema, reference_markdown
+    roots = schema_roots()
+    if args.markdown:
+        if args.kind:
+            raise InputError("command line", "--markdown", "prints the reference of every file kind: give no kind")
+        print(reference_markdown(roots), end="")
+        return 0
+    if not args.kind:
+        raise InputError("command line", "schema", "give scene, study or vehicle (or --markdown)")
+    model, extras = roots[args.kind]
+    print(json.dumps(json_schema(model, extras, title=f"crashlab {TITLES[args.kind].lower()}"), indent=2))
+    return 0
+
+
+def package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("crashlab")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"crashlab {package_version()}")
     sub = p.add_subparsers(dest="command", required=True)
     mo = sub.add_parser("models", help="list the registered collision models and optimizers")
     mo.add_argument("--options", metavar="NAME", help="list the options of model NAME with unit, range, default "
@@ -260,6 +296,12 @@ def build_parser():
     sd.add_argument("--quick", action="store_true", help="a small configuration (minutes, not hours)")
     sd.add_argument("--out", required=True, metavar="DIR", help="folder for the CSV files and figures")
     sd.set_defaults(fn=cmd_study)
+    sc = sub.add_parser("schema", help="print the JSON Schema of a scene, study or vehicle file (for editors' "
+                        "completion and checking), or with --markdown the reference of every key (docs/reference.md)")
+    sc.add_argument("kind", nargs="?", choices=["scene", "study", "vehicle"], help="the file kind")
+    sc.add_argument("--markdown", action="store_true", help="print docs/reference.md: every key of the three file "
+                    "kinds with type, unit, range, default and meaning")
+    sc.set_defaults(fn=cmd_schema)
     return p
 
 

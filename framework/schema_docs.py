@@ -1,0 +1,268 @@
+"""Reference documentation and JSON Schemas generated from the file schemas (the pydantic models), so the
+docs cannot drift from what the loaders accept.
+
+A schema is a root model plus `extras`: keys the root keeps as plain tables or arrays (checked later by
+their own model, e.g. a scene's `[[uncertain]]` by crashlab.uncertainty.UncertainFile) documented and
+published with that model. The framework never imports the reconstruction (tests/test_architecture.py):
+the study's models are handed in by the command line (crashlab.cli.schema_roots).
+
+Regenerate docs/reference.md with `crashlab schema --markdown > docs/reference.md`;
+tests/test_schema_docs.py fails when it differs from the generator's output or when a field has no
+description.
+"""
+from __future__ import annotations
+
+import json
+import types
+import typing
+from typing import Literal, Union
+
+import annotated_types as at
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
+# units a description may start with ("m, CG position ..."; "km/h; [0, 400]"): the Unit column
+UNITS = ("kg m^2", "N s/m", "N/rad", "N/m", "N", "m/deg", "deg/s", "deg", "km/h", "kg", "m", "s", "-")
+TITLES = {"scene": "Scene file", "vehicle": "Vehicle file", "study": "Study file"}
+
+
+def scene_root():
+    """(root model, extras) of a scene file."""
+    from .scene import SceneFile
+    from .uncertainty import UncertainFile
+    return SceneFile, {"uncertain": UncertainFile}
+
+
+def vehicle_root():
+    """(root model, extras) of a vehicle file."""
+    from .vehicle import VehicleFile
+    return VehicleFile, {}
+
+
+# ---------------------------------------------------------------- walking the models
+def _strip(ann):
+    """The annotation without Annotated and without None; (annotation, optional)."""
+    while typing.get_origin(ann) is typing.Annotated:
+        ann = typing.get_args(ann)[0]
+    origin = typing.get_origin(ann)
+    if origin in (Union, types.UnionType):
+        args = [a for a in typing.get_args(ann) if a is not type(None)]
+        if len(args) < len(typing.get_args(ann)):
+            inner = args[0] if len(args) == 1 else Union[tuple(args)]
+            return _strip(inner)[0], True
+    return ann, False
+
+
+def _is_model(ann) -> bool:
+    return isinstance(ann, type) and issubclass(ann, BaseModel)
+
+
+def type_name(ann) -> str:
+    """A reader's name of a field's type: number, integer, string, boolean, table, one of ..., array of ..."""
+    ann, _ = _strip(ann)
+    origin, args = typing.get_origin(ann), typing.get_args(ann)
+    if ann is float:
+        return "number"
+    if ann is int:
+        return "integer"
+    if ann is str:
+        return "string"
+    if ann is bool:
+        return "boolean"
+    if ann is dict or origin is dict:
+        if args and _is_model(_strip(args[1])[0]):
+            return "table of tables"
+        return "table"
+    if _is_model(ann):
+        return "table"
+    if origin is Literal:
+        return "one of " + ", ".join(json.dumps(a) for a in args)
+    if origin is list:
+        inner = _strip(args[0])[0] if args else None
+        if _is_model(inner):
+            return "array of tables"
+        return "array of " + (type_name(args[0]) if args else "values")
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            return "array of " + type_name(args[0])
+        names = [type_name(a) for a in args]
+        return f"array of {len(names)} {names[0]}s" if len(set(names)) == 1 else "[" + ", ".join(names) + "]"
+    if origin in (Union, types.UnionType):
+        return " or ".join(type_name(a) for a in args)
+    return getattr(ann, "__name__", str(ann))
+
+
+def _num(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def range_text(field) -> str:
+    """The bounds of a field (Field(ge/gt/le/lt/min_length/max_length)) as [lo, hi], (lo, hi], >= lo, ..."""
+    lo = hi = None
+    lo_open = hi_open = False
+    n_min = n_max = None
+    for m in field.metadata:
+        if isinstance(m, at.Ge):
+            lo = m.ge
+        elif isinstance(m, at.Gt):
+            lo, lo_open = m.gt, True
+        elif isinstance(m, at.Le):
+            hi = m.le
+        elif isinstance(m, at.Lt):
+            hi, hi_open = m.lt, True
+        elif isinstance(m, at.MinLen):
+            n_min = m.min_length
+        elif isinstance(m, at.MaxLen):
+            n_max = m.max_length
+    parts = []
+    if lo is not None and hi is not None:
+        parts.append(f"{'(' if lo_open else '['}{_num(lo)}, {_num(hi)}{')' if hi_open else ']'}")
+    elif lo is not None:
+        parts.append(f"{'>' if lo_open else '>='} {_num(lo)}")
+    elif hi is not None:
+        parts.append(f"{'<' if hi_open else '<='} {_num(hi)}")
+    if n_min is not None or n_max is not None:
+        unit = "characters" if _strip(field.annotation)[0] is str else "items"
+        if n_max is None:
+            parts.append(f"at least {n_min} {unit}")
+        else:
+            parts.append(f"{n_min or 0}-{n_max} {unit}")
+    return "; ".join(parts)
+
+
+def default_text(field) -> str:
+    if field.default_factory is not None:
+        value = field.default_factory()
+    elif field.default is PydanticUndefined:
+        return "required"
+    else:
+        value = field.default
+    if value is None:
+        return "absent"
+    if isinstance(value, BaseModel):
+        return "(table)"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return _num(float(value)) if isinstance(value, float) else str(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    return json.dumps(value)
+
+
+def split_unit(description: str) -> tuple[str, str]:
+    """(unit, meaning) of a description that starts with a unit ("m, ...", "km/h; ...", "deg")."""
+    d = (description or "").strip()
+    for u in UNITS:
+        if d == u:
+            return u, ""
+        if d.startswith(u) and d[len(u)] in ",;":
+            return u, d[len(u) + 1:].strip()
+    return "", d
+
+
+def _key(name, field) -> str:
+    return field.alias or name
+
+
+def iter_fields(model: type[BaseModel], extras: dict | None = None, prefix: str = ""):
+    """(key path, model, field name, field) of every field reachable from `model`, depth first; a key in
+    `extras` (top level only) is walked as the model given there."""
+    extras = extras or {}
+    for name, field in model.model_fields.items():
+        key = prefix + _key(name, field)
+        yield key, model, name, field
+        ann, _ = _strip(field.annotation)
+        origin, args = typing.get_origin(ann), typing.get_args(ann)
+        if not prefix and name in extras:
+            sub = extras[name]
+            yield from iter_fields(sub, None, key + ("[]." if origin is list else "."))
+        elif _is_model(ann):
+            yield from iter_fields(ann, None, key + ".")
+        elif origin is list and args and _is_model(_strip(args[0])[0]):
+            yield from iter_fields(_strip(args[0])[0], None, key + "[].")
+        elif origin is dict and args and _is_model(_strip(args[1])[0]):
+            inner = _strip(args[1])[0]
+            yield from iter_fields(inner, None, key + f".<{_placeholder(name)}>.")
+        elif origin is dict and args and typing.get_origin(_strip(args[1])[0]) is dict:
+            inner_args = typing.get_args(_strip(args[1])[0])
+            if inner_args and _is_model(_strip(inner_args[1])[0]):
+                yield from iter_fields(_strip(inner_args[1])[0], None, key + ".<source>.<vehicle>.")
+
+
+def _placeholder(name: str) -> str:
+    return "vehicle" if name in ("rest", "edr", "reference") else "name"
+
+
+def missing_descriptions(model, extras=None) -> list[str]:
+    """`Model.field (key path)` of every reachable field without a description."""
+    return [f"{m.__name__}.{n} ({k})" for k, m, n, f in iter_fields(model, extras) if not (f.description or "").strip()]
+
+
+# ---------------------------------------------------------------- outputs
+def json_schema(model: type[BaseModel], extras: dict | None = None, title: str | None = None) -> dict:
+    """The JSON Schema (draft 2020-12) of a file: pydantic's model_json_schema (by alias, the keys as
+    written) with each extra key's own model in $defs, so editors complete and check those tables too."""
+    schema = model.model_json_schema(by_alias=True)
+    defs = schema.setdefault("$defs", {})
+    for key, sub in (extras or {}).items():
+        sub_schema = sub.model_json_schema(by_alias=True)
+        defs.update(sub_schema.pop("$defs", {}))
+        defs[sub.__name__] = sub_schema
+        field = model.model_fields[key]
+        prop = schema["properties"][_key(key, field)]
+        ref = {"$ref": f"#/$defs/{sub.__name__}"}
+        if typing.get_origin(_strip(field.annotation)[0]) is list:
+            prop.pop("additionalProperties", None)
+            prop["type"] = "array"
+            prop["items"] = ref
+        else:
+            for k in ("type", "additionalProperties"):
+                prop.pop(k, None)
+            prop["allOf"] = [ref]
+    out = {"$schema": JSON_SCHEMA_DIALECT}
+    if title:
+        out["title"] = title
+    out.update({k: v for k, v in schema.items() if k != "title" or not title})
+    return out
+
+
+def _cell(text: str) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def markdown_table(model, extras=None) -> str:
+    rows = ["| key | type | unit | range | default | meaning |", "|---|---|---|---|---|---|"]
+    for key, _, _, field in iter_fields(model, extras):
+        unit, meaning = split_unit(field.description)
+        rows.append("| " + " | ".join(_cell(c) for c in (f"`{key}`", type_name(field.annotation), unit,
+                                                          range_text(field), default_text(field), meaning)) + " |")
+    return "\n".join(rows)
+
+
+def reference_markdown(roots: dict) -> str:
+    """docs/reference.md: one section per file kind (roots: kind -> (model, extras))."""
+    out = ["# File reference", "",
+           "Generated from the schemas by `crashlab schema --markdown > docs/reference.md` "
+           "(framework/schema_docs.py); tests/test_schema_docs.py fails when this file differs from the "
+           "generator's output. Do not edit by hand.", "",
+           "Key paths: `a.b` is key `b` of table `[a]`; `a[].b` is key `b` of each `[[a]]` table; `<name>` is "
+           "a key you choose (a vehicle's name, a reference source). Range: `[lo, hi]` closed, `(lo, hi]` open "
+           "at lo. Numbers are finite; true/false are not numbers; unknown keys are refused unless said "
+           "otherwise. `crashlab schema scene|study|vehicle` prints the JSON Schema of each file for editors.",
+           ""]
+    for kind, (model, extras) in roots.items():
+        out += [f"## {TITLES.get(kind, kind)}", ""]
+        doc = (model.__doc__ or "").strip()
+        if doc:
+            out += [" ".join(doc.split()), ""]
+        out += [markdown_table(model, extras), ""]
+    return "\n".join(out)
+
+
+if __name__ == "__main__":  # python -m crashlab.schema_docs: the same as `crashlab schema --markdown`
+    import sys
+
+    from .cli import main
+    sys.exit(main(["schema", "--markdown"]))
