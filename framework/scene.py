@@ -49,7 +49,8 @@ class ZoneFile(_Strict):
     friction: Real = Field(ge=0, le=FRICTION_MAX, description=f"tyre-road friction in the zone; [0, {FRICTION_MAX:g}]")
     polygon: list[tuple[Position, Position]] = Field(
         min_length=3, description="m, corners [[x, y], ...] in order (either sense); at least three, not crossing")
-    name: Name | None = None
+    name: Name | None = Field(default=None, description="label of the zone in tables and plots; default "
+                              "'zone K'")
 
 
 class RoadFile(_Strict):
@@ -62,10 +63,15 @@ class ImpactFile(_Strict):
     restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
                            description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
-    law: Literal["kudlich-slibar", "brach"] = "kudlich-slibar"
+    law: Literal["kudlich-slibar", "brach"] = Field(
+        default="kudlich-slibar", description="impulse law of the planar impulse models (docs/physics.md §3): "
+        "kudlich-slibar (PC-Crash, Poisson type) or brach (Newton type)")
     force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
-                       "exact-restitution"] = "flores"
-    friction_law: Literal["coulomb", "threlfall", "ambrosio"] = "ambrosio"
+                       "exact-restitution"] = Field(
+        default="flores", description="normal contact-force law of the continuous-contact models (multibody, "
+        "exudyn); its damping follows the restitution")
+    friction_law: Literal["coulomb", "threlfall", "ambrosio"] = Field(
+        default="ambrosio", description="regularised friction law of the continuous-contact models")
     point: tuple[Position, Position] | None = Field(
         default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}")
     plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")
@@ -78,64 +84,81 @@ Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\
 class ActionFile(_Strict):
     """A driver action (docs/physics.md §2a): from `t` on, the wheel state and/or brake and steer change;
     brake and steer move linearly from their previous values over `ramp`; each action holds until the next."""
-    t: Real = Field(ge=0, le=DURATION_MAX, description=f"s after the start; [0, {DURATION_MAX:g}]")
-    wheels: WheelState | None = None
+    t: Real = Field(ge=0, le=DURATION_MAX, description=f"s, time of the action after the start; [0, {DURATION_MAX:g}]")
+    wheels: WheelState | None = Field(default=None, description="wheel state from t on (docs/physics.md §2a); "
+                                      "absent: unchanged")
     brake: Real | None = Field(default=None, ge=0, le=1,
                                description="fraction of full braking force without locking; [0, 1]")
     steer: Real | None = Field(default=None, ge=-STEER_MAX, le=STEER_MAX,
                                description=f"deg, front-wheel angle; |value| <= {STEER_MAX:g}")
     ramp: Real = Field(default=0.0, ge=0, le=DURATION_MAX,
-                       description="s over which brake and steer move from their previous values; >= 0")
+                       description="s, time over which brake and steer move from their previous values")
 
 
 class VehicleEntryFile(_Strict):
-    name: Name
-    vehicle: str = Field(min_length=1, description="a library name (crashlab models) or a .toml path")
-    x: Position = 0.0
-    y: Position = 0.0
-    heading: Angle = 0.0
-    speed: Real = Field(default=0.0, ge=0, le=SPEED_MAX, description=f"km/h; [0, {SPEED_MAX:g}]")
+    name: Name = Field(description="the vehicle's name in this scene (tables, plots, studies); unique")
+    vehicle: str = Field(min_length=1, description="a library name (crashlab vehicles) or a vehicle .toml path, "
+                         "relative to the scene file")
+    x: Position = Field(default=0.0, description="m, start position of the CG, x")
+    y: Position = Field(default=0.0, description="m, start position of the CG, y")
+    heading: Angle = Field(default=0.0, description="deg, start heading, counter-clockwise from +x")
+    speed: Real = Field(default=0.0, ge=0, le=SPEED_MAX, description=f"km/h, start speed along the heading; "
+                        f"[0, {SPEED_MAX:g}]")
     yaw_rate: Real = Field(default=0.0, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX,
-                           description=f"deg/s; |value| <= {YAW_RATE_MAX:g}")
-    wheels: WheelState = "rolling"
-    steer: Real = Field(default=0.0, ge=-STEER_MAX, le=STEER_MAX, description=f"deg; |value| <= {STEER_MAX:g}")
+                           description=f"deg/s, start yaw rate, counter-clockwise; |value| <= {YAW_RATE_MAX:g}")
+    wheels: WheelState = Field(default="rolling", description="wheel state at the start (docs/physics.md §2a): "
+                               "rolling, locked, locked_after_impact (rolls until the first impact), braked "
+                               "(ABS-like)")
+    steer: Real = Field(default=0.0, ge=-STEER_MAX, le=STEER_MAX,
+                        description=f"deg, front-wheel steer angle at the start; |value| <= {STEER_MAX:g}")
     overrides: dict = Field(default_factory=dict, description="vehicle-file keys: checked as the vehicle file")
     actions: list[ActionFile] = Field(default_factory=list, description="driver actions, in time order")
 
 
 class BarrierFile(_Strict):
-    x: Position
-    y: Position
-    heading: Angle = 0.0
+    x: Position = Field(description="m, centre of the barrier, x")
+    y: Position = Field(description="m, centre of the barrier, y")
+    heading: Angle = Field(default=0.0, description="deg, direction of the barrier's length, counter-clockwise "
+                           "from +x")
     length: Real = Field(ge=BARRIER_SIZE[0], le=BARRIER_SIZE[1],
-                         description=f"m; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
+                         description=f"m, along the heading; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
     width: Real = Field(ge=BARRIER_SIZE[0], le=BARRIER_SIZE[1],
-                        description=f"m; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
+                        description=f"m, across the heading; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
 
 
 class ReferenceFile(_Strict):
     """A published result for one vehicle: rest pose and velocity at rest/end (file units)."""
-    x: Position | None = None
-    y: Position | None = None
-    heading: Angle | None = None
-    vx: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX, description="km/h")
-    vy: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX, description="km/h")
-    yaw_rate: Real | None = Field(default=None, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX, description="deg/s")
+    x: Position | None = Field(default=None, description="m, published rest (end) position of the CG, x")
+    y: Position | None = Field(default=None, description="m, published rest (end) position of the CG, y")
+    heading: Angle | None = Field(default=None, description="deg, published rest (end) heading")
+    vx: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX,
+                            description="km/h, published velocity at the end, x (global)")
+    vy: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX,
+                            description="km/h, published velocity at the end, y (global)")
+    yaw_rate: Real | None = Field(default=None, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX,
+                                  description="deg/s, published yaw rate at the end")
 
 
 class SceneFile(_Strict):
-    name: str = "scene"
-    duration: Real = Field(default=10.0, gt=0, le=DURATION_MAX, description=f"s; (0, {DURATION_MAX:g}]")
-    stop_at_rest: StrictBool = True
-    road: RoadFile = RoadFile()
-    impact: ImpactFile = ImpactFile()
-    vehicles: list[VehicleEntryFile] = Field(min_length=1)
-    barriers: list[BarrierFile] = Field(default_factory=list)
+    name: str = Field(default="scene", description="title of the scene in tables and plots")
+    duration: Real = Field(default=10.0, gt=0, le=DURATION_MAX,
+                           description=f"s, longest simulated time; (0, {DURATION_MAX:g}]")
+    stop_at_rest: StrictBool = Field(default=True, description="end the run when every vehicle is at rest")
+    road: RoadFile = Field(default=RoadFile(), description="[road]: the road's friction and friction zones")
+    impact: ImpactFile = Field(default=ImpactFile(), description="[impact]: the collision's coefficients, "
+                               "laws and (optionally) its given position")
+    vehicles: list[VehicleEntryFile] = Field(min_length=1, description="[[vehicles]]: each vehicle and its "
+                                             "start state")
+    barriers: list[BarrierFile] = Field(default_factory=list, description="[[barriers]]: fixed rectangular "
+                                        "obstacles (walls, posts) a vehicle may hit")
     # published results to compare with: reference.<source>.<vehicle> = {x, y, heading, vx, vy, yaw_rate}
-    reference: dict[str, dict[str, ReferenceFile]] = Field(default_factory=dict)
+    reference: dict[str, dict[str, ReferenceFile]] = Field(
+        default_factory=dict, description="published results to compare with (crashlab compare): "
+        "reference.<source>.<vehicle>")
     # uncertain parameters (crashlab.uncertainty): [[uncertain]] field, distribution and its parameters;
     # checked against the scene in scene_from_dict; they do not change the simulation of the scene itself
-    uncertain: list[dict] = Field(default_factory=list)
+    uncertain: list[dict] = Field(default_factory=list, description="[[uncertain]]: parameters drawn by "
+                                  "simulate --monte-carlo and varied by crashlab infer (each table below)")
 
 
 # ---------------------------------------------------------------- the scene (SI)

@@ -17,8 +17,11 @@ import types
 import typing
 from typing import Literal, Union
 
+import re
+
 import annotated_types as at
 from pydantic import BaseModel
+from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
@@ -97,12 +100,42 @@ def _num(v) -> str:
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
-def range_text(field) -> str:
-    """The bounds of a field (Field(ge/gt/le/lt/min_length/max_length)) as [lo, hi], (lo, hi], >= lo, ..."""
+def _metadata(ann) -> list:
+    """Constraints in Annotated layers of an annotation, through Optional (not into arrays)."""
+    out = []
+    while True:
+        if typing.get_origin(ann) is typing.Annotated:
+            args = typing.get_args(ann)
+            for m in args[1:]:
+                out.extend(m.metadata if isinstance(m, FieldInfo) else [m])
+            ann = args[0]
+            continue
+        if typing.get_origin(ann) in (Union, types.UnionType):
+            args = [a for a in typing.get_args(ann) if a is not type(None)]
+            if len(args) == 1:
+                ann = args[0]
+                continue
+        return out
+
+
+def range_text(field, ann=None) -> str:
+    """The bounds of a field (Field(ge/gt/le/lt/min_length/max_length)) as [lo, hi], (lo, hi], >= lo, ...;
+    an array of bounded numbers (all alike) as `each [lo, hi]`."""
+    ann = field.annotation if ann is None else ann
+    own = _bounds(list(field.metadata) + _metadata(ann), _strip(ann)[0] is str)
+    inner, _ = _strip(ann)
+    if typing.get_origin(inner) in (tuple, list) and typing.get_args(inner):
+        items = {_bounds(_metadata(a), False) for a in typing.get_args(inner) if a is not Ellipsis}
+        if len(items) == 1 and "" not in items:
+            own = "; ".join(x for x in (own, "each " + items.pop()) if x)
+    return own
+
+
+def _bounds(metadata, is_str) -> str:
     lo = hi = None
     lo_open = hi_open = False
     n_min = n_max = None
-    for m in field.metadata:
+    for m in metadata:
         if isinstance(m, at.Ge):
             lo = m.ge
         elif isinstance(m, at.Gt):
@@ -123,7 +156,7 @@ def range_text(field) -> str:
     elif hi is not None:
         parts.append(f"{'<' if hi_open else '<='} {_num(hi)}")
     if n_min is not None or n_max is not None:
-        unit = "characters" if _strip(field.annotation)[0] is str else "items"
+        unit = "characters" if is_str else "items"
         if n_max is None:
             parts.append(f"at least {n_min} {unit}")
         else:
@@ -151,15 +184,25 @@ def default_text(field) -> str:
     return json.dumps(value)
 
 
+_TRAILING_RANGE = re.compile(r";\s*(?:[\[(][^;]*[\])]|\|value\| <= [0-9.e+]+)$")
+
+
 def split_unit(description: str) -> tuple[str, str]:
-    """(unit, meaning) of a description that starts with a unit ("m, ...", "km/h; ...", "deg")."""
+    """(unit, meaning) of a description that starts with a unit ("m, ...", "km/h; ...", "kg m^2 about ...")."""
     d = (description or "").strip()
     for u in UNITS:
         if d == u:
             return u, ""
-        if d.startswith(u) and d[len(u)] in ",;":
+        if d.startswith(u) and (d[len(u)] in ",;" or (d[len(u)] == " " and not u.isalpha())):
             return u, d[len(u) + 1:].strip()
     return "", d
+
+
+def _meaning(description: str, has_range: bool) -> tuple[str, str]:
+    unit, meaning = split_unit(description)
+    if has_range:  # the bounds are in their own column
+        meaning = _TRAILING_RANGE.sub("", meaning).strip()
+    return unit, meaning
 
 
 def _key(name, field) -> str:
@@ -170,10 +213,14 @@ def iter_fields(model: type[BaseModel], extras: dict | None = None, prefix: str 
     """(key path, model, field name, field) of every field reachable from `model`, depth first; a key in
     `extras` (top level only) is walked as the model given there."""
     extras = extras or {}
+    try:
+        hints = typing.get_type_hints(model, include_extras=True)
+    except (NameError, TypeError):
+        hints = {}
     for name, field in model.model_fields.items():
         key = prefix + _key(name, field)
         yield key, model, name, field
-        ann, _ = _strip(field.annotation)
+        ann, _ = _strip(_annotation(field, hints.get(name)))
         origin, args = typing.get_origin(ann), typing.get_args(ann)
         if not prefix and name in extras:
             sub = extras[name]
@@ -189,6 +236,14 @@ def iter_fields(model: type[BaseModel], extras: dict | None = None, prefix: str 
             inner_args = typing.get_args(_strip(args[1])[0])
             if inner_args and _is_model(_strip(inner_args[1])[0]):
                 yield from iter_fields(_strip(inner_args[1])[0], None, key + ".<source>.<vehicle>.")
+
+
+def _annotation(field, hint):
+    """The field's annotation, resolved from the module when pydantic kept a forward reference."""
+    ann = field.annotation
+    if hint is not None and ("ForwardRef" in repr(ann) or isinstance(ann, str)):
+        return hint
+    return ann
 
 
 def _placeholder(name: str) -> str:
@@ -234,10 +289,16 @@ def _cell(text: str) -> str:
 
 def markdown_table(model, extras=None) -> str:
     rows = ["| key | type | unit | range | default | meaning |", "|---|---|---|---|---|---|"]
-    for key, _, _, field in iter_fields(model, extras):
-        unit, meaning = split_unit(field.description)
-        rows.append("| " + " | ".join(_cell(c) for c in (f"`{key}`", type_name(field.annotation), unit,
-                                                          range_text(field), default_text(field), meaning)) + " |")
+    for key, owner, name, field in iter_fields(model, extras):
+        try:
+            hint = typing.get_type_hints(owner, include_extras=True).get(name)
+        except (NameError, TypeError):
+            hint = None
+        ann = _annotation(field, hint)
+        rng = range_text(field, ann)
+        unit, meaning = _meaning(field.description, bool(rng))
+        rows.append("| " + " | ".join(_cell(c) for c in (f"`{key}`", type_name(ann), unit, rng,
+                                                          default_text(field), meaning)) + " |")
     return "\n".join(rows)
 
 

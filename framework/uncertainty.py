@@ -48,7 +48,9 @@ class UncertainFile(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     field: str = Field(min_length=1, description=f"a scene field: {fields.VALID_FORMS}")
-    distribution: Literal["uniform", "normal", "triangular"]
+    distribution: Literal["uniform", "normal", "triangular"] = Field(
+        description="uniform (lower, upper), normal (mean, sd; optional lower, upper truncate it) or triangular "
+        "(lower, mode, upper); in the field's file unit")
     lower: Real | None = Field(default=None, description="uniform, triangular: lowest value; normal: optional "
                                "truncation (default the field's range)")
     upper: Real | None = Field(default=None, description="uniform, triangular: highest value; above lower")

@@ -59,10 +59,12 @@ class MultibodyChassis(_MultibodyPart):
 
 class MultibodyWheel(_MultibodyPart):
     semi_axes: tuple[Annotated[Real, Field(gt=0, le=2)], Annotated[Real, Field(gt=0, le=2)],
-                     Annotated[Real, Field(gt=0, le=2)]] | None = None
-    shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = None
+                     Annotated[Real, Field(gt=0, le=2)]] | None = Field(
+        None, description="m, the wheel's superellipsoid about its centre; each in (0, 2]")
+    shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = \
+        Field(None, description="2/eps of the wheel's superellipsoid; each in [2, 20] (convex)")
     mass: Real | None = _num(0.0, 2000.0, "kg, one wheel", lo_open=True, default=None)
-    inertia: Positive3 | None = None
+    inertia: Positive3 | None = Field(None, description="kg m^2, one wheel: Ixx, Iyy, Izz; each in (0, 1e7]")
 
 
 class MultibodyKnuckle(_MultibodyPart):
@@ -74,7 +76,7 @@ class MultibodySuspension(_MultibodyPart):
         None, description="m, four [x, y, z] points in the chassis frame, each coordinate in [-30, 30]")
     stiffness: Real | None = _num(0.0, 1e8, "N/m per corner", lo_open=True, default=None)
     damping: Real | None = _num(0.0, 1e7, "N s/m per corner", default=None)
-    free_length: Real | None = _num(0.0, 5.0, "m", lo_open=True, default=None)
+    free_length: Real | None = _num(0.0, 5.0, "m, unloaded strut length", lo_open=True, default=None)
 
     @model_validator(mode="after")
     def _four_points(self):
@@ -85,23 +87,25 @@ class MultibodySuspension(_MultibodyPart):
 
 
 class MultibodyTyre(_MultibodyPart):
-    torus_radius_1: Real | None = _num(0.0, 1.5, "m", lo_open=True, default=None)
-    torus_radius_2: Real | None = _num(0.0, 1.5, "m", lo_open=True, default=None)
-    radial_stiffness: Real | None = _num(0.0, 1e9, "N/m", lo_open=True, default=None)
-    longitudinal_slip_stiffness: Real | None = _num(0.0, 1e9, "N", lo_open=True, default=None)
-    cornering_stiffness: Real | None = _num(0.0, 1e7, "N/rad", lo_open=True, default=None)
-    camber_stiffness: Real | None = _num(0.0, 1e7, "N/rad", default=None)
-    rolling_resistance: Real | None = _num(0.0, 1.0, "-", default=None)
-    radial_damping: Real | None = _num(0.0, 1e8, "N s/m", default=None)
+    torus_radius_1: Real | None = _num(0.0, 1.5, "m, major radius of the tyre torus", lo_open=True, default=None)
+    torus_radius_2: Real | None = _num(0.0, 1.5, "m, minor radius of the tyre torus", lo_open=True, default=None)
+    radial_stiffness: Real | None = _num(0.0, 1e9, "N/m, radial tyre stiffness", lo_open=True, default=None)
+    longitudinal_slip_stiffness: Real | None = _num(0.0, 1e9, "N, longitudinal slip stiffness (force per unit slip)",
+                                                       lo_open=True, default=None)
+    cornering_stiffness: Real | None = _num(0.0, 1e7, "N/rad, cornering stiffness of one tyre", lo_open=True,
+                                               default=None)
+    camber_stiffness: Real | None = _num(0.0, 1e7, "N/rad, camber stiffness of one tyre", default=None)
+    rolling_resistance: Real | None = _num(0.0, 1.0, "-, rolling resistance coefficient", default=None)
+    radial_damping: Real | None = _num(0.0, 1e8, "N s/m, radial tyre damping", default=None)
 
 
 class MultibodySection(_MultibodyPart):
     """[multibody] of a vehicle file (models/common/vehicle_3d.py reads it; defaults there)."""
-    chassis: MultibodyChassis | None = None
-    wheel: MultibodyWheel | None = None
-    knuckle: MultibodyKnuckle | None = None
-    suspension: MultibodySuspension | None = None
-    tyre: MultibodyTyre | None = None
+    chassis: MultibodyChassis | None = Field(None, description="[multibody.chassis]: the chassis body")
+    wheel: MultibodyWheel | None = Field(None, description="[multibody.wheel]: each of the four wheels")
+    knuckle: MultibodyKnuckle | None = Field(None, description="[multibody.knuckle]: each of the four knuckles")
+    suspension: MultibodySuspension | None = Field(None, description="[multibody.suspension]: the four struts")
+    tyre: MultibodyTyre | None = Field(None, description="[multibody.tyre]: the tyre model of each wheel")
 
 
 VEHICLE_CLASSES = ("small", "compact", "mid-size", "large", "SUV", "pickup", "van", "heavy")
@@ -115,7 +119,7 @@ class VehicleFile(BaseModel):
 
     model_config = ConfigDict(extra="allow", allow_inf_nan=False, populate_by_name=True)
 
-    name: str = ""
+    name: str = Field("", description="the vehicle's display name (make, model, year)")
     vehicle_class: Literal[VEHICLE_CLASSES] | None = Field(  # type: ignore[valid-type]
         None, alias="class", description="vehicle class of the library listing: " + ", ".join(VEHICLE_CLASSES))
     sources: dict[str, str] | None = Field(
@@ -129,20 +133,22 @@ class VehicleFile(BaseModel):
     pitch_inertia: Real = Field(gt=0, description="kg m^2 about the lateral axis; radius of gyration "
                                 "0.1-1 x the diagonal of length and height")
     length: Real = _num(0.2, 30.0, "m, bumper to bumper")
-    width: Real = _num(0.2, 5.0, "m")
-    height: Real = _num(0.2, 6.0, "m")
-    wheelbase: Real = Field(gt=0, description="m; the axles lie inside the outline")
-    track: Real = Field(gt=0, description="m; at most the width")
-    cg_to_front_axle: Real = Field(gt=0, description="m; shorter than the wheelbase and than cg_to_front")
+    width: Real = _num(0.2, 5.0, "m, overall width")
+    height: Real = _num(0.2, 6.0, "m, overall height")
+    wheelbase: Real = Field(gt=0, description="m, front to rear axle; the axles lie inside the outline")
+    track: Real = Field(gt=0, description="m, centre to centre of the wheels of an axle; at most the width")
+    cg_to_front_axle: Real = Field(gt=0, description="m, CG to front axle (horizontal); shorter than the wheelbase and "
+                                  "than cg_to_front")
     cg_to_front: Real | None = Field(default=None, gt=0, description="m, CG to front bumper; default "
                                      "length / 2; shorter than the length")
-    cg_height: Real = Field(ge=0, description="m; below the height")
+    cg_height: Real = Field(ge=0, description="m, CG above the road; below the height")
     rolling_resistance: Real = _num(0.0, 1.0, "coefficient f_r (tyres on asphalt 0.01-0.015, sand 0.3)",
                                     default=0.0)
     cornering_stiffness: Real = _num(0.0, 1e6, "N/rad per tyre (cars 40-150e3, truck tyres to 5e5)",
                                      lo_open=True, default=60e3)
-    wheel_radius: Real = _num(0.1, 1.5, "m", default=0.3)
-    multibody: MultibodySection | None = None
+    wheel_radius: Real = _num(0.1, 1.5, "m, rolling radius of the wheels", default=0.3)
+    multibody: MultibodySection | None = Field(None, description="[multibody]: data of the 3D multibody models "
+                                               "(models/common/vehicle_3d.py; defaults there)")
 
 
 

@@ -77,23 +77,27 @@ Int = Annotated[int, Strict()]
 class InferSection(BaseModel):
     """`[infer]` of a study file: the sampler's settings (module docstring)."""
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    sampler: Literal["emcee", "zeus"] = "emcee"  # zeus: the comparison (README); no --resume
+    sampler: Literal["emcee", "zeus"] = Field(  # zeus: the comparison (README); no --resume
+        default="emcee", description="ensemble MCMC sampler; zeus cannot --resume")
     walkers: Int | None = Field(default=None, ge=8, le=10_000,
                                 description="[8, 10000]; default max(32, 6 x dims), even")
     samples: Int = Field(default=20_000, ge=10, le=10_000_000,
                          description="kept samples (walkers x iterations); [10, 1e7]")
     burn: Int = Field(default=500, ge=0, le=1_000_000, description="iterations discarded; [0, 1e6]")
-    thin: Int = Field(default=1, ge=1, le=10_000, description="[1, 10000]")
+    thin: Int = Field(default=1, ge=1, le=10_000, description="keep every thin-th iteration; [1, 10000]")
     init: Int = Field(default=20, ge=1, le=10_000, description="prior draws per walker to start from; [1, 10000]")
-    seed: Int = Field(default=1, ge=0, le=SEED_MAX, description=f"[0, {SEED_MAX}]")
+    seed: Int = Field(default=1, ge=0, le=SEED_MAX, description=f"seed of the sampler; [0, {SEED_MAX}]")
     checkpoint_every: Int = Field(default=100, ge=1, le=1_000_000, description="iterations; [1, 1e6]")
     draws_plotted: Int = Field(default=20, ge=0, le=1000, description="posterior draws in the top view; [0, 1000]")
 
 
 class QuestionFile(BaseModel):
+    """A `[[questions]]` table: an expression of the posterior's variables answered with its probability or
+    distribution (crashlab infer)."""
     model_config = ConfigDict(extra="forbid")
-    expr: str = Field(min_length=1, max_length=2000)
-    name: str | None = None
+    expr: str = Field(min_length=1, max_length=2000, description="expression of the variables' labels (as in "
+                      "posterior.csv), e.g. `car.speed > 50`: numbers, + - * /, comparisons, and, or, not, ( )")
+    name: str | None = Field(default=None, description="label of the answer in summary.md; default the expr")
 
 
 # ---------------------------------------------------------------- questions: a small safe grammar

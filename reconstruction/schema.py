@@ -73,19 +73,26 @@ class _Strict(BaseModel):
 
 
 class OptimizerSection(_Strict):
-    name: str = "nsga2"
+    """[optimizer]: the multi-objective search."""
+    name: str = Field(default="nsga2", description="a registered optimizer (crashlab models lists them)")
     pop_size: Int = Field(default=75, ge=POP_SIZE_RANGE[0], le=POP_SIZE_RANGE[1],
-                          description=f"[{POP_SIZE_RANGE[0]}, {POP_SIZE_RANGE[1]}]")
-    generations: Int = Field(default=20, ge=1, le=GENERATIONS_MAX, description=f"[1, {GENERATIONS_MAX}]")
-    seed: Int = Field(default=1, ge=0, le=SEED_MAX, description=f"[0, {SEED_MAX}]")
-    options: dict = Field(default_factory=dict)
+                          description=f"population size; [{POP_SIZE_RANGE[0]}, {POP_SIZE_RANGE[1]}]")
+    generations: Int = Field(default=20, ge=1, le=GENERATIONS_MAX,
+                             description=f"number of generations; [1, {GENERATIONS_MAX}]")
+    seed: Int = Field(default=1, ge=0, le=SEED_MAX, description=f"seed of the search; [0, {SEED_MAX}]")
+    options: dict = Field(default_factory=dict, description="[optimizer.options]: passed to the optimizer "
+                          "as its own settings")
 
 
 class FreeVariable(_Strict):
-    vehicle: str | None = None  # None for the impact's and the road's fields
-    field: str  # field_parts: x, y, heading, speed, restitution, friction, road.friction, actions.K.*, zones.K.*
-    lower: Real
-    upper: Real
+    vehicle: str | None = Field(default=None, description="the vehicle's name; absent for the impact's and "
+                                "the road's fields")  # None for the impact's and the road's fields
+    # field_parts: x, y, heading, speed, restitution, friction, road.friction, actions.K.*, zones.K.*
+    field: str = Field(description="x, y, heading, speed (a vehicle's start state), restitution, friction "
+                       "(the impact), road.friction, zones.K.friction, actions.K.t|brake|steer|ramp")
+    lower: Real = Field(description="lowest value searched, in the field's file unit (m, deg, km/h, s); within "
+                        "the scene file's range of the field")
+    upper: Real = Field(description="highest value searched, in the field's file unit; above lower")
 
     @field_validator("field")
     @classmethod
@@ -136,7 +143,8 @@ class RestPose(_Strict):
     y: Real | None = Field(default=None, ge=-POSITION_MAX, le=POSITION_MAX,
                            description=f"m; |value| <= {POSITION_MAX:g}")
     # deg; without it the heading term is left out for this vehicle (dheading is empty)
-    heading: Real | None = Field(default=None, ge=-ANGLE_MAX, le=ANGLE_MAX)
+    heading: Real | None = Field(default=None, ge=-ANGLE_MAX, le=ANGLE_MAX,
+                                 description="deg, measured rest heading; absent: no heading term")
     sigma_xy: Real | None = Field(default=None, gt=0, le=SIGMA_POSITION_MAX,
                                   description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
     sigma_heading: Real | None = Field(default=None, gt=0, le=SIGMA_ANGLE_MAX,
@@ -160,7 +168,7 @@ Point = tuple[Annotated[float, Strict(), Field(ge=-POSITION_MAX, le=POSITION_MAX
 class MarkEvidence(_Strict):
     """A tyre or CG mark: the vehicle's CG path passes within sigma [m] of each point (x, y) [m]. A twin
     may leave the points out: then n_points points of the run's own CG path, evenly spaced in time."""
-    vehicle: str
+    vehicle: str = Field(description="the name of the vehicle that left the mark")
     points: list[Point] | None = Field(default=None, min_length=2, max_length=MARK_POINTS_MAX,
                                        description=f"at least 2 points [x, y] (m), at most {MARK_POINTS_MAX}")
     sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
@@ -180,15 +188,23 @@ class EdrEvidence(_Strict):
 
 
 class Evidence(_Strict):
-    rest: dict[str, RestPose] = Field(default_factory=dict)
-    impact: ImpactEvidence | None = None
-    marks: list[MarkEvidence] = Field(default_factory=list, max_length=1000)
-    edr: dict[str, EdrEvidence] = Field(default_factory=dict)
+    """[evidence]: what was measured on site (docs/physics.md, "Evidence and likelihood")."""
+    rest: dict[str, RestPose] = Field(default_factory=dict, description="[evidence.rest.<vehicle>]: measured "
+                                      "rest poses by vehicle name")
+    impact: ImpactEvidence | None = Field(default=None, description="[evidence.impact]: the measured point of "
+                                          "impact")
+    marks: list[MarkEvidence] = Field(default_factory=list, max_length=1000,
+                                      description="[[evidence.marks]]: tyre or CG marks")
+    edr: dict[str, EdrEvidence] = Field(default_factory=dict, description="[evidence.edr.<vehicle>]: event data "
+                                        "recorder values by vehicle name")
     # evidence = the model's own simulation of the base scene (twin experiment): it fills every value the
     # file leaves out (all rest poses when the file gives no other evidence)
-    twin: StrictBool = False
+    twin: StrictBool = Field(default=False, description="twin experiment: the model's own run of the base "
+                             "scene fills every value the file leaves out")
     # twin only: Gaussian noise with the given sigmas is added to every value the run fills (calibration)
-    noise_seed: Int | None = Field(default=None, ge=0, le=SEED_MAX, description=f"[0, {SEED_MAX}]")
+    noise_seed: Int | None = Field(default=None, ge=0, le=SEED_MAX,
+                                   description=f"twin only: seed of Gaussian noise (the sigmas) added to the "
+                                   f"values the run fills; [0, {SEED_MAX}]")
 
     @property
     def has_uncertainty(self) -> bool:
@@ -202,16 +218,24 @@ class ObjectiveSection(_Strict):
     # "misfit": per vehicle the normalised misfit sqrt(sum (residual / sigma)^2) of its evidence items
     # (crashlab.reconstruction.evidence). Default: "misfit" as soon as any sigma or any evidence besides
     # rest poses is given, else "thesis"
-    mode: Literal["thesis", "misfit"] | None = None
+    mode: Literal["thesis", "misfit"] | None = Field(
+        default=None, description="thesis: |r - r*| + heading_weight |dpsi| per vehicle [m]; misfit: the "
+        "normalised misfit of each vehicle's evidence [sigmas]; absent: misfit when any sigma or any evidence "
+        "besides rest poses is given, else thesis")
     # m per deg of rest-heading error; 100 m/deg would already let 0.01 deg outweigh a metre
-    heading_weight: Real = Field(default=0.0, ge=0, le=100.0, description="m/deg; [0, 100]")
-    hv_reference: Real = Field(default=10.0, gt=0, le=1e6)  # m, hypervolume reference point per objective
+    heading_weight: Real = Field(default=0.0, ge=0, le=100.0,
+                                 description="m/deg, weight of the rest-heading error (thesis); [0, 100]")
+    hv_reference: Real = Field(default=10.0, gt=0, le=1e6,  # m, hypervolume reference point per objective
+                               description="m, hypervolume reference point per objective (misfit: sigmas)")
     # m: an evaluated start explains the evidence "as well" when every objective is at most this (about the
     # accuracy of a rest position measured on site); summary.md and near_optimal.csv list those starts: the
     # range of answers the evidence leaves open (e.g. brake onset against speed, README)
     # absent: 0.1 m with the thesis objective; 1.0 with the misfit (every vehicle's evidence within about one
     # sigma), whose objectives are in units of sigma
-    near_optimal: Real | None = Field(default=None, gt=0, le=1e3, description="m (misfit: sigmas); (0, 1000]")
+    near_optimal: Real | None = Field(default=None, gt=0, le=1e3,
+                                      description="m (misfit: sigmas), every objective at most this counts as "
+                                      "explaining the evidence as well (near_optimal.csv); absent: 0.1 thesis, "
+                                      "1.0 misfit; (0, 1000]")
 
     def near_optimal_tol(self, mode: str) -> float:
         if self.near_optimal is not None:
@@ -220,24 +244,35 @@ class ObjectiveSection(_Strict):
 
 
 class ExecutionSection(_Strict):
-    backend: Literal["serial", "processes", "dask"] = "serial"
-    workers: Int = Field(default=2, ge=1, le=WORKERS_MAX, description=f"[1, {WORKERS_MAX}]")
-    scheduler: str | None = None
+    """[execution]: where the evaluations run."""
+    backend: Literal["serial", "processes", "dask"] = Field(
+        default="serial", description="serial (one process), processes (a local pool) or dask (a cluster)")
+    workers: Int = Field(default=2, ge=1, le=WORKERS_MAX, description=f"worker processes; [1, {WORKERS_MAX}]")
+    scheduler: str | None = Field(default=None, description="dask: the scheduler's address; absent: a local "
+                                  "cluster")
     # s per evaluation (crashlab.execution.DEFAULT_TIMEOUT_S); 0: no limit (the serial backend then runs
     # in this process, and a hanging model hangs the run)
-    timeout_s: Real = Field(default=DEFAULT_TIMEOUT_S, ge=0, le=86400.0, description="s; [0, 86400], 0 = no limit")
+    timeout_s: Real = Field(default=DEFAULT_TIMEOUT_S, ge=0, le=86400.0,
+                            description="s per evaluation; [0, 86400], 0 = no limit")
 
 
 class RepairSection(_Strict):
-    enabled: StrictBool = True
-    max_shift: Real = Field(default=1.0, ge=0, le=100.0, description="m; [0, 100]")
+    """[repair]: candidates whose vehicles overlap at the start are moved back along the heading; candidates
+    that miss each other are shifted sideways into contact (reconstruction/repair.py)."""
+    enabled: StrictBool = Field(default=True, description="repair infeasible candidates before they are simulated")
+    max_shift: Real = Field(default=1.0, ge=0, le=100.0,
+                            description="m, the largest sideways shift that brings a missing candidate into "
+                            "contact; [0, 100]")
 
 
 class PolishSection(_Strict):
     """Least-squares polish after the search (crashlab.reconstruction.polish). evaluations: the budget; absent:
     POLISH_SHARE of pop_size x generations, at least POLISH_MIN; 0: off."""
-    evaluations: Int | None = Field(default=None, ge=0, le=10_000_000)
-    step: Real = Field(default=0.01, gt=0, lt=0.5)  # forward-difference step, fraction of each bound range
+    evaluations: Int | None = Field(default=None, ge=0, le=10_000_000,
+                                    description=f"model evaluations of the polish; absent: {POLISH_SHARE:g} x "
+                                    f"pop_size x generations, at least {POLISH_MIN}; 0: off")
+    step: Real = Field(default=0.01, gt=0, lt=0.5,  # forward-difference step, fraction of each bound range
+                       description="forward-difference step, a fraction of each free variable's range")
 
     def budget(self, pop_size: int, generations: int) -> int:
         if self.evaluations is not None:
@@ -246,17 +281,23 @@ class PolishSection(_Strict):
 
 
 class StudyFile(_Strict):
-    name: str = ""
-    scene: str
-    model: str = "impulse"
-    model_options: dict = Field(default_factory=dict)
-    optimizer: OptimizerSection = OptimizerSection()
-    free: list[FreeVariable] = Field(min_length=1, max_length=1000)
-    evidence: Evidence
-    objective: ObjectiveSection = ObjectiveSection()
-    execution: ExecutionSection = ExecutionSection()
-    repair: RepairSection = RepairSection()
-    polish: PolishSection = PolishSection()
+    """A study: the base scene, the free variables searched, the evidence, the objective and the budget."""
+    name: str = Field(default="", description="title of the study in outputs")
+    scene: str = Field(description="the base scene file, a path relative to the study file")
+    model: str = Field(default="impulse", description="the collision model (crashlab models lists them)")
+    model_options: dict = Field(default_factory=dict, description="[model_options]: the model's options "
+                                "(crashlab models --options NAME)")
+    optimizer: OptimizerSection = Field(default=OptimizerSection(), description="[optimizer]: the search")
+    free: list[FreeVariable] = Field(min_length=1, max_length=1000, description="[[free]]: the variables "
+                                     "searched, each with its bounds")
+    evidence: Evidence = Field(description="[evidence]: the measurements the solutions must explain")
+    objective: ObjectiveSection = Field(default=ObjectiveSection(), description="[objective]: how a start "
+                                        "state's misfit is measured")
+    execution: ExecutionSection = Field(default=ExecutionSection(), description="[execution]: where the "
+                                        "evaluations run")
+    repair: RepairSection = Field(default=RepairSection(), description="[repair]: overlapping start states")
+    polish: PolishSection = Field(default=PolishSection(), description="[polish]: least-squares polish of "
+                                  "the best solutions")
     # read by `crashlab infer` (reconstruction/infer.py checks them: InferSection, QuestionFile,
     # crashlab.uncertainty); `crashlab reconstruct` takes none of them (uncertain parameters: it refuses)
     infer: dict = Field(default_factory=dict, description="the posterior sampler's settings (crashlab infer)")
