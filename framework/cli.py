@@ -1,4 +1,4 @@
-"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress | schema.
+"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress | schema
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.

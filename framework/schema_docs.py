@@ -13,11 +13,10 @@ description.
 from __future__ import annotations
 
 import json
+import re
 import types
 import typing
 from typing import Literal, Union
-
-import re
 
 import annotated_types as at
 from pydantic import BaseModel

@@ -173,7 +173,7 @@ class MarkEvidence(_Strict):
                                        description=f"at least 2 points [x, y] (m), at most {MARK_POINTS_MAX}")
     sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
     n_points: Int | None = Field(default=None, ge=2, le=MARK_POINTS_MAX,
-                                 description=f"[2, {MARK_POINTS_MAX}]; twin only")
+                                 description=f"twin only: points taken from the run's CG path; [2, {MARK_POINTS_MAX}]")
 
 
 class EdrEvidence(_Strict):
