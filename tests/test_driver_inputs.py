@@ -131,3 +131,27 @@ def test_wheel_frictions_equal_the_per_point_friction_at_each_wheel():
         body = [(front, half), (front, -half), (-rear, half), (-rear, -half)]
         want = [road_friction(x + c * bx - s * by, y + s * bx + c * by, 0.8, *Z) for bx, by in body]
         assert got == pytest.approx(want, abs=1e-12)
+
+
+def test_zone_clearance_gives_what_every_wheel_gets_while_the_cg_stays_within_its_margin():
+    """Where zone_clearance reports a margin, wheel_frictions gives every wheel exactly its friction at any
+    heading and anywhere within the margin (the impulse kernel reuses it there without a look-up)."""
+    from crashlab.models.common.driver_inputs import wheel_frictions, zone_clearance
+    zones = [{"friction": 0.3, "polygon": [[0, -8], [30, -8], [30, 8], [0, 8]]},
+             {"friction": 0.1, "polygon": [[10, -2], [14, -2], [14, 2], [10, 2]]},
+             {"friction": 0.5, "polygon": [[40, -8], [48, -8], [48, 0], [44, -4], [40, 0]]}]  # not convex
+    Z = pack_zones(build_scene(road={"friction": 0.8, "zones": zones}).road)
+    front, rear, half = 1.24, 1.23, 0.70
+    reach = math.hypot(max(front, rear), half)
+    rng = np.random.default_rng(3)
+    uniform = 0
+    for x, y in zip(rng.uniform(-10, 55, 4000), rng.uniform(-12, 12, 4000)):
+        margin, f = zone_clearance(x, y, reach, 0.8, *Z)
+        if margin <= 0:
+            continue
+        uniform += 1
+        r, a, h = margin * math.sqrt(rng.uniform()), rng.uniform(0, 2 * math.pi), rng.uniform(-math.pi, math.pi)
+        got = wheel_frictions(x + r * math.cos(a), y + r * math.sin(a), math.cos(h), math.sin(h), front, rear, half,
+                              0.8, *Z)
+        assert got == (f, f, f, f)
+    assert uniform > 1000

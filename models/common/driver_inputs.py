@@ -232,6 +232,34 @@ def wheel_frictions(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, 
     return f0, f1, f2, f3
 
 
+@register_jitable
+def zone_clearance(x, y, reach, mu_road, E, start, mu, box):
+    """(margin, friction) for a vehicle whose wheels lie within `reach` of its CG at (x, y): when every wheel's
+    patch stands wholly outside or wholly inside (a convex zone) each zone, all wheels get the same friction
+    (what wheel_frictions gives each of them) and the CG may move `margin` [m] before that can change;
+    margin <= 0 otherwise (a wheel may be near a boundary: per-wheel look-up)."""
+    f = mu_road
+    margin = math.inf
+    for z in range(mu.shape[0]):
+        dx = max(box[z, 0] - x, 0.0, x - box[z, 1])  # to the box widened by PATCH / 2
+        dy = max(box[z, 2] - y, 0.0, y - box[z, 3])
+        out = math.sqrt(dx * dx + dy * dy)
+        if out > reach:
+            margin = min(margin, out - reach)
+            continue
+        if box[z, 4] < 0.5:
+            return -1.0, f
+        d_min = math.inf
+        for k in range(start[z], start[z + 1]):
+            d_min = min(d_min, E[k, 5] * (x - E[k, 0]) + E[k, 6] * (y - E[k, 1]))
+        inside = d_min - reach - 0.5 * PATCH
+        if inside <= 0.0:
+            return -1.0, f
+        f = mu[z]
+        margin = min(margin, inside)
+    return margin, f
+
+
 def largest_friction(road) -> float:
     """The largest friction anywhere on the road (for step-size bounds)."""
     return max([road.friction] + [z.friction for z in road.zones])

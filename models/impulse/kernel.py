@@ -34,6 +34,7 @@ from crashlab.models.common.driver_inputs import (
     next_change,
     ramping,
     wheel_frictions,
+    zone_clearance,
 )
 from crashlab.models.common.planar_vehicle import (
     P_A,
@@ -175,47 +176,50 @@ def _gap(S, B, radius, i, k, nv):
 
 
 @njit(cache=True)
-def _zone_free(S, i, reach, box):
-    """Whether every wheel patch of vehicle i stays clear of every zone's bounding box (widened by PATCH / 2)
-    while its CG is within `reach` minus the wheels' reach of S[i]: driver_inputs.wheel_frictions then skips
-    every zone: each wheel gets the road's friction."""
-    x, y = S[i, 0], S[i, 1]
-    for z in range(box.shape[0]):
-        if not (x + reach < box[z, 0] or x - reach > box[z, 1] or y + reach < box[z, 2] or y - reach > box[z, 3]):
-            return False
-    return True
+def _uniform_friction(x, y, i, reach, mu, zones, zcache):
+    """The friction under every wheel of vehicle i with its CG at (x, y) when it is the same for all of them
+    (driver_inputs.zone_clearance), else -1. zcache[i] = (x, y, margin, friction) of the last clearance: while
+    the CG stays within margin of that point the friction holds without a look-up."""
+    dx, dy = x - zcache[i, 0], y - zcache[i, 1]
+    if zcache[i, 2] > 0.0 and dx * dx + dy * dy < zcache[i, 2] * zcache[i, 2]:
+        return zcache[i, 3]
+    margin, f = zone_clearance(x, y, reach, mu, zones[0], zones[1], zones[2], zones[3])
+    zcache[i, 0], zcache[i, 1], zcache[i, 2], zcache[i, 3] = x, y, margin, f
+    return f if margin > 0.0 else -1.0
 
 
 @njit(cache=True)
-def _heun(P, S, t, A, NA, hit, zones, wheel_reach, awake, na, mu, acc, h, out, k1, k2, tmp, in_mode, in_brake,
-          in_steer):
+def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, out, k1, k2, tmp, in_mode,
+          in_brake, in_steer):
     """Heun step from t of the awake vehicles awake[:na] (inputs at t and just before t + h: a step never
     straddles an action's time, and one ending there keeps its own law); a sleeping vehicle's row of
     `out` is left as it is (the caller keeps it equal to its row of S). in_mode, in_brake, in_steer: each
     awake vehicle's inputs at t (driver_inputs, effective_mode), read by the step policy; a vehicle without
     actions (NA 1) keeps them through the step. The wheels' frictions: driver_inputs.wheel_frictions, the
-    road's for a vehicle whose wheels cannot reach a zone within the step (the predictor moves the CG by
-    h |v|; wheel_frictions would skip every zone), then planar_vehicle.vehicle_forces."""
+    same for every wheel while they all stand wholly inside or outside each zone (_uniform_friction), then
+    planar_vehicle.vehicle_forces."""
     ZC, ZS, ZMU, ZBOX = zones
     zoned = ZMU.shape[0] > 0
     for a in range(na):
         i = awake[a]
-        near = zoned and not _zone_free(S, i, wheel_reach[i] + h * math.hypot(S[i, 3], S[i, 4]) * (1.0 + 1e-9)
-                                        + 1e-9, ZBOX)
         mode, brake, steer = in_mode[i], in_brake[i], in_steer[i]
         f0 = f1 = f2 = f3 = mu
-        if near:
-            f0, f1, f2, f3 = wheel_frictions(S[i, 0], S[i, 1], math.cos(S[i, 2]), math.sin(S[i, 2]), P[i, P_A],
-                                             P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
+        if zoned:
+            f0 = f1 = f2 = f3 = _uniform_friction(S[i, 0], S[i, 1], i, wheel_reach[i], mu, zones, zcache)
+            if f0 < 0.0:
+                f0, f1, f2, f3 = wheel_frictions(S[i, 0], S[i, 1], math.cos(S[i, 2]), math.sin(S[i, 2]),
+                                                 P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
         vehicle_forces(P[i], S[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k1[i])
         for q in range(6):
             tmp[i, q] = S[i, q] + h * k1[i, q]
         if NA[i] > 1:  # the step's own law at its end (left limit)
             mode, brake, steer = driver_inputs(A[i], NA[i], t + h, True)
             mode = effective_mode(mode, hit[i])
-        if near:
-            f0, f1, f2, f3 = wheel_frictions(tmp[i, 0], tmp[i, 1], math.cos(tmp[i, 2]), math.sin(tmp[i, 2]),
-                                             P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
+        if zoned:
+            f0 = f1 = f2 = f3 = _uniform_friction(tmp[i, 0], tmp[i, 1], i, wheel_reach[i], mu, zones, zcache)
+            if f0 < 0.0:
+                f0, f1, f2, f3 = wheel_frictions(tmp[i, 0], tmp[i, 1], math.cos(tmp[i, 2]), math.sin(tmp[i, 2]),
+                                                 P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
         vehicle_forces(P[i], tmp[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k2[i])
         for q in range(6):
             out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
@@ -392,6 +396,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         mu_max = max(mu_max, zones[2][z])
     zoned = zones[2].shape[0] > 0
     wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (driver_inputs.wheel_frictions)
+    zcache = np.zeros((nv, 4))  # the last zone clearance of each vehicle (_uniform_friction): none yet
+    zcache[:, 2] = -1.0
     in_mode = np.zeros(nv, np.int64)  # each vehicle's driver inputs at the step's start (_heun)
     in_brake = np.zeros(nv)
     in_steer = np.zeros(nv)
@@ -501,7 +507,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 h = h_gap
                 diag[D_COARSE] += 1
         h = min(h, duration - t, t_change - t)
-        _heun(P, S, t, A, NA, hit, zones, wheel_reach, awake, na, mu, acc, h, Snew, k1, k2, tmp, in_mode,
+        _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, in_mode,
               in_brake, in_steer)
         steps += 1
         diag[D_VEHICLE_STEPS] += na
@@ -540,7 +546,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             lo, hi = 0.0, h
             for _ in range(60):
                 hm = 0.5 * (lo + hi)
-                _heun(P, S, t, A, NA, hit, zones, wheel_reach, awake, na, mu, acc, hm, Snew, k1, k2, tmp,
+                _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp,
                       in_mode, in_brake, in_steer)
                 diag[D_BISECT] += 1
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
