@@ -144,19 +144,35 @@ def evaluate_scenes(model_name: str, options_items: tuple, scenes: list, single_
     except Exception as err:  # noqa: BLE001
         _fail(res, slice(None), _one_line(f"model could not be built: {type(err).__name__}: {err}"))
         return res
-    outs: list = []
-    try:
-        outs = list(model.simulate_batch(scenes))
-        if len(outs) != n:
-            raise RuntimeError(f"simulate_batch returned {len(outs)} outcomes for {n} scenes")
-    except Exception:  # noqa: BLE001 - one by one, so one bad scene fails alone
-        outs = []
-        for s in scenes:
-            try:
-                outs.append(model.simulate(s))
-            except Exception as err:  # noqa: BLE001
-                outs.append(err)
-    for k, o in enumerate(outs):
+    return evaluations_of(simulate_each(model, scenes), nv)
+
+
+def simulate_each(model, scenes, batch: bool = True) -> list:
+    """The Outcome of every scene, an exception in place of the outcome of a scene whose simulation raised:
+    model.simulate_batch (batch=True), or, when it raises or returns another count, model.simulate scene by
+    scene, so that a bad scene fails alone."""
+    scenes = list(scenes)
+    if batch:
+        try:
+            outs = list(model.simulate_batch(scenes))
+            if len(outs) == len(scenes):
+                return outs
+        except Exception:  # noqa: BLE001 - one by one, so one bad scene fails alone
+            pass
+    outs = []
+    for s in scenes:
+        try:
+            outs.append(model.simulate(s))
+        except Exception as err:  # noqa: BLE001
+            outs.append(err)
+    return outs
+
+
+def evaluations_of(outcomes, nv: int) -> Evaluations:
+    """Evaluations of Outcomes (or exceptions in their place): an exception or a failed Outcome fails with its
+    reason; a non-finite rest pose fails; an Outcome without final velocities counts as at rest."""
+    res = empty_evaluations(len(outcomes), nv)
+    for k, o in enumerate(outcomes):
         if isinstance(o, BaseException):
             res.reason[k] = _exception_reason(o)
             continue

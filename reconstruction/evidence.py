@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from crashlab.execution import simulate_each
 from crashlab.units import ms_to_kmh, wrap_deg
 
 
@@ -122,18 +123,7 @@ class EvidenceSet:
         """Outcomes of the scenes with what the evidence needs: `model.simulate` one by one when marks need
         the CG path (the impulse model's simulate_batch records none), else `model.simulate_batch`. An
         exception is returned in place of its outcome (scored NaN / -inf), never raised."""
-        if not self.needs_trajectory:
-            try:
-                return list(model.simulate_batch(list(scenes)))
-            except Exception:  # noqa: BLE001 - one by one, so a bad scene fails alone
-                pass
-        outs = []
-        for s in scenes:
-            try:
-                outs.append(model.simulate(s))
-            except Exception as err:  # noqa: BLE001
-                outs.append(err)
-        return outs
+        return simulate_each(model, scenes, batch=not self.needs_trajectory)
 
     # ---------------------------------------------------------------- residuals
     def _simulated(self, it: EvidenceItem, o) -> list[float]:

@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit
 from pymoo.core.problem import Problem
 
-from crashlab.execution import Evaluations, Executor, empty_evaluations, model_for, outcome_reason
+from crashlab.execution import Evaluations, Executor, evaluations_of, model_for
 from crashlab.geometry import penetration, rect_corners
 from crashlab.scene import Scene
 from crashlab.units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
@@ -284,26 +284,3 @@ class _EvaluationView:
         self.outcome_ok, self.rest_si, self.contact_si = bool(ev.ok[k]), ev.rest[k], ev.contact[k]
         self.impact_rows, self.trajectories = [], {}
 
-
-def evaluations_of(outcomes, nv: int) -> Evaluations:
-    """Evaluations of Outcomes simulated in this process, by the rules of crashlab.execution.evaluate_scenes
-    (an exception or a failed Outcome fails with its reason; a non-finite rest pose fails)."""
-    res = empty_evaluations(len(outcomes), nv)
-    for k, o in enumerate(outcomes):
-        if isinstance(o, BaseException):
-            res.reason[k] = " ".join(f"model raised {type(o).__name__}: {o}".split())[:300]
-            continue
-        if o is None or not getattr(o, "outcome_ok", False):
-            res.reason[k] = "the model returned no outcome" if o is None else outcome_reason(o)
-            continue
-        rest = np.asarray(o.rest_si, float)
-        if rest.shape != (nv, 3) or not np.all(np.isfinite(rest)):
-            res.reason[k] = "non-finite rest pose"
-            continue
-        res.ok[k], res.reason[k] = True, ""
-        res.rest[k], res.contact[k] = rest, o.contact_si
-        diag = getattr(o, "diagnostics", {}) or {}
-        res.n_impacts[k] = diag["episodes"] if "episodes" in diag else len(o.impact_rows)
-        res.end_speed[k] = o.end_speed_si
-        res.at_rest[k] = o.at_rest_mask
-    return res
