@@ -67,6 +67,7 @@ from crashlab.execution import Executor
 from crashlab.vehicle import pydantic_error
 
 from .evidence import log_likelihood_of
+from .run import read_checkpoint
 from .schema import SEED_MAX, WORKERS_MAX
 from .study import Study, _canonical, load_study
 
@@ -487,26 +488,6 @@ def _atomic_pickle(path: Path, obj):
     os.replace(tmp, path)
 
 
-def _load_checkpoint(ckpt: Path, fingerprint: dict) -> dict:
-    if not ckpt.is_file():
-        raise InputError(ckpt, "--resume", "no checkpoint to resume from (give the --out DIR of the run)")
-    try:
-        with open(ckpt, "rb") as fh:
-            data = pickle.load(fh)
-    except Exception as err:  # noqa: BLE001 - any unreadable file is the same one line
-        raise InputError(ckpt, "--resume", f"cannot read the checkpoint ({type(err).__name__}); start again "
-                         "without --resume") from None
-    if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
-        raise InputError(ckpt, "--resume", "not a posterior checkpoint of this crashlab version; start again "
-                         "without --resume")
-    theirs = data["fingerprint"]
-    changed = [k for k in sorted(set(fingerprint) | set(theirs)) if fingerprint.get(k) != theirs.get(k)]
-    if changed:
-        raise InputError(ckpt, "--resume", f"the checkpoint was made from a different study ({', '.join(changed)} "
-                         "changed); start again without --resume, or give another --out")
-    return data
-
-
 def _autocorr(chain: np.ndarray) -> np.ndarray:
     """(d,) integrated autocorrelation time of a chain (iterations, walkers, d) [iterations]."""
     import emcee
@@ -609,7 +590,7 @@ def _run_emcee(post, nw, total, s, ckpt, fingerprint, resume, stream, t0, stop_a
     moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
     sampler = emcee.EnsembleSampler(nw, d, post.log_posterior, moves=moves, vectorize=True)
     if resume:
-        data = _load_checkpoint(ckpt, fingerprint)
+        data = read_checkpoint(ckpt, fingerprint, CHECKPOINT_FORMAT, "posterior checkpoint")
         chain, lps, state = data["chain"], data["log_prob"], data["state"]
         n_acc, post.evaluations = data["accepted"], data["evaluations"]
     else:

@@ -59,8 +59,9 @@ def save_checkpoint(ckpt: Path, fingerprint: dict, algorithm, name: str, generat
         raise InputError(ckpt, "--out", err.strerror or str(err)) from None
 
 
-def load_checkpoint(ckpt: Path, fingerprint: dict, optimizer: str | None):
-    """The algorithm and optimizer name of a checkpoint of this very study, else InputError."""
+def read_checkpoint(ckpt: Path, fingerprint: dict, fmt: int, what: str = "checkpoint") -> dict:
+    """The checkpoint file's dict, made by this crashlab (format `fmt`) from this very study (its
+    fingerprint); else InputError naming --resume (search and posterior checkpoints alike)."""
     if not ckpt.is_file():
         raise InputError(ckpt, "--resume", "no checkpoint to resume from (give the --out DIR of the run)")
     try:
@@ -69,14 +70,20 @@ def load_checkpoint(ckpt: Path, fingerprint: dict, optimizer: str | None):
     except Exception as err:  # noqa: BLE001 - any unreadable file is the same one line
         raise InputError(ckpt, "--resume", f"cannot read the checkpoint ({type(err).__name__}): the file is "
                          "corrupt or not a checkpoint; start again without --resume") from None
-    if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
-        raise InputError(ckpt, "--resume", "not a checkpoint of this crashlab version (no study fingerprint); "
+    if not isinstance(data, dict) or data.get("format") != fmt:
+        raise InputError(ckpt, "--resume", f"not a {what} of this crashlab version (no study fingerprint); "
                          "start again without --resume")
     theirs = data.get("fingerprint", {})
     changed = [k for k in sorted(set(fingerprint) | set(theirs)) if fingerprint.get(k) != theirs.get(k)]
     if changed:
         raise InputError(ckpt, "--resume", f"the checkpoint was made from a different study ({', '.join(changed)} "
                          "changed); start again without --resume, or give another --out")
+    return data
+
+
+def load_checkpoint(ckpt: Path, fingerprint: dict, optimizer: str | None):
+    """The algorithm and optimizer name of a search checkpoint of this very study, else InputError."""
+    data = read_checkpoint(ckpt, fingerprint, CHECKPOINT_FORMAT)
     if optimizer and optimizer != data["optimizer"]:
         raise InputError(ckpt, "--optimizer", f"the checkpoint was made with optimizer {data['optimizer']!r}, "
                          f"not {optimizer!r}")
