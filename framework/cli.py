@@ -114,7 +114,10 @@ def cmd_simulate(args):
         print(out.final.to_string())
         if len(out.impacts):
             print("impacts:")
-            print(out.impacts.drop(columns=["plane_angle"]).to_string(index=False))
+            from .outcome import IMPACT_UNITS
+            table = out.impacts.drop(columns=["plane_angle"])
+            print(table.rename(columns={c: f"{c} [{IMPACT_UNITS[c]}]" for c in table if c in IMPACT_UNITS})
+                  .to_string(index=False))
     for w in out.warnings:
         print("warning:", w)
     return 0

@@ -18,7 +18,19 @@ REST_SPEED = 0.1  # m/s
 REST_YAW_RATE = 0.1  # rad/s
 
 IMPACT_COLUMNS = ["t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate", "energy", "ees",
-                  "pdof", "kind", "point_x", "point_y", "plane_angle"]
+                  "pdof", "pdof_clock", "kind", "point_x", "point_y", "plane_angle"]
+# units of the impact table's columns (printed headers)
+IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_yaw_rate": "deg/s", "energy": "J",
+                "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
+
+
+def pdof_clock(pdof_deg: float) -> float:
+    """The PDOF as the SAE J224 clock direction, 1-12 hours: 12 = force from straight ahead, 3 = from the
+    right, 9 = from the left (clockwise; crashlab's pdof counts counter-clockwise, docs/physics.md §21)."""
+    if not math.isfinite(pdof_deg):
+        return math.nan
+    hour = round((-pdof_deg) % 360.0 / 30.0) % 12
+    return 12 if hour == 0 else hour
 
 
 class Outcome:
@@ -155,7 +167,8 @@ class Outcome:
     @property
     def impacts(self):
         """One row per vehicle per impact: t [s], vehicle, other, dvx, dvy, delta_v [km/h],
-        d_yaw_rate [deg/s], energy [J] (dissipated, per impact), ees [km/h], pdof [deg], kind,
+        d_yaw_rate [deg/s], energy [J] (dissipated, per impact), ees [km/h], pdof [deg, counter-clockwise from
+        straight ahead], pdof_clock [h, SAE J224: 12 from straight ahead, 3 from the right], kind,
         point_x, point_y [m], plane_angle [deg]."""
         import pandas as pd
         rows = []
@@ -165,7 +178,7 @@ class Outcome:
                          "delta_v": ms_to_kmh(math.hypot(r["dvx"], r["dvy"])),
                          "d_yaw_rate": rad_to_deg(r["d_yaw_rate"]), "energy": r["energy"],
                          "ees": ms_to_kmh(r.get("ees", math.nan)), "pdof": rad_to_deg(r.get("pdof", math.nan)),
-                         "kind": r["kind"], "point_x": r["point_x"], "point_y": r["point_y"],
+                         "pdof_clock": pdof_clock(rad_to_deg(r.get("pdof", math.nan))), "kind": r["kind"], "point_x": r["point_x"], "point_y": r["point_y"],
                          "plane_angle": rad_to_deg(r["plane_angle"])})
         return pd.DataFrame(rows, columns=IMPACT_COLUMNS)
 

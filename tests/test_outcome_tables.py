@@ -1,0 +1,25 @@
+"""What a user reads in the impact table: the PDOF also as the SAE J224 clock, units in printed headers."""
+import subprocess
+import sys
+
+import pytest
+
+import crashlab
+from conftest import PC_CRASH
+from crashlab.outcome import pdof_clock
+
+
+@pytest.mark.parametrize("pdof, hour", [(0.0, 12), (-10.0, 12), (-90.0, 3), (90.0, 9), (180.0, 6), (-180.0, 6),
+                                        (-30.0, 1), (-44.0, 1), (-46.0, 2), (15.1, 11)])
+def test_pdof_clock_is_clockwise_from_straight_ahead(pdof, hour):
+    assert pdof_clock(pdof) == hour
+
+
+def test_side_collision_reads_twelve_for_the_striking_car_and_nine_for_the_car_struck_on_its_left():
+    """V1 drives +x into V2, which heads +y: V1 is hit from straight ahead, V2 on its left side (west)."""
+    out = crashlab.simulate(crashlab.load_scene(PC_CRASH / "side.toml"), model="impulse")
+    first = out.impacts.groupby("vehicle").first()
+    assert first.loc["V1", "pdof_clock"] == 12 and first.loc["V2", "pdof_clock"] == 9
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml")],
+                         capture_output=True, text=True)
+    assert "delta_v [km/h]" in res.stdout and "pdof_clock [h]" in res.stdout
