@@ -3,9 +3,9 @@ import subprocess
 import sys
 
 import pytest
+from conftest import PC_CRASH
 
 import crashlab
-from conftest import PC_CRASH
 from crashlab.outcome import pdof_clock
 
 
