@@ -178,7 +178,8 @@ class Outcome:
                          "delta_v": ms_to_kmh(math.hypot(r["dvx"], r["dvy"])),
                          "d_yaw_rate": rad_to_deg(r["d_yaw_rate"]), "energy": r["energy"],
                          "ees": ms_to_kmh(r.get("ees", math.nan)), "pdof": rad_to_deg(r.get("pdof", math.nan)),
-                         "pdof_clock": pdof_clock(rad_to_deg(r.get("pdof", math.nan))), "kind": r["kind"], "point_x": r["point_x"], "point_y": r["point_y"],
+                         "pdof_clock": pdof_clock(rad_to_deg(r.get("pdof", math.nan))), "kind": r["kind"],
+                         "point_x": r["point_x"], "point_y": r["point_y"],
                          "plane_angle": rad_to_deg(r["plane_angle"])})
         return pd.DataFrame(rows, columns=IMPACT_COLUMNS)
 
