@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from .errors import InputError
 from .registry import UnknownPluginError
@@ -61,6 +62,8 @@ def cmd_monte_carlo(args, scene, model):
         raise InputError("command line", "--seed", f"in [0, 2^32), got {args.seed}")
     if args.plot:
         raise InputError("command line", "--plot", "with --monte-carlo the figure goes to --out DIR")
+    if args.csv:
+        raise InputError("command line", "--csv", "with --monte-carlo the tables go to --out DIR")
     if not scene.uncertain:
         raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
                          "(field, distribution and its parameters); this scene has none")
@@ -77,6 +80,22 @@ def cmd_monte_carlo(args, scene, model):
     return 0
 
 
+def _write_csv(out, folder: Path) -> None:
+    """DIR/trajectories.csv (vehicle, t [s], x, y [m], heading [deg, continuous], vx, vy [km/h], yaw_rate
+    [deg/s], and z [m], roll, pitch [deg] where the model records them) and DIR/impacts.csv (Outcome.impacts:
+    units in its docstring); written for a failed run too (it shows where it went wrong)."""
+    import pandas as pd
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        frames = [out.trajectory(n).assign(vehicle=n) for n in out.names if n in (out.trajectories or {})]
+        traj = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=["vehicle", "t"])
+        traj[["vehicle"] + [c for c in traj.columns if c != "vehicle"]].to_csv(folder / "trajectories.csv",
+                                                                             index=False)
+        out.impacts.to_csv(folder / "impacts.csv", index=False)
+    except OSError as err:
+        raise InputError(str(folder), "--csv", f"cannot write there ({err.strerror or err})") from None
+
+
 def cmd_simulate(args):
     from .scene import load_scene
     scene = load_scene(args.scene)
@@ -87,6 +106,8 @@ def cmd_simulate(args):
         raise InputError("command line", "--seed" if args.seed is not None else "--out",
                          "only with --monte-carlo N")
     out = model.simulate(scene)
+    if args.csv:
+        _write_csv(out, Path(args.csv))
     if args.plot:
         from .plotting import top_view
         try:
@@ -249,6 +270,8 @@ def build_parser():
     s.add_argument("--model", default="impulse")
     s.add_argument("--json", action="store_true")
     s.add_argument("--plot", metavar="FILE", help="write the top view (PNG, PDF, SVG)")
+    s.add_argument("--csv", metavar="DIR", help="write DIR/trajectories.csv (vehicle, t [s], x, y [m], heading "
+                   "[deg], vx, vy [km/h], yaw_rate [deg/s]) and DIR/impacts.csv")
     s.add_argument("--monte-carlo", type=int, default=None, metavar="N",
                    help="draw the scene's [[uncertain]] parameters N times and simulate each draw")
     s.add_argument("--seed", type=int, default=None, help="seed of the Monte Carlo draws (default 1)")

@@ -23,3 +23,24 @@ def test_side_collision_reads_twelve_for_the_striking_car_and_nine_for_the_car_s
     res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml")],
                          capture_output=True, text=True)
     assert "delta_v [km/h]" in res.stdout and "pdof_clock [h]" in res.stdout
+
+
+def test_simulate_csv_exports_the_trajectories_and_impacts(tmp_path):
+    import pandas as pd
+    from conftest import assert_one_error_line
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml"), "--csv",
+                          str(tmp_path / "out")], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    traj = pd.read_csv(tmp_path / "out" / "trajectories.csv")
+    assert list(traj.columns) == ["vehicle", "t", "x", "y", "heading", "vx", "vy", "yaw_rate"]
+    out = crashlab.simulate(crashlab.load_scene(PC_CRASH / "side.toml"), model="impulse")
+    for i, name in enumerate(out.names):  # the last sample is the rest pose
+        last = traj[traj.vehicle == name].iloc[-1]
+        assert (last.x, last.y) == pytest.approx(tuple(out.rest_si[i, :2]), abs=1e-9)
+    imp = pd.read_csv(tmp_path / "out" / "impacts.csv")
+    assert list(imp.columns) == list(out.impacts.columns) and len(imp) == len(out.impacts)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml"), "--csv",
+                          str(blocker / "sub")], capture_output=True, text=True)
+    assert_one_error_line(res, blocker / "sub", "--csv", ["cannot write"])
