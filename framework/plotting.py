@@ -84,12 +84,42 @@ def top_view(scene, outcome, path, title=None, measured=None):
     for b in scene.barriers:
         poly = barrier_outline(b)
         ax.fill(poly[:, 0], poly[:, 1], color="0.3")
+    _point_of_impact(ax, outcome)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(title or f"{scene.name} ({outcome.model})")
-    ax.legend(fontsize=7, loc="best")
+    _scale_bar(ax)
+    # the legend beside the drawing, never over it
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
+
+
+def _point_of_impact(ax, outcome):
+    """The first impact's point (a star) and its contact plane (a line through it, 2 m long)."""
+    rows = outcome.impact_rows if outcome.outcome_ok else []
+    if not rows:
+        return
+    r = min(rows, key=lambda row: row["t"])
+    px, py, th = r["point_x"], r["point_y"], r.get("plane_angle", np.nan)
+    ax.plot([px], [py], "*", color="k", ms=12, mfc="yellow", zorder=5,
+            label=f"point of impact ({px:.2f}, {py:.2f}) m, t = {r['t']:.3f} s")
+    if np.isfinite(th):
+        ax.plot([px - np.cos(th), px + np.cos(th)], [py - np.sin(th), py + np.sin(th)], "-", color="k", lw=1.2,
+                zorder=5, label="contact plane")
+
+
+def _scale_bar(ax):
+    """A scale bar of a round length (1, 2, 5 x 10^k m, about a fifth of the view) in the lower left."""
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    target = (x1 - x0) / 5.0
+    k = 10.0 ** np.floor(np.log10(target))
+    length = max(m * k for m in (1, 2, 5) if m * k <= target)
+    bx, by = x0 + 0.04 * (x1 - x0), y0 + 0.05 * (y1 - y0)
+    ax.plot([bx, bx + length], [by, by], "-", color="k", lw=3, solid_capstyle="butt", zorder=6)
+    ax.text(bx + length / 2, by + 0.015 * (y1 - y0), f"{length:g} m", ha="center", va="bottom", fontsize=8,
+            zorder=6)

@@ -44,3 +44,28 @@ def test_simulate_csv_exports_the_trajectories_and_impacts(tmp_path):
     res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml"), "--csv",
                           str(blocker / "sub")], capture_output=True, text=True)
     assert_one_error_line(res, blocker / "sub", "--csv", ["cannot write"])
+
+
+def test_top_view_marks_the_point_of_impact_and_keeps_the_legend_off_the_drawing(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from crashlab.plotting import top_view
+    scene = crashlab.load_scene(PC_CRASH / "side.toml")
+    out = crashlab.simulate(scene, model="impulse")
+    captured = {}
+    close = plt.close
+    plt.close = lambda fig=None: captured.setdefault("fig", fig) or close(fig)
+    try:
+        top_view(scene, out, tmp_path / "side.png")
+    finally:
+        plt.close = close
+    ax = captured["fig"].axes[0]
+    first = min(out.impact_rows, key=lambda r: r["t"])
+    star = [ln for ln in ax.lines if ln.get_label().startswith("point of impact")]
+    assert star and tuple(star[0].get_xydata()[0]) == pytest.approx((first["point_x"], first["point_y"]))
+    legend = ax.get_legend().get_window_extent(captured["fig"].canvas.get_renderer())
+    assert legend.x0 >= ax.get_window_extent().x1  # beside the axes, not over the data
+    assert (tmp_path / "side.png").stat().st_size > 0
+    close(captured["fig"])
