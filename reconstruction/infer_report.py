@@ -1,5 +1,6 @@
-"""The outputs of `crashlab infer` (crashlab.reconstruction.infer): posterior.csv, summary.md, corner.png and
-posterior_top_view.png (the rest outlines and CG paths of posterior draws over the measured rest poses)."""
+"""The outputs of `crashlab infer` (crashlab.reconstruction.infer): posterior.csv, summary.md, corner.png,
+posterior_top_view.png (the rest outlines and CG paths of posterior draws over the measured rest poses) and
+report.html (crashlab.reconstruction.html_report)."""
 from __future__ import annotations
 
 import math
@@ -42,31 +43,56 @@ def summary_lines(post, res) -> list[str]:
         if truth is not None:
             row += f" {truth[j]:.3f} | {'yes' if lo[j] <= truth[j] <= hi[j] else 'NO'} |"
         lines.append(row)
-    kept_iters = res.iterations - res.burn
-    tmax = float(np.nanmax(res.tau)) if np.isfinite(res.tau).any() else math.nan
     lines += ["", f"Effective sample size: walkers x kept iterations / tau, tau the integrated autocorrelation "
               f"time (emcee.autocorr.integrated_time); smallest ESS {np.nanmin(res.ess):.0f}."]
-    if res.sampler == "emcee" and not kept_iters >= TAU_RELIABLE * tmax:
-        lines.append(f"**Warning**: {kept_iters} kept iterations are fewer than {TAU_RELIABLE} tau "
-                     f"({TAU_RELIABLE * tmax:.0f}): tau and the ESS are rough; raise --samples.")
-    if res.sampler == "emcee" and not res.burn >= BURN_TAUS * tmax:
-        lines.append(f"**Warning**: the burn-in ({res.burn} iterations) is shorter than {BURN_TAUS} tau "
-                     f"({BURN_TAUS * tmax:.0f}): raise [infer] burn.")
+    lines += chain_warnings(res)
     if post.questions:
         lines += ["", "## Questions", "", "| question | probability | MC standard error |", "|---|---|---|"]
-        cols = {lab: res.samples[:, j] for j, lab in enumerate(res.labels)}
-        for q in post.questions:
-            p = q.probability(cols)
-            ess = min((res.ess[res.labels.index(n)] for n in q.names), default=len(res.samples))
-            se = math.sqrt(max(p * (1 - p), 0.0) / max(ess, 1.0))
-            lines.append(f"| `{q.expr}` | {p:.3f} | {se:.3f} |")
+        lines += [f"| `{q}` | {p:.3f} | {se:.3f} |" for q, p, se in question_rows(post, res)]
     lines += ["", "## Evidence", ""] + [f"- {s}" for s in post.study.evidence_set.describe()]
     lines += ["", "Likelihood: Gaussian in the normalised residuals (crashlab.reconstruction.evidence); priors "
               "as in the table; a start that overlaps, misses or fails has probability 0 "
               "(crashlab.reconstruction.infer).", "",
               "Files: posterior.csv (a row per sample, a column per variable in file units, log_likelihood), "
-              "corner.png, posterior_top_view.png."]
+              "corner.png, posterior_top_view.png; all of it with the figures embedded: report.html."]
     return lines
+
+
+def chain_warnings(res) -> list[str]:
+    """Warnings (markdown) when the emcee chain is short against its autocorrelation time."""
+    out = []
+    kept_iters = res.iterations - res.burn
+    tmax = float(np.nanmax(res.tau)) if np.isfinite(res.tau).any() else math.nan
+    if res.sampler == "emcee" and not kept_iters >= TAU_RELIABLE * tmax:
+        out.append(f"**Warning**: {kept_iters} kept iterations are fewer than {TAU_RELIABLE} tau "
+                   f"({TAU_RELIABLE * tmax:.0f}): tau and the ESS are rough; raise --samples.")
+    if res.sampler == "emcee" and not res.burn >= BURN_TAUS * tmax:
+        out.append(f"**Warning**: the burn-in ({res.burn} iterations) is shorter than {BURN_TAUS} tau "
+                   f"({BURN_TAUS * tmax:.0f}): raise [infer] burn.")
+    return out
+
+
+def question_rows(post, res) -> list[tuple[str, float, float]]:
+    """(expression, probability, Monte Carlo standard error from the smallest ESS of its variables)."""
+    cols = {lab: res.samples[:, j] for j, lab in enumerate(res.labels)}
+    rows = []
+    for q in post.questions:
+        p = q.probability(cols)
+        ess = min((res.ess[res.labels.index(n)] for n in q.names), default=len(res.samples))
+        rows.append((q.expr, p, math.sqrt(max(p * (1 - p), 0.0) / max(ess, 1.0))))
+    return rows
+
+
+def best_draw(post, res):
+    """(scene, outcome) of the sample of largest log-likelihood, or None (no finite one, or its run fails)."""
+    from crashlab.execution import model_for
+    ok = np.isfinite(res.log_likelihood)
+    if not ok.any():
+        return None
+    k = int(np.flatnonzero(ok)[np.argmax(res.log_likelihood[ok])])
+    scene = post.setter(res.samples[k])
+    outcome = model_for(post.study.spec.model, post.study.spec.model_options).simulate(scene)
+    return (scene, outcome) if outcome.outcome_ok else None
 
 
 def corner_plot(res, path: Path) -> None:
@@ -142,6 +168,9 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
 
 
 def write_outputs(post, res, out: Path) -> None:
+    """posterior.csv, summary.md, corner.png, posterior_top_view.png and report.html
+    (crashlab.reconstruction.html_report, with an animation of the draw of largest log-likelihood)."""
+    from .html_report import write_posterior_report
     out = Path(out)
     try:
         write_posterior_csv(post, res, out / "posterior.csv")
@@ -149,5 +178,12 @@ def write_outputs(post, res, out: Path) -> None:
         corner_plot(res, out / "corner.png")
         if post.settings.draws_plotted:
             top_view_draws(post, res, out / "posterior_top_view.png", post.settings.draws_plotted)
+        notes = []
+        try:
+            best = best_draw(post, res)
+        except Exception as err:  # noqa: BLE001 - the report stands without its animation
+            best = None
+            notes.append(f"the draw of largest log-likelihood could not be run: {type(err).__name__}: {err}")
+        write_posterior_report(post, res, out, chain_warnings(res), best, notes)
     except OSError as err:
         raise InputError(out, "--out", err.strerror or str(err)) from None

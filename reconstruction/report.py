@@ -1,5 +1,6 @@
 """What a reconstruction reports: the Pareto table, failures.csv, objectives.png, top views of chosen
-solutions, summary.md, and the result object with its JSON form.
+solutions, summary.md, report.html (crashlab.reconstruction.html_report), and the result object with its
+JSON form.
 
 The tables come first; a figure that cannot be drawn is named in summary.md instead of ending the run.
 """
@@ -151,8 +152,8 @@ def _near_optimal_figure(problem, near, path, plt) -> str:
 
 
 def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path):
-    """pareto.csv, failures.csv, objectives.png, top views of chosen solutions, summary.md. The tables
-    come first; a figure that cannot be drawn is named in summary.md instead of ending the run."""
+    """pareto.csv, failures.csv, objectives.png, top views of chosen solutions, summary.md, report.html. The
+    tables come first; a figure that cannot be drawn is named in summary.md instead of ending the run."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -207,10 +208,14 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         for k in sorted({0, *[int(result.pareto[f"f_{n}"].idxmin()) for n in names]}):
             chosen.append((k, result.pareto.loc[k, cols].to_numpy(dtype=float)))
     figures = []
+    best = None  # (scene, outcome) of Pareto row 0, animated in report.html
     for k, x in chosen[:3]:
         scene = problem.scene_for(x)
         try:
-            top_view(scene, model.simulate(scene), out_dir / f"solution_{k}.png",
+            outcome = model.simulate(scene)
+            if k == 0:
+                best = (scene, outcome)
+            top_view(scene, outcome, out_dir / f"solution_{k}.png",
                      title=f"Pareto solution {k}", measured=problem.evidence)
             figures.append(f"solution_{k}.png")
         except Exception as err:  # noqa: BLE001
@@ -255,13 +260,15 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                    f"weighted {hw:g} m/deg in the objectives." if hw else
                    "**not part of the objectives** (heading_weight = 0): a small f_ does not mean the "
                    "headings match."), ""]
+    warnings = []
     if len(result.pareto):
-        best = result.pareto.iloc[0]
-        off = [f"{n} {best[f'dheading_{n}']:+.0f} deg" for n in measured_h
-               if abs(best[f"dheading_{n}"]) > HEADING_WARN_DEG]
+        first = result.pareto.iloc[0]
+        off = [f"{n} {first[f'dheading_{n}']:+.0f} deg" for n in measured_h
+               if abs(first[f"dheading_{n}"]) > HEADING_WARN_DEG]
         if off:
-            lines += [f"**Warning: the first solution's rest headings are off the measured ones: {', '.join(off)}.**",
-                      ""]
+            warnings.append(f"**Warning: the first solution's rest headings are off the measured ones: "
+                            f"{', '.join(off)}.**")
+            lines += [warnings[-1], ""]
         show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names] +
                              [f"dheading_{n}" for n in measured_h]].head(15)
         lines.append(show.to_markdown(index=False, floatfmt=".3f"))
@@ -291,4 +298,15 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                   "pale, heading arrows in each vehicle's colour): " + ", ".join(figures)]
     if notes:
         lines += [""] + [f"- {n}" for n in notes]
+    lines += ["", "All of this, with every figure embedded and an animation of the first solution: report.html."]
     (out_dir / "summary.md").write_text("\n".join(lines) + "\n")
+    from .html_report import write_reconstruction_report
+    captions = []
+    for f in figures:
+        k = int(f[len("solution_"):-len(".png")])
+        why = (["the smallest sum of objectives"] if k == 0 else []) + [
+            f"the smallest f_{n}" for n in names if int(result.pareto[f"f_{n}"].idxmin()) == k]
+        captions.append((f, f"Pareto row {k}: {', '.join(why)}."))
+    write_reconstruction_report(study, result, out_dir, captions, figures_near, near,
+                                tol, best, warnings, notes,
+                                failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)
