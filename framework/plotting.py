@@ -1,10 +1,11 @@
-"""Figures: the top view of a simulated scene."""
+"""Figures: the top view of a simulated scene, and the drawing helpers the other figures share
+(crashlab.animation, the Monte Carlo figure): zones, barriers, the point of impact, a scale bar."""
 from __future__ import annotations
 
 import numpy as np
 
 from .scene import barrier_outline, vehicle_outline
-from .units import deg_to_rad
+from .units import deg_to_rad, wrap_deg
 
 
 def _arrow(ax, x, y, h, length, colour, **kw):
@@ -13,7 +14,7 @@ def _arrow(ax, x, y, h, length, colour, **kw):
                                 shrinkA=0, shrinkB=0, mutation_scale=12))
 
 
-def _zones(ax, road):
+def draw_zones(ax, road):
     """Friction zones shaded (darker for lower friction) and named with their friction."""
     for z in road.zones:
         poly = np.asarray(z.polygon + z.polygon[:1])
@@ -21,6 +22,22 @@ def _zones(ax, road):
         ax.fill(poly[:, 0], poly[:, 1], color=(shade, shade, 1.0), alpha=0.6, zorder=0)
         ax.text(*poly[:-1].mean(axis=0), f"{z.name} (mu {z.friction:g})", ha="center", va="center", fontsize=7,
                 color="0.25", zorder=0)
+
+
+_zones = draw_zones  # the name crashlab.montecarlo imports
+
+
+def draw_barriers(ax, barriers):
+    """Barriers filled dark grey."""
+    for b in barriers:
+        poly = barrier_outline(b)
+        ax.fill(poly[:, 0], poly[:, 1], color="0.3")
+
+
+def vehicle_colours() -> list:
+    """One colour per vehicle, in scene order (cycled): the same in every figure."""
+    import matplotlib.pyplot as plt
+    return plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
 
 def _action_marks(ax, v, tr, colour):
@@ -48,8 +65,8 @@ def top_view(scene, outcome, path, title=None, measured=None):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 6))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    _zones(ax, scene.road)
+    colours = vehicle_colours()
+    draw_zones(ax, scene.road)
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]
         arrow_len = 0.8 * v.spec.cg_to_front
@@ -59,7 +76,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
             poses.append(((fc[0], fc[1], fc[2]), "--", "first contact"))
         r = outcome.rest_si[i]
         if outcome.outcome_ok and np.all(np.isfinite(r)):
-            heading = (np.degrees(r[2]) + 180.0) % 360.0 - 180.0
+            heading = wrap_deg(np.degrees(r[2]))  # the wrapped pose (-180, 180]; the turn is in the tables
             poses.append(((r[0], r[1], r[2]), "-", f"{outcome.pose_label(i)}, heading {heading:.1f} deg"))
         for (x, y, h), ls, label in poses:
             poly = vehicle_outline(v, x, y, h)
@@ -77,19 +94,17 @@ def top_view(scene, outcome, path, title=None, measured=None):
                 continue
             poly = vehicle_outline(v, mx, my, deg_to_rad(mh))
             poly = np.vstack([poly, poly[:1]])
-            mh_w = (mh + 180.0) % 360.0 - 180.0
+            mh_w = wrap_deg(mh)
             ax.plot(poly[:, 0], poly[:, 1], "-", color=c, lw=3, alpha=0.35,
                     label=f"{v.name} measured, heading {mh_w:.1f} deg")
             _arrow(ax, mx, my, deg_to_rad(mh), arrow_len, c, lw=3, alpha=0.45)
-    for b in scene.barriers:
-        poly = barrier_outline(b)
-        ax.fill(poly[:, 0], poly[:, 1], color="0.3")
-    _point_of_impact(ax, outcome)
+    draw_barriers(ax, scene.barriers)
+    point_of_impact(ax, outcome)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(title or f"{scene.name} ({outcome.model})")
-    _scale_bar(ax)
+    scale_bar(ax)
     # the legend beside the drawing, never over it
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
@@ -98,7 +113,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
     plt.close(fig)
 
 
-def _point_of_impact(ax, outcome):
+def point_of_impact(ax, outcome):
     """The first impact's point (a star) and its contact plane (a line through it, 2 m long)."""
     rows = outcome.impact_rows if outcome.outcome_ok else []
     if not rows:
@@ -112,7 +127,7 @@ def _point_of_impact(ax, outcome):
                 zorder=5, label="contact plane")
 
 
-def _scale_bar(ax):
+def scale_bar(ax):
     """A scale bar of a round length (1, 2, 5 x 10^k m, about a fifth of the view) in the lower left."""
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
@@ -123,3 +138,66 @@ def _scale_bar(ax):
     ax.plot([bx, bx + length], [by, by], "-", color="k", lw=3, solid_capstyle="butt", zorder=6)
     ax.text(bx + length / 2, by + 0.015 * (y1 - y0), f"{length:g} m", ha="center", va="bottom", fontsize=8,
             zorder=6)
+
+
+def compare_view(scene, outcomes: dict, path, title=None):
+    """Every model's run in one top view (`crashlab compare --plot`): one colour per model, one line style
+    per vehicle; start outlines grey and dotted, CG paths, end outlines with heading arrows in the model's
+    colour (a failed run: its path up to where it stopped, no end pose), each reference's published rest
+    poses thick and pale grey with heading arrows; zones, barriers, scale bar, the legend beside the drawing."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 6))
+    colours = vehicle_colours()
+    styles = ["-", "--", "-.", ":"]
+    draw_zones(ax, scene.road)
+    draw_barriers(ax, scene.barriers)
+    for v in scene.vehicles:
+        poly = vehicle_outline(v)
+        poly = np.vstack([poly, poly[:1]])
+        ax.plot(poly[:, 0], poly[:, 1], ":", color="0.45", lw=1.0)
+        _arrow(ax, v.x, v.y, v.heading, 0.8 * v.spec.cg_to_front, "0.45", lw=1.0)
+        ax.annotate(v.name, (v.x, v.y), textcoords="offset points", xytext=(-4, -12), fontsize=8, color="0.3")
+    for m, (model, out) in enumerate(outcomes.items()):
+        c = colours[m % len(colours)]
+        for i, v in enumerate(scene.vehicles):
+            ls = styles[i % len(styles)]
+            tr = out.trajectories.get(v.name)
+            label = f"{model}: {v.name}"
+            if tr is not None and len(tr["t"]):
+                ax.plot(tr["x"], tr["y"], ls, color=c, lw=1.0, alpha=0.8)
+            r = out.rest_si[i]
+            if not (out.outcome_ok and np.all(np.isfinite(r))):
+                ax.plot([], [], ls, color=c, label=f"{label} failed, no end pose")
+                continue
+            poly = vehicle_outline(v, *r)
+            poly = np.vstack([poly, poly[:1]])
+            ax.plot(poly[:, 0], poly[:, 1], ls, color=c, lw=1.6,
+                    label=f"{label} {out.pose_label(i)}, heading {wrap_deg(np.degrees(r[2])):.1f} deg")
+            _arrow(ax, r[0], r[1], r[2], 0.8 * v.spec.cg_to_front, c)
+    greys = ["0.2", "0.5", "0.7"]
+    by_name = {v.name: v for v in scene.vehicles}
+    for k, (src, per_vehicle) in enumerate(scene.references.items()):
+        g = greys[k % len(greys)]
+        for name, ref in per_vehicle.items():
+            v = by_name.get(name)
+            if v is None or not all(key in ref for key in ("x", "y", "heading")):
+                continue
+            h = deg_to_rad(ref["heading"])
+            poly = vehicle_outline(v, ref["x"], ref["y"], h)
+            poly = np.vstack([poly, poly[:1]])
+            ax.plot(poly[:, 0], poly[:, 1], "-", color=g, lw=3, alpha=0.45,
+                    label=f"{src}: {name}, heading {wrap_deg(ref['heading']):.1f} deg")
+            _arrow(ax, ref["x"], ref["y"], h, 0.8 * v.spec.cg_to_front, g, lw=3, alpha=0.5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title or f"{scene.name}: " + ", ".join(outcomes))
+    scale_bar(ax)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)

@@ -1,0 +1,111 @@
+"""`crashlab simulate SCENE --animate FILE.gif|mp4` and crashlab.animation.write_animation: the GIF has one frame
+per frame time, frame 0 shows the start poses and the last frame the outcome's rest poses (checked on the
+pixels), a bad extension or a missing ffmpeg is one line and exit status 2."""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import PC_CRASH, assert_one_error_line
+
+import crashlab
+from crashlab.animation import animation_times, frame_poses, write_animation
+from crashlab.scene import vehicle_outline
+
+
+def _cli(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "crashlab.cli", *map(str, args)], capture_output=True, text=True,
+                          timeout=300, env=env)
+
+
+@pytest.fixture(scope="module")
+def side():
+    scene = crashlab.load_scene(PC_CRASH / "side.toml")
+    return scene, crashlab.simulate(scene, model="impulse")
+
+
+def test_frame_times_and_poses_run_from_the_start_to_the_rest_poses(side):
+    scene, out = side
+    t_end = out.trajectories["V1"]["t"][-1]
+    times = animation_times(out, fps=10.0)
+    assert len(times) == math.ceil(t_end * 10.0) + 1 and times[0] == 0.0 and times[-1] == t_end
+    assert len(animation_times(out, fps=10.0, speed=0.5)) == math.ceil(t_end * 20.0) + 1  # slow motion
+    assert len(animation_times(out, fps=1000.0, max_frames=50)) == 50
+    poses = frame_poses(scene, out, times)
+    for i, v in enumerate(scene.vehicles):
+        assert poses[v.name][0] == pytest.approx([v.x, v.y, v.heading], abs=1e-12)
+        assert poses[v.name][-1] == pytest.approx(out.rest_si[i], abs=1e-9)
+
+
+def _colour_near(frame, xy_px, colour, radius=2, tol=60):
+    """Whether a pixel within `radius` of xy_px (image coordinates) has `colour` (RGB, 0-255) within tol."""
+    x, y = int(round(xy_px[0])), int(round(xy_px[1]))
+    patch = frame[max(y - radius, 0):y + radius + 1, max(x - radius, 0):x + radius + 1].astype(int)
+    return bool((np.abs(patch - np.asarray(colour)).sum(axis=2) < tol).any())
+
+
+def test_gif_has_one_frame_per_time_with_the_start_and_rest_outlines_drawn(side, tmp_path, monkeypatch):
+    """The GIF's frame 0 draws each vehicle's outline at its start pose and its last frame at the outcome's rest
+    pose: the midpoints of the outline's edges, mapped through the figure's axes to pixels, carry the
+    vehicle's colour there (and the rest outline's do not in frame 0: the vehicles moved)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.colors as mcolors
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from crashlab.plotting import vehicle_colours
+    scene, out = side
+    captured = {}
+    close = plt.close
+    monkeypatch.setattr(plt, "close", lambda fig=None: captured.setdefault("fig", fig))
+    path = write_animation(scene, out, tmp_path / "side.gif", fps=10.0)
+    assert path == tmp_path / "side.gif"
+    img = Image.open(path)
+    assert img.format == "GIF" and img.n_frames == len(animation_times(out, fps=10.0))
+    fig = captured["fig"]
+    ax = fig.axes[0]
+    height = img.size[1]
+    assert tuple(img.size) == tuple(int(round(d)) for d in fig.get_size_inches() * fig.dpi)
+
+    def frame(k):
+        img.seek(k)
+        return np.asarray(img.convert("RGB"))
+
+    first, last = frame(0), frame(img.n_frames - 1)
+    for i, v in enumerate(scene.vehicles):
+        colour = np.asarray(mcolors.to_rgb(vehicle_colours()[i])) * 255
+        for pose, image in (((v.x, v.y, v.heading), first), (tuple(out.rest_si[i]), last)):
+            corners = vehicle_outline(v, *pose)
+            mids = (corners + np.roll(corners, -1, axis=0)) / 2
+            px = ax.transData.transform(mids)
+            px[:, 1] = height - px[:, 1]  # image rows count down
+            assert all(_colour_near(image, p, colour) for p in px), (v.name, pose)
+        rest_mids = ax.transData.transform((lambda c: (c + np.roll(c, -1, axis=0)) / 2)(
+            vehicle_outline(v, *out.rest_si[i])))
+        rest_mids[:, 1] = height - rest_mids[:, 1]
+        assert not all(_colour_near(first, p, colour) for p in rest_mids), "frame 0 is not the rest pose"
+    close(fig)
+
+
+def test_cli_animate_writes_a_gif_and_refuses_bad_paths(tmp_path):
+    gif = tmp_path / "side.gif"
+    res = _cli("simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 5)
+    assert res.returncode == 0, res.stderr
+    out = crashlab.simulate(crashlab.load_scene(PC_CRASH / "side.toml"), model="impulse")
+    from PIL import Image
+    assert Image.open(gif).n_frames == math.ceil(out.trajectories["V1"]["t"][-1] * 5) + 1 == 9
+    bad = tmp_path / "side.png"
+    assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", bad), bad, "--animate",
+                          [".gif or .mp4"])
+    mp4 = tmp_path / "side.mp4"
+    no_ffmpeg = {**os.environ, "PATH": str(tmp_path)}  # no ffmpeg on this PATH
+    assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", mp4, env=no_ffmpeg), mp4,
+                          "--animate", ["ffmpeg"])
+    assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 0), "command line",
+                          "--fps")
+    assert not bad.exists() and not mp4.exists()
