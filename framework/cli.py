@@ -7,11 +7,76 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
 from .errors import InputError
 from .registry import UnknownPluginError
+from .units import wrap_deg
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless the help already says it or there is none to show
+    (a flag, an option that is off without a value)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if (not action.option_strings or "default" in text or action.default in (None, False)
+                or action.default is argparse.SUPPRESS):
+            return text
+        return text + " (default: %(default)s)"
+
+
+def _num(v):
+    """A JSON number: None for NaN or inf (JSON has neither)."""
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return None
+    return round(v, 6) if math.isfinite(v) else None
+
+
+# units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
+JSON_UNITS = {"x": "m", "y": "m", "heading": "deg, wrapped to (-180, 180]",
+              "heading_continuous": "deg, continuous: the start heading plus every turn",
+              "yaw_turned": "deg, continuous: rest heading minus start heading (two spins add 720)",
+              "speed": "km/h", "vx": "km/h, global", "vy": "km/h, global", "yaw_rate": "deg/s", "wall_time_s": "s",
+              "d_<source>_m": "m, distance of a model's rest position to the reference's",
+              "d_<source>_deg": "deg, wrapped to (-180, 180], model heading minus reference heading"}
+
+
+def result_json(scene, out) -> dict:
+    """One entry of "results": Outcome.to_json_dict() (model, ok, vehicles, impacts, warnings, violations,
+    rolled_over, wall_time_s) with each rest pose's heading wrapped to (-180, 180] and, beside it,
+    heading_continuous and yaw_turned (JSON_UNITS)."""
+    d = out.to_json_dict()
+    start = {v.name: math.degrees(v.heading) for v in scene.vehicles}
+    for name, veh in d["vehicles"].items():
+        rest = veh["rest"]
+        h = rest["heading"]
+        rest["heading"] = None if h is None else _num(wrap_deg(h))
+        rest["heading_continuous"] = h
+        rest["yaw_turned"] = None if h is None else _num(h - start[name])
+    return d
+
+
+def results_json(scene_file, scene, outcomes: dict) -> dict:
+    """The one JSON shape of `simulate --json` (one result) and `compare --json` (one per model):
+    {"scene": {"name", "file"}, "results": [result_json ...], "references": {source: {vehicle: {x, y,
+    heading, ...}}}, "comparison": [a row of crashlab.compare.comparison_table per source and vehicle],
+    "units": JSON_UNITS | the impact table's units}."""
+    from .compare import comparison_table
+    from .outcome import IMPACT_UNITS
+    table = comparison_table(scene, outcomes)
+    comparison = [{k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()}
+                  for row in table.astype(object).to_dict(orient="records")]
+    references = {src: {n: {k: _num(v) for k, v in ref.items()} for n, ref in per.items()}
+                  for src, per in scene.references.items()}
+    return {"scene": {"name": scene.name, "file": str(scene_file)},
+            "results": [result_json(scene, out) for out in outcomes.values()],
+            "references": references, "comparison": comparison,
+            "units": {**JSON_UNITS, **{f"impacts.{k}": u for k, u in IMPACT_UNITS.items()}}}
 
 
 def cmd_vehicles(args):
@@ -64,6 +129,8 @@ def cmd_monte_carlo(args, scene, model):
         raise InputError("command line", "--plot", "with --monte-carlo the figure goes to --out DIR")
     if args.csv:
         raise InputError("command line", "--csv", "with --monte-carlo the tables go to --out DIR")
+    if args.animate:
+        raise InputError("command line", "--animate", "animates a single run, not --monte-carlo")
     if not scene.uncertain:
         raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
                          "(field, distribution and its parameters); this scene has none")
@@ -96,8 +163,28 @@ def _write_csv(out, folder: Path) -> None:
         raise InputError(str(folder), "--csv", f"cannot write there ({err.strerror or err})") from None
 
 
+def _rest_table(scene, out):
+    """The end poses for printing: x, y [m], heading wrapped to (-180, 180] [deg], yaw turned since the
+    start (continuous) [deg], speed [km/h], at_rest."""
+    rest = out.rest
+    start = [math.degrees(v.heading) for v in scene.vehicles]
+    table = rest[["x", "y"]].copy()
+    table["heading [deg, -180..180]"] = wrap_deg(rest["heading"].to_numpy())
+    table["yaw turned [deg]"] = rest["heading"].to_numpy() - start
+    table["speed [km/h]"] = rest["speed"]
+    table["at_rest"] = rest["at_rest"]
+    return table.rename(columns={"x": "x [m]", "y": "y [m]"})
+
+
 def cmd_simulate(args):
     from .scene import load_scene
+    animate = None
+    if args.animate:
+        from .animation import check_animation_path
+        animate = check_animation_path(args.animate, "--animate")  # before the run: refused at once
+        if not args.fps > 0 or not args.slow_motion > 0:
+            raise InputError("command line", "--fps" if not args.fps > 0 else "--slow-motion",
+                             f"must be positive, got {args.fps if not args.fps > 0 else args.slow_motion}")
     scene = load_scene(args.scene)
     model = _get_model(args.model, args.scene)
     if args.monte_carlo is not None:
@@ -114,8 +201,14 @@ def cmd_simulate(args):
             top_view(scene, out, args.plot)
         except (OSError, ValueError) as err:
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
+    if animate and out.trajectories:
+        from .animation import write_animation
+        try:
+            write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion)
+        except (OSError, ValueError) as err:
+            raise InputError(str(animate), "--animate", str(err).splitlines()[0]) from None
     if args.json:
-        print(json.dumps(out.to_json_dict(), indent=2))
+        print(json.dumps(results_json(args.scene, scene, {out.model or args.model: out}), indent=2))
     if not out.outcome_ok:
         print(f"crashlab: simulation failed: {args.scene}: model {out.model}: {'; '.join(out.warnings)}",
               file=sys.stderr)
@@ -125,14 +218,15 @@ def cmd_simulate(args):
     import pandas as pd
     with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 160):
         print(f"{scene.name} — model {out.model}, {out.wall_time_s * 1e3:.1f} ms")
-        print("end pose [m, deg, km/h]:")
-        print(out.rest.to_string())
+        print("end pose:")
+        print(_rest_table(scene, out).to_string())
         for i, n in enumerate(out.names):
             if not out.at_rest_mask[i]:
                 print(f"{n}: {out.pose_label(i)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
                       "not a rest pose")
-        print("final velocity [km/h, deg/s]:")
-        print(out.final.to_string())
+        print("final velocity:")
+        print(out.final.rename(columns={"vx": "vx [km/h]", "vy": "vy [km/h]", "yaw_rate": "yaw_rate [deg/s]"})
+              .to_string())
         if len(out.impacts):
             print("impacts:")
             from .outcome import IMPACT_UNITS
@@ -147,25 +241,33 @@ def cmd_simulate(args):
 def cmd_compare(args):
     import pandas as pd
 
-    from .compare import comparison_table
+    from .compare import comparison_table, with_unit_headers
     from .scene import load_scene
     scene = load_scene(args.scene)
     models = [m.strip() for m in args.models.split(",") if m.strip()]
-    outcomes = {}
-    for m in models:
-        outcomes[m] = _get_model(m, args.scene).simulate(scene)
-    df = comparison_table(scene, outcomes)
+    if not models:
+        raise InputError("command line", "--models", "give at least one model name")
+    resolved = {m: _get_model(m, args.scene) for m in models}
+    outcomes = {m: model.simulate(scene) for m, model in resolved.items()}
     failed = [m for m, out in outcomes.items() if not out.outcome_ok]
+    if args.plot:
+        from .plotting import compare_view
+        try:
+            compare_view(scene, outcomes, args.plot)
+        except (OSError, ValueError) as err:
+            raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
     if args.json:
-        print(df.to_json(orient="records", indent=2))
+        print(json.dumps(results_json(args.scene, scene, outcomes), indent=2))
         for m in failed:
             print(f"crashlab: simulation failed: {args.scene}: model {m}: {'; '.join(outcomes[m].warnings)}",
                   file=sys.stderr)
         return 3 if failed else 0
-    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 200,
+    df = comparison_table(scene, outcomes)
+    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 250,
                            "display.max_columns", 30):
-        print(f"{scene.name}: end pose x, y [m], heading [deg], at_rest; final velocity vx, vy [km/h]")
-        print(df.to_string(index=False))
+        print(f"{scene.name}: end pose, final velocity; d_<source>: difference to a published result "
+              "(heading wrapped; yaw turned: continuous, since the start)")
+        print(with_unit_headers(df).to_string(index=False))
     for m, out in outcomes.items():
         for w in out.warnings:
             print(f"warning ({m}):", w)
@@ -255,75 +357,96 @@ def package_version() -> str:
 
 
 def build_parser():
-    p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0])
-    p.add_argument("--version", action="version", version=f"crashlab {package_version()}")
-    sub = p.add_subparsers(dest="command", required=True)
-    mo = sub.add_parser("models", help="list the registered collision models and optimizers")
+    p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0], formatter_class=HelpFormatter)
+    p.add_argument("--version", action="version", version=f"crashlab {package_version()}",
+                   help="print the installed version and exit")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def command(name, help):
+        return sub.add_parser(name, help=help, description=help, formatter_class=HelpFormatter)
+
+    mo = command("models", "list the registered collision models and optimizers")
     mo.add_argument("--options", metavar="NAME", help="list the options of model NAME with unit, range, default "
-                    "and accuracy direction")
+                    "and accuracy direction (without it: the names of every model and optimizer)")
     mo.set_defaults(fn=cmd_models)
-    ve = sub.add_parser("vehicles", help="list the vehicle library: class, mass, size, wheelbase, yaw inertia and "
-                        "whether it is measured, published or an estimate")
+    ve = command("vehicles", "list the vehicle library: class, mass, size, wheelbase, yaw inertia and whether it "
+                 "is measured, published or an estimate")
     ve.set_defaults(fn=cmd_vehicles)
-    s = sub.add_parser("simulate", help="simulate a scene file")
-    s.add_argument("scene")
-    s.add_argument("--model", default="impulse")
-    s.add_argument("--json", action="store_true")
+    s = command("simulate", "simulate a scene file and print the end poses, final velocities and impacts")
+    s.add_argument("scene", help="scene TOML file (docs/reference.md)")
+    s.add_argument("--model", default="impulse", help="collision model (crashlab models lists them)")
+    s.add_argument("--json", action="store_true", help="print JSON instead of tables: the shape of compare --json "
+                   "with one result ({scene, results, references, comparison, units})")
     s.add_argument("--plot", metavar="FILE", help="write the top view (PNG, PDF, SVG)")
     s.add_argument("--csv", metavar="DIR", help="write DIR/trajectories.csv (vehicle, t [s], x, y [m], heading "
-                   "[deg], vx, vy [km/h], yaw_rate [deg/s]) and DIR/impacts.csv")
+                   "[deg, continuous], vx, vy [km/h], yaw_rate [deg/s]) and DIR/impacts.csv")
+    s.add_argument("--animate", metavar="FILE", help="write an animation, FILE.gif (Pillow) or FILE.mp4 (needs "
+                   "ffmpeg on PATH): outlines with headings, growing CG paths, impacts flashed, time stamp")
+    s.add_argument("--fps", type=float, default=25.0, help="--animate: frames per second of playback")
+    s.add_argument("--slow-motion", type=float, default=1.0, metavar="FACTOR",
+                   help="--animate: play FACTOR times slower than real time (at most 300 frames: a long run "
+                   "plays faster)")
     s.add_argument("--monte-carlo", type=int, default=None, metavar="N",
-                   help="draw the scene's [[uncertain]] parameters N times and simulate each draw")
-    s.add_argument("--seed", type=int, default=None, help="seed of the Monte Carlo draws (default 1)")
-    s.add_argument("--out", default=None, metavar="DIR", help="Monte Carlo: write montecarlo.csv, summary.csv "
-                   "and montecarlo.png here")
+                   help="draw the scene's [[uncertain]] parameters N times and simulate each draw (default: "
+                   "one run of the nominal scene)")
+    s.add_argument("--seed", type=int, default=None, help="--monte-carlo: seed of the draws (default: 1)")
+    s.add_argument("--out", default=None, metavar="DIR", help="--monte-carlo: write montecarlo.csv, summary.csv "
+                   "and montecarlo.png here (default: print the summary only)")
     s.set_defaults(fn=cmd_simulate)
-    c = sub.add_parser("compare", help="compare models with each other and with the published results")
-    c.add_argument("scene")
-    c.add_argument("--models", default="impulse")
-    c.add_argument("--json", action="store_true")
+    c = command("compare", "compare models with each other and with the scene's published results")
+    c.add_argument("scene", help="scene TOML file, optionally with [reference.SOURCE.VEHICLE] tables")
+    c.add_argument("--models", default="impulse", metavar="A,B", help="comma-separated model names")
+    c.add_argument("--json", action="store_true", help="print JSON instead of the table: {scene, results (one per "
+                   "model), references, comparison, units}")
+    c.add_argument("--plot", metavar="FILE", help="write one top view with every model's paths and end poses and "
+                   "the published rest poses (PNG, PDF, SVG)")
     c.set_defaults(fn=cmd_compare)
-    b = sub.add_parser("bench", help="simulations per second, single and batched")
-    b.add_argument("--model", default="impulse")
+    b = command("bench", "simulations per second, single and batched")
+    b.add_argument("--model", default="impulse", help="collision model")
     b.add_argument("--scene", default=None, help="scene file (default: the bundled side collision)")
-    b.add_argument("--batch", type=int, default=1000)
-    b.add_argument("--repeat", type=int, default=3)
+    b.add_argument("--batch", type=int, default=1000, help="scenes per batched call")
+    b.add_argument("--repeat", type=int, default=3, help="timed repetitions (the best one counts)")
     b.set_defaults(fn=cmd_bench)
-    st = sub.add_parser("stress", help="seeded random crashes judged by the physics guard")
-    st.add_argument("--model", default="impulse")
-    st.add_argument("--runs", type=int, default=100)
-    st.add_argument("--seed", type=int, default=1)
-    st.add_argument("--csv", default=None, metavar="FILE", help="one row per run")
+    st = command("stress", "seeded random crashes judged by the physics guard")
+    st.add_argument("--model", default="impulse", help="collision model")
+    st.add_argument("--runs", type=int, default=100, help="random scenes (the fixed extreme scenes run besides)")
+    st.add_argument("--seed", type=int, default=1, help="seed of the random scenes")
+    st.add_argument("--csv", default=None, metavar="FILE", help="write one row per run (default: none written)")
     st.set_defaults(fn=cmd_stress)
-    inf = sub.add_parser("infer", help="sample the posterior of a study's free variables and uncertain parameters "
-                         "given its evidence (with sigmas)")
+    inf = command("infer", "sample the posterior of a study's free variables and uncertain parameters given its "
+                  "evidence (with sigmas)")
     inf.add_argument("study", help="study TOML file with the evidence's sigmas")
-    inf.add_argument("--out", required=True, help="output directory (posterior.csv, summary.md, figures, checkpoint)")
+    inf.add_argument("--out", required=True, metavar="DIR",
+                     help="output directory (posterior.csv, summary.md, figures, checkpoint); required")
     inf.add_argument("--samples", type=int, default=None, help="kept posterior samples (default: [infer] samples)")
     inf.add_argument("--seed", type=int, default=None, help="sampler seed (default: [infer] seed)")
     inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
     inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
     inf.add_argument("--no-progress", action="store_true", help="no progress line")
     inf.set_defaults(fn=cmd_infer)
-    r = sub.add_parser("reconstruct", help="search the pre-impact conditions that explain the evidence")
-    r.add_argument("study")
-    r.add_argument("--optimizer", default=None)
-    r.add_argument("--workers", type=int, default=None)
-    r.add_argument("--scheduler", default=None)
-    r.add_argument("--resume", action="store_true")
-    r.add_argument("--out", default=None)
-    r.add_argument("--json", action="store_true")
-    r.add_argument("--no-progress", action="store_true")
+    r = command("reconstruct", "search the pre-impact conditions that explain the evidence")
+    r.add_argument("study", help="study TOML file (docs/reference.md)")
+    r.add_argument("--optimizer", default=None, metavar="NAME",
+                   help="optimizer (default: the study's [optimizer] name)")
+    r.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
+    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of a Dask scheduler to evaluate on (default: the study's [execution] scheduler, "
+                   "else local workers)")
+    r.add_argument("--resume", action="store_true", help="continue from --out DIR's checkpoint")
+    r.add_argument("--out", default=None, metavar="DIR",
+                   help="write the Pareto set, report and figures here (default: print only)")
+    r.add_argument("--json", action="store_true", help="print the result as JSON")
+    r.add_argument("--no-progress", action="store_true", help="no progress line")
     r.set_defaults(fn=cmd_reconstruct)
-    sd = sub.add_parser("study", help="comparison studies of the models: run time against error, stability, "
-                        "scaling, validation")
+    sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
+                 "validation")
     sd.add_argument("name", help="workprecision | stability | scaling | validation | all")
     sd.add_argument("--models", default=None, help="comma-separated model names (default: every registered model)")
     sd.add_argument("--quick", action="store_true", help="a small configuration (minutes, not hours)")
-    sd.add_argument("--out", required=True, metavar="DIR", help="folder for the CSV files and figures")
+    sd.add_argument("--out", required=True, metavar="DIR", help="folder for the CSV files and figures; required")
     sd.set_defaults(fn=cmd_study)
-    sc = sub.add_parser("schema", help="print the JSON Schema of a scene, study or vehicle file (for editors' "
-                        "completion and checking), or with --markdown the reference of every key (docs/reference.md)")
+    sc = command("schema", "print the JSON Schema of a scene, study or vehicle file (for editors' completion and "
+                 "checking), or with --markdown the reference of every key (docs/reference.md)")
     sc.add_argument("kind", nargs="?", choices=["scene", "study", "vehicle"], help="the file kind")
     sc.add_argument("--markdown", action="store_true", help="print docs/reference.md: every key of the three file "
                     "kinds with type, unit, range, default and meaning")

@@ -5,26 +5,37 @@ import math
 
 import pandas as pd
 
-from .units import wrap_deg
+from .units import rad_to_deg, wrap_deg
+
+# units of comparison_table's columns, printed in the headers (d_<source>_m / _deg: see comparison_units)
+COMPARE_UNITS = {"x": "m", "y": "m", "heading": "deg, -180..180", "yaw_turned": "deg", "vx": "km/h", "vy": "km/h"}
 
 
 def comparison_table(scene, outcomes: dict) -> pd.DataFrame:
     """One row per (source, vehicle): rest pose and final velocity of each model and each reference,
     with the differences of every model row to every reference (distance [m], wrapped heading [deg]);
     a failed run (ok False) shows where it stopped and no differences; at_rest False marks an end pose of
-    a vehicle still moving when the run ended."""
+    a vehicle still moving when the run ended. `heading` is the pose's heading wrapped to (-180, 180] deg
+    (models and references alike); `yaw_turned` [deg] is how far a model's vehicle turned from its start,
+    continuous (two spins read 720 more; NaN for a reference, which gives only the pose)."""
     rows = []
+    start = {v.name: rad_to_deg(v.heading) for v in scene.vehicles}
     for model, out in outcomes.items():
         rest, fin = out.rest, out.final
         for name in out.names:
+            h = float(rest.at[name, "heading"])
             rows.append({"source": model, "vehicle": name, "x": rest.at[name, "x"], "y": rest.at[name, "y"],
-                         "heading": rest.at[name, "heading"], "at_rest": bool(rest.at[name, "at_rest"]),
+                         "heading": wrap_deg(h), "yaw_turned": h - start[name],
+                         "at_rest": bool(rest.at[name, "at_rest"]),
                          "vx": fin.at[name, "vx"], "vy": fin.at[name, "vy"], "ok": out.outcome_ok})
     for src, per_vehicle in scene.references.items():
         for name, ref in per_vehicle.items():
             rows.append({"source": src, "vehicle": name, **{k: ref.get(k, math.nan)
-                                                              for k in ("x", "y", "heading", "vx", "vy")}})
-    df = pd.DataFrame(rows)
+                                                              for k in ("x", "y", "heading", "vx", "vy")},
+                         "yaw_turned": math.nan})
+            rows[-1]["heading"] = wrap_deg(rows[-1]["heading"])
+    df = pd.DataFrame(rows, columns=["source", "vehicle", "x", "y", "heading", "yaw_turned", "at_rest", "vx", "vy",
+                                     "ok"])
     for src in scene.references:
         ref = df[df.source == src].set_index("vehicle")
         d_pos, d_head = [], []
@@ -39,3 +50,27 @@ def comparison_table(scene, outcomes: dict) -> pd.DataFrame:
         df[f"d_{src}_m"] = d_pos
         df[f"d_{src}_deg"] = d_head
     return df
+
+
+def comparison_units(df: pd.DataFrame) -> dict:
+    """Column -> unit of a comparison_table (the differences to a reference: d_<source>_m in m,
+    d_<source>_deg in deg, wrapped to (-180, 180])."""
+    units = {c: u for c, u in COMPARE_UNITS.items() if c in df}
+    for c in df.columns:
+        if c.startswith("d_") and c.endswith("_m"):
+            units[c] = "m"
+        elif c.startswith("d_") and c.endswith("_deg"):
+            units[c] = "deg"
+    return units
+
+
+def with_unit_headers(df: pd.DataFrame) -> pd.DataFrame:
+    """The table with its units in the column names for printing: 'x [m]', 'd_pc_crash [m]', ..."""
+    units = comparison_units(df)
+
+    def name(c):
+        if c not in units:
+            return c
+        base = c[:-2] if c.endswith("_m") and c.startswith("d_") else c[:-4] if c.endswith("_deg") else c
+        return f"{base.replace('_', ' ') if base == 'yaw_turned' else base} [{units[c]}]"
+    return df.rename(columns={c: name(c) for c in df.columns})
