@@ -9,6 +9,7 @@ One module per reason to change:
   repair   the pymoo Repair that backs overlapping starts off and brings near misses onto a collision;
   run      the search (pymoo's Algorithm.run with a Callback: checkpoints, resume, progress);
   polish   the least-squares polish of the best candidates after the search;
+  refine   the second opinion ([refine]): the best candidates re-simulated and polished with another model;
   report   the Pareto table, failures.csv, figures, summary.md, the result and its JSON form;
   command  `crashlab reconstruct`;
   infer    the posterior of the free variables and uncertain parameters (`crashlab infer`), infer_report
@@ -20,7 +21,15 @@ from .command import run_cli
 from .evidence import EvidenceItem, EvidenceSet, log_likelihood_of
 from .infer import Posterior, PosteriorResult, load_posterior, parse_question, run_posterior
 from .polish import POLISH_SPACING, PolishResult, polish_archive, spaced_starts
-from .problem import FAILED_OBJECTIVE, ReconstructionProblem, largest_overlap, outline_depth
+from .problem import (
+    FAILED_OBJECTIVE,
+    ReconstructionProblem,
+    UncertainVariable,
+    largest_overlap,
+    outline_depth,
+    search_bounds,
+)
+from .refine import RefineResult, refine
 from .repair import CollisionRepair, repair_poses
 from .report import (
     DUPLICATE_TOL,
@@ -54,6 +63,7 @@ from .schema import (
     OptimizerSection,
     PolishSection,
     Real,
+    RefineSection,
     RepairSection,
     RestPose,
     StudyFile,
@@ -67,7 +77,8 @@ __all__ = [
     "CollisionRepair", "Evidence", "EvidenceItem", "EvidenceSet", "log_likelihood_of",
     "ExecutionSection", "FreeVariable", "Int", "ObjectiveSection",
     "OptimizerSection", "PolishResult", "PolishSection", "Real", "ReconstructionProblem", "ReconstructionResult",
-    "RepairSection", "RestPose", "Study", "StudyFile", "crashlab_version", "failure_counts", "largest_overlap",
+    "RefineResult", "RefineSection", "RepairSection", "RestPose", "UncertainVariable", "refine",
+    "search_bounds", "Study", "StudyFile", "crashlab_version", "failure_counts", "largest_overlap",
     "load_posterior", "load_study", "outline_depth",
     "parse_question", "Posterior", "PosteriorResult", "run_posterior", "pareto_table", "polish_archive",
     "repair_poses", "run_cli",

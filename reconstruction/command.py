@@ -12,23 +12,32 @@ from .study import load_study
 def run_cli(args) -> int:
     """args: the parsed `crashlab reconstruct` options (crashlab.cli). Bad input raises InputError."""
     study = load_study(args.study)
-    if study.spec.uncertain:
-        raise InputError(args.study, "uncertain", "uncertain parameters are priors of `crashlab infer`; the search "
-                         "does not take them yet (run `crashlab infer`, or remove them to search with the scene's "
-                         "values)")
     if args.optimizer and args.optimizer not in available_optimizers():
         raise InputError(args.study, "--optimizer",
                          str(UnknownPluginError("optimizer", args.optimizer, available_optimizers())))
     res = study.run(optimizer=args.optimizer, workers=args.workers, scheduler=args.scheduler,
                     out_dir=args.out, resume=args.resume, progress=not (args.json or args.no_progress))
+    refined = getattr(res, "refine", None)
     if args.json:
-        print(json.dumps(res.to_json_dict(), indent=2))
+        out = res.to_json_dict()
+        if refined is not None:
+            out["refine"] = refined.to_json_dict()
+        print(json.dumps(out, indent=2))
         return 0
     import pandas as pd
     with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 200, "display.max_columns", 40):
-        cols = [f.label for f in study.spec.free] + [f"f_{n}" for n in study.objective_names]
+        cols = [f.label for f in study.variables] + [f"f_{n}" for n in study.objective_names]
         cols += [f"dheading_{n}" for n, ev in study.evidence.items() if ev[2] is not None]
         print(res.pareto[cols].to_string(index=False) if len(res.pareto) else "no feasible solution")
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
+    if refined is not None and len(refined.table):
+        best = refined.table.iloc[0]
+        print(f"refine with {refined.model}: {refined.evaluations} evaluations of {refined.budget}, "
+              f"{refined.wall_time_s:.1f} s; best candidate moved " + ", ".join(
+                  f"{f.label} {best[f'moved_{f.label}']:+.3f}" for f in study.variables)
+              + f"; sum of squared residuals under {refined.model} {best['refine_sumsq_start']:.4g} -> "
+              f"{best['refine_sumsq']:.4g}" + (" (refine.csv, refine.md)" if args.out else ""))
+    elif refined is not None:
+        print(f"refine with {refined.model}: no candidate (no feasible solution)")
     return 0

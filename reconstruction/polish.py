@@ -128,9 +128,14 @@ def polish_archive(problem, spec, repair=None, budget: int | None = None):
     order = feasible[np.argsort(arch["F"][feasible].max(axis=1), kind="stable")]
     starts, picked = spaced_starts(arch["X"][order], problem.xl, problem.xu)
 
+    budget = spec.evaluations if budget is None else budget
+    polish(repaired_residuals(problem, repair), starts, problem.xl, problem.xu, budget, spec.step,
+           start_residuals=arch["R"][order[picked]])
+
+
+def repaired_residuals(problem, repair=None):
+    """The residual function a polish runs on: X -> the problem's residuals (ReconstructionProblem.
+    evaluate_residuals, every point recorded in its archive), each point repaired first when a repair is given."""
     def residuals(X):
         return problem.evaluate_residuals(X if repair is None else repair.apply(problem, X))
-
-    budget = spec.evaluations if budget is None else budget
-    polish(residuals, starts, problem.xl, problem.xu, budget, spec.step,
-           start_residuals=arch["R"][order[picked]])
+    return residuals

@@ -23,6 +23,13 @@ pose: scoring its distance to the measured rest position would reward a start th
 finished yet, and a penalty would have to trade km/h against metres with a weight nobody can justify;
 failing it is truthful, and the reason ("V1 still moving at 34 km/h at the end ...") tells the user that
 the scene's duration is too short when it happens often.
+
+Uncertain parameters (`[[uncertain]]` in the study or its scene file, crashlab.uncertainty) are searched as
+extra free variables within their support (UncertainVariable): uniform and triangular on [lower, upper], a
+normal on mean +- 3 sd within its truncation (99.7 % of it). A Pareto search has no place for a prior's shape:
+it asks which parameter values explain the evidence, and the Pareto rows show the values found. An entry on
+a field that is a free variable already changes nothing (the free variable's bounds stand). The posterior
+(crashlab.reconstruction.infer) uses the distributions themselves as priors.
 """
 from __future__ import annotations
 
@@ -32,6 +39,7 @@ import numpy as np
 from numba import njit
 from pymoo.core.problem import Problem
 
+from crashlab import fields
 from crashlab.execution import Evaluations, Executor, evaluations_of, model_for
 from crashlab.geometry import penetration, rect_corners
 from crashlab.scene import Scene
@@ -44,6 +52,36 @@ FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluatio
 # friction are the same in both
 TO_SI = {"heading": deg_to_rad, "speed": kmh_to_ms, "steer": deg_to_rad}
 FROM_SI = {"heading": rad_to_deg, "speed": ms_to_kmh, "steer": rad_to_deg}
+NORMAL_SPAN_SD = 3.0  # a normal uncertain parameter is searched on mean +- 3 sd (within its truncation)
+
+
+def variable_label(path: str) -> str:
+    """An uncertain parameter's column label: V1.mass for vehicles.V1.mass; road.friction, impact.restitution,
+    road.zones.0.friction as they are (the posterior's labels, crashlab.reconstruction.infer)."""
+    return path[len("vehicles."):] if path.startswith("vehicles.") else path
+
+
+@dataclasses.dataclass(frozen=True)
+class UncertainVariable:
+    """An uncertain parameter (crashlab.uncertainty.Uncertain) as a free variable of the search: its label,
+    crashlab.fields path and the search bounds (file units) of `search_bounds`."""
+    label: str
+    path: str
+    lower: float
+    upper: float
+    uncertain: object = None  # the crashlab.uncertainty.Uncertain it stands for
+
+    @classmethod
+    def of(cls, u) -> UncertainVariable:
+        return cls(variable_label(u.field), u.field, *search_bounds(u), u)
+
+
+def search_bounds(u) -> tuple[float, float]:
+    """Where the search looks for an uncertain parameter (file units): uniform and triangular on their support
+    [lower, upper]; a normal on mean +- NORMAL_SPAN_SD sd within its truncation [lower, upper]."""
+    if u.distribution == "normal":
+        return (max(u.lower, u.mean - NORMAL_SPAN_SD * u.sd), min(u.upper, u.mean + NORMAL_SPAN_SD * u.sd))
+    return float(u.lower), float(u.upper)
 
 
 @njit(cache=True)
@@ -119,11 +157,13 @@ def scene_with(scene: Scene, free: list[FreeVariable], row) -> Scene:
 
 
 class ReconstructionProblem(Problem):
-    """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints."""
+    """pymoo Problem: free variables (file units) -> scenes -> rest poses -> objectives/constraints.
+    `free`: the study's FreeVariables, then any UncertainVariables (each has label, path, lower, upper)."""
 
-    def __init__(self, scene: Scene, free: list[FreeVariable], evidence: dict, heading_weight: float,
+    def __init__(self, scene: Scene, free: list, evidence: dict, heading_weight: float,
                  model: str, model_options: dict, constraints_as_penalty: bool = False, evidence_set=None):
-        self.scene, self.free, self.evidence = scene, free, evidence  # evidence: name -> (x, y, heading deg)
+        self.scene, self.free, self.evidence = scene, list(free), evidence  # evidence: name -> (x, y, heading deg)
+        self.scene_fields = [fields.resolve(scene, f.path) for f in self.free]  # ValueError: not in this scene
         self.heading_weight, self.model, self.model_options = heading_weight, model, model_options
         self.evidence_set = evidence_set  # None: the thesis objective; else the misfit (module docstring)
         self.names = scene.vehicle_names
@@ -135,42 +175,50 @@ class ReconstructionProblem(Problem):
         self.outline_dims = np.array([[v.spec.cg_to_front, v.spec.cg_to_rear, v.spec.width / 2]
                                       for v in scene.vehicles])
         self.columns = {}  # (vehicle index, field) -> column of X
-        for c, f in enumerate(free):
-            if f.parts[0] == "vehicle":
-                self.columns[(self.names.index(f.vehicle), f.field)] = c
+        for c, f in enumerate(self.scene_fields):
+            if f.kind == "vehicle" and f.quantity in VEHICLE_FIELDS:
+                self.columns[(self.names.index(f.vehicle), f.quantity)] = c
         self.movable = np.array([(i, "x") in self.columns and (i, "y") in self.columns
                                  for i in range(len(self.names))], bool)
         # for an optimizer without constraint handling the violation is added to every objective
         self.constraints_as_penalty = constraints_as_penalty
         super().__init__(n_var=len(free), n_obj=len(self.objective_names),
                          n_ieq_constr=0 if constraints_as_penalty else 2,
-                         xl=np.array([f.lower for f in free]), xu=np.array([f.upper for f in free]),
-                         exclude_from_serialization=["executor"])  # a live pool or Dask client: no state
+                         xl=np.array([f.lower for f in free], dtype=float),
+                         xu=np.array([f.upper for f in free], dtype=float),
+                         # a live pool or Dask client, a closure: no state (the setter is made again)
+                         exclude_from_serialization=["executor", "_setter"])
+        self._setter = None
 
     # -- variables <-> scenes
+    @property
+    def labels(self) -> list[str]:
+        """The column labels of X (pareto.csv): the free variables', then the uncertain parameters'."""
+        return [f.label for f in self.free]
+
     def to_si(self, X) -> np.ndarray:
-        """(n, n_var) free variables in SI (m, rad, m/s) from X in file units (m, deg, km/h)."""
+        """(n, n_var) free variables in SI (m, rad, m/s) from X in file units (m, deg, km/h). X may hold the
+        first columns only (the study's free variables without the uncertain parameters)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         S = X.copy()
-        for c, f in enumerate(self.free):
-            if f.parts[2] in TO_SI:
-                S[:, c] = TO_SI[f.parts[2]](X[:, c])
+        for c, f in enumerate(self.scene_fields[:X.shape[1]]):
+            if f.quantity in TO_SI:
+                S[:, c] = TO_SI[f.quantity](X[:, c])
         return S
 
     def scenes_for(self, X) -> list[Scene]:
-        """The base scene with each row of X (file units) put in."""
-        return [scene_with(self.scene, self.free, row) for row in self.to_si(X)]
+        """The base scene with each row of X (file units) put in (crashlab.fields.setter, unchecked: the
+        bounds lie within each field's range)."""
+        if self._setter is None:
+            self._setter = fields.setter(self.scene, self.scene_fields, check=False)
+        return [self._setter(row) for row in np.atleast_2d(np.asarray(X, dtype=float))]
 
     def scene_for(self, x) -> Scene:
         return self.scenes_for(x)[0]
 
     def base_values(self) -> np.ndarray:
         """Each free variable's value in the base scene (file units): the truth of a twin experiment."""
-        out = []
-        for f in self.free:
-            value = field_value(self.scene, f)
-            out.append(FROM_SI[f.parts[2]](value) if f.parts[2] in FROM_SI else value)
-        return np.array(out, dtype=float)
+        return np.array([fields.get(self.scene, f) for f in self.scene_fields], dtype=float)
 
     def start_poses(self, X) -> np.ndarray:
         """(n, nv, 4): x, y, heading [rad], speed [m/s] of every vehicle at the start."""
@@ -178,7 +226,8 @@ class ReconstructionProblem(Problem):
         poses = np.empty((len(S), len(self.names), 4))
         poses[:] = [(v.x, v.y, v.heading, v.speed) for v in self.scene.vehicles]
         for (i, field), c in self.columns.items():
-            poses[:, i, VEHICLE_FIELDS.index(field)] = S[:, c]
+            if c < S.shape[1]:
+                poses[:, i, VEHICLE_FIELDS.index(field)] = S[:, c]
         return poses
 
     def with_positions(self, X, poses) -> np.ndarray:

@@ -29,10 +29,12 @@ from crashlab.errors import InputError
 from crashlab.execution import Executor, WorkerStartError
 
 from .polish import polish_archive
+from .refine import refine
 from .report import ReconstructionResult, pareto_table, write_outputs
 from .schema import WORKERS_MAX
 
-CHECKPOINT_FORMAT = "crashlab reconstruction checkpoint 3"  # 3: the archive keeps every residual vector
+CHECKPOINT_FORMAT = "crashlab reconstruction checkpoint 4"  # 3: the archive keeps every residual vector; 4: the
+# problem sets its variables through crashlab.fields (uncertain parameters)
 
 
 def _atomic_pickle(path: Path, obj):
@@ -207,8 +209,19 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
             if bar is not None:
                 bar.set_postfix_str("polished: " + status(problem, spec.objective.hv_reference))
         problem.executor = None
-    if bar is not None:
-        bar.close()
+        if bar is not None:
+            bar.close()
+        result = _result(study, problem, algorithm, name, n_search, budget, t0)
+        if out_dir:
+            write_outputs(study, result, problem.archive_arrays(), out_dir)
+        if spec.refine is not None:  # the second opinion (refine.py), on the same executor
+            result.refine = refine(study, result.pareto, out_dir, executor=executor, progress=progress)
+    return result
+
+
+def _result(study, problem, algorithm, name, n_search, budget, t0) -> ReconstructionResult:
+    """The search's ReconstructionResult (its wall time: search and polish)."""
+    spec = study.spec
     info = {"optimizer": name, "generations": int(algorithm.n_gen or 1) - 1,
             "pop_size": int(getattr(algorithm, "pop_size", None) or spec.optimizer.pop_size),
             "search_evaluations": n_search, "polish_evaluations": sum(len(x) for x in problem.archive["X"])
@@ -220,9 +233,6 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
         info["repaired"] = int(repair.repaired)
     arch = problem.archive_arrays()
     feasible = np.all(arch["G"] <= 0, axis=1) & arch["ok"]
-    result = ReconstructionResult(pareto_table(problem, arch), int(len(arch["X"])), int((~arch["ok"]).sum()),
-                                  float(feasible.mean()) if len(feasible) else 0.0,
-                                  time.perf_counter() - t0, problem, info)
-    if out_dir:
-        write_outputs(study, result, arch, out_dir)
-    return result
+    return ReconstructionResult(pareto_table(problem, arch), int(len(arch["X"])), int((~arch["ok"]).sum()),
+                                float(feasible.mean()) if len(feasible) else 0.0,
+                                time.perf_counter() - t0, problem, info)

@@ -14,6 +14,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, field_validator, model_validator
 
 from crashlab.execution import DEFAULT_TIMEOUT_S
+from crashlab.fields import study_path
 
 VEHICLE_FIELDS = ("x", "y", "heading", "speed")
 IMPACT_FIELDS = ("restitution", "friction")
@@ -120,6 +121,11 @@ class FreeVariable(_Strict):
     @property
     def parts(self) -> tuple[str, int | None, str]:
         return field_parts(self.field)
+
+    @property
+    def path(self) -> str:
+        """The field's crashlab.fields path (vehicles.V1.speed, impact.friction, road.zones.0.friction, ...)."""
+        return study_path(self.vehicle, self.field)
 
     @property
     def label(self) -> str:
@@ -280,6 +286,25 @@ class PolishSection(_Strict):
         return max(POLISH_MIN, math.ceil(POLISH_SHARE * pop_size * generations))
 
 
+REFINE_CANDIDATES_DEFAULT = 5
+REFINE_EVALUATIONS_DEFAULT = 200
+
+
+class RefineSection(_Strict):
+    """[refine]: a second opinion from another (richer) model after the search (crashlab.reconstruction.refine):
+    the best candidates (the Pareto rows, best first; or posterior draws) are simulated again with `model` and
+    polished by least squares with it (crashlab.reconstruction.polish) within `evaluations`."""
+    model: str = Field(description="the model of the second opinion, e.g. multibody (crashlab models lists them)")
+    model_options: dict = Field(default_factory=dict, description="[refine.model_options]: that model's options "
+                                "(crashlab models --options NAME)")
+    evaluations: Int = Field(default=REFINE_EVALUATIONS_DEFAULT, ge=1, le=10_000_000,
+                             description="evaluations of the refine model in all: re-simulating the candidates, "
+                             "then the polish; [1, 1e7]")
+    candidates: Int = Field(default=REFINE_CANDIDATES_DEFAULT, ge=1, le=10_000,
+                            description="how many of the best candidates are simulated again (then polished, best "
+                            "first, while the budget lasts); [1, 10000]")
+
+
 class StudyFile(_Strict):
     """A study: the base scene, the free variables searched, the evidence, the objective and the budget."""
     name: str = Field(default="", description="title of the study in outputs")
@@ -298,9 +323,14 @@ class StudyFile(_Strict):
     repair: RepairSection = Field(default=RepairSection(), description="[repair]: overlapping start states")
     polish: PolishSection = Field(default=PolishSection(), description="[polish]: least-squares polish of "
                                   "the best solutions")
-    # read by `crashlab infer` (reconstruction/infer.py checks them: InferSection, QuestionFile,
-    # crashlab.uncertainty); `crashlab reconstruct` takes none of them (uncertain parameters: it refuses)
+    refine: RefineSection | None = Field(default=None, description="[refine]: re-simulate and polish the best "
+                                         "candidates with another model (absent: no second opinion)")
+    # infer and questions are read by `crashlab infer` (reconstruction/infer.py checks them: InferSection,
+    # QuestionFile); uncertain by both (crashlab.uncertainty checks it when the study is loaded): the
+    # posterior's priors, the search's extra free variables within their support (problem.UncertainVariable)
     infer: dict = Field(default_factory=dict, description="the posterior sampler's settings (crashlab infer)")
     questions: list[dict] = Field(default_factory=list, description="[[questions]] expr = ... (crashlab infer)")
     uncertain: list[dict] = Field(default_factory=list,
-                                  description="[[uncertain]] parameters: priors of crashlab infer")
+                                  description="[[uncertain]] parameters: priors of crashlab infer; extra free "
+                                  "variables of crashlab reconstruct within their support (uniform and "
+                                  "triangular: lower..upper; normal: mean +- 3 sd within its truncation)")

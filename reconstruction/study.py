@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import ValidationError
 
+from crashlab import uncertainty
 from crashlab.errors import InputError
 from crashlab.execution import outcome_reason
 from crashlab.options import OptionError
@@ -40,7 +41,7 @@ from crashlab.units import ms_to_kmh
 from crashlab.vehicle import pydantic_error, read_toml
 
 from .evidence import build_evidence
-from .problem import ReconstructionProblem
+from .problem import ReconstructionProblem, UncertainVariable
 from .repair import CollisionRepair
 from .run import run_study
 from .schema import StudyFile
@@ -73,9 +74,18 @@ class Study:
     heading [deg] or None) and, with the misfit objective, every evidence item with its sigmas
     (evidence_set, crashlab.reconstruction.evidence; None with the thesis objective)."""
 
-    def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict, evidence_set=None):
+    def __init__(self, path: Path, spec: StudyFile, scene: Scene, evidence: dict, evidence_set=None,
+                 uncertain: tuple = ()):
         self.path, self.spec, self.scene, self.evidence = path, spec, scene, evidence
         self.evidence_set = evidence_set
+        # the uncertain parameters the search takes as extra free variables (problem.UncertainVariable)
+        self.uncertain = tuple(uncertain)
+
+    @property
+    def variables(self) -> list:
+        """The search's variables, the columns of pareto.csv: the free variables, then the uncertain
+        parameters (each with label, path, lower, upper in file units)."""
+        return list(self.spec.free) + list(self.uncertain)
 
     @property
     def mode(self) -> str:
@@ -89,7 +99,8 @@ class Study:
 
     def fingerprint(self) -> dict:
         """What a result depends on, part by part (crashlab.reconstruction.run, "Resume"): part -> digest."""
-        study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}})
+        # [refine] runs after the search and the posterior and changes neither
+        study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}, "refine": True})
         scene = dataclasses.asdict(self.scene)
         for key in ("source", "references"):
             scene.pop(key, None)
@@ -108,9 +119,13 @@ class Study:
         return parts
 
     def make_problem(self, constraints_as_penalty: bool = False) -> ReconstructionProblem:
-        return ReconstructionProblem(self.scene, self.spec.free, self.evidence, self.spec.objective.heading_weight,
-                                     self.spec.model, self.spec.model_options, constraints_as_penalty,
-                                     evidence_set=self.evidence_set)
+        return self.problem_for(self.spec.model, self.spec.model_options, constraints_as_penalty)
+
+    def problem_for(self, model: str, model_options: dict, constraints_as_penalty: bool = False
+                    ) -> ReconstructionProblem:
+        """The study's problem simulated by another model (the refine step's second opinion)."""
+        return ReconstructionProblem(self.scene, self.variables, self.evidence, self.spec.objective.heading_weight,
+                                     model, model_options, constraints_as_penalty, evidence_set=self.evidence_set)
 
     def make_repair(self):
         """The study's CollisionRepair, or None (switched off, or a scene at its collision position)."""
@@ -196,12 +211,12 @@ def load_study(path) -> Study:
     if spec.optimizer.name not in available_optimizers():
         raise InputError(path, "optimizer.name",
                          str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
-    try:
-        model = get_model(spec.model, **spec.model_options)
-    except OptionError as err:
-        raise InputError(path, f"model_options.{err.key}", err.problem) from None
-    except (TypeError, ValueError) as err:
-        raise InputError(path, "model_options", str(err)) from None
+    model = _checked_model(path, spec.model, spec.model_options, "model_options")
+    if spec.refine is not None:
+        if spec.refine.model not in available_models():
+            raise InputError(path, "refine.model", str(UnknownPluginError("model", spec.refine.model,
+                                                                          available_models())))
+        _checked_model(path, spec.refine.model, spec.refine.model_options, "refine.model_options")
     scene_path = path.parent / spec.scene
     if not scene_path.is_file():
         raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
@@ -222,4 +237,27 @@ def load_study(path) -> Study:
             raise InputError(path, "evidence.twin", f"{', '.join(moving)} at the end of the base scene: an end pose "
                              "is no rest pose (lengthen the scene's duration)")
     evidence_set, evidence, mode = build_evidence(path, spec, names, out)
-    return Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None)
+    return Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None,
+                 uncertain_variables(path, spec, scene))
+
+
+def _checked_model(path, name: str, options: dict, key: str):
+    """The model `name` with its options, or InputError naming the option's key under `key`."""
+    try:
+        return get_model(name, **options)
+    except OptionError as err:
+        raise InputError(path, f"{key}.{err.key}", err.problem) from None
+    except (TypeError, ValueError) as err:
+        raise InputError(path, key, str(err)) from None
+
+
+def uncertain_variables(path, spec: StudyFile, scene: Scene) -> list[UncertainVariable]:
+    """The `[[uncertain]]` parameters of the study file and of its base scene's file (the study's entry wins
+    for a field in both, as in the posterior), checked (crashlab.uncertainty.parse: one line naming
+    uncertain.N.key), each as an extra free variable of the search, except those on a free variable's own
+    field (its bounds stand)."""
+    declared = uncertainty.parse(spec.uncertain, scene, path) if spec.uncertain else ()
+    by_path = {u.field: u for u in tuple(getattr(scene, "uncertain", ()) or ())}
+    by_path.update({u.field: u for u in declared})
+    free = {f.path for f in spec.free}
+    return [UncertainVariable.of(u) for p, u in by_path.items() if p not in free]
