@@ -1,9 +1,10 @@
 """DIR/report.html of `crashlab reconstruct --out DIR` and `crashlab infer --out DIR`: one self-contained
 page (every figure embedded as a base64 data: URI; no script, style sheet, font or image from elsewhere)
 with the study (scene, free variables and their bounds, optimizer or sampler, model), the evidence with its
-sigmas, the Pareto set (every row of pareto.csv) or the posterior summary and corner plot, the top views,
-the near-optimal figure where one was drawn, an animation of the best solution (crashlab.animation, when
-that module is there) and DIR/refine.md and refine.csv when a refine step wrote them.
+sigmas, the Pareto set (the rows of pareto.csv, at most PARETO_ROWS_MAX) or the posterior summary and corner
+plot, the top views, the near-optimal figure where one was drawn, an animation of the best solution
+(crashlab.animation, when that module is there) and DIR/refine.md and refine.csv when a refine step wrote
+them (a step that runs after the report calls refresh_refine_section).
 
 Written with the standard library only (f-strings and html.escape): the page is a few tables and images.
 A figure named but not on disk is said so on the page ("not drawn"), never left as a broken image.
@@ -24,6 +25,7 @@ ANIMATION_NAME = "best.gif"
 ANIMATION_FPS = 10  # frames per second of the embedded GIF: smooth enough, small enough
 # an animation larger than this is left beside the page instead of embedded (keeps the page under 5 MB)
 ANIMATION_EMBED_MAX_BYTES = 3_000_000
+PARETO_ROWS_MAX = 2000  # Pareto rows shown (about 1 MB of table); the page says so when pareto.csv has more
 REFINE_BEGIN, REFINE_END = "<!-- refine: begin -->", "<!-- refine: end -->"
 _MIME = {".png": "image/png", ".gif": "image/gif", ".jpg": "image/jpeg", ".jpeg": "image/jpeg",
          ".svg": "image/svg+xml"}
@@ -147,17 +149,23 @@ def _options(d: dict) -> str:
     return ", ".join(f"{esc(k)} = {esc(v)}" for k, v in d.items()) if d else "defaults"
 
 
-def _free_section(study, truth=None) -> str:
+def _unit(var) -> str:
+    """A searched variable's file unit: a study's FreeVariable (vehicle, field) or one with a fields path."""
     from crashlab import fields
+    try:
+        path = getattr(var, "path", None) or fields.study_path(var.vehicle, var.field)
+        return fields.parse(path).unit
+    except Exception:  # noqa: BLE001 - the unit is a label only
+        return ""
+
+
+def _free_section(variables, truth=None) -> str:
+    """The searched variables (label, unit, bounds; the twin's truth) as a table."""
     rows = []
-    for j, f in enumerate(study.spec.free):
-        try:
-            unit = fields.parse(fields.study_path(f.vehicle, f.field)).unit
-        except Exception:  # noqa: BLE001 - the unit is a label only
-            unit = ""
-        row = [esc(f.label), esc(unit), num(f.lower), num(f.upper)]
+    for j, f in enumerate(variables):
+        row = [esc(f.label), esc(_unit(f)), num(f.lower), num(f.upper)]
         if truth is not None:
-            row.append(num(truth[j]))
+            row.append(num(truth[j]) if j < len(truth) else "")
         rows.append(row)
     head = ["free variable", "unit", "lower", "upper"] + (["truth (twin)"] if truth is not None else [])
     return table(head, rows, table_id="free", text_cols=(0, 1))
@@ -266,6 +274,18 @@ def _notes(notes) -> str:
 
 
 # ---------------------------------------------------------------- crashlab reconstruct
+def pareto_table_html(pareto) -> str:
+    """The Pareto table (id "pareto"): a column "row" (0 = best) and every column of pareto.csv, at most
+    PARETO_ROWS_MAX rows (the page says when there are more)."""
+    shown = pareto.head(PARETO_ROWS_MAX)
+    rows = [[str(k)] + [num(v) for v in r] for k, r in enumerate(shown.itertuples(index=False))]
+    out = table(["row"] + [esc(c) for c in pareto.columns], rows, table_id="pareto", text_cols=(), scroll=True)
+    if len(pareto) > len(shown):
+        out += (f'\n<p class="warn">The first {len(shown)} of {len(pareto)} rows are shown; every row is in '
+                "pareto.csv.</p>")
+    return out
+
+
 def write_reconstruction_report(study, result, out_dir, figures, near_figure=None, near=None, tol=None,
                                 best=None, warnings=(), notes=(), failure_reasons=None) -> Path:
     """DIR/report.html of a reconstruction. figures: [(file name in out_dir, caption)] top views; best:
@@ -291,23 +311,21 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
     if failure_reasons:
         study_html += ("<p>Failed evaluations by reason (every one in failures.csv): "
                        + esc("; ".join(f"{c} x {r}" for r, c in list(failure_reasons.items())[:5])) + "</p>\n")
-    study_html += _free_section(study, truth) + "\n" + _scene_section(study)
+    study_html += _free_section(problem.free, truth) + "\n" + _scene_section(study)
 
     pareto = result.pareto
     names = list(problem.objective_names)
     funit = "m" if problem.evidence_set is None else "normalised misfit"
     sec = [f"<h2>Pareto set ({len(pareto)} solutions, sorted by the sum of objectives)</h2>"]
     if len(pareto):
-        sec.append(f"<p>Every row of pareto.csv, in its order and with its columns: free variables (file units), "
+        sec.append(f"<p>The rows of pareto.csv, in its order and with its columns: free variables (file units), "
                    f"objectives f_&lt;vehicle&gt; [{esc(funit)}], dheading_&lt;vehicle&gt; (simulated minus "
                    "measured rest heading [deg], wrapped to -180..180; empty where none was measured), "
                    + ("the misfit of every evidence item and the log-likelihood, " if problem.evidence_set
                       is not None else "")
                    + "rest poses and the state at first contact (m, deg, km/h). Row 0 is animated below.</p>")
         sec += [f'<p class="warn">{md_inline(w)}</p>' for w in warnings]
-        cols = list(pareto.columns)
-        rows = [[str(k)] + [num(v) for v in r] for k, r in enumerate(pareto.itertuples(index=False))]
-        sec.append(table(["row"] + [esc(c) for c in cols], rows, table_id="pareto", text_cols=(), scroll=True))
+        sec.append(pareto_table_html(pareto))
     else:
         sec.append("<p>No feasible solution.</p>")
     sec.append(figure(out_dir / "objectives.png", f"every feasible evaluation (grey) and the non-dominated "

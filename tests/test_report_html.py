@@ -9,6 +9,7 @@ Chromium."""
 from __future__ import annotations
 
 import base64
+import math
 import shutil
 import subprocess
 from html.parser import HTMLParser
@@ -163,6 +164,22 @@ def test_pareto_table_holds_pareto_csv_row_by_row(reconstruct_out):
     for k, (cells, (_, row)) in enumerate(zip(rows[1:], table.iterrows())):
         assert cells[0] == str(k)
         assert_cells_match(cells[1:], row.to_numpy(dtype=float))
+
+
+def test_pareto_table_keeps_every_digit_it_shows_and_says_when_it_is_cut(monkeypatch):
+    """Numbers from 1e-12 to 1e9, negative, NaN (an unmeasured heading) within the stated tolerance; more
+    rows than PARETO_ROWS_MAX: the first ones, and the page says so."""
+    values = [1.234567e-12, -3.3e-5, 0.0012345, -0.4996, 49.99951, -172.61049, 12345678.9, 9.9e8, math.nan, 0.0]
+    table = pd.DataFrame({"V1.speed": values, "f_V1": values[::-1]})
+    monkeypatch.setattr(html_report, "PARETO_ROWS_MAX", 7)
+    text = html_report.pareto_table_html(table)
+    rows = Page(text).tables["pareto"]
+    assert rows[0] == ["row", "V1.speed", "f_V1"] and len(rows) == 1 + 7
+    for k, cells in enumerate(rows[1:]):
+        assert cells[0] == str(k)
+        assert_cells_match(cells[1:], table.iloc[k].to_numpy(dtype=float))
+    assert "first 7 of 10 rows" in text
+    assert "rows are shown" not in html_report.pareto_table_html(table.head(7))
 
 
 def test_reconstruction_report_names_the_study_and_the_evidence(reconstruct_out):
