@@ -197,6 +197,22 @@ def test_reconstruction_report_names_the_study_and_the_evidence(reconstruct_out)
     assert "nsga-sharing" in text and "impulse" in text and "Side collision" in text
 
 
+def test_no_feasible_solution_is_a_page_that_says_so(reconstruct_out, tmp_path):
+    from crashlab.reconstruction.report import ReconstructionResult
+    study = load_study(reconstruct_out.parent / "tiny.toml")
+    info = {"optimizer": "nsga-sharing", "search_evaluations": 16, "polish_evaluations": 0, "polish_budget": 6}
+    result = ReconstructionResult(pd.DataFrame(), 16, 16, 0.0, 1.0, study.make_problem(), info)
+    html_report.write_reconstruction_report(study, result, tmp_path, [], near=pd.DataFrame(columns=["V1.speed"]),
+                                            tol=0.1, notes=["objectives.png could not be drawn: `x` **y**"],
+                                            failure_reasons={"model raised N": 16})
+    page = _read(tmp_path)
+    text = " ".join(page.text)
+    assert "No feasible solution" in text and "animation unavailable: no solution to animate" in text
+    assert "objectives.png: not drawn" in text and "16 x model raised N" in text
+    assert "pareto" not in page.tables and not page.imgs
+    assert "<code>x</code> <strong>y</strong>" in (tmp_path / "report.html").read_text()
+
+
 # ------------------------------------------------------------------ crashlab infer
 def test_posterior_report_embeds_its_figures_the_quantiles_and_the_sigmas(infer_out):
     out = infer_out
