@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 import subprocess
 import sys
 
@@ -109,3 +110,10 @@ def test_cli_animate_writes_a_gif_and_refuses_bad_paths(tmp_path):
     assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 0), "command line",
                           "--fps")
     assert not bad.exists() and not mp4.exists()
+
+
+@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="an .mp4 needs ffmpeg on PATH")
+def test_mp4_with_ffmpeg(side, tmp_path):
+    scene, out = side
+    path = write_animation(scene, out, tmp_path / "side.mp4", fps=10.0)
+    assert path.read_bytes()[4:8] == b"ftyp" and path.stat().st_size > 1000
