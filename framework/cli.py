@@ -201,6 +201,9 @@ def cmd_simulate(args):
             top_view(scene, out, args.plot)
         except (OSError, ValueError) as err:
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
+    if animate and not out.trajectories and out.outcome_ok:
+        raise InputError(str(animate), "--animate", f"model {out.model or args.model} records no trajectories to "
+                         "animate")
     if animate and out.trajectories:
         from .animation import write_animation
         try:
