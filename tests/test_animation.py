@@ -4,10 +4,8 @@ pixels), a bad extension or a missing ffmpeg is one line and exit status 2."""
 from __future__ import annotations
 
 import math
-import os
 import shutil
-import subprocess
-import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,9 +16,12 @@ from crashlab.animation import animation_times, frame_poses, write_animation
 from crashlab.scene import vehicle_outline
 
 
-def _cli(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "crashlab.cli", *map(str, args)], capture_output=True, text=True,
-                          timeout=300, env=env)
+def _cli(capsys, *args):
+    """crashlab.cli.main in this process: what assert_one_error_line reads (returncode, stdout, stderr)."""
+    from crashlab.cli import main
+    code = main([str(a) for a in args])
+    captured = capsys.readouterr()
+    return SimpleNamespace(returncode=code, stdout=captured.out, stderr=captured.err)
 
 
 @pytest.fixture(scope="module")
@@ -93,22 +94,24 @@ def test_gif_has_one_frame_per_time_with_the_start_and_rest_outlines_drawn(side,
     close(fig)
 
 
-def test_cli_animate_writes_a_gif_and_refuses_bad_paths(tmp_path):
+def test_cli_animate_writes_a_gif_and_refuses_bad_paths(tmp_path, capsys, monkeypatch):
     gif = tmp_path / "side.gif"
-    res = _cli("simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 5)
+    res = _cli(capsys, "simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 5)
     assert res.returncode == 0, res.stderr
     out = crashlab.simulate(crashlab.load_scene(PC_CRASH / "side.toml"), model="impulse")
     from PIL import Image
     assert Image.open(gif).n_frames == math.ceil(out.trajectories["V1"]["t"][-1] * 5) + 1 == 9
     bad = tmp_path / "side.png"
-    assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", bad), bad, "--animate",
+    assert_one_error_line(_cli(capsys, "simulate", PC_CRASH / "side.toml", "--animate", bad), bad, "--animate",
                           [".gif or .mp4"])
+    assert_one_error_line(_cli(capsys, "simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 0),
+                          "command line", "--fps")
+    assert_one_error_line(_cli(capsys, "simulate", PC_CRASH.parent / "montecarlo" / "side.toml", "--animate", gif,
+                               "--monte-carlo", 10), "command line", "--animate")
     mp4 = tmp_path / "side.mp4"
-    no_ffmpeg = {**os.environ, "PATH": str(tmp_path)}  # no ffmpeg on this PATH
-    assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", mp4, env=no_ffmpeg), mp4,
-                          "--animate", ["ffmpeg"])
-    assert_one_error_line(_cli("simulate", PC_CRASH / "side.toml", "--animate", gif, "--fps", 0), "command line",
-                          "--fps")
+    monkeypatch.setenv("PATH", str(tmp_path))  # no ffmpeg on this PATH
+    assert_one_error_line(_cli(capsys, "simulate", PC_CRASH / "side.toml", "--animate", mp4), mp4, "--animate",
+                          ["ffmpeg"])
     assert not bad.exists() and not mp4.exists()
 
 
