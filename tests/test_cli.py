@@ -16,6 +16,13 @@ def run(*args, cwd=None):
                           text=True, timeout=300, cwd=cwd)
 
 
+def main_out(capsys, *args):
+    """crashlab.cli.main in this process (no interpreter start-up): (exit status, stdout)."""
+    from crashlab.cli import main
+    code = main([str(a) for a in args])
+    return code, capsys.readouterr().out
+
+
 def test_models_lists_impulse():
     res = run("models")
     assert res.returncode == 0, res.stderr
@@ -47,11 +54,11 @@ def test_simulate_json_shape(pc_crash_dir):
     assert {(r["source"], r["vehicle"]) for r in data["comparison"]} >= {("impulse", "V1"), ("pc_crash", "V1")}
 
 
-def test_compare_json_has_the_shape_of_simulate_json_with_a_result_per_model(pc_crash_dir):
-    sim = json.loads(run("simulate", pc_crash_dir / "side.toml", "--json").stdout)
-    res = run("compare", pc_crash_dir / "side.toml", "--models", "impulse,pymunk", "--json")
-    assert res.returncode == 0, res.stderr
-    cmp = json.loads(res.stdout)
+def test_compare_json_has_the_shape_of_simulate_json_with_a_result_per_model(pc_crash_dir, capsys):
+    sim = json.loads(main_out(capsys, "simulate", pc_crash_dir / "side.toml", "--json")[1])
+    code, text = main_out(capsys, "compare", pc_crash_dir / "side.toml", "--models", "impulse,pymunk", "--json")
+    assert code == 0
+    cmp = json.loads(text)
     assert set(cmp) == set(sim) and cmp["units"] == sim["units"] and cmp["references"] == sim["references"]
     assert [r["model"] for r in cmp["results"]] == ["impulse", "pymunk"]
     assert set(cmp["results"][1]) == set(sim["results"][0])
@@ -79,13 +86,6 @@ heading = 90.0
 speed = 30.0
 wheels = "locked_after_impact"
 """
-
-
-def main_out(capsys, *args):
-    """crashlab.cli.main in this process (no interpreter start-up): (exit status, stdout)."""
-    from crashlab.cli import main
-    code = main([str(a) for a in args])
-    return code, capsys.readouterr().out
 
 
 def test_headings_print_wrapped_and_turns_continuous(tmp_path, capsys):
@@ -151,10 +151,9 @@ def test_every_option_has_help_and_shows_its_default():
     assert "(default: impulse)" in simulate and "(default: 25.0)" in simulate
 
 
-def test_compare_plot_writes_png(pc_crash_dir, tmp_path):
+def test_compare_plot_writes_png(pc_crash_dir, tmp_path, capsys):
     png = tmp_path / "cmp.png"
-    res = run("compare", pc_crash_dir / "side.toml", "--models", "impulse", "--plot", png)
-    assert res.returncode == 0, res.stderr
+    assert main_out(capsys, "compare", pc_crash_dir / "side.toml", "--models", "impulse", "--plot", png)[0] == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 1000
 
 
