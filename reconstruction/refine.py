@@ -118,8 +118,9 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
            n_candidates=None, executor=None, source="Pareto rows", progress=False) -> RefineResult:
     """Simulate the best `candidates` (a DataFrame with the study's variable labels as columns, best first:
     the Pareto table, or posterior draws) again with the refine model and polish them with it (module
-    docstring); with out_dir, write refine.csv and refine.md. The settings default to the study's [refine];
-    executor: a live crashlab.execution.Executor (else one of the study's [execution] is opened)."""
+    docstring); with out_dir, write refine.csv and refine.md. The settings default to the study's [refine].
+    The refine model runs on an Executor of the study's [execution] opened here; the search model on
+    `executor` (a live crashlab.execution.Executor, e.g. the search's), else in this process."""
     t0 = time.perf_counter()
     model, opts, budget, n_cand = _settings(study, model, model_options, evaluations, n_candidates)
     search, ref = study.make_problem(), study.problem_for(model, opts)
@@ -132,11 +133,12 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
         from tqdm import tqdm
         bar = tqdm(total=budget, unit="eval", desc=f"refine ({model})", dynamic_ncols=True)
     ex = study.spec.execution
-    ctx = contextlib.nullcontext(executor) if executor is not None else \
-        Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s)
+    # the refine model gets fresh workers of the study's [execution]: a worker's first call has the executor's
+    # grace for numba's compilation, and a worker that served the search has had its first call already
     rows = []
-    with ctx as live:
-        search.executor = ref.executor = live
+    with contextlib.nullcontext(executor) if executor is not None else Executor() as live, \
+            Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as fresh:
+        search.executor, ref.executor = live, fresh
         s0 = _evaluate(search, X) if n else None
         r0 = _evaluate(ref, X) if n else None
         used = n
@@ -221,11 +223,11 @@ def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
     unit = "m" if problem.evidence_set is None else "sigmas (normalised misfit)"
     names = list(problem.objective_names)
     lines = [f"# Second opinion: {a} searched, {b} checks", "",
-             f"- study `{study.path}`; candidates: the {len(t)} best {result.source}, best first, one per basin "
+             f"- study `{study.path}`; candidates: {len(t)} of the {result.source}, best first, one per basin "
              "(spaced apart as the polish's starts)",
-             f"- {b}: {result.evaluations} evaluations of a budget of {result.budget} ({len(t)} re-simulations, "
-             f"{result.evaluations - len(t)} least-squares polish); {a}: {result.search_evaluations} evaluations; "
-             f"wall time {result.wall_time_s:.1f} s", "",
+             f"- {b}: {result.evaluations} evaluations of a budget of {result.budget} ({len(t)} to simulate the "
+             f"candidates again, {result.evaluations - len(t)} in the least-squares polish); {a}: "
+             f"{result.search_evaluations} evaluations; wall time {result.wall_time_s:.1f} s", "",
              f"Objectives f_<vehicle> in {unit}; sumsq: the sum of squared residuals, what the polish minimises "
              "(the refined point is the best one the polish evaluated, else the candidate itself). moved_norm: the "
              "move over the search bounds (normalised decision space). All columns: refine.csv.", ""]
@@ -254,8 +256,9 @@ def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
                          f"refine_f_{n}": f"f_{n} {b} refined", f"search_f_{n}_refined": f"f_{n} {a} refined"})
         cols.update({"refine_sumsq_start": f"sumsq {b}", "refine_sumsq": f"sumsq {b} refined"})
         lines += [t[list(cols)].rename(columns=cols).to_markdown(index=False, floatfmt=".3f"), "",
-                  f"## Rest poses at the {a} answer", "",
-                  "x, y [m], heading [deg]; gap: the two models' rest positions apart [m].", ""]
+                  "## Rest poses", "",
+                  f"x, y [m], heading [deg] at the {a} answer under each model (gap: their rest positions apart "
+                  f"[m]), and under {b} at its own answer.", ""]
         rest = []
         for _, r in t.iterrows():
             for v in problem.names:
@@ -267,6 +270,8 @@ def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
                                           for q in ("x", "y", "heading")),
                              b: ", ".join(_fmt(r[f"refine_rest_{v}_{q}"], ".2f" if q != "heading" else ".1f")
                                           for q in ("x", "y", "heading")),
-                             "gap [m]": r[f"model_gap_{v}"]})
+                             "gap [m]": r[f"model_gap_{v}"],
+                             f"{b} refined": ", ".join(_fmt(r[f"refined_rest_{v}_{q}"], ".2f" if q != "heading"
+                                                            else ".1f") for q in ("x", "y", "heading"))})
         lines.append(pd.DataFrame(rest).to_markdown(index=False, floatfmt=".3f"))
     (out_dir / "refine.md").write_text("\n".join(lines) + "\n")

@@ -214,7 +214,7 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
         result = _result(study, problem, algorithm, name, n_search, budget, t0)
         if out_dir:
             write_outputs(study, result, problem.archive_arrays(), out_dir)
-        if spec.refine is not None:  # the second opinion (refine.py), on the same executor
+        if spec.refine is not None:  # the second opinion (refine.py); the search model on the same executor
             result.refine = refine(study, result.pareto, out_dir, executor=executor, progress=progress)
     return result
 
