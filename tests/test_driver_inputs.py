@@ -133,10 +133,11 @@ def test_wheel_frictions_equal_the_per_point_friction_at_each_wheel():
         assert got == pytest.approx(want, abs=1e-12)
 
 
-def test_zone_clearance_gives_what_every_wheel_gets_while_the_cg_stays_within_its_margin():
-    """Where zone_clearance reports a margin, wheel_frictions gives every wheel exactly its friction at any
-    heading and anywhere within the margin (the impulse kernel reuses it there without a look-up)."""
-    from crashlab.models.common.driver_inputs import wheel_frictions, zone_clearance
+def test_wheel_friction_margin_bounds_how_far_the_wheels_may_move_before_a_friction_changes():
+    """Where wheel_frictions_clearance reports a margin, every pose whose wheels moved less than it (CG shift
+    + reach x heading change, as the impulse kernel's cache tests) gives the same four frictions; within a
+    boundary's blend the margin is 0. Random poses over convex, non-convex and overlapping zones."""
+    from crashlab.models.common.driver_inputs import wheel_frictions_clearance
     zones = [{"friction": 0.3, "polygon": [[0, -8], [30, -8], [30, 8], [0, 8]]},
              {"friction": 0.1, "polygon": [[10, -2], [14, -2], [14, 2], [10, 2]]},
              {"friction": 0.5, "polygon": [[40, -8], [48, -8], [48, 0], [44, -4], [40, 0]]}]  # not convex
@@ -144,14 +145,22 @@ def test_zone_clearance_gives_what_every_wheel_gets_while_the_cg_stays_within_it
     front, rear, half = 1.24, 1.23, 0.70
     reach = math.hypot(max(front, rear), half)
     rng = np.random.default_rng(3)
-    uniform = 0
-    for x, y in zip(rng.uniform(-10, 55, 4000), rng.uniform(-12, 12, 4000)):
-        margin, f = zone_clearance(x, y, reach, 0.8, *Z)
+    held = blended = 0
+    for x, y, h in zip(rng.uniform(-10, 55, 4000), rng.uniform(-12, 12, 4000), rng.uniform(-np.pi, np.pi, 4000)):
+        *f, margin = wheel_frictions_clearance(x, y, math.cos(h), math.sin(h), front, rear, half, 0.8, *Z)
         if margin <= 0:
+            assert margin == 0.0
+            blended += 1
             continue
-        uniform += 1
-        r, a, h = margin * math.sqrt(rng.uniform()), rng.uniform(0, 2 * math.pi), rng.uniform(-math.pi, math.pi)
-        got = wheel_frictions(x + r * math.cos(a), y + r * math.sin(a), math.cos(h), math.sin(h), front, rear, half,
-                              0.8, *Z)
-        assert got == (f, f, f, f)
-    assert uniform > 1000
+        held += 1
+        # a move using up to 99 % of the margin, shared between the CG shift (|dx| + |dy|) and the turn
+        budget = 0.99 * min(margin, 5.0) * rng.uniform()
+        turn = rng.uniform() * budget
+        dxy = budget - turn
+        a = rng.uniform(0, 2 * np.pi)
+        norm1 = abs(math.cos(a)) + abs(math.sin(a))
+        dx, dy = dxy * math.cos(a) / norm1, dxy * math.sin(a) / norm1
+        h2 = h + rng.choice((-1, 1)) * turn / reach
+        got = wheel_frictions_clearance(x + dx, y + dy, math.cos(h2), math.sin(h2), front, rear, half, 0.8, *Z)[:4]
+        assert got == tuple(f)
+    assert held > 2000 and blended > 20

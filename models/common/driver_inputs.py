@@ -165,57 +165,86 @@ def _boundary_distance(x, y, E, i0, i1):
 
 
 @register_jitable
-def _inside_weight(x, y, E, i0, i1, convex):
-    """Share of a contact patch centred on (x, y) that lies inside the polygon with edges E[i0:i1]:
-    0.5 + signed distance to the boundary / PATCH, clipped to [0, 1]. A convex zone takes the distances to
-    its edges' lines (inside: the smallest is the distance to the boundary; outside: the largest negative
-    one bounds it from below), the exact distance only within PATCH / 2 outside."""
+def _zone_weight(x, y, E, i0, i1, convex):
+    """(share, margin): the share of a contact patch centred on (x, y) that lies inside the polygon with edges
+    E[i0:i1], 0.5 + signed distance to the boundary / PATCH clipped to [0, 1], and how far (x, y) may move
+    before the share can change (0 within the blend). A convex zone takes the distances to its edges' lines
+    (inside: the smallest is the distance to the boundary; outside: the largest negative one bounds it from
+    below), the exact distance only within PATCH / 2 outside."""
     half = 0.5 * PATCH
     if convex:
         d_min = math.inf
         for k in range(i0, i1):
             d_min = min(d_min, E[k, 5] * (x - E[k, 0]) + E[k, 6] * (y - E[k, 1]))
         if d_min >= half:
-            return 1.0
+            return 1.0, d_min - half
         if d_min >= 0.0:
-            return 0.5 + d_min / PATCH
+            return 0.5 + d_min / PATCH, 0.0
         if d_min <= -half:
-            return 0.0
+            return 0.0, -d_min - half
     inside, d = _boundary_distance(x, y, E, i0, i1)
     if d >= half:
-        return 1.0 if inside else 0.0
-    return 0.5 + (d if inside else -d) / PATCH
+        return (1.0 if inside else 0.0), d - half
+    return 0.5 + (d if inside else -d) / PATCH, 0.0
+
+
+@register_jitable
+def _patch_weight(x, y, E, start, box, z):
+    """_zone_weight of zone z, 0 outside its box (widened by PATCH / 2), with the box distance as margin."""
+    dx = max(box[z, 0] - x, x - box[z, 1])
+    dy = max(box[z, 2] - y, y - box[z, 3])
+    if dx > 0.0 or dy > 0.0:
+        return 0.0, max(dx, dy)
+    return _zone_weight(x, y, E, start[z], start[z + 1], box[z, 4] > 0.5)
+
+
+@register_jitable
+def _blend(f, w, mu_zone):
+    """The friction f overlaid by a zone covering the share w of the patch."""
+    if w >= 1.0:
+        return mu_zone
+    return f + w * (mu_zone - f)
+
+
+@register_jitable
+def point_friction(x, y, mu_road, E, start, mu, box):
+    """(friction, margin): the road friction at (x, y), `mu_road` overlaid by each zone in order (later zones
+    win), each blended over the contact patch across its boundary (module docstring), and how far (x, y) may
+    move before it can change (0 within a boundary's blend)."""
+    f = mu_road
+    margin = math.inf
+    for z in range(mu.shape[0]):
+        w, m = _patch_weight(x, y, E, start, box, z)
+        f = _blend(f, w, mu[z])
+        margin = min(margin, m)
+    return f, margin
 
 
 @register_jitable
 def road_friction(x, y, mu_road, E, start, mu, box):
-    """Road friction at (x, y): `mu_road`, overlaid by each zone in order (later zones win), each blended
-    over the contact patch across its boundary (module docstring)."""
-    f = mu_road
-    for z in range(mu.shape[0]):
-        if x < box[z, 0] or x > box[z, 1] or y < box[z, 2] or y > box[z, 3]:
-            continue
-        w = _inside_weight(x, y, E, start[z], start[z + 1], box[z, 4] > 0.5)
-        if w > 0.0:
-            f += w * (mu[z] - f)
-    return f
+    """The road friction at (x, y) (point_friction)."""
+    return point_friction(x, y, mu_road, E, start, mu, box)[0]
 
 
 @register_jitable
-def wheel_frictions(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, box):
-    """Road friction at the four wheels (front left, front right, rear left, rear right) of a vehicle at
-    (x, y) heading (c, s) = (cos, sin), axles `front` ahead of and `rear` behind the CG: road_friction at
-    each wheel, with each zone first tested against the circle about the CG that holds every wheel's patch
-    (a zone whose box misses it is skipped, a convex zone that holds it whole gives every wheel its friction)
-    so that a vehicle away from zone boundaries costs one test per zone, not four."""
+def wheel_frictions_clearance(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, box):
+    """(f_fl, f_fr, f_rl, f_rr, margin): the road friction at the four wheels (front left, front right, rear
+    left, rear right) of a vehicle at (x, y) heading (c, s) = (cos, sin), axles `front` ahead of and `rear`
+    behind the CG, and how far any wheel may move before a friction can change (0 while a wheel stands in a
+    boundary's blend): point_friction at each wheel, with each zone first tested against the circle about
+    the CG that holds every wheel (a zone whose box it misses is skipped, a convex zone that holds it whole
+    gives every wheel its friction), so a vehicle away from zone boundaries costs one test per zone."""
     xs = (x + c * front - s * half_track, x + c * front + s * half_track,
           x - c * rear - s * half_track, x - c * rear + s * half_track)
     ys = (y + s * front + c * half_track, y + s * front - c * half_track,
           y - s * rear + c * half_track, y - s * rear - c * half_track)
     f0 = f1 = f2 = f3 = mu_road
+    margin = math.inf
     reach = math.sqrt(max(front, rear) ** 2 + half_track ** 2)
     for z in range(mu.shape[0]):
-        if x + reach < box[z, 0] or x - reach > box[z, 1] or y + reach < box[z, 2] or y - reach > box[z, 3]:
+        gap = max(box[z, 0] - x, x - box[z, 1], box[z, 2] - y, y - box[z, 3]) - reach
+        if gap > 0.0:  # no wheel within the box
+            margin = min(margin, gap)
             continue
         if box[z, 4] > 0.5:
             d_min = math.inf
@@ -223,41 +252,25 @@ def wheel_frictions(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, 
                 d_min = min(d_min, E[k, 5] * (x - E[k, 0]) + E[k, 6] * (y - E[k, 1]))
             if d_min >= reach + 0.5 * PATCH:  # every wheel's patch wholly inside
                 f0 = f1 = f2 = f3 = mu[z]
+                margin = min(margin, d_min - reach - 0.5 * PATCH)
                 continue
-        i0, i1, convex = start[z], start[z + 1], box[z, 4] > 0.5
-        f0 += _inside_weight(xs[0], ys[0], E, i0, i1, convex) * (mu[z] - f0)
-        f1 += _inside_weight(xs[1], ys[1], E, i0, i1, convex) * (mu[z] - f1)
-        f2 += _inside_weight(xs[2], ys[2], E, i0, i1, convex) * (mu[z] - f2)
-        f3 += _inside_weight(xs[3], ys[3], E, i0, i1, convex) * (mu[z] - f3)
-    return f0, f1, f2, f3
+        w, m0 = _patch_weight(xs[0], ys[0], E, start, box, z)
+        f0 = _blend(f0, w, mu[z])
+        w, m1 = _patch_weight(xs[1], ys[1], E, start, box, z)
+        f1 = _blend(f1, w, mu[z])
+        w, m2 = _patch_weight(xs[2], ys[2], E, start, box, z)
+        f2 = _blend(f2, w, mu[z])
+        w, m3 = _patch_weight(xs[3], ys[3], E, start, box, z)
+        f3 = _blend(f3, w, mu[z])
+        margin = min(margin, m0, m1, m2, m3)
+    return f0, f1, f2, f3, margin
 
 
 @register_jitable
-def zone_clearance(x, y, reach, mu_road, E, start, mu, box):
-    """(margin, friction) for a vehicle whose wheels lie within `reach` of its CG at (x, y): when every wheel's
-    patch stands wholly outside or wholly inside (a convex zone) each zone, all wheels get the same friction
-    (what wheel_frictions gives each of them) and the CG may move `margin` [m] before that can change;
-    margin <= 0 otherwise (a wheel may be near a boundary: per-wheel look-up)."""
-    f = mu_road
-    margin = math.inf
-    for z in range(mu.shape[0]):
-        dx = max(box[z, 0] - x, 0.0, x - box[z, 1])  # to the box widened by PATCH / 2
-        dy = max(box[z, 2] - y, 0.0, y - box[z, 3])
-        out = math.sqrt(dx * dx + dy * dy)
-        if out > reach:
-            margin = min(margin, out - reach)
-            continue
-        if box[z, 4] < 0.5:
-            return -1.0, f
-        d_min = math.inf
-        for k in range(start[z], start[z + 1]):
-            d_min = min(d_min, E[k, 5] * (x - E[k, 0]) + E[k, 6] * (y - E[k, 1]))
-        inside = d_min - reach - 0.5 * PATCH
-        if inside <= 0.0:
-            return -1.0, f
-        f = mu[z]
-        margin = min(margin, inside)
-    return margin, f
+def wheel_frictions(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, box):
+    """The road friction at the four wheels (wheel_frictions_clearance without the margin)."""
+    f0, f1, f2, f3, _ = wheel_frictions_clearance(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, box)
+    return f0, f1, f2, f3
 
 
 def largest_friction(road) -> float:

@@ -33,8 +33,7 @@ from crashlab.models.common.driver_inputs import (
     effective_mode,
     next_change,
     ramping,
-    wheel_frictions,
-    zone_clearance,
+    wheel_frictions_clearance,
 )
 from crashlab.models.common.planar_vehicle import (
     P_A,
@@ -175,17 +174,19 @@ def _gap(S, B, radius, i, k, nv):
     return math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
 
 
-@njit(cache=True)
-def _uniform_friction(x, y, i, reach, mu, zones, zcache):
-    """The friction under every wheel of vehicle i with its CG at (x, y) when it is the same for all of them
-    (driver_inputs.zone_clearance), else -1. zcache[i] = (x, y, margin, friction) of the last clearance: while
-    the CG stays within margin of that point the friction holds without a look-up."""
-    dx, dy = x - zcache[i, 0], y - zcache[i, 1]
-    if zcache[i, 2] > 0.0 and dx * dx + dy * dy < zcache[i, 2] * zcache[i, 2]:
-        return zcache[i, 3]
-    margin, f = zone_clearance(x, y, reach, mu, zones[0], zones[1], zones[2], zones[3])
-    zcache[i, 0], zcache[i, 1], zcache[i, 2], zcache[i, 3] = x, y, margin, f
-    return f if margin > 0.0 else -1.0
+@njit(cache=True, inline="always")  # inlined: a call costs more than the cache hit (measured)
+def _wheel_frictions(P, X, i, reach, mu, zones, zcache):
+    """The road friction under the four wheels of vehicle i in state X[i] (driver_inputs.wheel_frictions).
+    zcache[i] = (x, y, heading, margin, four frictions) of the last look-up: while no wheel can have moved
+    `margin` since (CG displacement + reach x heading change), the frictions hold without a look-up."""
+    z = zcache[i]
+    if abs(X[i, 0] - z[0]) + abs(X[i, 1] - z[1]) + reach * abs(X[i, 2] - z[2]) < z[3]:
+        return z[4], z[5], z[6], z[7]
+    f0, f1, f2, f3, margin = wheel_frictions_clearance(X[i, 0], X[i, 1], math.cos(X[i, 2]), math.sin(X[i, 2]),
+                                                       P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, zones[0],
+                                                       zones[1], zones[2], zones[3])
+    z[0], z[1], z[2], z[3], z[4], z[5], z[6], z[7] = X[i, 0], X[i, 1], X[i, 2], margin, f0, f1, f2, f3
+    return f0, f1, f2, f3
 
 
 @njit(cache=True)
@@ -195,20 +196,15 @@ def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h
     straddles an action's time, and one ending there keeps its own law); a sleeping vehicle's row of
     `out` is left as it is (the caller keeps it equal to its row of S). in_mode, in_brake, in_steer: each
     awake vehicle's inputs at t (driver_inputs, effective_mode), read by the step policy; a vehicle without
-    actions (NA 1) keeps them through the step. The wheels' frictions: driver_inputs.wheel_frictions, the
-    same for every wheel while they all stand wholly inside or outside each zone (_uniform_friction), then
+    actions (NA 1) keeps them through the step. The wheels' frictions: _wheel_frictions, then
     planar_vehicle.vehicle_forces."""
-    ZC, ZS, ZMU, ZBOX = zones
-    zoned = ZMU.shape[0] > 0
+    zoned = zones[2].shape[0] > 0
     for a in range(na):
         i = awake[a]
         mode, brake, steer = in_mode[i], in_brake[i], in_steer[i]
         f0 = f1 = f2 = f3 = mu
         if zoned:
-            f0 = f1 = f2 = f3 = _uniform_friction(S[i, 0], S[i, 1], i, wheel_reach[i], mu, zones, zcache)
-            if f0 < 0.0:
-                f0, f1, f2, f3 = wheel_frictions(S[i, 0], S[i, 1], math.cos(S[i, 2]), math.sin(S[i, 2]),
-                                                 P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
+            f0, f1, f2, f3 = _wheel_frictions(P, S, i, wheel_reach[i], mu, zones, zcache)
         vehicle_forces(P[i], S[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k1[i])
         for q in range(6):
             tmp[i, q] = S[i, q] + h * k1[i, q]
@@ -216,10 +212,7 @@ def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h
             mode, brake, steer = driver_inputs(A[i], NA[i], t + h, True)
             mode = effective_mode(mode, hit[i])
         if zoned:
-            f0 = f1 = f2 = f3 = _uniform_friction(tmp[i, 0], tmp[i, 1], i, wheel_reach[i], mu, zones, zcache)
-            if f0 < 0.0:
-                f0, f1, f2, f3 = wheel_frictions(tmp[i, 0], tmp[i, 1], math.cos(tmp[i, 2]), math.sin(tmp[i, 2]),
-                                                 P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, ZC, ZS, ZMU, ZBOX)
+            f0, f1, f2, f3 = _wheel_frictions(P, tmp, i, wheel_reach[i], mu, zones, zcache)
         vehicle_forces(P[i], tmp[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k2[i])
         for q in range(6):
             out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
@@ -396,8 +389,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         mu_max = max(mu_max, zones[2][z])
     zoned = zones[2].shape[0] > 0
     wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (driver_inputs.wheel_frictions)
-    zcache = np.zeros((nv, 4))  # the last zone clearance of each vehicle (_uniform_friction): none yet
-    zcache[:, 2] = -1.0
+    zcache = np.zeros((nv, 8))  # each vehicle's last wheel frictions and their margin (_wheel_frictions): none
+    zcache[:, 3] = -1.0
     in_mode = np.zeros(nv, np.int64)  # each vehicle's driver inputs at the step's start (_heun)
     in_brake = np.zeros(nv)
     in_steer = np.zeros(nv)
