@@ -188,72 +188,68 @@ def test_bad_infer_and_uncertain_input_is_one_line_exit_2(tmp_path):
 
 
 # ------------------------------------------------------------------ calibration (slow)
-CALIBRATION = """
-[[free]]
-vehicle = "V1"
-field = "speed"
-lower = 30.0
-upper = 70.0
+def _calibration_script():
+    """studies/infer/calibration.py as a module (its study writer and the truth's rank)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("infer_calibration", REPO / "studies" / "infer" / "calibration.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
-[[free]]
-vehicle = "V2"
-field = "speed"
-lower = 10.0
-upper = 50.0
 
-[[free]]
-vehicle = "V1"
-field = "heading"
-lower = -15.0
-upper = 15.0
-
-[[free]]
-vehicle = "V2"
-field = "heading"
-lower = 75.0
-upper = 105.0
-
-[evidence]
-twin = true
-noise_seed = {seed}
-
-[evidence.rest.V1]
-sigma_xy = 0.2
-sigma_heading = 5.0
-
-[evidence.rest.V2]
-sigma_xy = 0.2
-sigma_heading = 5.0
-
-[infer]
-walkers = 32
-burn = 400
-samples = 12800
-seed = {seed}
-draws_plotted = 0
-"""
+@pytest.fixture(scope="module")
+def calibration_runs(tmp_path_factory):
+    """Issue 14's calibration experiment, run once for the tests below: studies/infer/calibration_twin.toml
+    (evidence = the impulse model's run of side.toml's start plus Gaussian noise, 0.2 m and 5 deg on both rest
+    poses; four free variables: speeds and headings) for noise seeds 1-20. Per seed: the hits of the 90 %
+    intervals (per variable) and the truth's rank (the share of posterior samples more probable than it)."""
+    cal = _calibration_script()
+    work = tmp_path_factory.mktemp("calibration")
+    hits, ranks, labels = [], [], None
+    t0 = time.time()
+    for seed in range(1, 21):
+        post = load_posterior(cal.calibration_study(seed, work))
+        res = run_posterior(post, None, progress=False)
+        lo, _, hi = res.interval()
+        hits.append((lo <= post.truth) & (post.truth <= hi))
+        ranks.append(cal.truth_rank(post, res))
+        labels = res.labels
+        print(f"seed {seed}: " + ", ".join(f"{lab} [{a:.2f}, {b:.2f}]" for lab, a, b in zip(res.labels, lo, hi))
+              + f"; rank of the truth {ranks[-1]:.3f}; ESS min {res.ess.min():.0f}, {res.evaluations} evaluations")
+    hits = np.array(hits)
+    print(f"hits per variable {dict(zip(labels, hits.sum(0).tolist()))}, {time.time() - t0:.0f} s")
+    return labels, hits, np.array(ranks)
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 2026-11-24: V2's speed interval holds the truth in 14 of 20 "
-                   "(V1 16, headings 15/17): the likelihood is lopsided about the truth, the misses lean one way; "
-                   "open (README, crashlab infer)")
-def test_calibration_90_percent_intervals_hold_the_truth_16_to_20_times_in_20(tmp_path):
+def test_calibration_the_truth_ranks_uniformly_among_the_posterior_samples(calibration_runs):
+    """The joint calibration of the same 20 runs: the share of posterior samples more probable than the truth
+    is uniform on [0, 1] over the seeds when the likelihood has the sigmas the noise was drawn with and the
+    sampler samples it (for a Gaussian posterior it is the chi2(4) CDF of 2 (max ln L - ln L(truth))); a too
+    small sigma, noise on the wrong quantity or walkers stuck away from the truth pile it up near 1, a too
+    large sigma near 0. Kolmogorov-Smirnov against uniform at the 1 % level (measured 2026-11-24: p = 0.54)."""
+    from scipy import stats
+    _, _, ranks = calibration_runs
+    p = stats.kstest(ranks, "uniform").pvalue
+    print(f"ranks {np.round(np.sort(ranks), 2).tolist()}, KS p = {p:.2f}")
+    assert p > 0.01, (p, ranks)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured 2026-11-24: V2's speed interval holds the truth in 14 of 20 (V1 16, "
+                   "headings 15/17). Sampler and likelihood check out (ranks uniform; importance sampling gives the "
+                   "same quantiles); the flat-prior posterior of this nonlinear model is lopsided (noiseless median "
+                   "V1 -0.3, V2 +0.4 linear sd) and these 20 noise draws would give only 16/16 even for a linear "
+                   "model: studies/infer/calibration.md")
+def test_calibration_90_percent_intervals_hold_the_truth_16_to_20_times_in_20(calibration_runs):
     """Issue 14's calibration: evidence = the impulse model's run of a known start (side.toml) plus Gaussian
     noise (0.2 m, 5 deg on the rest poses), 20 noise seeds, four free variables (speeds, headings): the 90 %
     interval of each speed holds the truth in 16-20 of the 20 runs (binomial(20, 0.9): 16-20 has probability
     0.96)."""
-    hits = np.zeros(4, int)
-    t0 = time.time()
-    for seed in range(1, 21):
-        post = load_posterior(_study(tmp_path, CALIBRATION.format(seed=seed), f"cal{seed}.toml"))
-        res = run_posterior(post, None, progress=False)
-        lo, _, hi = res.interval()
-        hits += (lo <= post.truth) & (post.truth <= hi)
-        print(f"seed {seed}: " + ", ".join(f"{lab} [{a:.2f}, {b:.2f}]" for lab, a, b in zip(res.labels, lo, hi))
-              + f"; ESS min {res.ess.min():.0f}, {res.evaluations} evaluations")
-    print(f"hits per variable {dict(zip(post.labels, hits.tolist()))}, {time.time() - t0:.0f} s")
-    assert 16 <= hits[0] <= 20 and 16 <= hits[1] <= 20, hits
+    labels, hits, _ = calibration_runs
+    n = hits.sum(0)
+    assert labels[:2] == ["V1.speed", "V2.speed"]
+    assert 16 <= n[0] <= 20 and 16 <= n[1] <= 20, dict(zip(labels, n.tolist()))
 
 
 @pytest.mark.slow
