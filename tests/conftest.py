@@ -31,6 +31,31 @@ def build_scene(vehicles=None, source="<test scene>", **kw):
     return scene_from_dict(data, source=source)
 
 
+def two_frame_gif(scene, outcome, path, fps):
+    """Stands in for crashlab.animation in report.html (the animation itself: tests/test_animation.py)."""
+    from PIL import Image
+    frames = [Image.new("P", (8, 8), c) for c in (0, 1)]
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
+    return Path(path)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _two_frame_report_animation():
+    """report.html's animation is a two-frame GIF in the tests (a real one takes seconds per --out run); a
+    test that checks the real one asks for `real_report_animation`. Yields the real writer."""
+    from crashlab.reconstruction import html_report
+    real = html_report._animate
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(html_report, "_animate", two_frame_gif)
+        yield real
+
+
+@pytest.fixture
+def real_report_animation(_two_frame_report_animation, monkeypatch):
+    from crashlab.reconstruction import html_report
+    monkeypatch.setattr(html_report, "_animate", _two_frame_report_animation)
+
+
 @pytest.fixture(scope="session")
 def repo_root() -> Path:
     return REPO

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import two_frame_gif
 
 from crashlab.reconstruction import html_report, load_study
 from crashlab.reconstruction.infer import load_posterior, run_posterior
@@ -75,14 +76,6 @@ def _read(out: Path) -> Page:
     return Page((out / "report.html").read_text(encoding="utf-8"))
 
 
-def _tiny_gif(scene, outcome, path, fps):
-    """Stands in for crashlab.animation in the default runs (the real one: the slow test)."""
-    from PIL import Image
-    frames = [Image.new("P", (8, 8), c) for c in (0, 1)]
-    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
-    return Path(path)
-
-
 def _tiny_study(tmp_path: Path) -> Path:
     """twin1 (the two speeds free, evidence the model's own run) with 8 x 2 evaluations and a polish of 6,
     simulated in this process."""
@@ -102,7 +95,7 @@ def _tiny_study(tmp_path: Path) -> Path:
 def reconstruct_out(tmp_path_factory):
     out = tmp_path_factory.mktemp("reconstruct") / "out"
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(html_report, "_animate", _tiny_gif)
+        mp.setattr(html_report, "_animate", two_frame_gif)
         load_study(_tiny_study(out.parent)).run(out_dir=out)
     return out
 
@@ -113,7 +106,7 @@ def infer_out(tmp_path_factory):
     post = load_posterior(TWIN_INFER)
     post.settings = post.settings.model_copy(update={"walkers": 8, "burn": 4, "samples": 160, "draws_plotted": 2})
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(html_report, "_animate", _tiny_gif)
+        mp.setattr(html_report, "_animate", two_frame_gif)
         run_posterior(post, out, progress=False)
     return out
 
@@ -292,7 +285,7 @@ def assert_not_blank(png: Path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(_chromium() is None, reason="no chromium binary (Debian: apt-get install chromium)")
-def test_case5_report_is_under_5_mb_and_renders_in_headless_chromium(tmp_path):
+def test_case5_report_is_under_5_mb_and_renders_in_headless_chromium(tmp_path, real_report_animation):
     """case 5 as written (250 x 40 + polish, the real animation of its first Pareto row)."""
     out = tmp_path / "case5"
     res = load_study(CASE5).run(out_dir=out)
