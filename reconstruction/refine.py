@@ -11,7 +11,8 @@ thesis's dx, dy [m]; with the misfit objective the normalised residuals, i.e. -2
 candidate's start when it finds nothing better, so the refined value is never above the start's.
 
 Outputs (out_dir): refine.csv, a row per candidate:
-  candidate, status, refine_evaluations           index (0 = best), what happened, the polish's evaluations
+  candidate, row, status, refine_evaluations      index (0 = best), its row in the table given (a Pareto row's
+                                                   number, a draw's), what happened, the polish's evaluations
   <label>, refined_<label>, moved_<label>          the candidate (file units), the refine model's answer, the move
   moved_norm                                       |move| over the search bounds (normalised decision space)
   search_f_<n>, refine_f_<n>_start, refine_f_<n>, search_f_<n>_refined
@@ -74,9 +75,9 @@ def _settings(study, model, model_options, evaluations, n_candidates):
     return model, opts, int(evaluations), int(n_candidates)
 
 
-def _candidates(study, problem, candidates, n: int) -> np.ndarray:
-    """The candidates' variables (file units, a column per label); a label the table lacks takes the base
-    scene's value; best first, spaced apart, at most n."""
+def _candidates(study, problem, candidates, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The candidates' variables (file units, a column per label; a label the table lacks takes the base
+    scene's value), best first, spaced apart, at most n; and their rows in the table (counted from 0)."""
     labels = problem.labels
     if not isinstance(candidates, pd.DataFrame):
         candidates = pd.DataFrame(np.atleast_2d(np.asarray(candidates, float)), columns=labels)
@@ -85,11 +86,13 @@ def _candidates(study, problem, candidates, n: int) -> np.ndarray:
     base = problem.base_values()
     X = np.column_stack([candidates[c].to_numpy(float) if c in candidates.columns else np.full(len(candidates), b)
                          for c, b in zip(labels, base)]) if len(candidates) else np.empty((0, len(labels)))
-    X = X[np.isfinite(X).all(axis=1)]
+    rows = np.flatnonzero(np.isfinite(X).all(axis=1))
+    X = X[rows]
     if not len(X):
-        return X
+        return X, rows
     lo, hi = np.minimum(problem.xl, X.min(axis=0)), np.maximum(problem.xu, X.max(axis=0))
-    return spaced_starts(X, lo, hi)[0][:n]
+    X, picked = spaced_starts(X, lo, hi)
+    return X[:n], rows[picked[:n]]
 
 
 def _evaluate(problem, X) -> dict:
@@ -124,7 +127,7 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
     t0 = time.perf_counter()
     model, opts, budget, n_cand = _settings(study, model, model_options, evaluations, n_candidates)
     search, ref = study.make_problem(), study.problem_for(model, opts)
-    X = _candidates(study, search, candidates, min(n_cand, budget))
+    X, source_rows = _candidates(study, search, candidates, min(n_cand, budget))
     if len(X):  # a posterior draw may lie outside the search bounds (a normal's tail): widen them to it
         ref.xl, ref.xu = np.minimum(ref.xl, X.min(axis=0)), np.maximum(ref.xu, X.max(axis=0))
     n, nv = len(X), ref.n_var
@@ -182,7 +185,7 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
         bar.close()
     span = search.xu - search.xl
     for k in range(n):
-        row = {"candidate": k, "status": status[k], "refine_evaluations": int(spent[k])}
+        row = {"candidate": k, "row": int(source_rows[k]), "status": status[k], "refine_evaluations": int(spent[k])}
         for c, lab in enumerate(search.labels):
             row[lab], row[f"refined_{lab}"] = X[k, c], best_X[k, c]
             row[f"moved_{lab}"] = best_X[k, c] - X[k, c]

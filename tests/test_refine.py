@@ -57,7 +57,7 @@ def _study(tmp_path, extra="", name="study.toml"):
 
 
 def _columns(labels, objectives, vehicles):
-    cols = ["candidate", "status", "refine_evaluations"]
+    cols = ["candidate", "row", "status", "refine_evaluations"]
     for lab in labels:
         cols += [lab, f"refined_{lab}", f"moved_{lab}"]
     cols.append("moved_norm")
@@ -80,7 +80,7 @@ def test_refine_with_the_search_model_reaches_the_truth(tmp_path):
     res = refine(study, draws, tmp_path / "out", model="impulse", evaluations=60, n_candidates=1,
                  source="posterior draws")
     row = res.table.iloc[0]
-    assert len(res.table) == 1 and res.evaluations <= 60
+    assert len(res.table) == 1 and res.evaluations <= 60 and row["row"] == 0
     assert row["refine_f_V1_start"] == row["search_f_V1"] and row["refine_f_V2_start"] == row["search_f_V2"]
     assert row["model_gap_V1"] == 0.0 and row["model_gap_V2"] == 0.0
     assert row["refine_sumsq_start"] > 0.01  # the start is off the truth ...
@@ -91,15 +91,16 @@ def test_refine_with_the_search_model_reaches_the_truth(tmp_path):
 
 
 def test_refine_csv_columns_and_budget_with_pymunk(tmp_path):
-    """pymunk, 6 evaluations: refine.csv has every column, the budget is kept and the polish never ends above
-    its start (under pymunk, whose rest poses differ from the impulse model's twin by decimetres)."""
+    """pymunk, 6 evaluations: refine.csv has every column, one candidate per basin (spaced as the polish's
+    starts), the budget is kept and the polish never ends above its start (under pymunk, whose rest poses
+    differ from the impulse model's twin by decimetres)."""
     study = load_study(_study(tmp_path, '[refine]\nmodel = "pymunk"\nevaluations = 6\ncandidates = 2\n'))
-    cands = pd.DataFrame({"V1.speed": [50.0, 44.0], "V2.speed": [30.0, 36.0]})
+    cands = pd.DataFrame({"V1.speed": [50.0, 50.1, 44.0], "V2.speed": [30.0, 30.1, 36.0]})  # row 1: row 0's basin
     res = refine(study, cands, tmp_path / "out")
     table = pd.read_csv(tmp_path / "out" / "refine.csv")
     assert list(table.columns) == _columns(["V1.speed", "V2.speed"], ["V1", "V2"], ["V1", "V2"])
     assert res.model == "pymunk" and res.search_model == "impulse" and res.budget == 6
-    assert 1 <= res.evaluations <= 6 and len(table) == 2
+    assert 1 <= res.evaluations <= 6 and table["row"].tolist() == [0, 2]
     assert table["refine_evaluations"].sum() + len(table) == res.evaluations
     polished = table[table.status == "polished"]
     assert len(polished) >= 1
