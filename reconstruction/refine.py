@@ -11,8 +11,9 @@ thesis's dx, dy [m]; with the misfit objective the normalised residuals, i.e. -2
 candidate's start when it finds nothing better, so the refined value is never above the start's.
 
 Outputs (out_dir): refine.csv, a row per candidate:
-  candidate, row, status, refine_evaluations      index (0 = best), its row in the table given (a Pareto row's
-                                                   number, a draw's), what happened, the polish's evaluations
+  candidate, row, status, refine_evaluations      index (0 = best), its row in the table given (the table's
+                                                   index: a Pareto row's or a draw's number), what happened, the
+                                                   polish's evaluations
   <label>, refined_<label>, moved_<label>          the candidate (file units), the refine model's answer, the move
   moved_norm                                       |move| over the search bounds (normalised decision space)
   search_f_<n>, refine_f_<n>_start, refine_f_<n>, search_f_<n>_refined
@@ -77,7 +78,8 @@ def _settings(study, model, model_options, evaluations, n_candidates):
 
 def _candidates(study, problem, candidates, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The candidates' variables (file units, a column per label; a label the table lacks takes the base
-    scene's value), best first, spaced apart, at most n; and their rows in the table (counted from 0)."""
+    scene's value), best first, spaced apart, at most n; and their rows in the table (its index labels: a
+    Pareto row's number, a posterior draw's number also after the draws were sorted)."""
     labels = problem.labels
     if not isinstance(candidates, pd.DataFrame):
         candidates = pd.DataFrame(np.atleast_2d(np.asarray(candidates, float)), columns=labels)
@@ -86,8 +88,8 @@ def _candidates(study, problem, candidates, n: int) -> tuple[np.ndarray, np.ndar
     base = problem.base_values()
     X = np.column_stack([candidates[c].to_numpy(float) if c in candidates.columns else np.full(len(candidates), b)
                          for c, b in zip(labels, base)]) if len(candidates) else np.empty((0, len(labels)))
-    rows = np.flatnonzero(np.isfinite(X).all(axis=1))
-    X = X[rows]
+    keep = np.flatnonzero(np.isfinite(X).all(axis=1))
+    X, rows = X[keep], candidates.index.to_numpy()[keep]
     if not len(X):
         return X, rows
     lo, hi = np.minimum(problem.xl, X.min(axis=0)), np.maximum(problem.xu, X.max(axis=0))
@@ -185,7 +187,7 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
         bar.close()
     span = search.xu - search.xl
     for k in range(n):
-        row = {"candidate": k, "row": int(source_rows[k]), "status": status[k], "refine_evaluations": int(spent[k])}
+        row = {"candidate": k, "row": source_rows[k], "status": status[k], "refine_evaluations": int(spent[k])}
         for c, lab in enumerate(search.labels):
             row[lab], row[f"refined_{lab}"] = X[k, c], best_X[k, c]
             row[f"moved_{lab}"] = best_X[k, c] - X[k, c]
