@@ -13,8 +13,8 @@ dropped and nothing stops the run:
     "serial" backend simulates in one worker process (the population in one batch, numba keeps its
     threads). A model with its own vectorised `simulate_batch` is timed per call: a call on n scenes
     may take n x timeout_s; when it overruns, its scenes are run again one at a time, each with
-    timeout_s, so only the ones that hang fail. The first call of each worker gets FIRST_CALL_GRACE_S
-    more (numba compiles a model on its first use);
+    timeout_s, so only the ones that hang fail. The first call of each model in each worker gets
+    FIRST_CALL_GRACE_S more (numba compiles a model on its first use);
   * a worker process that dies (segfault, out of memory, killed) fails the evaluation it was running,
     with the signal as the reason (a batch is split into single evaluations first, as for a timeout);
     the pool starts a new worker and the run goes on. On Dask a task whose workers died
@@ -270,6 +270,8 @@ class _Worker:
         self.task = None  # (tid, offset, scenes, split) being run
         self.unit = None  # (k0, m, deadline) being evaluated
         self.calls = 0  # units finished
+        self.model = None  # the model of the task being run
+        self.compiled: set[str] = set()  # models with a finished unit in this worker (compiled)
 
     def stop(self, kill: bool = False):
         if not kill:
@@ -305,7 +307,8 @@ class WorkerPool:
     def _deadline(self, w: _Worker, m: int) -> float:
         if self.timeout_s is None:
             return float("inf")
-        return time.monotonic() + self.timeout_s * m + (FIRST_CALL_GRACE_S if w.calls == 0 else 0.0)
+        grace = FIRST_CALL_GRACE_S if w.model not in w.compiled else 0.0  # each model compiles on its first use
+        return time.monotonic() + self.timeout_s * m + grace
 
     def evaluate(self, model_name: str, items: tuple, chunks: list[list], nv: int) -> Evaluations:
         n = sum(len(c) for c in chunks)
@@ -333,7 +336,7 @@ class WorkerPool:
                         pending.appendleft((offset, scenes, split))
                         w.proc.kill()
                         continue
-                    w.task = (self._tid, offset, scenes, split)
+                    w.task, w.model = (self._tid, offset, scenes, split), model_name
                     # the worker's first message must come within the grace (start, imports, model)
                     w.unit = (0, 0, time.monotonic() + FIRST_CALL_GRACE_S if self.timeout_s else float("inf"))
             busy = [w for w in self.workers if w.task is not None]
@@ -375,6 +378,7 @@ class WorkerPool:
                 k0, part = msg[2], msg[3]
                 _put(res, offset + k0, part)
                 w.calls += 1
+                w.compiled.add(w.model)
                 w.unit = (k0 + len(part.ok), 0, float("inf"))
                 if k0 + len(part.ok) >= len(scenes):
                     w.task = w.unit = None

@@ -50,6 +50,17 @@ class RaisingModel(EchoModel):
         return super().simulate(scene)
 
 
+class SlowFirstCallModel(EchoModel):
+    """Its first call in a process takes 2.5 s (as a model that numba compiles on first use)."""
+    compiled = False
+
+    def simulate(self, scene):
+        if not SlowFirstCallModel.compiled:
+            time.sleep(2.5)
+            SlowFirstCallModel.compiled = True
+        return super().simulate(scene)
+
+
 class HangingModel(EchoModel):
     """Hangs (sleeps for an hour) where V1 is faster than 60 km/h."""
 
@@ -131,6 +142,16 @@ def test_outcome_failed_by_the_guard_carries_the_guards_reason():
         execution._model = orig
     assert list(ev.ok) == [True, False, True]
     assert ev.reason[1] == "physics guard: interpenetration: V1 and V2 overlap by 0.40 m at the end"
+
+
+def test_each_models_first_call_in_a_worker_gets_the_compile_grace(reference, short_grace):
+    """A worker that has run one model still compiles the next one on its first call: the grace is per model
+    (it was per worker: a refine step's multibody batch timed out in a worker that had run the search)."""
+    with Executor("serial", timeout_s=1.0) as ex:
+        ex.evaluate("test_execution:EchoModel", {}, _scenes())
+        ev = ex.evaluate("test_execution:SlowFirstCallModel", {}, _scenes())
+    assert ev.ok.all(), ev.reason
+    np.testing.assert_array_equal(ev.rest, reference.rest)
 
 
 @pytest.mark.parametrize("backend", ["serial", pytest.param("processes", marks=pytest.mark.slow)])
