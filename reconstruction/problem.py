@@ -45,7 +45,7 @@ from crashlab.geometry import penetration, rect_corners
 from crashlab.scene import Scene
 from crashlab.units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
 
-from .schema import VEHICLE_FIELDS, FreeVariable
+from .schema import VEHICLE_FIELDS
 
 FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluation
 # the one conversion of a free variable between file units (m, deg, km/h) and SI; x, y, restitution and
@@ -103,57 +103,6 @@ def largest_overlap(poses, dims):
             for j in range(i + 1, nv):
                 out[k] = max(out[k], outline_depth(poses[k], dims, i, j)[0])
     return out
-
-
-def _owner(scene: Scene, f: FreeVariable):
-    """The scene object that holds a free field, and the attribute."""
-    kind, k, quantity = f.parts
-    if kind == "vehicle":
-        return scene.vehicle(f.vehicle), quantity
-    if kind == "action":
-        return scene.vehicle(f.vehicle).actions[k], quantity
-    if kind == "zone":
-        return scene.road.zones[k], quantity
-    return (scene.road if kind == "road" else scene.impact), quantity
-
-
-def field_value(scene: Scene, f: FreeVariable) -> float:
-    """A free field's value in the scene (SI)."""
-    owner, attr = _owner(scene, f)
-    return getattr(owner, attr)
-
-
-def scene_with(scene: Scene, free: list[FreeVariable], row) -> Scene:
-    """The scene with the free fields set to row (SI): one dataclass copy per vehicle, impact and road."""
-    vehicles: dict[str, dict] = {}
-    impact, road = {}, {}
-    for f, val in zip(free, row):
-        kind, k, quantity = f.parts
-        val = float(val)
-        if kind == "vehicle":
-            vehicles.setdefault(f.vehicle, {})[quantity] = val
-        elif kind == "action":
-            changes = vehicles.setdefault(f.vehicle, {})
-            acts = changes.setdefault("actions", list(scene.vehicle(f.vehicle).actions))
-            acts[k] = dataclasses.replace(acts[k], **{quantity: val})
-        elif kind == "zone":
-            zones = road.setdefault("zones", list(scene.road.zones))
-            zones[k] = dataclasses.replace(zones[k], friction=val)
-        elif kind == "road":
-            road["friction"] = val
-        else:
-            impact[quantity] = val
-    for name, changes in vehicles.items():
-        if "actions" in changes:
-            changes["actions"] = tuple(changes["actions"])
-        scene = scene.with_vehicle(name, **changes)
-    if impact:
-        scene = scene.replace(impact=dataclasses.replace(scene.impact, **impact))
-    if road:
-        if "zones" in road:
-            road["zones"] = tuple(road["zones"])
-        scene = scene.replace(road=dataclasses.replace(scene.road, **road))
-    return scene
 
 
 class ReconstructionProblem(Problem):

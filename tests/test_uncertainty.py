@@ -137,29 +137,6 @@ def test_values_outside_the_range_and_actions_out_of_order():
         fields.setter(s, ["zones.0.friction", "road.zones.0.friction"])
 
 
-def test_the_reconstructions_free_fields_are_the_same_quantities():
-    """reconstruction/problem.py's field_value and scene_with (SI) agree with crashlab.fields (file units)
-    on every free-field form, so the study can switch to this module."""
-    from crashlab.reconstruction.problem import FROM_SI, field_value, scene_with
-    from crashlab.reconstruction.schema import FreeVariable
-    s = _scene()
-    free = [FreeVariable(vehicle="V1", field="x", lower=-30, upper=0),
-            FreeVariable(vehicle="V2", field="heading", lower=0, upper=180),
-            FreeVariable(vehicle="V1", field="speed", lower=0, upper=100),
-            FreeVariable(field="restitution", lower=0, upper=1), FreeVariable(field="friction", lower=0, upper=1),
-            FreeVariable(field="road.friction", lower=0, upper=1),
-            FreeVariable(field="zones.0.friction", lower=0, upper=1),
-            FreeVariable(vehicle="V1", field="actions.0.t", lower=0, upper=1),
-            FreeVariable(vehicle="V1", field="actions.1.steer", lower=-10, upper=10)]
-    paths = [fields.study_path(f.vehicle, f.field) for f in free]
-    for f, p in zip(free, paths):
-        q = f.parts[2]
-        assert fields.get(s, p) == pytest.approx(FROM_SI.get(q, float)(field_value(s, f)), rel=1e-12)
-    row = [-18.0, 75.0, 55.0, 0.2, 0.4, 0.7, 0.35, 0.6, 4.0]
-    si = [fields.parse(p).to_si(v) for p, v in zip(paths, row)]
-    assert fields.set_fields(s, paths, row) == scene_with(s, free, si)
-
-
 # ---------------------------------------------------------------- distributions
 def _entries(raw, scene=None):
     return uncertainty.parse(raw, scene or _scene(), "<test>")
