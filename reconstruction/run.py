@@ -28,6 +28,7 @@ from pymoo.core.callback import Callback
 from crashlab.errors import InputError
 from crashlab.execution import Executor, WorkerStartError
 
+from .html_report import refresh_refine_section
 from .polish import polish_archive
 from .refine import refine
 from .report import ReconstructionResult, pareto_table, write_outputs
@@ -216,6 +217,8 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
             write_outputs(study, result, problem.archive_arrays(), out_dir)
         if spec.refine is not None:  # the second opinion (refine.py); the search model on the same executor
             result.refine = refine(study, result.pareto, out_dir, executor=executor, progress=progress)
+            if out_dir:
+                refresh_refine_section(out_dir)  # (report.html was written before the second opinion)
     return result
 
 

@@ -135,3 +135,15 @@ def test_refine_without_section_or_candidates(tmp_path):
     with pytest.raises(InputError, match="none of the variables"):
         refine(study, pd.DataFrame({"speed": [50.0]}), model="impulse")
     assert len(refine(study, pd.DataFrame(columns=["V1.speed", "V2.speed"]), model="impulse").table) == 0
+
+
+def test_reconstruct_with_refine_puts_it_on_the_report_page(tmp_path):
+    """`[refine]` in the study: the search, then the second opinion, and report.html (written before it) shows
+    refine.md and refine.csv."""
+    path = _study(tmp_path, '[refine]\nmodel = "impulse"\nevaluations = 4\n')
+    out = tmp_path / "out"
+    res = load_study(path).run(out_dir=out)
+    assert res.refine is not None and (out / "refine.csv").is_file()
+    page = (out / "report.html").read_text()
+    assert "refine.md" in page or "Second opinion" in page or "second opinion" in page
+    assert (out / "refine.md").read_text().splitlines()[0].strip("# ") in page
