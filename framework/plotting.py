@@ -100,16 +100,22 @@ def top_view(scene, outcome, path, title=None, measured=None):
             _arrow(ax, mx, my, deg_to_rad(mh), arrow_len, c, lw=3, alpha=0.45)
     draw_barriers(ax, scene.barriers)
     point_of_impact(ax, outcome)
+    _finish(fig, ax, title or f"{scene.name} ({outcome.model})", path)
+
+
+def _finish(fig, ax, title, path):
+    """Axes in metres at equal scale, the title, a scale bar, the legend beside the drawing (never over it);
+    saved and closed."""
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(title or f"{scene.name} ({outcome.model})")
+    ax.set_title(title)
     scale_bar(ax)
-    # the legend beside the drawing, never over it
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120, bbox_inches="tight")
+    import matplotlib.pyplot as plt
     plt.close(fig)
 
 
@@ -191,13 +197,4 @@ def compare_view(scene, outcomes: dict, path, title=None):
             ax.plot(poly[:, 0], poly[:, 1], "-", color=g, lw=3, alpha=0.45,
                     label=f"{src}: {name}, heading {wrap_deg(ref['heading']):.1f} deg")
             _arrow(ax, ref["x"], ref["y"], h, 0.8 * v.spec.cg_to_front, g, lw=3, alpha=0.5)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_title(title or f"{scene.name}: " + ", ".join(outcomes))
-    scale_bar(ax)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    _finish(fig, ax, title or f"{scene.name}: " + ", ".join(outcomes), path)
