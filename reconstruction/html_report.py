@@ -338,8 +338,9 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
         if len(near):
             cols = [f.label for f in problem.free]
             near_html += ("<p>Every objective at most the bound (<code>[objective] near_optimal</code>); all in "
-                          "near_optimal.csv. The evidence cannot tell these starts apart: their range is what it "
-                          "leaves open.</p>\n"
+                          "near_optimal.csv. The evidence cannot tell these starts apart; their range is only what the "
+                          "search tried, at least what the evidence leaves open, not an uncertainty interval (that "
+                          "is the posterior: crashlab infer).</p>\n"
                           + table(["variable", "min", "max"], [[esc(c), num(near[c].min()), num(near[c].max())]
                                                                for c in cols], table_id="near"))
             if near_figure:

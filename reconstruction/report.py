@@ -288,7 +288,9 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         cols = [f.label for f in problem.free]
         lines += [f"Every objective at most {tol:g}{unit} (`[objective] near_optimal`); all in near_optimal.csv"
                   + (", the first two free variables in near_optimal.png" if figures_near else "") +
-                  ". The evidence cannot tell these starts apart: their range is what it leaves open.", "",
+                  ". The evidence cannot tell these starts apart; their range is only what the search tried, at "
+                  "least what the evidence leaves open, not an uncertainty interval (that is the posterior: "
+                  "crashlab infer).", "",
                   pd.DataFrame({"variable": cols, "min": near[cols].min().to_numpy(),
                                 "max": near[cols].max().to_numpy()}).to_markdown(index=False, floatfmt=".3f")]
     else:
