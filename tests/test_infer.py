@@ -1,7 +1,8 @@
 """The posterior (issue 14, item 3; crashlab.reconstruction.infer): a twin's likelihood peaks at its truth, a
 small posterior writes its files and its 90 % intervals hold the truth, questions parse and give the share of
 samples where they hold, a resumed chain equals an uninterrupted one, and bad input is one line naming the
-file and key. The slow calibration test: 90 % intervals hold the truth in 16-20 of 20 noisy twins."""
+file and key. The slow calibration tests (one 20-seed run of studies/infer/calibration_twin.toml): the truth's
+rank among the posterior samples is uniform over the seeds, and 90 % intervals hold the truth in 16-20 of 20."""
 from __future__ import annotations
 
 import subprocess
