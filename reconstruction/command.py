@@ -6,6 +6,7 @@ import json
 from crashlab.errors import InputError
 from crashlab.registry import UnknownPluginError, available_optimizers
 
+from .problem import variable_unit
 from .study import load_study
 
 
@@ -28,7 +29,11 @@ def run_cli(args) -> int:
     with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 200, "display.max_columns", 40):
         cols = [f.label for f in study.variables] + [f"f_{n}" for n in study.objective_names]
         cols += [f"dheading_{n}" for n, ev in study.evidence.items() if ev[2] is not None]
-        print(res.pareto[cols].to_string(index=False) if len(res.pareto) else "no feasible solution")
+        f_unit = "m" if study.mode == "thesis" else "sigma"  # misfit: residuals in their sigmas
+        units = {f.label: variable_unit(f) for f in study.variables} | {c: f_unit for c in cols if c.startswith("f_")}
+        header = {c: f"{c} [{units.get(c, 'deg')}]" if units.get(c, "deg") else c for c in cols}
+        print(res.pareto[cols].rename(columns=header).to_string(index=False) if len(res.pareto)
+              else "no feasible solution")
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
     if refined is not None and len(refined.table):

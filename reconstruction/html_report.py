@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .problem import variable_unit
+
 REPORT_NAME = "report.html"
 ANIMATION_NAME = "best.gif"
 ANIMATION_FPS = 10  # frames per second of the embedded GIF: smooth enough, small enough
@@ -149,21 +151,11 @@ def _options(d: dict) -> str:
     return ", ".join(f"{esc(k)} = {esc(v)}" for k, v in d.items()) if d else "defaults"
 
 
-def _unit(var) -> str:
-    """A searched variable's file unit: a study's FreeVariable (vehicle, field) or one with a fields path."""
-    from crashlab import fields
-    try:
-        path = getattr(var, "path", None) or fields.study_path(var.vehicle, var.field)
-        return fields.parse(path).unit
-    except Exception:  # noqa: BLE001 - the unit is a label only
-        return ""
-
-
 def _free_section(variables, truth=None) -> str:
     """The searched variables (label, unit, bounds; the twin's truth) as a table."""
     rows = []
     for j, f in enumerate(variables):
-        row = [esc(f.label), esc(_unit(f)), num(f.lower), num(f.upper)]
+        row = [esc(f.label), esc(variable_unit(f)), num(f.lower), num(f.upper)]
         if truth is not None:
             row.append(num(truth[j]) if j < len(truth) else "")
         rows.append(row)

@@ -61,6 +61,17 @@ def variable_label(path: str) -> str:
     return path[len("vehicles."):] if path.startswith("vehicles.") else path
 
 
+def variable_unit(var) -> str:
+    """A searched variable's file unit (km/h, m, deg, ...): a study's FreeVariable (vehicle, field) or an
+    UncertainVariable (its fields path); "" where it has none."""
+    from crashlab import fields
+    try:
+        path = getattr(var, "path", None) or fields.study_path(var.vehicle, var.field)
+        return fields.parse(path).unit
+    except Exception:  # noqa: BLE001 - the unit is a label only
+        return ""
+
+
 @dataclasses.dataclass(frozen=True)
 class UncertainVariable:
     """An uncertain parameter (crashlab.uncertainty.Uncertain) as a free variable of the search: its label,

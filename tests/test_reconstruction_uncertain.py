@@ -138,3 +138,13 @@ def test_bad_uncertain_is_one_line(tmp_path, capsys, entry, key):
     assert main(["reconstruct", str(path), "--no-progress"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(path) in err and key in err
+
+
+def test_the_printed_pareto_table_carries_units(tmp_path, capsys):
+    """`crashlab reconstruct` prints the Pareto rows with each column's unit: the speeds in km/h, the uncertain
+    friction dimensionless, the thesis objective in m."""
+    text = TWIN.replace("pop_size = 24", "pop_size = 6").replace("generations = 12", "generations = 1")
+    path = _study(tmp_path, text.replace("evaluations = 150", "evaluations = 0") + FRICTION)
+    assert main(["reconstruct", str(path), "--no-progress"]) == 0
+    header = capsys.readouterr().out.splitlines()[0].split()
+    assert header[:8] == ["V1.speed", "[km/h]", "V2.speed", "[km/h]", "road.friction", "[-]", "f_V1", "[m]"]
