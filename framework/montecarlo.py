@@ -35,8 +35,9 @@ PER_VEHICLE = ("x", "y", "heading", "delta_v", "ok")
 @dataclasses.dataclass
 class MonteCarloResult:
     """table: one row per draw: draw, the sampled parameters (columns named by their field paths, file
-    units), per vehicle `V.x`, `V.y` [m], `V.heading` [deg], `V.delta_v` [km/h], `V.ok` (at rest at the end of
-    a run that did not fail), then `ok` and `reason` of the draw. nominal: the Outcome of the scene as written."""
+    units), per vehicle `V.x`, `V.y` [m], `V.heading` [deg, continuous], `V.delta_v` [km/h], `V.ok` (at rest
+    at the end of a run that did not fail), then `ok` and `reason` of the draw. nominal: the Outcome of the
+    scene as written."""
     scene: Scene
     model: str
     seed: int | None
@@ -300,7 +301,7 @@ def print_summary(result: MonteCarloResult, file=None) -> None:
         print(f"  {e.describe()}", file=file)
     print(f"rest pose and delta-V over the {result.n - nfail} draws that did not fail: median [5 %, 95 %]", file=file)
     s = result.summary()
-    units = {"x": "m", "y": "m", "heading": "deg", "delta_v": "km/h"}
+    units = {"x": "m", "y": "m", "heading": "deg (continuous: turns since the start count)", "delta_v": "km/h"}
     for n in result.names:
         parts = []
         for _, r in s[s.vehicle == n].iterrows():
