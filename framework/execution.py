@@ -26,6 +26,12 @@ dropped and nothing stops the run:
     its workers when it closes, and they exit when the pipe to their parent closes (distributed.process).
 With `timeout_s` None or 0 the serial backend simulates in this process (exceptions still fail single
 evaluations; a hang then hangs the run).
+
+A scorer (the reconstruction's evidence: reconstruction.evidence.EvidenceSet) scores each Outcome where it was
+simulated, so evidence that needs more than rest poses (impact rows, paths) runs on every backend with its
+timeout and only its numbers travel back: an object with `n_residuals`, `needs_trajectory` (simulate one by
+one: a batch records no paths) and `residuals(outcomes) -> (n, n_residuals)`, picklable; the numbers are in
+Evaluations.scores.
 """
 from __future__ import annotations
 
@@ -63,12 +69,17 @@ class Evaluations(NamedTuple):
     end_speed: np.ndarray  # (n, nv) speed of each CG at the end [m/s]
     at_rest: np.ndarray  # (n, nv) bool: at rest at the end (crashlab.outcome.REST_SPEED, REST_YAW_RATE)
     reason: np.ndarray  # (n,) object: "" or why the evaluation failed (one line)
+    scores: np.ndarray  # (n, k) the caller's scorer's numbers of each outcome (k = 0 without a scorer)
 
 
-def empty_evaluations(n: int, nv: int, reason: str = "not evaluated") -> Evaluations:
+def empty_evaluations(n: int, nv: int, reason: str = "not evaluated", k: int = 0) -> Evaluations:
     return Evaluations(np.zeros(n, bool), np.full((n, nv, 3), np.nan), np.full((n, nv, 4), np.nan),
                        np.zeros(n, int), np.full((n, nv), np.nan), np.zeros((n, nv), bool),
-                       np.array([reason] * n, dtype=object))
+                       np.array([reason] * n, dtype=object), np.full((n, k), np.nan))
+
+
+def _n_scores(scorer) -> int:
+    return 0 if scorer is None else int(scorer.n_residuals)
 
 
 def _put(dst: Evaluations, start: int, src: Evaluations) -> None:
@@ -130,21 +141,22 @@ def _single_thread():
         pass
 
 
-def evaluate_scenes(model_name: str, options_items: tuple, scenes: list, single_thread: bool = False
-                    ) -> Evaluations:
+def evaluate_scenes(model_name: str, options_items: tuple, scenes: list, single_thread: bool = False,
+                    scorer=None) -> Evaluations:
     """Simulate scenes in this process. A simulation that raises or fails is recorded with its reason,
     never propagated; when the batch call raises, the scenes are simulated one by one so a bad scene
-    fails alone."""
+    fails alone. scorer: scores each outcome where it was simulated (module docstring)."""
     if single_thread:
         _single_thread()
     n, nv = len(scenes), len(scenes[0].vehicles)
-    res = empty_evaluations(n, nv)
+    res = empty_evaluations(n, nv, k=_n_scores(scorer))
     try:
         model = _model(model_name, options_items)
     except Exception as err:  # noqa: BLE001
         _fail(res, slice(None), _one_line(f"model could not be built: {type(err).__name__}: {err}"))
         return res
-    return evaluations_of(simulate_each(model, scenes), nv)
+    batch = scorer is None or not scorer.needs_trajectory
+    return evaluations_of(simulate_each(model, scenes, batch=batch), nv, scorer)
 
 
 def simulate_each(model, scenes, batch: bool = True) -> list:
@@ -168,10 +180,11 @@ def simulate_each(model, scenes, batch: bool = True) -> list:
     return outs
 
 
-def evaluations_of(outcomes, nv: int) -> Evaluations:
+def evaluations_of(outcomes, nv: int, scorer=None) -> Evaluations:
     """Evaluations of Outcomes (or exceptions in their place): an exception or a failed Outcome fails with its
-    reason; a non-finite rest pose fails; an Outcome without final velocities counts as at rest."""
-    res = empty_evaluations(len(outcomes), nv)
+    reason; a non-finite rest pose fails; an Outcome without final velocities counts as at rest. With a
+    scorer, its numbers of the outcomes (a scorer that raises fails them all, with its reason)."""
+    res = empty_evaluations(len(outcomes), nv, k=_n_scores(scorer))
     for k, o in enumerate(outcomes):
         if isinstance(o, BaseException):
             res.reason[k] = _exception_reason(o)
@@ -204,6 +217,11 @@ def evaluations_of(outcomes, nv: int) -> Evaluations:
         if mask is None:  # an Outcome of an earlier crashlab: the same rule as crashlab.outcome
             mask = (res.end_speed[k] <= 0.1) & (np.abs(final[:, 2]) <= 0.1)
         res.at_rest[k] = mask
+    if scorer is not None:
+        try:
+            res.scores[:] = scorer.residuals(outcomes)
+        except Exception as err:  # noqa: BLE001 - the batch is unscored: failed, with the reason
+            _fail(res, slice(None), _one_line(f"scoring the outcome raised {type(err).__name__}: {err}"))
     return res
 
 
@@ -229,7 +247,7 @@ def _die_with_parent(parent_pid: int) -> None:
 
 
 def _worker_main(conn, parent_pid: int, single_thread: bool) -> None:
-    """Loop of a worker process: tasks (id, model, options, scenes, split) in, messages out:
+    """Loop of a worker process: tasks (id, model, options, scenes, split, scorer) in, messages out:
     ("start", id, k0, m) before evaluating scenes k0..k0+m, ("done", id, k0, Evaluations) after."""
     _die_with_parent(parent_pid)
     if single_thread:
@@ -241,7 +259,7 @@ def _worker_main(conn, parent_pid: int, single_thread: bool) -> None:
             break
         if task is None:
             break
-        tid, model_name, items, scenes, split = task
+        tid, model_name, items, scenes, split, scorer = task
         try:
             model = _model(model_name, items)
             units = [(k, 1) for k in range(len(scenes))] if split or not _vectorised(model) else [(0, len(scenes))]
@@ -249,7 +267,7 @@ def _worker_main(conn, parent_pid: int, single_thread: bool) -> None:
             units = [(0, len(scenes))]
         for k0, m in units:
             conn.send(("start", tid, k0, m))
-            conn.send(("done", tid, k0, evaluate_scenes(model_name, items, scenes[k0:k0 + m])))
+            conn.send(("done", tid, k0, evaluate_scenes(model_name, items, scenes[k0:k0 + m], scorer=scorer)))
 
 
 def _death_reason(exitcode) -> str:
@@ -310,9 +328,9 @@ class WorkerPool:
         grace = FIRST_CALL_GRACE_S if w.model not in w.compiled else 0.0  # each model compiles on its first use
         return time.monotonic() + self.timeout_s * m + grace
 
-    def evaluate(self, model_name: str, items: tuple, chunks: list[list], nv: int) -> Evaluations:
+    def evaluate(self, model_name: str, items: tuple, chunks: list[list], nv: int, scorer=None) -> Evaluations:
         n = sum(len(c) for c in chunks)
-        res = empty_evaluations(n, nv)
+        res = empty_evaluations(n, nv, k=_n_scores(scorer))
         pending = collections.deque()
         offset = 0
         for c in chunks:
@@ -331,7 +349,7 @@ class WorkerPool:
                     offset, scenes, split = pending.popleft()
                     self._tid += 1
                     try:
-                        w.conn.send((self._tid, model_name, items, scenes, split))
+                        w.conn.send((self._tid, model_name, items, scenes, split, scorer))
                     except OSError:  # died just now: the task goes back, the worker is replaced
                         pending.appendleft((offset, scenes, split))
                         w.proc.kill()
@@ -410,8 +428,8 @@ class WorkerPool:
 
 
 # ---------------------------------------------------------------- Dask
-def _append_result(box, model_name, options_items, scenes):
-    box.append(evaluate_scenes(model_name, options_items, scenes))
+def _append_result(box, model_name, options_items, scenes, scorer):
+    box.append(evaluate_scenes(model_name, options_items, scenes, scorer=scorer))
 
 
 _DASK_CALLS = [0]  # evaluations begun in this (Dask worker) process
@@ -419,7 +437,7 @@ _DASK_RESTART_S = 120.0  # s: a restarted Dask worker is back within this (measu
 
 
 def _dask_evaluate(model_name: str, options_items: tuple, scenes: list, timeout_s: float | None,
-                   split: bool, grace_s: float = FIRST_CALL_GRACE_S):
+                   split: bool, grace_s: float = FIRST_CALL_GRACE_S, scorer=None):
     """A Dask task: evaluate scenes with per-evaluation deadlines (in a thread, since a Dask task cannot
     be killed). Returns (Evaluations, begun, hung_worker): begun (n,) bool marks the scenes evaluated
     or failed; the others are to be run again, one at a time; hung_worker is this worker's address when
@@ -427,8 +445,8 @@ def _dask_evaluate(model_name: str, options_items: tuple, scenes: list, timeout_
     _single_thread()
     n, nv = len(scenes), len(scenes[0].vehicles)
     if not timeout_s:
-        return evaluate_scenes(model_name, options_items, scenes), np.ones(n, bool), None
-    res = empty_evaluations(n, nv)
+        return evaluate_scenes(model_name, options_items, scenes, scorer=scorer), np.ones(n, bool), None
+    res = empty_evaluations(n, nv, k=_n_scores(scorer))
     begun = np.zeros(n, bool)
     try:
         vectorised = _vectorised(_model(model_name, options_items))
@@ -438,7 +456,7 @@ def _dask_evaluate(model_name: str, options_items: tuple, scenes: list, timeout_
     for k0, m in units:
         box: list = []
         th = threading.Thread(target=_append_result, daemon=True,
-                              args=(box, model_name, options_items, scenes[k0:k0 + m]))
+                              args=(box, model_name, options_items, scenes[k0:k0 + m], scorer))
         th.start()
         th.join(timeout_s * m + (grace_s if _DASK_CALLS[0] == 0 else 0.0))
         _DASK_CALLS[0] += 1
@@ -493,23 +511,24 @@ class Executor:
             self._cluster.close()
         self._pool = self._client = self._cluster = None
 
-    def evaluate(self, model_name: str, options: dict, scenes: list) -> Evaluations:
-        """Simulate scenes with the model; `Evaluations` in input order."""
+    def evaluate(self, model_name: str, options: dict, scenes: list, scorer=None) -> Evaluations:
+        """Simulate scenes with the model; `Evaluations` in input order. scorer: scores each outcome where it
+        was simulated, in Evaluations.scores (module docstring)."""
         items = tuple(sorted(options.items()))
         if self._pool is None and self._client is None:
-            return evaluate_scenes(model_name, items, scenes)
+            return evaluate_scenes(model_name, items, scenes, scorer=scorer)
         nv = len(scenes[0].vehicles)
         if self._pool is not None:
             n_chunks = 1 if self.backend == "serial" else min(len(scenes), self.workers * 2)
-            return self._pool.evaluate(model_name, items, _chunks(scenes, n_chunks), nv)
-        return self._dask(model_name, items, scenes, nv)
+            return self._pool.evaluate(model_name, items, _chunks(scenes, n_chunks), nv, scorer)
+        return self._dask(model_name, items, scenes, nv, scorer)
 
-    def _dask(self, model_name, items, scenes, nv) -> Evaluations:
+    def _dask(self, model_name, items, scenes, nv, scorer=None) -> Evaluations:
         """Chunks in parallel; the scenes of a task whose workers died (KilledWorker: Dask retried it on
         other workers and they died too) are then run one at a time, alone on the cluster, so a scene
         that merely shared a dying worker is evaluated and only the deadly ones fail."""
         from distributed import KilledWorker
-        res = empty_evaluations(len(scenes), nv)
+        res = empty_evaluations(len(scenes), nv, k=_n_scores(scorer))
         tasks = []  # (offset, scenes, split)
         offset = 0
         for c in _chunks(scenes, min(len(scenes), self.workers * 2)):
@@ -521,7 +540,8 @@ class Executor:
             tasks = tasks[1:] if alone else []
             futures = self._client.map(_dask_evaluate, [model_name] * len(batch), [items] * len(batch),
                                        [t[1] for t in batch], [self.timeout_s] * len(batch),
-                                       [t[2] for t in batch], [FIRST_CALL_GRACE_S] * len(batch), pure=False)
+                                       [t[2] for t in batch], [FIRST_CALL_GRACE_S] * len(batch),
+                                       [scorer] * len(batch), pure=False)
             # the longest a round can legitimately take: every scene of it one after the other, after the
             # first-call grace and a restart of the workers (Dask closes a worker gracefully first)
             bound = None if self.timeout_s is None else FIRST_CALL_GRACE_S + _DASK_RESTART_S + self.timeout_s * sum(

@@ -40,7 +40,7 @@ from numba import njit
 from pymoo.core.problem import Problem
 
 from crashlab import fields
-from crashlab.execution import Evaluations, Executor, evaluations_of, model_for
+from crashlab.execution import Executor
 from crashlab.geometry import penetration, rect_corners
 from crashlab.scene import Scene
 from crashlab.units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
@@ -237,17 +237,12 @@ class ReconstructionProblem(Problem):
         return R
 
     def _simulate(self, scenes):
-        """(Evaluations, residuals R): on the executor, or in this process with the outcomes the evidence
-        needs (module docstring)."""
+        """(Evaluations, residuals R) on the executor (or in this process without one): the evidence is
+        scored where each scene was simulated (crashlab.execution, scorer), the thesis objective from the
+        rest poses."""
         es = self.evidence_set
-        if es is None:
-            ev = (self.executor or Executor()).evaluate(self.model, self.model_options, scenes)
-            return ev, self.residuals(ev.rest)
-        if es.needs_outcomes:
-            outcomes = es.simulate(model_for(self.model, self.model_options), scenes)
-            return evaluations_of(outcomes, len(self.names)), es.residuals(outcomes)
-        ev = (self.executor or Executor()).evaluate(self.model, self.model_options, scenes)
-        return ev, es.residuals([_EvaluationView(ev, k) for k in range(len(scenes))])
+        ev = (self.executor or Executor()).evaluate(self.model, self.model_options, scenes, scorer=es)
+        return ev, (self.residuals(ev.rest) if es is None else ev.scores)
 
     def _evaluate(self, X, out, *args, **kwargs):
         scenes = self.scenes_for(X)
@@ -283,13 +278,3 @@ class ReconstructionProblem(Problem):
 
     def archive_arrays(self) -> dict:
         return {k: np.concatenate(v) if v else np.empty(0) for k, v in self.archive.items()}
-
-
-class _EvaluationView:
-    """One evaluation of crashlab.execution.Evaluations seen as an Outcome with what it carries (rest pose,
-    state at first contact; no impact rows, no paths): for evidence that needs no more (EvidenceSet)."""
-
-    def __init__(self, ev: Evaluations, k: int):
-        self.outcome_ok, self.rest_si, self.contact_si = bool(ev.ok[k]), ev.rest[k], ev.contact[k]
-        self.impact_rows, self.trajectories = [], {}
-

@@ -50,6 +50,16 @@ class RaisingModel(EchoModel):
         return super().simulate(scene)
 
 
+class ImpactTimeScorer:
+    """Scores each outcome by what only the Outcome carries (its first impact row's time, V1's rest x), as the
+    reconstruction's evidence does with the point of impact or a mark (crashlab.execution, scorer)."""
+    n_residuals, needs_trajectory = 2, False
+
+    def residuals(self, outcomes):
+        return np.array([[o.impact_rows[0]["t"], o.rest_si[0][0]] if isinstance(o, crashlab.Outcome)
+                         and o.outcome_ok else [np.nan, np.nan] for o in outcomes])
+
+
 class SlowFirstCallModel(EchoModel):
     """Its first call in a process takes 2.5 s (as a model that numba compiles on first use)."""
     compiled = False
@@ -142,6 +152,29 @@ def test_outcome_failed_by_the_guard_carries_the_guards_reason():
         execution._model = orig
     assert list(ev.ok) == [True, False, True]
     assert ev.reason[1] == "physics guard: interpenetration: V1 and V2 overlap by 0.40 m at the end"
+
+
+@pytest.mark.parametrize("backend", ["serial", pytest.param("processes", marks=pytest.mark.slow)])
+def test_the_evidence_is_scored_where_the_scenes_run_with_the_timeout(backend, reference, short_grace):
+    """A scorer (the evidence of impact rows or paths) runs in the worker beside the simulation: the hanging
+    scenes time out and fail, unscored; the others carry the scores of their own outcomes (scores of the
+    same outcomes in this process for comparison)."""
+    with Executor(backend, workers=2, timeout_s=2.0) as ex:
+        ev = ex.evaluate("test_execution:HangingModel", {}, _scenes(), scorer=ImpactTimeScorer())
+    _check(ev, reference, "timeout: evaluation ran longer than 2 s")
+    bad = np.array([v > 60.0 for v in SPEEDS])
+    assert np.isnan(ev.scores[bad]).all()
+    want = ImpactTimeScorer().residuals([EchoModel().simulate(s) for s in np.array(_scenes())[~bad]])
+    np.testing.assert_array_equal(ev.scores[~bad], want)
+    assert ev.scores.shape == (len(SPEEDS), 2) and np.all(ev.scores[~bad, 0] == 0.1)
+
+
+def test_a_scorer_that_raises_fails_its_batch_with_the_reason():
+    class Raising(ImpactTimeScorer):
+        def residuals(self, outcomes):
+            raise ValueError("no impact row")
+    ev = evaluate_scenes("test_execution:EchoModel", (), _scenes()[:2], scorer=Raising())
+    assert not ev.ok.any() and all("scoring the outcome raised ValueError: no impact row" in r for r in ev.reason)
 
 
 def test_each_models_first_call_in_a_worker_gets_the_compile_grace(reference, short_grace):
