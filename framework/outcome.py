@@ -129,8 +129,10 @@ class Outcome:
     # ---------------------------------------------------------------- public tables
     @property
     def rest(self):
-        """Pose at the end of the run: x, y [m], heading [deg], speed [km/h], at_rest (bool). A vehicle
-        with at_rest False was still moving when the run ended: its row is an end pose, not a rest pose."""
+        """Pose at the end of the run: x, y [m], heading [deg, continuous: the start heading plus every turn
+        since, so a scene's 720 plus a half turn reads 900; crashlab.units.wrap_deg gives -180..180], speed
+        [km/h], at_rest (bool). A vehicle with at_rest False was still moving when the run ended: its row is
+        an end pose, not a rest pose."""
         import pandas as pd
         return pd.DataFrame({"x": self.rest_si[:, 0], "y": self.rest_si[:, 1],
                              "heading": np.degrees(self.rest_si[:, 2]),
