@@ -36,13 +36,6 @@ def run_cli(args) -> int:
               else "no feasible solution")
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
-    if refined is not None and len(refined.table):
-        best = refined.table.iloc[0]
-        print(f"refine with {refined.model}: {refined.evaluations} evaluations of {refined.budget}, "
-              f"{refined.wall_time_s:.1f} s; best candidate moved " + ", ".join(
-                  f"{f.label} {best[f'moved_{f.label}']:+.3f}" for f in study.variables)
-              + f"; sum of squared residuals under {refined.model} {best['refine_sumsq_start']:.4g} -> "
-              f"{best['refine_sumsq']:.4g}" + (" (refine.csv, refine.md)" if args.out else ""))
-    elif refined is not None:
-        print(f"refine with {refined.model}: no candidate (no feasible solution)")
+    if refined is not None:
+        print(refined.summary_line(study.variables, wrote=bool(args.out)))
     return 0

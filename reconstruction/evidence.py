@@ -2,10 +2,11 @@
 
 The contract (docs/physics.md, "Evidence and likelihood"; the posterior builds on it):
 
-    ev = study.evidence_set                      # an EvidenceSet: items, each with its sigmas
-    outcomes = ev.simulate(model, scenes)        # model.simulate where marks need a CG path, else simulate_batch
-    R = ev.residuals(outcomes)                   # (n, m): every residual component divided by its sigma
-    L = ev.log_likelihood(outcomes)              # (n,): -0.5 * sum(R**2, axis=1); -inf where R has a NaN
+    es = study.evidence_set                      # an EvidenceSet: items, each with its sigmas
+    R = es.residuals(outcomes)                   # (n, m): every residual component divided by its sigma
+    L = es.log_likelihood(outcomes)              # (n,): -0.5 * sum(R**2, axis=1); -inf where R has a NaN
+    executor.evaluate(model, options, scenes, scorer=es).scores  # R, each Outcome scored in the worker that
+                                                 # simulated it (model.simulate where marks need a CG path)
 
 Residual components (simulated minus measured, each divided by its sigma; file units km/h, deg, m):
   rest.<V>       (x - x*) / sigma_xy, (y - y*) / sigma_xy; with a heading: wrap(psi - psi*) / sigma_heading
@@ -34,7 +35,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from crashlab.execution import simulate_each
 from crashlab.units import ms_to_kmh, wrap_deg
 
 
@@ -109,21 +109,8 @@ class EvidenceSet:
         return any(it.kind == "marks" for it in self.items)
 
     @property
-    def needs_outcomes(self) -> bool:
-        """Whether scoring needs more than rest poses and contact speeds (crashlab.execution.Evaluations
-        carries only those): the point of impact, a delta-V or a mark."""
-        return any(it.kind in ("impact", "marks") or (it.kind == "edr" and "delta_v" in it.components)
-                   for it in self.items)
-
-    @property
     def n_residuals(self) -> int:
         return len(self.labels)
-
-    def simulate(self, model, scenes) -> list:
-        """Outcomes of the scenes with what the evidence needs: `model.simulate` one by one when marks need
-        the CG path (the impulse model's simulate_batch records none), else `model.simulate_batch`. An
-        exception is returned in place of its outcome (scored NaN / -inf), never raised."""
-        return simulate_each(model, scenes, batch=not self.needs_trajectory)
 
     # ---------------------------------------------------------------- residuals
     def _simulated(self, it: EvidenceItem, o) -> list[float]:

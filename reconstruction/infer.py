@@ -45,7 +45,6 @@ sqrt(p (1 - p) / ESS) (ESS: the smallest over the variables the question names).
 """
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import math
 import os
@@ -67,6 +66,7 @@ from crashlab.execution import Executor
 from crashlab.vehicle import pydantic_error
 
 from .evidence import log_likelihood_of
+from .problem import variable_label
 from .run import read_checkpoint
 from .schema import SEED_MAX, WORKERS_MAX
 from .study import Study, _canonical, load_study
@@ -281,11 +281,6 @@ class Variable:
                                                           f", within [{self.lower:g}, {self.upper:g}]")
 
 
-def _label(path: str) -> str:
-    """V1.mass for vehicles.V1.mass; road.friction, impact.restitution, road.zones.0.friction as they are."""
-    return path[len("vehicles."):] if path.startswith("vehicles.") else path
-
-
 class Posterior:
     """A study prepared for sampling: its variables, priors, log-likelihood and questions."""
 
@@ -309,7 +304,7 @@ class Posterior:
             self.variables.append(Variable(f.label, p, float(f.lower), float(f.upper), fields.parse(p).unit,
                                            by_path.pop(p, None)))
         for p, u in by_path.items():
-            self.variables.append(Variable(_label(p), p, u.lower, u.upper, u.unit, u, free=False))
+            self.variables.append(Variable(variable_label(p), p, u.lower, u.upper, u.unit, u, free=False))
         self.labels = [v.label for v in self.variables]
         self.n_free = len(study.spec.free)
         self.setter = fields.setter(scene, [v.path for v in self.variables])
@@ -328,7 +323,6 @@ class Posterior:
             question.name = qf.name or qf.expr
             self.questions.append(question)
         self.evaluations = 0
-        self._pool, self._pool_size = None, 1  # worker processes (run_posterior, evidence beyond rest poses)
 
     def _truth(self):
         """The base scene's values (file units): the truth of a twin, else None."""
@@ -375,10 +369,6 @@ class Posterior:
         """(n,) Gaussian log-likelihood of rows X (file units); -inf where a candidate cannot be scored or
         is no valid collision (module docstring)."""
         X = np.atleast_2d(np.asarray(X, float))
-        if self._pool is not None and len(X) > 1:  # the batch split over the worker processes
-            parts = list(self._pool.map(_chunk_log_likelihood, np.array_split(X, min(len(X), self._pool_size))))
-            self.evaluations += sum(n for _, n in parts)
-            return np.concatenate([L for L, _ in parts])
         out = np.full(len(X), -np.inf)
         scenes, idx = [], []
         for k, row in enumerate(X):
@@ -391,7 +381,7 @@ class Posterior:
             return out
         idx = np.asarray(idx)
         self.evaluations += len(scenes)
-        ev, R = self.problem._simulate(scenes)  # the search's own evaluation path (executor or in-process)
+        ev, R = self.problem._simulate(scenes)  # the search's own evaluation path (executor, evidence scored there)
         L = log_likelihood_of(R)
         bad = ~ev.ok | (ev.n_impacts <= 0)
         for name in self.study.evidence_set.objective_names:
@@ -408,43 +398,6 @@ class Posterior:
         if ok.any():
             lp[ok] += self.log_likelihood(X[ok])
         return lp
-
-
-_WORKER_POSTERIOR = None  # the Posterior of a worker process (_worker_pool)
-
-
-def _worker_init(path) -> None:
-    global _WORKER_POSTERIOR
-    from crashlab.execution import _single_thread
-    _single_thread()  # one thread per worker process, as the executor's workers
-    _WORKER_POSTERIOR = load_posterior(path)
-
-
-def _chunk_log_likelihood(X):
-    post = _WORKER_POSTERIOR
-    n0 = post.evaluations
-    L = post.log_likelihood(X)
-    return L, post.evaluations - n0
-
-
-@contextlib.contextmanager
-def _worker_pool(post, workers: int):
-    """Evidence beyond rest poses and contact speeds is scored in this process (the search's path,
-    crashlab.reconstruction.problem), not on the executor: with workers > 1 each batch is split over that
-    many spawned processes, each of which loads the study itself (no fork: numba's OpenMP threads)."""
-    import multiprocessing
-    if workers <= 1:
-        yield
-        return
-    from concurrent.futures import ProcessPoolExecutor  # a worker that cannot start breaks the pool: no retry loop
-    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_init,
-                               initargs=(str(post.path),))
-    post._pool, post._pool_size = pool, workers
-    try:
-        yield
-    finally:
-        post._pool, post._pool_size = None, 1
-        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _digest(obj) -> str:
@@ -476,6 +429,7 @@ class PosteriorResult:
     sampler: str
     truth: np.ndarray | None = None
     chain: np.ndarray | None = None  # (iterations, walkers, d), every iteration
+    refine: object = None  # refine.RefineResult of the study's [refine] on the best draws
 
     def interval(self, q=(0.05, 0.5, 0.95)) -> np.ndarray:
         return np.quantile(self.samples, q, axis=0)
@@ -540,10 +494,7 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         backend, nworkers = ("processes" if workers > 1 else "serial"), workers
     stream = sys.stderr if progress else None
     t0 = time.time()
-    in_process = post.study.evidence_set.needs_outcomes
-    pool_workers = nworkers if (in_process and backend != "serial") else 1
-    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor, \
-            _worker_pool(post, pool_workers):
+    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor:
         post.problem.executor = executor
         try:
             if s.sampler == "zeus":
@@ -568,6 +519,16 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
     if out is not None:
         from .infer_report import write_outputs
         write_outputs(post, result, out)
+    if post.study.spec.refine is not None:  # the second opinion on the most likely draws (refine.py)
+        import pandas as pd
+
+        from .html_report import refresh_refine_section
+        from .refine import refine
+        draws = pd.DataFrame(result.samples, columns=result.labels).assign(log_likelihood=result.log_likelihood)
+        draws = draws.sort_values("log_likelihood", ascending=False, kind="stable")
+        result.refine = refine(post.study, draws, out, source="posterior draws", progress=progress)
+        if out is not None:
+            refresh_refine_section(out)  # (report.html was written before the second opinion)
     return result
 
 
@@ -653,6 +614,8 @@ def cmd_infer(args) -> int:
         print(f"{lab:24s} {med[j]:10.3f}  90 % [{lo[j]:.3f}, {hi[j]:.3f}]  ESS {res.ess[j]:.0f}")
     print(f"{len(res.samples)} samples, {res.evaluations} model evaluations, {res.wall_time_s:.1f} s, "
           f"outputs in {args.out}")
+    if res.refine is not None:
+        print(res.refine.summary_line(post.study.variables, wrote=True))
     return 0
 
 

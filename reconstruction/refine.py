@@ -58,6 +58,17 @@ class RefineResult:
                 "wall_time_s": round(self.wall_time_s, 3), "source": self.source,
                 "candidates": self.table.replace({np.nan: None}).to_dict(orient="records")}
 
+    def summary_line(self, variables, wrote: bool) -> str:
+        """One line for the command line: how far the best candidate moved and its fit under this model."""
+        if not len(self.table):
+            return f"refine with {self.model}: no candidate (no feasible solution)"
+        best = self.table.iloc[0]
+        return (f"refine with {self.model}: {self.evaluations} evaluations of {self.budget}, "
+                f"{self.wall_time_s:.1f} s; best candidate moved "
+                + ", ".join(f"{f.label} {best[f'moved_{f.label}']:+.3f}" for f in variables)
+                + f"; sum of squared residuals under {self.model} {best['refine_sumsq_start']:.4g} -> "
+                f"{best['refine_sumsq']:.4g}" + (" (refine.csv, refine.md)" if wrote else ""))
+
 
 def _settings(study, model, model_options, evaluations, n_candidates):
     cfg = study.spec.refine

@@ -147,3 +147,22 @@ def test_reconstruct_with_refine_puts_it_on_the_report_page(tmp_path):
     page = (out / "report.html").read_text()
     assert "refine.md" in page or "Second opinion" in page or "second opinion" in page
     assert (out / "refine.md").read_text().splitlines()[0].strip("# ") in page
+
+
+def test_infer_with_refine_refines_the_most_likely_draws(tmp_path):
+    """`[refine]` in a posterior study: after sampling, the most likely draws get the second opinion
+    (source "posterior draws"), refine.csv is written and report.html shows it."""
+    from crashlab.reconstruction.infer import load_posterior, run_posterior
+    twin_infer = SIDE.parents[1] / "infer" / "twin_infer.toml"
+    text = twin_infer.read_text().replace('scene = "../pc_crash/side.toml"', f'scene = "{SIDE.as_posix()}"')
+    path = tmp_path / "infer_refine.toml"
+    path.write_text(text + '\n[refine]\nmodel = "impulse"\nevaluations = 6\ncandidates = 1\n')
+    post = load_posterior(path)
+    post.settings = post.settings.model_copy(update={"walkers": 8, "burn": 4, "samples": 80, "draws_plotted": 2})
+    res = run_posterior(post, tmp_path / "out", progress=False)
+    assert res.refine is not None and res.refine.source == "posterior draws"
+    table = pd.read_csv(tmp_path / "out" / "refine.csv")
+    best = np.argmax(res.log_likelihood)
+    assert table.loc[0, "V1.speed"] == pytest.approx(res.samples[best, res.labels.index("V1.speed")], abs=1e-9)
+    assert table.loc[0, "refine_sumsq"] <= table.loc[0, "refine_sumsq_start"] + 1e-12
+    assert "posterior draws" in (tmp_path / "out" / "report.html").read_text()
