@@ -149,8 +149,8 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
         from tqdm import tqdm
         bar = tqdm(total=budget, unit="eval", desc=f"refine ({model})", dynamic_ncols=True)
     ex = study.spec.execution
-    # the refine model gets fresh workers of the study's [execution]: a worker's first call has the executor's
-    # grace for numba's compilation, and a worker that served the search has had its first call already
+    # the refine model on an executor of the study's [execution] (its backend, workers and timeout; each model's
+    # first call in a worker has the compile grace, crashlab.execution), the search model on the one given
     rows = []
     with contextlib.nullcontext(executor) if executor is not None else Executor() as live, \
             Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as fresh:
