@@ -31,6 +31,20 @@ def build_scene(vehicles=None, source="<test scene>", **kw):
     return scene_from_dict(data, source=source)
 
 
+# the study files' two free speeds of the side-collision twins (V1 30-70, V2 10-50 km/h)
+FREE_SPEEDS = """[[free]]
+vehicle = "V1"
+field = "speed"
+lower = 30.0
+upper = 70.0
+[[free]]
+vehicle = "V2"
+field = "speed"
+lower = 10.0
+upper = 50.0
+"""
+
+
 def two_frame_gif(scene, outcome, path, fps):
     """Stands in for crashlab.animation in report.html (the animation itself: tests/test_animation.py)."""
     from PIL import Image

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import assert_one_error_line
+from conftest import FREE_SPEEDS, assert_one_error_line
 
 from crashlab.errors import InputError
 from crashlab.outcome import Outcome
@@ -105,17 +105,7 @@ name = "nsga2"
 pop_size = 12
 generations = 4
 seed = 1
-[[free]]
-vehicle = "V1"
-field = "speed"
-lower = 30.0
-upper = 70.0
-[[free]]
-vehicle = "V2"
-field = "speed"
-lower = 10.0
-upper = 50.0
-[evidence]
+{FREE_SPEEDS}[evidence]
 twin = true
 NOISE
 [evidence.rest.V1]

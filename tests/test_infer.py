@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import assert_one_error_line
+from conftest import FREE_SPEEDS, assert_one_error_line
 
 from crashlab.errors import InputError
 from crashlab.reconstruction.infer import load_posterior, parse_question, run_posterior
@@ -31,19 +31,7 @@ def _study(tmp_path: Path, body: str, name="study.toml") -> Path:
     return p
 
 
-TWO_SPEEDS = """
-[[free]]
-vehicle = "V1"
-field = "speed"
-lower = 30.0
-upper = 70.0
-
-[[free]]
-vehicle = "V2"
-field = "speed"
-lower = 10.0
-upper = 50.0
-
+TWO_SPEEDS = "\n" + FREE_SPEEDS + """
 [evidence]
 twin = true
 {noise}

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FREE_SPEEDS
 
 from crashlab import uncertainty
 from crashlab.cli import main
@@ -30,17 +31,7 @@ name = "nsga2"
 pop_size = 24
 generations = 12
 seed = 1
-[[free]]
-vehicle = "V1"
-field = "speed"
-lower = 30.0
-upper = 70.0
-[[free]]
-vehicle = "V2"
-field = "speed"
-lower = 10.0
-upper = 50.0
-[evidence]
+{FREE_SPEEDS}[evidence]
 twin = true
 [polish]
 evaluations = 150
