@@ -135,8 +135,8 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
     """Simulate the best `candidates` (a DataFrame with the study's variable labels as columns, best first:
     the Pareto table, or posterior draws) again with the refine model and polish them with it (module
     docstring); with out_dir, write refine.csv and refine.md. The settings default to the study's [refine].
-    The refine model runs on an Executor of the study's [execution] opened here; the search model on
-    `executor` (a live crashlab.execution.Executor, e.g. the search's), else in this process."""
+    Both models run on `executor` (a live crashlab.execution.Executor, e.g. the search's), else on one of the
+    study's [execution] opened here."""
     t0 = time.perf_counter()
     model, opts, budget, n_cand = _settings(study, model, model_options, evaluations, n_candidates)
     search, ref = study.make_problem(), study.problem_for(model, opts)
@@ -149,12 +149,12 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
         from tqdm import tqdm
         bar = tqdm(total=budget, unit="eval", desc=f"refine ({model})", dynamic_ncols=True)
     ex = study.spec.execution
-    # the refine model on an executor of the study's [execution] (its backend, workers and timeout; each model's
-    # first call in a worker has the compile grace, crashlab.execution), the search model on the one given
+    # both models on the executor given (the search's), else on one of the study's [execution]; each model's
+    # first call in a worker has the compile grace (crashlab.execution)
     rows = []
-    with contextlib.nullcontext(executor) if executor is not None else Executor() as live, \
-            Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as fresh:
-        search.executor, ref.executor = live, fresh
+    with contextlib.nullcontext(executor) if executor is not None else \
+            Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as live:
+        search.executor = ref.executor = live
         s0 = _evaluate(search, X) if n else None
         r0 = _evaluate(ref, X) if n else None
         used = n
