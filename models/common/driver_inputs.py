@@ -60,15 +60,20 @@ def pack_action_tables(vehicles) -> tuple[np.ndarray, np.ndarray]:
 
 
 @register_jitable
+def ahead(t, time):
+    """Whether `time` lies after t by more than round-off (1e-12 relative): a change there is still to come."""
+    return time > t + 1e-12 * (1.0 + abs(t))
+
+
+@register_jitable
 def next_change(A, n, t):
     """The first time after t at which the vehicle's inputs change their law: an action's start (a jump of
     wheel state, brake or steer, or a ramp's start) or a ramp's end (a kink); inf if none. A step that ends
     there does not straddle a change."""
-    tol = 1e-12 * (1.0 + abs(t))
     for k in range(1, n):
-        if A[k, A_T] > t + tol:
+        if ahead(t, A[k, A_T]):
             return A[k, A_T]
-        if A[k, A_T_END] > t + tol:
+        if ahead(t, A[k, A_T_END]):
             return A[k, A_T_END]
     return math.inf
 
@@ -91,6 +96,19 @@ def ramping(A, n, t):
     while k > 0 and t < A[k, A_T]:
         k -= 1
     return t < A[k, A_T_END] and (A[k, A_BRAKE_TO] != A[k, A_BRAKE_FROM] or A[k, A_STEER_TO] != A[k, A_STEER_FROM])
+
+
+@register_jitable
+def steady_next(A, n, t):
+    """How long the vehicle's inputs at t hold: when its current action's ramp is over, the next action's
+    start (inf if none): driver_inputs and next_change keep their values of t at every later t' while that
+    start is ahead(t', start) (each ramp ends before the next action starts); -inf within a ramp."""
+    k = n - 1
+    while k > 0 and t < A[k, A_T]:
+        k -= 1
+    if t < A[k, A_T_END]:
+        return -math.inf
+    return A[k + 1, A_T] if k + 1 < n else math.inf
 
 
 @register_jitable
@@ -227,6 +245,15 @@ def road_friction(x, y, mu_road, E, start, mu, box):
 
 
 @register_jitable
+def wheel_point(x, y, c, s, front, rear, half_track, w):
+    """(x, y) of wheel w (0 front left, 1 front right, 2 rear left, 3 rear right) of a vehicle at (x, y) heading
+    (c, s) = (cos, sin), axles `front` ahead of and `rear` behind the CG."""
+    ahead = front if w < 2 else -rear
+    left = half_track if w % 2 == 0 else -half_track
+    return x + c * ahead - s * left, y + s * ahead + c * left
+
+
+@register_jitable
 def wheel_frictions_clearance(x, y, c, s, front, rear, half_track, mu_road, E, start, mu, box):
     """(f_fl, f_fr, f_rl, f_rr, margin): the road friction at the four wheels (front left, front right, rear
     left, rear right) of a vehicle at (x, y) heading (c, s) = (cos, sin), axles `front` ahead of and `rear`
@@ -234,10 +261,10 @@ def wheel_frictions_clearance(x, y, c, s, front, rear, half_track, mu_road, E, s
     boundary's blend): point_friction at each wheel, with each zone first tested against the circle about
     the CG that holds every wheel (a zone whose box it misses is skipped, a convex zone that holds it whole
     gives every wheel its friction), so a vehicle away from zone boundaries costs one test per zone."""
-    xs = (x + c * front - s * half_track, x + c * front + s * half_track,
-          x - c * rear - s * half_track, x - c * rear + s * half_track)
-    ys = (y + s * front + c * half_track, y + s * front - c * half_track,
-          y - s * rear + c * half_track, y - s * rear - c * half_track)
+    x0, y0 = wheel_point(x, y, c, s, front, rear, half_track, 0)
+    x1, y1 = wheel_point(x, y, c, s, front, rear, half_track, 1)
+    x2, y2 = wheel_point(x, y, c, s, front, rear, half_track, 2)
+    x3, y3 = wheel_point(x, y, c, s, front, rear, half_track, 3)
     f0 = f1 = f2 = f3 = mu_road
     margin = math.inf
     reach = math.sqrt(max(front, rear) ** 2 + half_track ** 2)
@@ -254,13 +281,13 @@ def wheel_frictions_clearance(x, y, c, s, front, rear, half_track, mu_road, E, s
                 f0 = f1 = f2 = f3 = mu[z]
                 margin = min(margin, d_min - reach - 0.5 * PATCH)
                 continue
-        w, m0 = _patch_weight(xs[0], ys[0], E, start, box, z)
+        w, m0 = _patch_weight(x0, y0, E, start, box, z)
         f0 = _blend(f0, w, mu[z])
-        w, m1 = _patch_weight(xs[1], ys[1], E, start, box, z)
+        w, m1 = _patch_weight(x1, y1, E, start, box, z)
         f1 = _blend(f1, w, mu[z])
-        w, m2 = _patch_weight(xs[2], ys[2], E, start, box, z)
+        w, m2 = _patch_weight(x2, y2, E, start, box, z)
         f2 = _blend(f2, w, mu[z])
-        w, m3 = _patch_weight(xs[3], ys[3], E, start, box, z)
+        w, m3 = _patch_weight(x3, y3, E, start, box, z)
         f3 = _blend(f3, w, mu[z])
         margin = min(margin, m0, m1, m2, m3)
     return f0, f1, f2, f3, margin

@@ -29,11 +29,14 @@ from numba import njit, prange
 from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners
 from crashlab.models.common.driver_inputs import (
     PATCH,
+    ahead,
     driver_inputs,
     effective_mode,
     next_change,
+    point_friction,
     ramping,
-    wheel_frictions_clearance,
+    steady_next,
+    wheel_point,
 )
 from crashlab.models.common.planar_vehicle import (
     P_A,
@@ -45,7 +48,7 @@ from crashlab.models.common.planar_vehicle import (
     P_REAR,
     P_TRACK,
     stiffest_rate,
-    vehicle_forces,
+    vehicle_forces_trig,
 )
 from crashlab.models.common.wheel_states import BRAKED, ROLLING
 from crashlab.units import G
@@ -67,6 +70,10 @@ N_IMP = 20
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
  D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
 N_DIAG = 15  # D_VEHICLE_STEPS: awake vehicles integrated, summed over steps; D_NARROW: outline tests
+# a vehicle's driver inputs at the step's start (_heun): wheel state, brake, steer and the cosines and sines of
+# its steer and heading
+IN_MODE, IN_BRAKE, IN_STEER, IN_COS_STEER, IN_SIN_STEER, IN_COS_HEADING, IN_SIN_HEADING = range(7)
+N_IN = 7
 STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
 V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)
@@ -176,44 +183,63 @@ def _gap(S, B, radius, i, k, nv):
 
 @njit(cache=True, inline="always")  # inlined: a call costs more than the cache hit (measured)
 def _wheel_frictions(P, X, i, reach, mu, zones, zcache):
-    """The road friction under the four wheels of vehicle i in state X[i] (driver_inputs.wheel_frictions).
-    zcache[i] = (x, y, heading, margin, four frictions) of the last look-up: while no wheel can have moved
-    `margin` since (CG displacement + reach x heading change), the frictions hold without a look-up."""
+    """The road friction under the four wheels of vehicle i in state X[i] (driver_inputs.point_friction at
+    each wheel). zcache[i] = (x, y, heading of the last look-up, the least of the four margins, each wheel's
+    margin, each wheel's friction): since that look-up no wheel has moved more than d = |dx| + |dy| +
+    reach |dheading|, so while d is below a wheel's margin its friction holds (_wheel_lookup)."""
     z = zcache[i]
-    if abs(X[i, 0] - z[0]) + abs(X[i, 1] - z[1]) + reach * abs(X[i, 2] - z[2]) < z[3]:
-        return z[4], z[5], z[6], z[7]
-    f0, f1, f2, f3, margin = wheel_frictions_clearance(X[i, 0], X[i, 1], math.cos(X[i, 2]), math.sin(X[i, 2]),
-                                                       P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], mu, zones[0],
-                                                       zones[1], zones[2], zones[3])
-    z[0], z[1], z[2], z[3], z[4], z[5], z[6], z[7] = X[i, 0], X[i, 1], X[i, 2], margin, f0, f1, f2, f3
-    return f0, f1, f2, f3
+    d = abs(X[i, 0] - z[0]) + abs(X[i, 1] - z[1]) + reach * abs(X[i, 2] - z[2])
+    if d < z[3]:
+        return z[8], z[9], z[10], z[11]
+    return _wheel_lookup(P, X, i, d, mu, zones[0], zones[1], zones[2], zones[3], z)
 
 
 @njit(cache=True)
-def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, out, k1, k2, tmp, in_mode,
-          in_brake, in_steer):
+def _wheel_lookup(P, X, i, d, mu, E, start, zmu, box, z):
+    """_wheel_frictions for a vehicle with some wheel's margin spent: that wheel is looked up again, the
+    others' margins shrink by d, and the pose of X[i] becomes the reference."""
+    c, s = math.cos(X[i, 2]), math.sin(X[i, 2])
+    least = math.inf
+    for w in range(4):
+        if d >= z[4 + w]:
+            xw, yw = wheel_point(X[i, 0], X[i, 1], c, s, P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], w)
+            z[8 + w], z[4 + w] = point_friction(xw, yw, mu, E, start, zmu, box)
+        else:
+            z[4 + w] -= d
+        least = min(least, z[4 + w])
+    z[0], z[1], z[2], z[3] = X[i, 0], X[i, 1], X[i, 2], least
+    return z[8], z[9], z[10], z[11]
+
+
+@njit(cache=True)
+def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, out, k1, k2, tmp, inp, held):
     """Heun step from t of the awake vehicles awake[:na] (inputs at t and just before t + h: a step never
     straddles an action's time, and one ending there keeps its own law); a sleeping vehicle's row of
-    `out` is left as it is (the caller keeps it equal to its row of S). in_mode, in_brake, in_steer: each
-    awake vehicle's inputs at t (driver_inputs, effective_mode), read by the step policy; a vehicle without
-    actions (NA 1) keeps them through the step. The wheels' frictions: _wheel_frictions, then
-    planar_vehicle.vehicle_forces."""
+    `out` is left as it is (the caller keeps it equal to its row of S). inp[i]: vehicle i's driver inputs
+    at t and the cosines and sines of its steer and heading (IN_*, set by the step policy); held[i]: how
+    long they hold (driver_inputs.steady_next). The wheels' frictions: _wheel_frictions, then
+    planar_vehicle.vehicle_forces_trig."""
     zoned = zones[2].shape[0] > 0
     for a in range(na):
         i = awake[a]
-        mode, brake, steer = in_mode[i], in_brake[i], in_steer[i]
+        mode, brake = int(inp[i, IN_MODE]), inp[i, IN_BRAKE]
+        cs, ss = inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER]
         f0 = f1 = f2 = f3 = mu
         if zoned:
             f0, f1, f2, f3 = _wheel_frictions(P, S, i, wheel_reach[i], mu, zones, zcache)
-        vehicle_forces(P[i], S[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k1[i])
+        vehicle_forces_trig(P[i], S[i], inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING], f0, f1, f2, f3, mode, brake,
+                            cs, ss, acc[i], k1[i])
         for q in range(6):
             tmp[i, q] = S[i, q] + h * k1[i, q]
-        if NA[i] > 1:  # the step's own law at its end (left limit)
+        if not (ahead(t, held[i]) and t + h <= held[i]):  # the step's own law at its end (left limit)
             mode, brake, steer = driver_inputs(A[i], NA[i], t + h, True)
             mode = effective_mode(mode, hit[i])
+            if steer != inp[i, IN_STEER]:
+                cs, ss = (math.cos(steer), math.sin(steer)) if steer != 0.0 else (1.0, 0.0)
         if zoned:
             f0, f1, f2, f3 = _wheel_frictions(P, tmp, i, wheel_reach[i], mu, zones, zcache)
-        vehicle_forces(P[i], tmp[i], f0, f1, f2, f3, mode, brake, steer, acc[i], k2[i])
+        vehicle_forces_trig(P[i], tmp[i], math.cos(tmp[i, 2]), math.sin(tmp[i, 2]), f0, f1, f2, f3, mode, brake,
+                            cs, ss, acc[i], k2[i])
         for q in range(6):
             out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
 
@@ -389,19 +415,19 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         mu_max = max(mu_max, zones[2][z])
     zoned = zones[2].shape[0] > 0
     wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (driver_inputs.wheel_frictions)
-    zcache = np.zeros((nv, 8))  # each vehicle's last wheel frictions and their margin (_wheel_frictions): none
-    zcache[:, 3] = -1.0
-    in_mode = np.zeros(nv, np.int64)  # each vehicle's driver inputs at the step's start (_heun)
-    in_brake = np.zeros(nv)
-    in_steer = np.zeros(nv)
-    mode0 = np.zeros(nv, np.int64)  # the start state's inputs (those of every t without actions, NA 1)
-    brake0 = np.zeros(nv)
-    steer0 = np.zeros(nv)
+    zcache = np.zeros((nv, 12))  # each vehicle's last wheel frictions and their margins (_wheel_frictions): none
+    zcache[:, 3:8] = -1.0
+    inp = np.zeros((nv, N_IN))  # each vehicle's driver inputs at the step's start (_heun): steer 0 so far
+    inp[:, IN_COS_STEER] = 1.0
+    held = np.full(nv, -math.inf)  # until when the inputs of the law read last hold (steady_next): none yet
+    law_mode = np.zeros(nv, np.int64)  # the law read last: driver_inputs, next_change, ramping
+    law_brake = np.zeros(nv)
+    law_change = np.zeros(nv)
+    law_ramp = np.zeros(nv, np.bool_)
     rate_mode = np.full(nv, -1, np.int64)  # the wheel state of the vehicle's step bound rate_h (stiffest_rate)
     rate_h = np.full(nv, math.inf)
     for i in range(nv):
         wheel_reach[i] = math.sqrt(max(P[i, P_A], P[i, P_B]) ** 2 + (0.5 * P[i, P_TRACK]) ** 2)
-        mode0[i], brake0[i], steer0[i] = driver_inputs(A[i], 1, 0.0)
     for i in range(nv):
         if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
             S[i, 3:6] = 0.0
@@ -460,22 +486,29 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         quiet = True
         for a in range(na):
             i = awake[a]
-            if NA[i] > 1:
-                mode, brake, steer = driver_inputs(A[i], NA[i], t)
-                t_change = min(t_change, next_change(A[i], NA[i], t))
-                if ramping(A[i], NA[i], t):
-                    quiet = False
-            else:  # no action: the start state's inputs throughout
-                mode, brake, steer = mode0[i], brake0[i], steer0[i]
-            mode = effective_mode(mode, hit[i])
-            in_mode[i], in_brake[i], in_steer[i] = mode, brake, steer
+            if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
+                law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
+                law_change[i] = next_change(A[i], NA[i], t)
+                law_ramp[i] = ramping(A[i], NA[i], t)
+                held[i] = steady_next(A[i], NA[i], t)
+                if steer != inp[i, IN_STEER]:
+                    inp[i, IN_STEER] = steer
+                    inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
+                                                                  else (1.0, 0.0))
+            t_change = min(t_change, law_change[i])
+            if law_ramp[i]:
+                quiet = False
+            mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
+            inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
             if mode == ROLLING and brake > 0.0:
                 mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
             if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
                 rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
                 rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
             h = min(h, rate_h[i])
-            lat = -math.sin(S[i, 2]) * S[i, 3] + math.cos(S[i, 2]) * S[i, 4]
+            c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
+            inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
+            lat = -sn * S[i, 3] + c * S[i, 4]
             speed = math.hypot(S[i, 3], S[i, 4])
             if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
                 quiet = False
@@ -500,8 +533,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 h = h_gap
                 diag[D_COARSE] += 1
         h = min(h, duration - t, t_change - t)
-        _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, in_mode,
-              in_brake, in_steer)
+        _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, inp, held)
         steps += 1
         diag[D_VEHICLE_STEPS] += na
         if steps > MAX_STEPS:
@@ -539,8 +571,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             lo, hi = 0.0, h
             for _ in range(60):
                 hm = 0.5 * (lo + hi)
-                _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp,
-                      in_mode, in_brake, in_steer)
+                _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp, inp,
+                      held)
                 diag[D_BISECT] += 1
                 depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
                 if depth > hi_d:
