@@ -105,9 +105,11 @@ def scene_with(values: dict, path) -> Path:
     base = load_scene(SIDE)
     want = fields.setter(base, list(values))(list(values.values()))
     got = load_scene(path)
-    state = lambda s: [(v.name, v.x, v.y, v.heading, v.speed, v.yaw_rate, v.steer) for v in s.vehicles]
+    def state(scene):
+        return [(v.name, v.x, v.y, v.heading, v.speed, v.yaw_rate, v.steer) for v in scene.vehicles]
     if state(got) != state(want):
-        raise ValueError(f"{path}: the scene copy differs from crashlab.fields' setter: {state(got)} != {state(want)}")
+        raise ValueError(f"{path}: the scene copy differs from crashlab.fields' setter: {state(got)} != "
+                         f"{state(want)}")
     return path
 
 
@@ -146,8 +148,8 @@ def sbc_run(seed: int, directory, template=None) -> dict:
     lo, med, hi = res.interval()
     t = post.truth
     return dict(seed=seed, labels=post.labels, truth=t, lo=lo, med=med, hi=hi, hit=(lo <= t) & (t <= hi),
-                rank=sbc_rank(res, t), joint=truth_rank(post, res), tau=res.tau, ess=res.ess, redrawn=redrawn, evaluations=res.evaluations,
-                seconds=time.time() - t0)
+                rank=sbc_rank(res, t), joint=truth_rank(post, res), tau=res.tau, ess=res.ess, redrawn=redrawn,
+                evaluations=res.evaluations, seconds=time.time() - t0, post=post, res=res)
 
 
 def sbc_rank(res, truth) -> np.ndarray:
@@ -217,11 +219,13 @@ def main_prior(seeds, out_dir) -> int:
         fh.write("seed,variable,truth,q05,median,q95,hit,rank,joint_rank,tau,ess,redrawn,seconds\n")
         for seed in seeds:
             r = sbc_run(seed, work, template)
+            del r["post"], r["res"]  # (the chains: not kept over 100 runs)
             runs.append(r)
             for j, lab in enumerate(r["labels"]):
-                fh.write(",".join([str(seed), lab] + [f"{r[k][j]:.6g}" for k in ("truth", "lo", "med", "hi")]
-                                  + [str(int(r["hit"][j])), f"{r['rank'][j]:.6g}", f"{r['joint']:.6g}", f"{r['tau'][j]:.4g}",
-                                     f"{r['ess'][j]:.4g}", str(len(r["redrawn"])), f"{r['seconds']:.1f}"]) + "\n")
+                vals = [f"{r[k][j]:.6g}" for k in ("truth", "lo", "med", "hi")] + [str(int(r["hit"][j]))]
+                vals += [f"{r['rank'][j]:.6g}", f"{r['joint']:.6g}", f"{r['tau'][j]:.4g}", f"{r['ess'][j]:.4g}",
+                         str(len(r["redrawn"])), f"{r['seconds']:.1f}"]
+                fh.write(",".join([str(seed), lab] + vals) + "\n")
             fh.flush()
             for x, why in r["redrawn"]:
                 print(f"seed {seed:3d}: redrawn {np.round(x, 2).tolist()}: {why}")
@@ -229,7 +233,8 @@ def main_prior(seeds, out_dir) -> int:
                 f"{lab} {t:.2f} [{a:.2f} {m:.2f} {b:.2f}]{'' if h else '*'} r {q:.2f}"
                 for lab, t, a, m, b, h, q in zip(r["labels"], r["truth"], r["lo"], r["med"], r["hi"], r["hit"],
                                                  r["rank"]))
-                + f"; joint rank {r['joint']:.2f}; tau max {np.max(r['tau']):.1f}, ESS min {np.min(r['ess']):.0f}; {r['seconds']:.0f} s", flush=True)
+                + f"; joint rank {r['joint']:.2f}; tau max {np.max(r['tau']):.1f}, ESS min {np.min(r['ess']):.0f}; "
+                f"{r['seconds']:.0f} s", flush=True)
     labels = runs[0]["labels"]
     n = len(runs)
     hits = np.sum([r["hit"] for r in runs], axis=0)
@@ -242,7 +247,8 @@ def main_prior(seeds, out_dir) -> int:
         a, b = clopper_pearson(int(hits[j]), n)
         print(f"  {lab:11s} hits {hits[j]:3d}/{n} = {hits[j] / n:.2f} (binomial 95 % {a:.2f}-{b:.2f}); "
               f"ranks KS p = {stats.kstest(ranks[:, j], 'uniform').pvalue:.2f}")
-    print(f"joint rank of the truth (share of samples more probable): KS p = {stats.kstest(joint, 'uniform').pvalue:.2f}")
+    print("joint rank of the truth (share of samples more probable): "
+          f"KS p = {stats.kstest(joint, 'uniform').pvalue:.2f}")
     print(f"written {out / 'sbc.csv'}")
     return 0
 
