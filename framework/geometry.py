@@ -13,8 +13,13 @@ from numba.extending import register_jitable
 def rect_corners(x, y, heading, front, rear, half_width):
     """Corners (4, 2), counter-clockwise, of a rectangle reaching `front` ahead of and `rear` behind
     its reference point (x, y) along `heading` [rad], `half_width` to each side."""
-    c, s = math.cos(heading), math.sin(heading)
-    out = np.empty((4, 2))
+    return rect_corners_into(np.empty((4, 2)), x, y, math.cos(heading), math.sin(heading), front, rear, half_width)
+
+
+@register_jitable
+def rect_corners_into(out, x, y, c, s, front, rear, half_width):
+    """rect_corners with the heading's cosine and sine (c, s) given, written into `out` (4, 2) and returned:
+    no allocation and no trigonometry of its own in a compiled loop."""
     local = ((front, -half_width), (front, half_width), (-rear, half_width), (-rear, -half_width))
     for i in range(4):
         lx, ly = local[i]

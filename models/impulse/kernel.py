@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners
+from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners_into
 from crashlab.models.common.driver_inputs import (
     PATCH,
     ahead,
@@ -86,11 +86,13 @@ REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left
 
 
 @njit(cache=True)
-def _outline(P, S, B, k, nv):
+def _outline(P, S, B, k, nv, out):
+    """The outline of vehicle or barrier k, written into `out` (4, 2): the step's loops allocate none."""
     if k < nv:
-        return rect_corners(S[k, 0], S[k, 1], S[k, 2], P[k, P_FRONT], P[k, P_REAR], P[k, P_HALFW])
-    b = B[k - nv]
-    return rect_corners(b[0], b[1], b[2], b[3], b[3], b[4])
+        return rect_corners_into(out, S[k, 0], S[k, 1], math.cos(S[k, 2]), math.sin(S[k, 2]), P[k, P_FRONT],
+                                 P[k, P_REAR], P[k, P_HALFW])
+    j = k - nv
+    return rect_corners_into(out, B[j, 0], B[j, 1], math.cos(B[j, 2]), math.sin(B[j, 2]), B[j, 3], B[j, 3], B[j, 4])
 
 
 @njit(cache=True)
@@ -395,6 +397,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     cl_p = np.empty((nv * nk, 2))
     cl_v = np.empty((nv * nk, 8, 2))  # and the overlap polygon's vertices
     cl_m = np.zeros(nv * nk, np.int64)
+    oa, ob = np.empty((4, 2)), np.empty((4, 2))  # the outlines of the pair under test (_outline)
     awake = np.empty(nv, np.int64)  # the awake vehicles and the pairs with an awake member (_awake_sets)
     pair_i = np.empty(nv * nk, np.int64)
     pair_k = np.empty(nv * nk, np.int64)
@@ -406,7 +409,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         for k in range(i + 1, nk):
             if broad and _circles_apart(S, B, radius, i, k, nv):
                 continue
-            d0 = penetration(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv))[0]
+            d0 = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
             if d0 > 0.0:
                 in_contact[i, k] = True
                 allowed[i, k] = d0
@@ -559,7 +562,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             if broad and _circles_apart(Snew, B, radius, i, k, nv):
                 continue
             diag[D_NARROW] += 1
-            depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
+            depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
             if in_contact[i, k]:
                 if allowed[i, k] > 0.0 or depth <= DEEPEN:
                     continue
@@ -574,7 +577,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp, inp,
                       held)
                 diag[D_BISECT] += 1
-                depth = penetration(_outline(P, Snew, B, i, nv), _outline(P, Snew, B, k, nv))[0]
+                depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
                 if depth > hi_d:
                     hi = hm
                 elif depth <= lo_d:
@@ -603,7 +606,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 allowed[i, k] = 0.0
                 continue
             diag[D_NARROW] += 1
-            ci, ck = _outline(P, S, B, i, nv), _outline(P, S, B, k, nv)
+            ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
             depth, nx, ny, owner = penetration(ci, ck)
             if depth <= 0.0:
                 in_contact[i, k] = False
@@ -656,7 +659,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                         stop = True
                         break
                     # the point: the middle of the contact zone the approach will crush
-                    zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv), _outline(P, S, B, k, nv),
+                    zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
+                                                      _outline(P, S, B, k, nv, ob),
                                                       nx, ny, cfg[C_CRUSH_TIME] * approach)
                     if not math.isnan(zx):
                         px, py = zx, zy
