@@ -8,6 +8,7 @@ import time
 import numpy as np
 from pydantic import model_validator
 
+from crashlab.diagnostics import Diagnostics
 from crashlab.model import CollisionModel
 from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
 from crashlab.models.common.impact_rows import pair_rows
@@ -196,23 +197,26 @@ class ImpulseModel(CollisionModel):
             warnings[0] = f"more impacts than max_impacts = {self.max_impacts}: the run was stopped there"
         ok = status == K.STATUS_OK
         n_imp = int(diag[K.D_IMPACTS])
-        rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp[:n_imp].copy())
-        intervals = [(float(a), float(b)) for a, b in imp[:n_imp, [K.I_T, K.I_T_END]]]
-        # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps
-        diagnostics = {"steps": int(diag[K.D_STEPS]), "coarse_steps": int(diag[K.D_COARSE]),
-                       "rejected_steps": int(diag[K.D_BISECT]), "episodes": n_imp,
-                       "t_end": diag[K.D_T_END], "max_penetration": diag[K.D_MAX_DEPTH],
-                       "kinetic_energy_start": diag[K.D_KE0], "energy_dissipated_impacts": diag[K.D_E_IMPACT],
-                       "contact_impulses": int(diag[K.D_FOLLOW]), "projected": diag[K.D_PROJECTED],
-                       # the work: awake vehicles integrated (summed over steps), outline tests of pairs
-                       # the bounding circles did not reject (sleeping vehicles and distant pairs skipped)
-                       "vehicle_steps": int(diag[K.D_VEHICLE_STEPS]), "outline_tests": int(diag[K.D_NARROW])}
-        if diag[K.D_IMPACTS] == 0:
+        imp = imp[:n_imp].copy()
+        rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp)
+        intervals = list(zip(imp[:, K.I_T].tolist(), imp[:, K.I_T_END].tolist()))
+        d = diag.tolist()
+        # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps; built
+        # directly, not from a dict (a batch builds thousands)
+        diagnostics = Diagnostics(
+            steps=int(d[K.D_STEPS]), rejected_steps=int(d[K.D_BISECT]), episodes=n_imp, t_end=d[K.D_T_END],
+            max_penetration=d[K.D_MAX_DEPTH],
+            extra={"coarse_steps": int(d[K.D_COARSE]), "kinetic_energy_start": d[K.D_KE0],
+                   "energy_dissipated_impacts": d[K.D_E_IMPACT], "contact_impulses": int(d[K.D_FOLLOW]),
+                   "projected": d[K.D_PROJECTED],
+                   # the work: awake vehicles integrated (summed over steps), outline tests of pairs the
+                   # bounding circles did not reject (sleeping vehicles and distant pairs skipped)
+                   "vehicle_steps": int(d[K.D_VEHICLE_STEPS]), "outline_tests": int(d[K.D_NARROW])})
+        if n_imp == 0:
             warnings.append("no contact between the vehicles")
-        return Outcome(names, rest.copy(), final.copy(), contact.copy(), diag[K.D_CONTACT_T], None, rows,
+        return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[K.D_CONTACT_T], None, rows,
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
-                       impact_energy=imp[:n_imp, K.I_ENERGY].copy())
-
+                       impact_energy=imp[:, K.I_ENERGY].copy())
 
 def _impact_rows(names, mass, imp):
     """Impact table rows (SI), one per vehicle per impact; an impact's row holds the sums over its contact
