@@ -50,13 +50,26 @@ def pack_actions(vs) -> np.ndarray:
     return np.array(_rows(vs), dtype=np.float64)
 
 
+_TABLES: dict = {}  # pack_action_tables' recent results by the identity of the vehicles' actions
+
+
 def pack_action_tables(vehicles) -> tuple[np.ndarray, np.ndarray]:
     """All vehicles' tables in one array (vehicles x rows x columns, padded with the last row) and the
-    number of rows of each."""
+    number of rows of each. (Remembered by the identity of each vehicle's actions tuple, its wheels and
+    steer: a batch's scenes share their actions objects, and hashing the actions costs more than packing
+    them; the entry holds the tuples, so an identity is not reused while remembered. Not to be written.)"""
+    key = tuple((id(v.actions), v.wheels, v.steer) for v in vehicles)
+    hit = _TABLES.get(key)
+    if hit is not None:
+        return hit[1], hit[2]
     tables = [_rows(v) for v in vehicles]
     k = max(len(t) for t in tables)
     A = np.array([t + t[-1:] * (k - len(t)) for t in tables], dtype=np.float64)
-    return A, np.array([len(t) for t in tables], dtype=np.int64)
+    NA = np.array([len(t) for t in tables], dtype=np.int64)
+    if len(_TABLES) >= 256:
+        _TABLES.clear()
+    _TABLES[key] = ([v.actions for v in vehicles], A, NA)
+    return A, NA
 
 
 @register_jitable
