@@ -270,9 +270,9 @@ def road_friction(x, y, mu_road, E, start, mu, box):
 def wheel_point(x, y, c, s, front, rear, half_track, w):
     """(x, y) of wheel w (0 front left, 1 front right, 2 rear left, 3 rear right) of a vehicle at (x, y) heading
     (c, s) = (cos, sin), axles `front` ahead of and `rear` behind the CG."""
-    ahead = front if w < 2 else -rear
+    along = front if w < 2 else -rear
     left = half_track if w % 2 == 0 else -half_track
-    return x + c * ahead - s * left, y + s * ahead + c * left
+    return x + c * along - s * left, y + s * along + c * left
 
 
 @register_jitable

@@ -417,7 +417,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     for z in range(zones[2].shape[0]):
         mu_max = max(mu_max, zones[2][z])
     zoned = zones[2].shape[0] > 0
-    wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (driver_inputs.wheel_frictions)
+    wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (_wheel_frictions)
     zcache = np.zeros((nv, 12))  # each vehicle's last wheel frictions and their margins (_wheel_frictions): none
     zcache[:, 3:8] = -1.0
     inp = np.zeros((nv, N_IN))  # each vehicle's driver inputs at the step's start (_heun): steer 0 so far
