@@ -332,3 +332,25 @@ def test_spheres_and_aligned_boxes_exact():
     for dz in (1.2, 0.9):  # face-to-face (flat faces: zero curvature at the face centre)
         gap, n, *_ = signed_gap(b1, np.zeros(3), I, b2, np.array([0.1, -0.05, dz]), I)
         assert abs(gap - (dz - 1.0)) < 1e-6 and n[2] > 0.999
+
+
+def test_rect_corners_into_is_rect_corners_written_in_place():
+    """rect_corners_into(out, x, y, cos h, sin h, ...) writes exactly rect_corners(x, y, h, ...) into `out`
+    (every entry) and returns `out` itself; both are the rectangle front/rear along the heading and
+    half_width to each side, counter-clockwise (checked against the rotation written out here)."""
+    from crashlab.geometry import rect_corners, rect_corners_into
+    rng = np.random.default_rng(9)
+    for x, y, h, front, rear, half in zip(rng.uniform(-50, 50, 300), rng.uniform(-50, 50, 300),
+                                          rng.uniform(-4, 4, 300), rng.uniform(0.5, 3, 300),
+                                          rng.uniform(0.5, 3, 300), rng.uniform(0.3, 1.2, 300)):
+        out = np.full((4, 2), np.nan)
+        got = rect_corners_into(out, x, y, math.cos(h), math.sin(h), front, rear, half)
+        assert got is out
+        assert np.array_equal(out, rect_corners(x, y, h, front, rear, half))
+        local = np.array([(front, -half), (front, half), (-rear, half), (-rear, -half)])
+        rot = np.array([[math.cos(h), -math.sin(h)], [math.sin(h), math.cos(h)]])
+        np.testing.assert_allclose(out, (x, y) + local @ rot.T, rtol=0, atol=1e-12)
+        e = np.roll(out, -1, axis=0) - out
+        area = 0.5 * np.sum(out[:, 0] * np.roll(out[:, 1], -1) - np.roll(out[:, 0], -1) * out[:, 1])
+        assert area == pytest.approx((front + rear) * 2 * half, rel=1e-12)  # positive: counter-clockwise
+        assert np.hypot(*e.T) == pytest.approx([2 * half, front + rear, 2 * half, front + rear], rel=1e-12)

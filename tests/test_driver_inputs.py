@@ -164,3 +164,168 @@ def test_wheel_friction_margin_bounds_how_far_the_wheels_may_move_before_a_frict
         got = wheel_frictions_clearance(x + dx, y + dy, math.cos(h2), math.sin(h2), front, rear, half, 0.8, *Z)[:4]
         assert got == tuple(f)
     assert held > 2000 and blended > 20
+
+
+# ---- the impulse kernel's reuse of driver inputs (steady_next), wheel points, remembered action tables ----
+
+def _random_vehicle(rng):
+    """A random valid vehicle dict (file units): random start wheels and steer, 0-5 actions at random times
+    in [0.05, 4.5] s (at least 0.02 s apart), each changing the steer by at least 1 deg (so the inputs change
+    right after every action's start: at it for a jump, just after it within a ramp) and perhaps the wheels
+    and brake, a ramp of 0 or up to just before the next action."""
+    states = ("rolling", "locked", "locked_after_impact", "braked")
+    times = []
+    for t in np.sort(rng.uniform(0.05, 4.5, rng.integers(0, 6))):
+        if not times or t - times[-1] >= 0.02:
+            times.append(float(t))
+    steer = float(rng.uniform(-30, 30))
+    actions = []
+    for k, t in enumerate(times):
+        new = float(rng.uniform(-30, 30))
+        while abs(new - steer) < 1.0:
+            new = float(rng.uniform(-30, 30))
+        a = {"t": t, "steer": new}
+        if rng.uniform() < 0.5:
+            a["wheels"] = str(rng.choice(states))
+        if rng.uniform() < 0.5:
+            a["brake"] = float(rng.uniform())
+        room = (times[k + 1] - t) if k + 1 < len(times) else 0.45
+        if rng.uniform() < 0.6:
+            a["ramp"] = float(rng.uniform(0.0, 0.999) * min(room, 0.45))
+        actions.append(a)
+        steer = new
+    return {"wheels": str(rng.choice(states)), "steer": float(rng.uniform(-30, 30)), "actions": actions}
+
+
+def _steady_reference(actions, t):
+    """steady_next from the Action list itself: -inf within the ramp of the last action started at t, else
+    the next action's start (inf if none)."""
+    k = max((i for i, a in enumerate(actions) if a.t <= t), default=None)
+    if k is not None and t < actions[k].t + actions[k].ramp:
+        return -math.inf
+    k = -1 if k is None else k
+    return actions[k + 1].t if k + 1 < len(actions) else math.inf
+
+
+def test_steady_next_says_how_long_the_inputs_read_at_t_hold():
+    """For random valid action tables (packed together, padded: each vehicle read with its own row count)
+    and random t, plus every action's start and ramp end: steady_next is -inf exactly within a ramp (and
+    the inputs are ramping there); otherwise it is the next action's start T, which is when driver_inputs
+    first changes on a 1 ms grid (T <= first change <= T + 1 ms; never, for T = inf), and at every t' in
+    [t, T) with ahead(t', T) driver_inputs (also its left limit, up to T itself), next_change and ramping
+    equal their values at t exactly (what the impulse kernel reuses, docs/physics.md §2a)."""
+    from crashlab.models.common import driver_inputs as di
+    rng = np.random.default_rng(11)
+    dt = 1e-3
+    grid = np.arange(0.0, 5.0, dt)
+    checked = {"ramp": 0, "finite": 0, "inf": 0, "reuse": 0}
+    for _ in range(12):
+        sc = build_scene([_random_vehicle(rng) | {"y": 10.0 * i} for i in range(4)])
+        tables, rows = di.pack_action_tables(sc.vehicles)
+        for v, A, n in zip(sc.vehicles, tables, rows):
+            n = int(n)
+            assert np.array_equal(A[:n], di.pack_actions(v))
+            on_grid = np.array([di.driver_inputs(A, n, g) for g in grid])
+            probes = list(rng.uniform(0.0, 5.0, 40)) + [a.t for a in v.actions] + [a.t + a.ramp for a in v.actions]
+            for t in probes:
+                T = di.steady_next(A, n, t)
+                assert T == _steady_reference(v.actions, t), (t, T)
+                now = di.driver_inputs(A, n, t)
+                if T == -math.inf:
+                    assert di.ramping(A, n, t)
+                    checked["ramp"] += 1
+                    continue
+                assert T > t
+                changed = np.any(on_grid != np.array(now), axis=1) & (grid > t)
+                if T == math.inf:
+                    assert not changed.any(), (t, grid[np.argmax(changed)])
+                    checked["inf"] += 1
+                else:
+                    first = grid[np.argmax(changed)]
+                    assert changed.any() and T <= first <= T + dt * (1 + 1e-9), (t, T, first)
+                    assert di.driver_inputs(A, n, T, True) == now  # a step ending at T keeps the law
+                    checked["finite"] += 1
+                law = di.next_change(A, n, t)
+                end = min(T, 5.5)
+                later = [t, end - 1e-11 * (1 + abs(end))] + list(rng.uniform(t, end, 15))
+                for t2 in later:
+                    if not (t <= t2 < T and di.ahead(t2, T)):
+                        continue
+                    assert di.driver_inputs(A, n, t2) == now, (t, t2, T)
+                    assert t2 == t or di.driver_inputs(A, n, t2, True) == now, (t, t2, T)
+                    assert di.next_change(A, n, t2) == law and not di.ramping(A, n, t2), (t, t2, T)
+                    checked["reuse"] += 1
+    assert min(checked.values()) > 50, checked
+
+
+def test_wheel_points_are_the_axle_and_track_corners():
+    """wheel_point: the four wheels lie `front` ahead of and `rear` behind the CG along the heading and
+    half_track to each side; front left / rear left on the left (positive lateral, vehicle frame). Their
+    distances are the track, the wheelbase and the diagonal. Heading 30 deg and random poses."""
+    from crashlab.models.common.driver_inputs import wheel_point
+    front, rear, half = 1.24, 1.31, 0.72
+    rng = np.random.default_rng(5)
+    poses = [(3.0, -2.0, math.radians(30.0))] + list(zip(rng.uniform(-50, 50, 200), rng.uniform(-50, 50, 200),
+                                                            rng.uniform(-np.pi, np.pi, 200)))
+    for x, y, h in poses:
+        c, s = math.cos(h), math.sin(h)
+        p = np.array([wheel_point(x, y, c, s, front, rear, half, w) for w in range(4)])
+        d = p - (x, y)
+        along, lateral = d @ (c, s), d @ (-s, c)
+        assert along == pytest.approx([front, front, -rear, -rear], abs=1e-12)
+        assert lateral == pytest.approx([half, -half, half, -half], abs=1e-12)  # 0, 2 left; 1, 3 right
+        dist = [math.dist(p[i], p[j]) for i, j in ((0, 1), (2, 3), (0, 2), (1, 3), (0, 3), (1, 2))]
+        diagonal = math.hypot(front + rear, 2 * half)
+        assert dist == pytest.approx([2 * half] * 2 + [front + rear] * 2 + [diagonal] * 2, abs=1e-12)
+    # at 30 deg the front left wheel lies to the left of the heading: cross(heading, CG -> wheel) > 0
+    x, y = wheel_point(0.0, 0.0, math.cos(math.pi / 6), math.sin(math.pi / 6), front, rear, half, 0)
+    assert math.cos(math.pi / 6) * y - math.sin(math.pi / 6) * x == pytest.approx(half, abs=1e-12)
+
+
+def test_remembered_action_tables_are_the_tables_of_the_vehicles_given():
+    """pack_action_tables remembers its result by the identity of each vehicle's actions tuple and its
+    wheels and steer: the same vehicles give equal tables; other actions (equal or not), other start
+    wheels or steer give their own; many short-lived actions tuples (ids that CPython would reuse if the
+    memo did not hold them) each give their own; after _TABLES.clear() the results are as before."""
+    import dataclasses
+
+    from crashlab.models.common import driver_inputs as di
+    from crashlab.scene import Action
+
+    def fresh(vehicles):  # the tables packed from scratch
+        t = [di.pack_actions(v) for v in vehicles]
+        k = max(len(a) for a in t)
+        return np.array([np.vstack([a] + [a[-1:]] * (k - len(a))) for a in t]), [len(a) for a in t]
+
+    def check(vehicles):
+        A, NA = di.pack_action_tables(vehicles)
+        want, rows = fresh(vehicles)
+        assert np.array_equal(A, want) and list(NA) == rows
+        return A.copy(), NA.copy()
+
+    sc = build_scene([{"steer": 2.0, "actions": [{"t": 1.0, "wheels": "locked"},
+                                                 {"t": 2.0, "steer": 4.0, "ramp": 0.5}]},
+                      {"y": 10.0, "actions": [{"t": 0.5, "brake": 0.7}]}])
+    first = check(sc.vehicles)
+    again = check(sc.vehicles)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+    variants = [
+        sc.with_vehicle("V1", actions=(Action(t=1.0, wheels="braked"),)),
+        sc.with_vehicle("V1", actions=tuple(list(sc.vehicles[0].actions))),  # equal, another tuple
+        sc.with_vehicle("V1", actions=(Action(t=1.0, wheels="locked"), Action(t=2.0, steer=0.3, ramp=0.2))),
+        sc.with_vehicle("V1", wheels="locked"),  # same actions tuple, other start wheels
+        sc.with_vehicle("V1", steer=-0.1),  # same actions tuple, other start steer
+        sc.with_vehicle("V2", wheels="braked"),
+    ]
+    for var in variants:
+        check(var.vehicles)
+    assert not np.array_equal(check(variants[3].vehicles)[0], first[0])
+    assert not np.array_equal(check(variants[4].vehicles)[0], first[0])
+    rng = np.random.default_rng(2)
+    v = sc.vehicles[1]
+    for _ in range(300):  # the previous tuple is dropped at once: its id is free for the next one
+        check([dataclasses.replace(v, actions=(Action(t=float(rng.uniform(0, 4)), brake=float(rng.uniform())),))])
+    check(sc.vehicles)
+    di._TABLES.clear()
+    after = check(sc.vehicles)
+    assert all(np.array_equal(a, b) for a, b in zip(first, after))
