@@ -62,17 +62,25 @@ class Outcome:
         self._trajectories = trajectories or {}
         self._impact_rows = impact_rows if callable(impact_rows) else list(impact_rows)
         self.diagnostics = Diagnostics.of(diagnostics)
-        if self.diagnostics.wall_time_s is None:
+        if self.diagnostics.wall_time_s is None:  # (a model's own diagnostics may carry it)
             self.diagnostics.wall_time_s = wall_time_s
         self.warnings = list(warnings)
         self.outcome_ok = bool(ok)
         self.model = model
-        self.wall_time_s = wall_time_s
         self.contact_intervals = None if contact_intervals is None else [tuple(c) for c in contact_intervals]
         self._impact_energy = None if impact_energy is None else np.asarray(impact_energy, dtype=float)
         self.violations: list[str] = []
         self.rolled_over: list[str] = []
         self.guarded = False
+
+    @property
+    def wall_time_s(self) -> float:
+        """Wall-clock time of the simulation [s]: diagnostics.wall_time_s (one home)."""
+        return self.diagnostics.wall_time_s
+
+    @wall_time_s.setter
+    def wall_time_s(self, value: float) -> None:
+        self.diagnostics.wall_time_s = value
 
     def fail(self, kind: str, reason: str) -> None:
         """Mark the outcome failed by a physics check: outcome_ok False, the reason in warnings."""
