@@ -398,6 +398,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     cl_v = np.empty((nv * nk, 8, 2))  # and the overlap polygon's vertices
     cl_m = np.zeros(nv * nk, np.int64)
     oa, ob = np.empty((4, 2)), np.empty((4, 2))  # the outlines of the pair under test (_outline)
+    pen = np.empty((nv * nk, 3))  # each listed pair's overlap test at the step's end: depth, normal
     awake = np.empty(nv, np.int64)  # the awake vehicles and the pairs with an awake member (_awake_sets)
     pair_i = np.empty(nv * nk, np.int64)
     pair_k = np.empty(nv * nk, np.int64)
@@ -557,12 +558,14 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         # ---- onset of a new contact: bisect the step until the overlap is at most tol; a touching pair
         # whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
         # rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN
+        bisected = False  # (else the contacts below reuse each pair's test of the step's end: pen)
         for p in range(nl):
             i, k = li[p], lk[p]
             if broad and _circles_apart(Snew, B, radius, i, k, nv):
                 continue
             diag[D_NARROW] += 1
-            depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
+            depth, nx, ny, _ = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))
+            pen[p, 0], pen[p, 1], pen[p, 2] = depth, nx, ny
             if in_contact[i, k]:
                 if allowed[i, k] > 0.0 or depth <= DEEPEN:
                     continue
@@ -572,6 +575,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                     continue
                 lo_d, hi_d = 0.0, tol
             lo, hi = 0.0, h
+            bisected = True
             for _ in range(60):
                 hm = 0.5 * (lo + hi)
                 _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp, inp,
@@ -605,9 +609,11 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 episode[i, k] = -1
                 allowed[i, k] = 0.0
                 continue
-            diag[D_NARROW] += 1
-            ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
-            depth, nx, ny, owner = penetration(ci, ck)
+            if bisected:  # the step's end moved since the onset test
+                diag[D_NARROW] += 1
+                depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
+            else:
+                depth, nx, ny = pen[p, 0], pen[p, 1], pen[p, 2]
             if depth <= 0.0:
                 in_contact[i, k] = False
                 allowed[i, k] = 0.0
@@ -620,6 +626,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 allowed[i, k] = min(allowed[i, k], depth)
                 continue
             diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
+            ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
             px, py, area = overlap_centroid(ci, ck)
             if math.isnan(px):
                 continue
