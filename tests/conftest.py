@@ -45,6 +45,28 @@ upper = 50.0
 """
 
 
+
+def side_twin_study(name: str, pop_size: int, generations: int, polish: int, free: str = FREE_SPEEDS) -> str:
+    """A study's text: side.toml's collision as its own evidence (twin), NSGA-II with `pop_size` x
+    `generations` (seed 1), the free variables `free`, `polish` polish evaluations, serial without timeout."""
+    return f"""
+name = "{name}"
+scene = "{(PC_CRASH / 'side.toml').as_posix()}"
+model = "impulse"
+[optimizer]
+name = "nsga2"
+pop_size = {pop_size}
+generations = {generations}
+seed = 1
+{free}[evidence]
+twin = true
+[polish]
+evaluations = {polish}
+[execution]
+backend = "serial"
+timeout_s = 0
+"""
+
 def two_frame_gif(scene, outcome, path, fps):
     """Stands in for crashlab.animation in report.html (the animation itself: tests/test_animation.py)."""
     from PIL import Image

@@ -9,36 +9,18 @@ by chance). Two rest positions (four numbers) determine the three unknowns: the 
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-from conftest import FREE_SPEEDS
+from conftest import PC_CRASH, side_twin_study
 
 from crashlab import uncertainty
 from crashlab.cli import main
 from crashlab.errors import InputError
 from crashlab.reconstruction import load_study, search_bounds
 
-SIDE = Path(__file__).resolve().parents[1] / "studies" / "pc_crash" / "side.toml"
+SIDE = PC_CRASH / "side.toml"
 
-TWIN = f"""
-name = "twin with uncertain road friction"
-scene = "{SIDE.as_posix()}"
-model = "impulse"
-[optimizer]
-name = "nsga2"
-pop_size = 24
-generations = 12
-seed = 1
-{FREE_SPEEDS}[evidence]
-twin = true
-[polish]
-evaluations = 150
-[execution]
-backend = "serial"
-timeout_s = 0
-"""
+TWIN = side_twin_study("twin with uncertain road friction", pop_size=24, generations=12, polish=150)
 FRICTION = """
 [[uncertain]]
 field = "road.friction"

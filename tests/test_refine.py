@@ -9,28 +9,19 @@ kept, and the refine model's sum of squared residuals at the refined point never
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import PC_CRASH, side_twin_study
 
 from crashlab.cli import main
 from crashlab.errors import InputError
 from crashlab.reconstruction import load_study, refine
 
-SIDE = Path(__file__).resolve().parents[1] / "studies" / "pc_crash" / "side.toml"
+SIDE = PC_CRASH / "side.toml"
 
-TWIN = f"""
-name = "twin for refine"
-scene = "{SIDE.as_posix()}"
-model = "impulse"
-[optimizer]
-name = "nsga2"
-pop_size = 8
-generations = 2
-seed = 1
-[[free]]
+# tighter bounds than the other twins' (conftest.FREE_SPEEDS): the tiny search budget starts near the truth
+TWIN = side_twin_study("twin for refine", pop_size=8, generations=2, polish=0, free="""[[free]]
 vehicle = "V1"
 field = "speed"
 lower = 40.0
@@ -40,14 +31,7 @@ vehicle = "V2"
 field = "speed"
 lower = 20.0
 upper = 40.0
-[evidence]
-twin = true
-[polish]
-evaluations = 0
-[execution]
-backend = "serial"
-timeout_s = 0
-"""
+""")
 
 
 def _study(tmp_path, extra="", name="study.toml"):
