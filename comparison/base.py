@@ -12,7 +12,8 @@ import numpy as np
 
 from crashlab.errors import InputError
 from crashlab.registry import MODELS, UnknownPluginError, available_models, load
-from crashlab.scene import Scene, load_scene
+from crashlab.scene import Scene
+from crashlab.scene_file import load_scene
 from crashlab.units import wrap_deg
 
 STUDIES_DIR = Path(__file__).resolve().parent.parent / "studies"

@@ -90,7 +90,8 @@ def scene_dict(n: int, base: str = "parked", duration: float = DURATION) -> dict
 
 
 def scene(n: int, base: str = "parked", duration: float = DURATION):
-    from crashlab.scene import scene_from_dict, start_overlaps
+    from crashlab.scene import start_overlaps
+    from crashlab.scene_file import scene_from_dict
     s = scene_from_dict(scene_dict(n, base, duration), source=f"<scaling {n} {base}>")
     assert not start_overlaps(s), "scaling scene: vehicles overlap at the start"
     return s

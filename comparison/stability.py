@@ -54,7 +54,7 @@ import numpy as np
 from crashlab.options import accuracy_knobs, describe
 from crashlab.registry import get_model
 from crashlab.scene import WHEEL_STATES
-from crashlab.stress import crash_scene as stress_scene  # the placement `crashlab stress` uses
+from crashlab.tools.stress import crash_scene as stress_scene  # the placement `crashlab stress` uses
 
 from .base import knob_values, model_schema, output_dir
 

@@ -103,7 +103,7 @@ def _fmt(x: float, nd: int = 3) -> str:
 
 def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | None = None) -> list[dict]:
     """One row per (model, test, published quantity)."""
-    from crashlab.scene import load_scene
+    from crashlab.scene_file import load_scene
     tests = load_tests() if tests is None else tests
     scenes = {t["id"]: load_scene(t["scene"]) for t in tests}
     rows = []

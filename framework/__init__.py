@@ -4,10 +4,11 @@ from .errors import InputError
 from .model import CollisionModel
 from .outcome import Outcome
 from .registry import available_models, available_optimizers, get_model, get_optimizer
-from .scene import Scene, load_scene
+from .scene import Scene
+from .scene_file import load_scene
 
 __all__ = ["InputError", "Outcome", "Scene", "CollisionModel", "load_scene", "simulate",
-           "available_models", "available_optimizers", "get_model", "get_optimizer", "load_study"]
+           "available_models", "available_optimizers", "get_model", "get_optimizer"]
 
 
 def simulate(scene, model: str = "impulse", **options) -> Outcome:
@@ -16,8 +17,3 @@ def simulate(scene, model: str = "impulse", **options) -> Outcome:
         scene = load_scene(scene)
     return get_model(model, **options).simulate(scene)
 
-
-def load_study(path):
-    """A reconstruction study from its TOML file; `.run()` returns the Pareto set."""
-    from crashlab.reconstruction import load_study as _load
-    return _load(path)

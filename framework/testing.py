@@ -10,7 +10,7 @@ from .diagnostics import CORE
 from .model import CollisionModel
 from .options import describe
 from .outcome import Outcome
-from .scene import scene_from_dict
+from .scene_file import scene_from_dict
 
 # the diagnostics core a model fills itself (the guard fills the energies, Outcome the wall time)
 MODEL_DIAGNOSTICS = [k for k in CORE if not k.startswith("energy_") and k != "wall_time_s"]

@@ -3,7 +3,7 @@ page (every figure embedded as a base64 data: URI; no script, style sheet, font 
 with the study (scene, free variables and their bounds, optimizer or sampler, model), the evidence with its
 sigmas, the Pareto set (the rows of pareto.csv, at most PARETO_ROWS_MAX) or the posterior summary and corner
 plot, the top views, the near-optimal figure where one was drawn, an animation of the best solution
-(crashlab.animation, when that module is there) and DIR/refine.md and refine.csv when a refine step wrote
+(crashlab.tools.animation, when that module is there) and DIR/refine.md and refine.csv when a refine step wrote
 them (a step that runs after the report calls refresh_refine_section).
 
 Written with the standard library only (f-strings and html.escape): the page is a few tables and images.
@@ -196,14 +196,14 @@ def evidence_section(study) -> str:
 
 # ---------------------------------------------------------------- animation and refine
 def _animate(scene, outcome, path: Path, fps: int) -> Path:
-    """crashlab.animation.write_animation, imported here so that a crashlab without it still reports."""
-    from crashlab.animation import write_animation
+    """crashlab.tools.animation.write_animation, imported here so that a crashlab without it still reports."""
+    from crashlab.tools.animation import write_animation
     return Path(write_animation(scene, outcome, path, fps=fps))
 
 
 def animation_section(best, out_dir: Path, what: str) -> str:
     """best: (scene, outcome) or None. The GIF is written beside the page (ANIMATION_NAME) and embedded;
-    "animation unavailable" with the reason when crashlab.animation is missing or fails."""
+    "animation unavailable" with the reason when crashlab.tools.animation is missing or fails."""
     head = f"<h2>Animation of {esc(what)}</h2>\n"
     if best is None:
         return head + '<p class="muted">animation unavailable: no solution to animate.</p>'
@@ -211,7 +211,7 @@ def animation_section(best, out_dir: Path, what: str) -> str:
     try:
         path = _animate(scene, outcome, out_dir / ANIMATION_NAME, ANIMATION_FPS)
     except ImportError as err:
-        return head + (f'<p class="muted">animation unavailable: crashlab.animation cannot be imported '
+        return head + (f'<p class="muted">animation unavailable: crashlab.tools.animation cannot be imported '
                        f"({esc(err)}).</p>")
     except Exception as err:  # noqa: BLE001 - the tables and figures stand without it
         return head + f'<p class="warn">animation unavailable: {esc(type(err).__name__)}: {esc(err)}</p>'

@@ -159,7 +159,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     import matplotlib.pyplot as plt
 
     from crashlab.execution import model_for
-    from crashlab.plotting import top_view
+    from crashlab.tools.plotting import top_view
     problem = result.problem
     info = result.algorithm_info
     result.pareto.to_csv(out_dir / "pareto.csv", index=False)

@@ -36,7 +36,8 @@ from crashlab.registry import (
     get_model,
     load,
 )
-from crashlab.scene import Scene, load_scene
+from crashlab.scene import Scene
+from crashlab.scene_file import load_scene
 from crashlab.units import ms_to_kmh
 from crashlab.vehicle import pydantic_error, read_toml
 

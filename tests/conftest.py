@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from crashlab.scene import scene_from_dict
+from crashlab.scene_file import scene_from_dict
 
 REPO = Path(__file__).resolve().parent.parent
 PC_CRASH = REPO / "studies" / "pc_crash"

@@ -12,8 +12,8 @@ import pytest
 from conftest import PC_CRASH, assert_one_error_line
 
 import crashlab
-from crashlab.animation import animation_times, frame_poses, write_animation
 from crashlab.scene import vehicle_outline
+from crashlab.tools.animation import animation_times, frame_poses, write_animation
 
 
 def _cli(capsys, *args):
@@ -60,7 +60,7 @@ def test_gif_has_one_frame_per_time_with_the_start_and_rest_outlines_drawn(side,
     import matplotlib.pyplot as plt
     from PIL import Image
 
-    from crashlab.plotting import vehicle_colours
+    from crashlab.tools.plotting import vehicle_colours
     scene, out = side
     captured = {}
     close = plt.close

@@ -10,7 +10,7 @@ pytest.importorskip("exudyn")
 import crashlab  # noqa: E402
 from crashlab.models.exudyn import ExudynModel  # noqa: E402
 from crashlab.options import OptionError  # noqa: E402
-from crashlab.scene import scene_from_dict  # noqa: E402
+from crashlab.scene_file import scene_from_dict  # noqa: E402
 from crashlab.testing import check_collision_model  # noqa: E402
 from crashlab.units import G  # noqa: E402
 

@@ -10,7 +10,7 @@ pytest.importorskip("exudyn")
 
 from crashlab.models.common.vehicle_3d import build  # noqa: E402
 from crashlab.models.exudyn import ExudynModel  # noqa: E402
-from crashlab.scene import scene_from_dict  # noqa: E402
+from crashlab.scene_file import scene_from_dict  # noqa: E402
 
 
 def _wall(speed_kmh, duration=0.35):
@@ -148,9 +148,9 @@ def test_end_overlap_is_judged_with_the_contact_bodies():
     the barrier. Its rectangular outline overlaps the barrier's by 0.26 m there (the superellipsoid's rounded
     corner lies inside the rectangle), which the guard's outline check called an interpenetration; the model
     checks its contact bodies instead (guard_skip) and the run passes."""
-    from crashlab import stress
     from crashlab.geometry import penetration
     from crashlab.scene import barrier_outline, vehicle_outline
+    from crashlab.tools import stress
     sc = stress.random_scenes(18, seed=2)[17]
     out = ExudynModel().simulate(sc)
     v1 = sc.vehicles[0]
@@ -167,7 +167,8 @@ def test_tumbling_car_is_judged_on_its_full_energy():
     """A car tumbling in free flight trades roll for yaw (angular momentum is kept, its body-axis parts are
     not): its planar energy rose by 53 kJ without contact and the guard failed the run (stress scene 1:5);
     the model records the nine bodies' full mechanical energy, which does not rise."""
-    from crashlab import simulate, stress
+    from crashlab import simulate
+    from crashlab.tools import stress
     scene = stress.random_scenes(15, seed=1)[5]
     out = simulate(scene, model="exudyn")
     assert out.outcome_ok, out.warnings

@@ -24,7 +24,8 @@ import pytest
 import crashlab
 from crashlab.errors import InputError
 from crashlab.geometry import penetration
-from crashlab.scene import barrier_outline, scene_from_dict, vehicle_outline
+from crashlab.scene import barrier_outline, vehicle_outline
+from crashlab.scene_file import scene_from_dict
 from crashlab.vehicle import load_vehicle
 
 SPEEDS = [5.0, 20.0, 50.0, 100.0, 150.0]  # km/h

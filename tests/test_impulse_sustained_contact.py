@@ -15,7 +15,8 @@ import pytest
 
 import crashlab
 from crashlab.geometry import penetration
-from crashlab.scene import barrier_outline, load_scene, vehicle_outline
+from crashlab.scene import barrier_outline, vehicle_outline
+from crashlab.scene_file import load_scene
 from crashlab.units import G
 from crashlab.vehicle import load_vehicle
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import crashlab
-from crashlab.scene import scene_from_dict
+from crashlab.reconstruction import load_study
+from crashlab.scene_file import scene_from_dict
 
 REPO = Path(__file__).resolve().parent.parent
 SIDE = REPO / "studies" / "pc_crash" / "side.toml"
@@ -118,7 +119,7 @@ def test_nsga3_takes_the_objective_count_and_moead_needs_two(tmp_path):
     MOEA/D, whose population is one per direction, would silently shrink to one: refused in one line."""
     f = tmp_path / "study.toml"
     f.write_text(STUDY.format(free=FREE_SPEED, extra=""))
-    res = crashlab.load_study(f).run(optimizer="nsga3")
+    res = load_study(f).run(optimizer="nsga3")
     assert res.algorithm_info["search_evaluations"] == 16 and list(res.pareto.columns).count("f_V1") == 1
     assert res.algorithm_info["pop_size"] == 8
     one_line_error(cli("reconstruct", f, "--optimizer", "moead", "--no-progress"), f, "optimizer.options")
@@ -128,7 +129,7 @@ def test_evidence_without_heading_has_no_heading_term(tmp_path):
     """heading_weight > 0 but no measured heading: the objective is the position distance alone."""
     f = tmp_path / "study.toml"
     f.write_text(STUDY.format(free=FREE_SPEED, extra="[objective]\nheading_weight = 0.5"))
-    study = crashlab.load_study(f)
+    study = load_study(f)
     problem = study.make_problem()
     x = np.array([50.0])
     out = crashlab.simulate(problem.scene_for(x))
@@ -220,7 +221,7 @@ def test_bad_scene_of_a_study_is_refused_at_load(tmp_path):
     study = tmp_path / "study.toml"
     study.write_text(STUDY.format(free=FREE_SPEED, extra="").replace(SIDE.as_posix(), scene.as_posix()))
     with pytest.raises(crashlab.InputError) as err:
-        crashlab.load_study(study)
+        load_study(study)
     assert err.value.file == str(scene) and err.value.key == "vehicles.1.heading"
 
 

@@ -8,7 +8,7 @@ import pytest
 from conftest import build_scene
 
 import crashlab
-from crashlab.scene import load_vehicle
+from crashlab.vehicle import load_vehicle
 
 MODELS = ["impulse", "pymunk", "multibody", "exudyn"]
 

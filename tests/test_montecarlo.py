@@ -13,9 +13,9 @@ import pytest
 from conftest import REPO
 
 import crashlab
-from crashlab import montecarlo
 from crashlab.cli import main
-from crashlab.scene import load_scene
+from crashlab.reconstruction import montecarlo
+from crashlab.scene_file import load_scene
 
 SIDE = REPO / "studies" / "montecarlo" / "side.toml"
 BASE = SIDE.read_text().split("[[uncertain]]")[0]

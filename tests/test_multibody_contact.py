@@ -12,7 +12,7 @@ import pytest
 
 import crashlab
 from crashlab.models.multibody import MultibodyModel
-from crashlab.scene import scene_from_dict
+from crashlab.scene_file import scene_from_dict
 from crashlab.units import kmh_to_ms
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -157,7 +157,7 @@ def test_clio_700_against_suv_momentum_split():
     impact isolated, as in published worked examples): the delta-V split follows momentum conservation,
     m1 dv1 = m2 dv2. Before the fix the Clio kept 980 kg (ratio 1.70 instead of 2.38)."""
     import crashlab
-    from crashlab.scene import scene_from_dict
+    from crashlab.scene_file import scene_from_dict
     sc = scene_from_dict({"duration": 0.5, "stop_at_rest": False, "road": {"friction": 0.0},
                           "impact": {"restitution": 0.1, "friction": 0.3, "force_law": "exact-restitution"},
                           "vehicles": [
@@ -177,7 +177,7 @@ def _rolling_car(wx, speed=30.0, vehicle="clio", duration=10.0, overrides=None):
     """A car given a roll rate wx [rad/s] about its longitudinal axis at the start (every body moves as one
     rigid body about the vehicle CG), prepared for MultibodyModel.run."""
     from crashlab.models.multibody import MultibodyModel
-    from crashlab.scene import scene_from_dict
+    from crashlab.scene_file import scene_from_dict
     v = {"name": "V1", "vehicle": vehicle, "speed": speed, "wheels": "locked"}
     if overrides:
         v["overrides"] = overrides
@@ -251,7 +251,7 @@ def test_locked_spinning_car_gains_no_energy(index, name):
     initial kinetic energy), and the guarded outcome is ok. Before the fix V2 of scene 0 went from 73 to
     80.5 km/h (+70 kJ) with no contact."""
     import crashlab
-    from crashlab import stress
+    from crashlab.tools import stress
     sc = stress.random_scenes(40, seed=1)[index]
     m = crashlab.get_model("multibody")
     out = m.simulate(sc)

@@ -8,7 +8,7 @@ import pytest
 import crashlab
 from crashlab.models.common.vehicle_3d import NB, S_K, S_L0, S_P, S_Q
 from crashlab.models.multibody import MultibodyModel
-from crashlab.scene import scene_from_dict
+from crashlab.scene_file import scene_from_dict
 from crashlab.units import G
 
 

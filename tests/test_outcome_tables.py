@@ -51,7 +51,7 @@ def test_top_view_marks_the_point_of_impact_and_keeps_the_legend_off_the_drawing
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from crashlab.plotting import top_view
+    from crashlab.tools.plotting import top_view
     scene = crashlab.load_scene(PC_CRASH / "side.toml")
     out = crashlab.simulate(scene, model="impulse")
     captured = {}

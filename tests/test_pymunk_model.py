@@ -19,7 +19,7 @@ import pytest
 
 import crashlab
 from crashlab.options import OptionError
-from crashlab.scene import load_scene, scene_from_dict
+from crashlab.scene_file import load_scene, scene_from_dict
 from crashlab.units import G
 
 pytest.importorskip("pymunk")

@@ -163,7 +163,7 @@ def test_top_view_shows_measured_headings_and_a_moving_end_pose(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from crashlab import plotting
+    from crashlab.tools import plotting
     scene = crashlab.load_scene(SIDE).replace(duration=0.6)
     out = crashlab.simulate(scene)
     assert not out.at_rest_mask.any()

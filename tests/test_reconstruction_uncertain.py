@@ -69,7 +69,7 @@ def test_search_bounds_of_each_distribution():
 
 
 def load_study_scene():
-    from crashlab.scene import load_scene
+    from crashlab.scene_file import load_scene
     return load_scene(SIDE)
 
 

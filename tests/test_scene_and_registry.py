@@ -204,7 +204,7 @@ def test_documented_scene_bounds(make_scene, kw, key):
 
 def test_bounds_are_documented():
     """Every bounded number of the scene and vehicle schemas states its range in its description."""
-    from crashlab.scene import BarrierFile, ImpactFile, RoadFile, SceneFile, VehicleEntryFile
+    from crashlab.scene_file import BarrierFile, ImpactFile, RoadFile, SceneFile, VehicleEntryFile
     from crashlab.vehicle import VehicleFile
     for model in (SceneFile, RoadFile, ImpactFile, VehicleEntryFile, BarrierFile, VehicleFile):
         for name, field in model.model_fields.items():

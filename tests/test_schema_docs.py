@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from crashlab.cli import main, schema_roots
-from crashlab.schema_docs import iter_fields, missing_descriptions, reference_markdown
+from crashlab.cli import main
+from crashlab.cli.schema_docs import iter_fields, missing_descriptions, reference_markdown, schema_roots
 
 REPO = Path(__file__).resolve().parents[1]
 

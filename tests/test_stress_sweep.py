@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import crashlab
-from crashlab import stress
+from crashlab.tools import stress
 
 
 def test_random_scenes_are_seeded_and_collide():

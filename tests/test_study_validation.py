@@ -9,7 +9,7 @@ import csv
 import math
 
 from crashlab.comparison import validation
-from crashlab.scene import load_scene
+from crashlab.scene_file import load_scene
 
 
 def test_validation_csv_and_rebound(tmp_path):

@@ -17,8 +17,9 @@ from scipy import stats
 from crashlab import fields, uncertainty
 from crashlab.cli import main
 from crashlab.errors import InputError
-from crashlab.scene import load_scene, load_vehicle
+from crashlab.scene_file import load_scene
 from crashlab.units import deg_to_rad, kmh_to_ms
+from crashlab.vehicle import load_vehicle
 
 SIDE = REPO / "studies" / "montecarlo" / "side.toml"
 

@@ -37,7 +37,7 @@ import pytest
 
 import crashlab
 from crashlab.errors import InputError
-from crashlab.scene import scene_from_dict
+from crashlab.scene_file import scene_from_dict
 from crashlab.units import KMH, G
 from crashlab.vehicle import METADATA_KEYS, VEHICLE_CLASSES, format_library_table, library, library_table, load_vehicle
 

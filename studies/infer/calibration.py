@@ -83,7 +83,7 @@ def scene_with(values: dict, path) -> Path:
     crashlab.fields' setter: the copy's scene must equal fields.setter(side, paths)(values) in every
     vehicle's start state, else ValueError (so the copy means exactly what the posterior's fields mean)."""
     from crashlab import fields
-    from crashlab.scene import load_scene
+    from crashlab.scene_file import load_scene
     lines = SIDE.read_text().splitlines(keepends=True)
     heads = [i for i, ln in enumerate(lines) if ln.strip() == "[[vehicles]]"]
     for p, v in values.items():

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 import crashlab
-from crashlab.compare import comparison_table
+from crashlab.tools.compare import comparison_table
 
 HERE = Path(__file__).resolve().parent
 CASES = ["head_on", "offset", "side"]

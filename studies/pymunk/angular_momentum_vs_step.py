@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from crashlab.models.pymunk import PymunkModel
-from crashlab.scene import load_scene
+from crashlab.scene_file import load_scene
 
 STEPS = (2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4)
 

@@ -1,6 +1,6 @@
 """Benchmark (issue 4): 5 s of the Clio braking with locked wheels from 50 km/h. Goal <= 0.2 s wall."""
 from crashlab.models.multibody import MultibodyModel
-from crashlab.scene import scene_from_dict
+from crashlab.scene_file import scene_from_dict
 
 
 def test_bench_multibody_clio_braking_50(benchmark):

@@ -9,7 +9,7 @@ import pytest
 from crashlab_example import ExampleModel
 
 import crashlab
-from crashlab.scene import scene_from_dict
+from crashlab.scene_file import scene_from_dict
 from crashlab.testing import check_collision_model
 from crashlab.units import G, kmh_to_ms
 

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import uncertainty
-from .errors import InputError
-from .outcome import Outcome
-from .scene import Scene
-from .units import ms_to_kmh
+from crashlab import uncertainty
+from crashlab.errors import InputError
+from crashlab.outcome import Outcome
+from crashlab.scene import Scene
+from crashlab.units import ms_to_kmh
 
 BATCH = 5000  # draws per simulate_batch call (bounds the memory of the outcomes held at once)
 QUANTILES = (0.05, 0.5, 0.95)
@@ -235,15 +235,15 @@ def figure(result: MonteCarloResult, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .scene import vehicle_outline
+    from crashlab.scene import vehicle_outline
     scene, tab, names = result.scene, result.table, result.names
     ok = tab[tab["ok"]]
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig = plt.figure(figsize=(12, max(5.0, 2.6 * len(names))))
     gs = fig.add_gridspec(len(names), 2, width_ratios=(2.2, 1.0))
     ax = fig.add_subplot(gs[:, 0])
-    from .plotting import _zones
-    _zones(ax, scene.road)  # friction zones shaded, as in the single run's top view
+    from crashlab.tools.plotting import draw_zones
+    draw_zones(ax, scene.road)  # friction zones shaded, as in the single run's top view
     nom = result.nominal
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]
@@ -262,7 +262,7 @@ def figure(result: MonteCarloResult, path) -> None:
             ax.errorbar([x50], [y50], xerr=[[x50 - x5], [x95 - x50]], yerr=[[y50 - y5], [y95 - y50]],
                         color="k", lw=1, capsize=3)
     for b in scene.barriers:
-        from .scene import barrier_outline
+        from crashlab.scene import barrier_outline
         ax.fill(*barrier_outline(b).T, color="0.3")
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")

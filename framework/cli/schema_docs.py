@@ -3,8 +3,8 @@ docs cannot drift from what the loaders accept.
 
 A schema is a root model plus `extras`: keys the root keeps as plain tables or arrays (checked later by
 their own model, e.g. a scene's `[[uncertain]]` by crashlab.uncertainty.UncertainFile) documented and
-published with that model. The framework never imports the reconstruction (tests/test_architecture.py):
-the study's models are handed in by the command line (crashlab.cli.schema_roots).
+published with that model. The study's models come from crashlab.reconstruction, which is why this module
+lives in the command line's package, above it (docs/architecture.md; schema_roots below).
 
 Regenerate docs/reference.md with `crashlab schema --markdown > docs/reference.md`;
 tests/test_schema_docs.py fails when it differs from the generator's output or when a field has no
@@ -31,14 +31,14 @@ TITLES = {"scene": "Scene file", "vehicle": "Vehicle file", "study": "Study file
 
 def scene_root():
     """(root model, extras) of a scene file."""
-    from .scene import SceneFile
-    from .uncertainty import UncertainFile
+    from ..scene_file import SceneFile
+    from ..uncertainty import UncertainFile
     return SceneFile, {"uncertain": UncertainFile}
 
 
 def vehicle_root():
     """(root model, extras) of a vehicle file."""
-    from .vehicle import VehicleFile
+    from ..vehicle import VehicleFile
     return VehicleFile, {}
 
 
@@ -305,7 +305,7 @@ def reference_markdown(roots: dict) -> str:
     """docs/reference.md: one section per file kind (roots: kind -> (model, extras))."""
     out = ["# File reference", "",
            "Generated from the schemas by `crashlab schema --markdown > docs/reference.md` "
-           "(framework/schema_docs.py); tests/test_schema_docs.py fails when this file differs from the "
+           "(framework/cli/schema_docs.py); tests/test_schema_docs.py fails when this file differs from the "
            "generator's output. Do not edit by hand.", "",
            "Key paths: `a.b` is key `b` of table `[a]`; `a[].b` is key `b` of each `[[a]]` table; `<name>` is "
            "a key you choose (a vehicle's name, a reference source). Range: `[lo, hi]` closed, `(lo, hi]` open "
@@ -321,8 +321,12 @@ def reference_markdown(roots: dict) -> str:
     return "\n".join(out)
 
 
-if __name__ == "__main__":  # python -m crashlab.schema_docs: the same as `crashlab schema --markdown`
-    import sys
+def schema_roots() -> dict:
+    """kind -> (root model, extras) of the scene, vehicle and study files, read from their schemas: the study's
+    models live in the reconstruction, which the command line's package sits above (docs/architecture.md)."""
+    from crashlab.reconstruction.infer import InferSection, QuestionFile
+    from crashlab.reconstruction.schema import StudyFile
 
-    from .cli import main
-    sys.exit(main(["schema", "--markdown"]))
+    from ..uncertainty import UncertainFile
+    return {"scene": scene_root(), "vehicle": vehicle_root(),
+            "study": (StudyFile, {"infer": InferSection, "questions": QuestionFile, "uncertain": UncertainFile})}

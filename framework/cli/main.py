@@ -11,9 +11,9 @@ import math
 import sys
 from pathlib import Path
 
-from .errors import InputError
-from .registry import UnknownPluginError
-from .units import wrap_deg
+from ..errors import InputError
+from ..registry import UnknownPluginError
+from ..units import wrap_deg
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -66,8 +66,8 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
     {"scene": {"name", "file"}, "results": [result_json ...], "references": {source: {vehicle: {x, y,
     heading, ...}}}, "comparison": [a row of crashlab.compare.comparison_table per source and vehicle],
     "units": JSON_UNITS | the impact table's units}."""
-    from .compare import comparison_table
-    from .outcome import IMPACT_UNITS
+    from ..outcome import IMPACT_UNITS
+    from ..tools.compare import comparison_table
     table = comparison_table(scene, outcomes)
     comparison = [{k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()}
                   for row in table.astype(object).to_dict(orient="records")]
@@ -80,17 +80,17 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
 
 
 def cmd_vehicles(args):
-    from .vehicle import format_library_table
+    from ..vehicle import format_library_table
     print(format_library_table())
     return 0
 
 
 def cmd_models(args):
-    from .registry import MODELS, available_models, available_optimizers, load
+    from ..registry import MODELS, available_models, available_optimizers, load
     if args.options:
         from tabulate import tabulate
 
-        from .options import describe
+        from ..options import describe
         try:
             cls = load(MODELS, args.options)
         except UnknownPluginError as err:
@@ -111,7 +111,7 @@ def cmd_models(args):
 
 
 def _get_model(name, where):
-    from .registry import get_model
+    from ..registry import get_model
     try:
         return get_model(name)
     except (UnknownPluginError, TypeError) as err:
@@ -120,7 +120,7 @@ def _get_model(name, where):
 
 def cmd_monte_carlo(args, scene, model):
     """`simulate SCENE --monte-carlo N`: the scene's [[uncertain]] parameters drawn N times (crashlab.montecarlo)."""
-    from . import montecarlo
+    from crashlab.reconstruction import montecarlo
     if args.monte_carlo < 1:
         raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {args.monte_carlo}")
     if args.seed is not None and not 0 <= args.seed < 2**32:
@@ -177,10 +177,10 @@ def _rest_table(scene, out):
 
 
 def cmd_simulate(args):
-    from .scene import load_scene
+    from ..scene_file import load_scene
     animate = None
     if args.animate:
-        from .animation import check_animation_path
+        from ..tools.animation import check_animation_path
         animate = check_animation_path(args.animate, "--animate")  # before the run: refused at once
         if not args.fps > 0 or not args.slow_motion > 0:
             raise InputError("command line", "--fps" if not args.fps > 0 else "--slow-motion",
@@ -196,7 +196,7 @@ def cmd_simulate(args):
     if args.csv:
         _write_csv(out, Path(args.csv))
     if args.plot:
-        from .plotting import top_view
+        from ..tools.plotting import top_view
         try:
             top_view(scene, out, args.plot)
         except (OSError, ValueError) as err:
@@ -205,7 +205,7 @@ def cmd_simulate(args):
         raise InputError(str(animate), "--animate", f"model {out.model or args.model} records no trajectories to "
                          "animate")
     if animate and out.trajectories:
-        from .animation import write_animation
+        from ..tools.animation import write_animation
         try:
             write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion)
         except (OSError, ValueError) as err:
@@ -232,7 +232,7 @@ def cmd_simulate(args):
               .to_string())
         if len(out.impacts):
             print("impacts:")
-            from .outcome import IMPACT_UNITS
+            from ..outcome import IMPACT_UNITS
             table = out.impacts.drop(columns=["plane_angle"])
             print(table.rename(columns={c: f"{c} [{IMPACT_UNITS[c]}]" for c in table if c in IMPACT_UNITS})
                   .to_string(index=False))
@@ -244,8 +244,8 @@ def cmd_simulate(args):
 def cmd_compare(args):
     import pandas as pd
 
-    from .compare import comparison_table, with_unit_headers
-    from .scene import load_scene
+    from ..scene_file import load_scene
+    from ..tools.compare import comparison_table, with_unit_headers
     scene = load_scene(args.scene)
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     if not models:
@@ -254,7 +254,7 @@ def cmd_compare(args):
     outcomes = {m: model.simulate(scene) for m, model in resolved.items()}
     failed = [m for m, out in outcomes.items() if not out.outcome_ok]
     if args.plot:
-        from .plotting import compare_view
+        from ..tools.plotting import compare_view
         try:
             compare_view(scene, outcomes, args.plot)
         except (OSError, ValueError) as err:
@@ -281,7 +281,7 @@ def cmd_compare(args):
 
 
 def cmd_bench(args):
-    from .bench import run_bench
+    from ..tools.bench import run_bench
     _get_model(args.model, args.scene or "crashlab bench")
     if args.batch < 1 or args.repeat < 1:
         raise InputError("crashlab bench", "--batch/--repeat", "must be at least 1")
@@ -290,7 +290,7 @@ def cmd_bench(args):
 
 
 def cmd_stress(args):
-    from . import stress
+    from ..tools import stress
     model = _get_model(args.model, "crashlab stress")
     if args.runs < 0:
         raise InputError("crashlab stress", "--runs", "must be at least 0")
@@ -324,20 +324,8 @@ def cmd_study(args):
     return run_cli(args)
 
 
-def schema_roots() -> dict:
-    """kind -> (root model, extras) of the scene, vehicle and study files (crashlab.schema_docs). The study's
-    models live in the reconstruction, which only this entry point may import (tests/test_architecture.py)."""
-    from crashlab.reconstruction.infer import InferSection, QuestionFile
-    from crashlab.reconstruction.schema import StudyFile
-
-    from .schema_docs import scene_root, vehicle_root
-    from .uncertainty import UncertainFile
-    return {"scene": scene_root(), "vehicle": vehicle_root(),
-            "study": (StudyFile, {"infer": InferSection, "questions": QuestionFile, "uncertain": UncertainFile})}
-
-
 def cmd_schema(args):
-    from .schema_docs import TITLES, json_schema, reference_markdown
+    from .schema_docs import TITLES, json_schema, reference_markdown, schema_roots
     roots = schema_roots()
     if args.markdown:
         if args.kind:
@@ -466,7 +454,3 @@ def main(argv=None):
         return 2
     except BrokenPipeError:
         return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

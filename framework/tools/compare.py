@@ -5,7 +5,7 @@ import math
 
 import pandas as pd
 
-from .units import rad_to_deg, wrap_deg
+from ..units import rad_to_deg, wrap_deg
 
 # units of comparison_table's columns, printed in the headers (d_<source>_m / _deg: see comparison_units)
 COMPARE_UNITS = {"x": "m", "y": "m", "heading": "deg, -180..180", "yaw_turned": "deg", "vx": "km/h", "vy": "km/h"}

@@ -17,8 +17,9 @@ import time
 
 import numpy as np
 
-from .errors import InputError
-from .scene import scene_from_dict, start_overlaps
+from ..errors import InputError
+from ..scene import start_overlaps
+from ..scene_file import scene_from_dict
 
 VEHICLES = ("clio", "saloon", "suv")
 WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
@@ -28,7 +29,7 @@ DURATION = 10.0  # s
 
 
 def _vehicle_overrides(kind: str, mass: float) -> dict:
-    from .vehicle import load_vehicle
+    from ..vehicle import load_vehicle
     spec = load_vehicle(kind)
     k = mass / spec.mass
     return {"mass": mass, "yaw_inertia": spec.yaw_inertia * k, "roll_inertia": spec.roll_inertia * k,

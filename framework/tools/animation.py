@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .scene import vehicle_outline
+from ..errors import InputError
+from ..scene import vehicle_outline
 
 FORMATS = (".gif", ".mp4")
 FLASH_S = 0.2  # s of simulated time an impact stays flashed (at least one frame: see animation_times)
@@ -90,7 +90,7 @@ def _impacts(outcome) -> list:
 
 def _limits(scene, poses):
     """Fixed axes limits: every pose of every vehicle with its outline, and the barriers."""
-    from .scene import barrier_outline
+    from ..scene import barrier_outline
     pts = []
     for v in scene.vehicles:
         reach = math.hypot(max(v.spec.cg_to_front, v.spec.cg_to_rear), v.spec.width / 2)

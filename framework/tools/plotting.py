@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .scene import barrier_outline, vehicle_outline
-from .units import deg_to_rad, wrap_deg
+from ..scene import barrier_outline, vehicle_outline
+from ..units import deg_to_rad, wrap_deg
 
 
 def _arrow(ax, x, y, h, length, colour, **kw):
@@ -24,7 +24,6 @@ def draw_zones(ax, road):
                 color="0.25", zorder=0)
 
 
-_zones = draw_zones  # the name crashlab.montecarlo imports
 
 
 def draw_barriers(ax, barriers):

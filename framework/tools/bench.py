@@ -28,8 +28,8 @@ def machine() -> str:
 
 
 def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
-    from .registry import get_model
-    from .scene import load_scene
+    from ..registry import get_model
+    from ..scene_file import load_scene
     scene = load_scene(scene_path or default_scene_path())
     model = get_model(model_name)
     model.simulate(scene)  # compile / warm up
@@ -46,7 +46,7 @@ def run_bench(model_name="impulse", scene_path=None, batch=1000, repeat=3):
         best_batch = min(best_batch, _time(lambda: model.simulate_batch(scenes)))
         best_bare = min(best_bare, _time(lambda: unguarded(model, scenes)))
     # crashlab.simulate (registry look-up, option validation) against model.simulate, interleaved
-    from . import simulate
+    from .. import simulate
     best_api, best_direct = math.inf, math.inf
     for _ in range(repeat):
         best_direct = min(best_direct, _time(lambda: [model.simulate(scene) for _ in range(n_single)]))

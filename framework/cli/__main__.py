@@ -1,0 +1,6 @@
+"""`python -m crashlab.cli ...`: the same as `crashlab ...`."""
+import sys
+
+from .main import main
+
+sys.exit(main())

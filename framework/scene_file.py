@@ -1,0 +1,256 @@
+"""Scene files: the schema of a scene file (TOML, reconstructionist's units: m, deg, km/h), validated with
+pydantic and converted once, here, into the SI Scene of crashlab.scene (its [[uncertain]] tables by
+crashlab.uncertainty).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError
+
+from . import uncertainty
+from .errors import InputError
+from .scene import (
+    ANGLE_MAX,
+    BARRIER_SIZE,
+    DURATION_MAX,
+    FRICTION_MAX,
+    POSITION_MAX,
+    SPEED_MAX,
+    STEER_MAX,
+    YAW_RATE_MAX,
+    Action,
+    Barrier,
+    Impact,
+    Road,
+    Scene,
+    VehicleState,
+    WheelState,
+    Zone,
+    given_pair,
+    polygon_problem,
+    start_overlaps,
+)
+from .units import deg_to_rad, kmh_to_ms
+from .vehicle import load_vehicle, pydantic_error, read_toml
+
+Real = Annotated[float, Strict()]  # int or float; never a bool or a string (NaN/inf: allow_inf_nan=False)
+Position = Annotated[Real, Field(ge=-POSITION_MAX, le=POSITION_MAX,
+                                 description=f"m; |value| <= {POSITION_MAX:g}")]
+Angle = Annotated[Real, Field(ge=-ANGLE_MAX, le=ANGLE_MAX, description=f"deg; |value| <= {ANGLE_MAX:g}")]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class ZoneFile(_Strict):
+    """A friction polygon of the road (docs/physics.md §2a): a wheel standing in it takes its friction."""
+    friction: Real = Field(ge=0, le=FRICTION_MAX, description=f"tyre-road friction in the zone; [0, {FRICTION_MAX:g}]")
+    polygon: list[tuple[Position, Position]] = Field(
+        min_length=3, description="m, corners [[x, y], ...] in order (either sense); at least three, not crossing")
+    name: Name | None = Field(default=None, description="label of the zone in tables and plots; default "
+                              "'zone K'")
+
+
+class RoadFile(_Strict):
+    friction: Real = Field(default=0.8, ge=0, le=FRICTION_MAX,
+                           description=f"tyre-road friction coefficient; [0, {FRICTION_MAX:g}], 0 = ice")
+    zones: list[ZoneFile] = Field(default_factory=list, description="friction polygons; later zones win")
+
+
+class ImpactFile(_Strict):
+    restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
+    friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
+                           description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
+    law: Literal["kudlich-slibar", "brach"] = Field(
+        default="kudlich-slibar", description="impulse law of the planar impulse models (docs/physics.md §3): "
+        "kudlich-slibar (PC-Crash, Poisson type) or brach (Newton type)")
+    force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
+                       "exact-restitution"] = Field(
+        default="flores", description="normal contact-force law of the continuous-contact models (multibody, "
+        "exudyn); its damping follows the restitution")
+    friction_law: Literal["coulomb", "threlfall", "ambrosio"] = Field(
+        default="ambrosio", description="regularised friction law of the continuous-contact models")
+    point: tuple[Position, Position] | None = Field(
+        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}")
+    plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")
+
+
+Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\x7f]+$",
+                            description="1-64 characters, no control characters (it labels tables and plots)")]
+
+
+class ActionFile(_Strict):
+    """A driver action (docs/physics.md §2a): from `t` on, the wheel state and/or brake and steer change;
+    brake and steer move linearly from their previous values over `ramp`; each action holds until the next."""
+    t: Real = Field(ge=0, le=DURATION_MAX, description=f"s, time of the action after the start; [0, {DURATION_MAX:g}]")
+    wheels: WheelState | None = Field(default=None, description="wheel state from t on (docs/physics.md §2a); "
+                                      "absent: unchanged")
+    brake: Real | None = Field(default=None, ge=0, le=1,
+                               description="fraction of full braking force without locking; [0, 1]")
+    steer: Real | None = Field(default=None, ge=-STEER_MAX, le=STEER_MAX,
+                               description=f"deg, front-wheel angle; |value| <= {STEER_MAX:g}")
+    ramp: Real = Field(default=0.0, ge=0, le=DURATION_MAX,
+                       description="s, time over which brake and steer move from their previous values")
+
+
+class VehicleEntryFile(_Strict):
+    name: Name = Field(description="the vehicle's name in this scene (tables, plots, studies); unique")
+    vehicle: str = Field(min_length=1, description="a library name (crashlab vehicles) or a vehicle .toml path, "
+                         "relative to the scene file")
+    x: Position = Field(default=0.0, description="m, start position of the CG, x")
+    y: Position = Field(default=0.0, description="m, start position of the CG, y")
+    heading: Angle = Field(default=0.0, description="deg, start heading, counter-clockwise from +x")
+    speed: Real = Field(default=0.0, ge=0, le=SPEED_MAX, description=f"km/h, start speed along the heading; "
+                        f"[0, {SPEED_MAX:g}]")
+    yaw_rate: Real = Field(default=0.0, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX,
+                           description=f"deg/s, start yaw rate, counter-clockwise; |value| <= {YAW_RATE_MAX:g}")
+    wheels: WheelState = Field(default="rolling", description="wheel state at the start (docs/physics.md §2a): "
+                               "rolling, locked, locked_after_impact (rolls until the first impact), braked "
+                               "(ABS-like)")
+    steer: Real = Field(default=0.0, ge=-STEER_MAX, le=STEER_MAX,
+                        description=f"deg, front-wheel steer angle at the start; |value| <= {STEER_MAX:g}")
+    overrides: dict = Field(default_factory=dict, description="vehicle-file keys: checked as the vehicle file")
+    actions: list[ActionFile] = Field(default_factory=list, description="driver actions, in time order")
+
+
+class BarrierFile(_Strict):
+    x: Position = Field(description="m, centre of the barrier, x")
+    y: Position = Field(description="m, centre of the barrier, y")
+    heading: Angle = Field(default=0.0, description="deg, direction of the barrier's length, counter-clockwise "
+                           "from +x")
+    length: Real = Field(ge=BARRIER_SIZE[0], le=BARRIER_SIZE[1],
+                         description=f"m, along the heading; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
+    width: Real = Field(ge=BARRIER_SIZE[0], le=BARRIER_SIZE[1],
+                        description=f"m, across the heading; [{BARRIER_SIZE[0]:g}, {BARRIER_SIZE[1]:g}]")
+
+
+class ReferenceFile(_Strict):
+    """A published result for one vehicle: rest pose and velocity at rest/end (file units)."""
+    x: Position | None = Field(default=None, description="m, published rest (end) position of the CG, x")
+    y: Position | None = Field(default=None, description="m, published rest (end) position of the CG, y")
+    heading: Angle | None = Field(default=None, description="deg, published rest (end) heading")
+    vx: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX,
+                            description="km/h, published velocity at the end, x (global)")
+    vy: Real | None = Field(default=None, ge=-SPEED_MAX, le=SPEED_MAX,
+                            description="km/h, published velocity at the end, y (global)")
+    yaw_rate: Real | None = Field(default=None, ge=-YAW_RATE_MAX, le=YAW_RATE_MAX,
+                                  description="deg/s, published yaw rate at the end")
+
+
+class SceneFile(_Strict):
+    name: str = Field(default="scene", description="title of the scene in tables and plots")
+    duration: Real = Field(default=10.0, gt=0, le=DURATION_MAX,
+                           description=f"s, longest simulated time; (0, {DURATION_MAX:g}]")
+    stop_at_rest: StrictBool = Field(default=True, description="end the run when every vehicle is at rest")
+    road: RoadFile = Field(default=RoadFile(), description="[road]: the road's friction and friction zones")
+    impact: ImpactFile = Field(default=ImpactFile(), description="[impact]: the collision's coefficients, "
+                               "laws and (optionally) its given position")
+    vehicles: list[VehicleEntryFile] = Field(min_length=1, description="[[vehicles]]: each vehicle and its "
+                                             "start state")
+    barriers: list[BarrierFile] = Field(default_factory=list, description="[[barriers]]: fixed rectangular "
+                                        "obstacles (walls, posts) a vehicle may hit")
+    # published results to compare with: reference.<source>.<vehicle> = {x, y, heading, vx, vy, yaw_rate}
+    reference: dict[str, dict[str, ReferenceFile]] = Field(
+        default_factory=dict, description="published results to compare with (crashlab compare): "
+        "reference.<source>.<vehicle>")
+    # uncertain parameters (crashlab.uncertainty): [[uncertain]] field, distribution and its parameters;
+    # checked against the scene in scene_from_dict; they do not change the simulation of the scene itself
+    uncertain: list[dict] = Field(default_factory=list, description="[[uncertain]]: parameters drawn by "
+                                  "simulate --monte-carlo and varied by crashlab infer (each table below)")
+
+
+def _actions(v, i: int, duration: float, source) -> tuple[Action, ...]:
+    """The vehicle's actions in SI, checked: in time order, within the run, each changing something, each
+    ramp over before the next action starts."""
+    acts = v.actions
+    for k, a in enumerate(acts):
+        key = f"vehicles.{i}.actions.{k}"
+        if a.wheels is None and a.brake is None and a.steer is None:
+            raise InputError(source, key, "an action sets wheels, brake and/or steer; this one sets none")
+        if a.t > duration:
+            raise InputError(source, f"{key}.t", f"t = {a.t:g} s is after the end of the run (duration "
+                             f"{duration:g} s)")
+        if k and a.t <= acts[k - 1].t:
+            raise InputError(source, f"{key}.t", f"actions out of time order: t = {a.t:g} s is not after "
+                             f"the previous action's t = {acts[k - 1].t:g} s")
+    for k, a in enumerate(acts):
+        key = f"vehicles.{i}.actions.{k}"
+        if k + 1 < len(acts) and a.t + a.ramp > acts[k + 1].t:
+            raise InputError(source, f"{key}.ramp", f"ramp = {a.ramp:g} s is longer than the {acts[k + 1].t - a.t:g}"
+                             " s to the next action")
+    return tuple(Action(t=a.t, wheels=a.wheels, brake=a.brake, ramp=a.ramp,
+                        steer=None if a.steer is None else deg_to_rad(a.steer)) for a in acts)
+
+
+def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path | None = None) -> Scene:
+    """Validate a scene given as a dict in file units and convert it to SI."""
+    try:
+        f = SceneFile.model_validate(data)
+    except ValidationError as err:
+        raise pydantic_error(source, err) from None
+    names = [v.name for v in f.vehicles]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise InputError(source, f"vehicles.{i}.name", f"duplicate vehicle name {n!r}")
+    vehicles = tuple(
+        VehicleState(
+            name=v.name,
+            spec=load_vehicle(v.vehicle, base_dir, v.overrides, where=f"vehicles.{i}", scene_file=source),
+            x=v.x, y=v.y, heading=deg_to_rad(v.heading), speed=kmh_to_ms(v.speed),
+            yaw_rate=deg_to_rad(v.yaw_rate), wheels=v.wheels, steer=deg_to_rad(v.steer),
+            actions=_actions(v, i, f.duration, source))
+        for i, v in enumerate(f.vehicles))
+    for k, z in enumerate(f.road.zones):
+        why = polygon_problem(z.polygon)
+        if why:
+            raise InputError(source, f"road.zones.{k}.polygon", why)
+    zones = tuple(Zone(friction=z.friction, polygon=tuple(tuple(p) for p in z.polygon), name=z.name or f"zone {k}")
+                  for k, z in enumerate(f.road.zones))
+    imp = f.impact
+    if (imp.point is None) != (imp.plane_angle is None):
+        raise InputError(source, "impact.point" if imp.point is None else "impact.plane_angle",
+                         "point and plane_angle are given together or not at all")
+    scene = Scene(
+        name=f.name,
+        vehicles=vehicles,
+        road=Road(friction=f.road.friction, zones=zones),
+        impact=Impact(restitution=imp.restitution, friction=imp.friction, law=imp.law,
+                      force_law=imp.force_law, friction_law=imp.friction_law,
+                      point=None if imp.point is None else tuple(imp.point),
+                      plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle)),
+        barriers=tuple(Barrier(b.x, b.y, deg_to_rad(b.heading), b.length, b.width) for b in f.barriers),
+        duration=f.duration,
+        stop_at_rest=f.stop_at_rest,
+        source=str(source),
+        references={src: {n: r.model_dump(exclude_none=True) for n, r in rows.items()}
+                    for src, rows in f.reference.items()},
+    )
+    for src, rows in f.reference.items():
+        for vname in rows:
+            if vname not in names:
+                raise InputError(source, f"reference.{src}.{vname}", "no vehicle of that name")
+    if imp.point is not None:
+        try:
+            given_pair(scene)
+        except ValueError as err:
+            raise InputError(source, "impact.point", str(err)) from None
+    else:
+        hits = start_overlaps(scene)
+        if hits:
+            a, b = hits[0]
+            raise InputError(source, "vehicles", f"{a} and {b} overlap at the start; move them apart or "
+                             "give [impact] point and plane_angle (collision position)")
+    if f.uncertain:
+        scene = dataclasses.replace(scene, uncertain=uncertainty.parse(f.uncertain, scene, source))
+    return scene
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Load and validate a scene file (TOML). Bad input raises InputError (file, key, problem)."""
+    path = Path(path)
+    return scene_from_dict(read_toml(path, "scene"), source=path, base_dir=path.parent)
+
