@@ -16,9 +16,10 @@ WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
 
 
 # ---------------------------------------------------------------- bounds (file units)
-# Bounds of a scene (file units; crashlab.scene_file checks them). Every number is finite, a number (true/false
-# are not), and within these ranges; wide enough for any road event a reconstructionist models, narrow enough that the models'
-# arithmetic stays finite (a heading of 1e308 deg has no sine; a car at x = 1e30 m has no outline).
+# Bounds of a scene (file units; crashlab.scene_file checks them). Every number is finite, a number
+# (true/false are not), and within these ranges; wide enough for any road event a reconstructionist models,
+# narrow enough that the models' arithmetic stays finite (a heading of 1e308 deg has no sine; a car at
+# x = 1e30 m has no outline).
 POSITION_MAX = 1e5  # m: |x|, |y| of vehicles, barriers and the impact point: a local site frame (100 km);
 #                     survey coordinates (UTM, national grids) are shifted to a local origin first
 ANGLE_MAX = 3600.0  # deg: |heading|, |plane_angle|: ten turns (angles count modulo 360)

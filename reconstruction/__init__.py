@@ -68,7 +68,7 @@ from .schema import (
     RestPose,
     StudyFile,
 )
-from .study import Study, crashlab_version, load_study
+from .study import Study, load_study
 
 __all__ = [
     "ANGLE_MAX", "CHECKPOINT_FORMAT", "DUPLICATE_TOL", "FAILED_OBJECTIVE", "FIELD_RANGES", "FRICTION_MAX",
@@ -78,7 +78,7 @@ __all__ = [
     "ExecutionSection", "FreeVariable", "Int", "ObjectiveSection",
     "OptimizerSection", "PolishResult", "PolishSection", "Real", "ReconstructionProblem", "ReconstructionResult",
     "RefineResult", "RefineSection", "RepairSection", "RestPose", "UncertainVariable", "refine",
-    "search_bounds", "Study", "StudyFile", "crashlab_version", "failure_counts", "largest_overlap",
+    "search_bounds", "Study", "StudyFile", "failure_counts", "largest_overlap",
     "load_posterior", "load_study", "outline_depth",
     "parse_question", "Posterior", "PosteriorResult", "run_posterior", "pareto_table", "polish_archive",
     "repair_poses", "run_cli",

@@ -4,7 +4,7 @@ with the study (scene, free variables and their bounds, optimizer or sampler, mo
 sigmas, the Pareto set (the rows of pareto.csv, at most PARETO_ROWS_MAX) or the posterior summary and corner
 plot, the top views, the near-optimal figure where one was drawn, an animation of the best solution
 (crashlab.tools.animation, when that module is there) and DIR/refine.md and refine.csv when a refine step wrote
-them (a step that runs after the report calls refresh_refine_section).
+them. The page is written once, after every file it shows exists (reconstruction.run, reconstruction.infer).
 
 Written with the standard library only (f-strings and html.escape): the page is a few tables and images.
 A figure named but not on disk is said so on the page ("not drawn"), never left as a broken image.
@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from crashlab.version import package_version
+
 from .problem import variable_unit
 
 REPORT_NAME = "report.html"
@@ -28,7 +30,6 @@ ANIMATION_FPS = 10  # frames per second of the embedded GIF: smooth enough, smal
 # an animation larger than this is left beside the page instead of embedded (keeps the page under 5 MB)
 ANIMATION_EMBED_MAX_BYTES = 3_000_000
 PARETO_ROWS_MAX = 2000  # Pareto rows shown (about 1 MB of table); the page says so when pareto.csv has more
-REFINE_BEGIN, REFINE_END = "<!-- refine: begin -->", "<!-- refine: end -->"
 _MIME = {".png": "image/png", ".gif": "image/gif", ".jpg": "image/jpeg", ".jpeg": "image/jpeg",
          ".svg": "image/svg+xml"}
 
@@ -110,11 +111,10 @@ def figure(path: Path, caption: str) -> str:
 
 
 def page(title: str, sections: list[str]) -> str:
-    from .study import crashlab_version
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
             f"<title>{esc(title)}</title>\n<style>{_STYLE}</style>\n</head>\n<body>\n<h1>{esc(title)}</h1>\n"
-            f'<p class="muted">crashlab {esc(crashlab_version())}, written {stamp}. Every figure is embedded in '
+            f'<p class="muted">crashlab {esc(package_version())}, written {stamp}. Every figure is embedded in '
             "this one file.</p>\n" + "\n".join(s for s in sections if s) + "\n</body>\n</html>\n")
 
 
@@ -224,8 +224,8 @@ def animation_section(best, out_dir: Path, what: str) -> str:
 
 
 def refine_section(out_dir: Path) -> str:
-    """DIR/refine.md (as text) and DIR/refine.csv (as a table), between markers so that a refine step run
-    after the report can put it in (refresh_refine_section); empty markers when neither file is there."""
+    """DIR/refine.md (as text) and DIR/refine.csv (as a table); empty when neither file is there (the
+    report is written once, after the refine step)."""
     parts = []
     md, csv = Path(out_dir) / "refine.md", Path(out_dir) / "refine.csv"
     if md.is_file():
@@ -241,22 +241,7 @@ def refine_section(out_dir: Path) -> str:
         except Exception as err:  # noqa: BLE001 - an unreadable refine.csv is named, not fatal
             parts.append(f'<p class="warn">refine.csv could not be read: {esc(type(err).__name__)}: '
                          f"{esc(err)}</p>")
-    body = ("<h2>Refinement</h2>\n" + "\n".join(parts)) if parts else ""
-    return f"{REFINE_BEGIN}\n{body}\n{REFINE_END}"
-
-
-def refresh_refine_section(out_dir) -> bool:
-    """Put DIR/refine.md and refine.csv into an existing DIR/report.html (for a refine step that runs after
-    the report was written); False when there is no report."""
-    path = Path(out_dir) / REPORT_NAME
-    if not path.is_file():
-        return False
-    text = path.read_text(encoding="utf-8")
-    a, b = text.find(REFINE_BEGIN), text.find(REFINE_END)
-    if a < 0 or b < a:
-        return False
-    write_page(path, text[:a] + refine_section(out_dir) + text[b + len(REFINE_END):])
-    return True
+    return ("<h2>Refinement</h2>\n" + "\n".join(parts)) if parts else ""
 
 
 def _notes(notes) -> str:
@@ -352,10 +337,10 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
 
 
 # ---------------------------------------------------------------- crashlab infer
-def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=()) -> Path:
+def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(), questions=()) -> Path:
     """DIR/report.html of a posterior: the study, the sampler, the evidence, the variables' medians and 90 %
     intervals, the questions, the corner plot, the draws' top view and the animation of `best` (scene,
-    outcome: the draw of largest log-likelihood)."""
+    outcome: the draw of largest log-likelihood); questions: (question, probability, standard error) rows."""
     out_dir = Path(out_dir)
     study, s = post.study, post.settings
     title = f"Posterior: {study.spec.name or post.path.name}"
@@ -382,11 +367,10 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=())
                  "the integrated autocorrelation time. Every sample is in posterior.csv.</p>",
                  table(head, rows, table_id="posterior", text_cols=(0, 1, 2))]
     post_html += [f'<p class="warn">{md_inline(w)}</p>' for w in warnings]
-    if post.questions:
-        from .infer_report import question_rows
+    if questions:
         post_html += ["<h3>Questions</h3>",
                       table(["question", "probability", "MC standard error"],
-                            [[f"<code>{esc(q)}</code>", num(p), num(se)] for q, p, se in question_rows(post, res)],
+                            [[f"<code>{esc(q)}</code>", num(p), num(se)] for q, p, se in questions],
                             table_id="questions")]
     post_html.append(figure(out_dir / "corner.png", "the posterior's one- and two-variable marginals; dashed: 5, "
                             "50 and 95 % quantiles" + ("; lines: the twin's truth" if truth is not None else "") + "."))

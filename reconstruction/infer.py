@@ -516,19 +516,23 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
     result = PosteriorResult(post.labels, flat, loglik, tau, nw * n_kept_iters / np.maximum(tau, 1.0), nw,
                              len(chain), s.burn, s.thin, evaluations, acc, time.time() - t0, s.sampler,
                              post.truth, chain)
+    page = None
     if out is not None:
         from .infer_report import write_outputs
-        write_outputs(post, result, out)
+        page = write_outputs(post, result, out)
     if post.study.spec.refine is not None:  # the second opinion on the most likely draws (refine.py)
         import pandas as pd
 
-        from .html_report import refresh_refine_section
         from .refine import refine
         draws = pd.DataFrame(result.samples, columns=result.labels).assign(log_likelihood=result.log_likelihood)
         draws = draws.sort_values("log_likelihood", ascending=False, kind="stable")
         result.refine = refine(post.study, draws, out, source="posterior draws", progress=progress)
-        if out is not None:
-            refresh_refine_section(out)  # (report.html was written before the second opinion)
+    if page is not None:  # report.html last: it shows every file above
+        from .html_report import write_posterior_report
+        try:
+            write_posterior_report(post, result, out, **page)
+        except OSError as err:
+            raise InputError(out, "--out", err.strerror or str(err)) from None
     return result
 
 

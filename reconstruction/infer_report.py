@@ -167,10 +167,10 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
     return drawn
 
 
-def write_outputs(post, res, out: Path) -> None:
-    """posterior.csv, summary.md, corner.png, posterior_top_view.png and report.html
-    (crashlab.reconstruction.html_report, with an animation of the draw of largest log-likelihood)."""
-    from .html_report import write_posterior_report
+def write_outputs(post, res, out: Path) -> dict:
+    """posterior.csv, summary.md, corner.png, posterior_top_view.png; returns the keyword arguments of
+    html_report.write_posterior_report (warnings, the draw of largest log-likelihood to animate, notes,
+    question rows), which the caller writes once every file it shows exists."""
     out = Path(out)
     try:
         write_posterior_csv(post, res, out / "posterior.csv")
@@ -184,6 +184,7 @@ def write_outputs(post, res, out: Path) -> None:
         except Exception as err:  # noqa: BLE001 - the report stands without its animation
             best = None
             notes.append(f"the draw of largest log-likelihood could not be run: {type(err).__name__}: {err}")
-        write_posterior_report(post, res, out, chain_warnings(res), best, notes)
+        return dict(warnings=chain_warnings(res), best=best, notes=notes,
+                    questions=question_rows(post, res) if post.questions else [])
     except OSError as err:
         raise InputError(out, "--out", err.strerror or str(err)) from None

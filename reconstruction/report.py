@@ -152,8 +152,10 @@ def _near_optimal_figure(problem, near, path, plt) -> str:
 
 
 def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path):
-    """pareto.csv, failures.csv, objectives.png, top views of chosen solutions, summary.md, report.html. The
-    tables come first; a figure that cannot be drawn is named in summary.md instead of ending the run."""
+    """pareto.csv, failures.csv, objectives.png, top views of chosen solutions, summary.md; returns the
+    arguments of html_report.write_reconstruction_report (the page is written by the caller once every file
+    it shows exists). The tables come first; a figure that cannot be drawn is named in summary.md instead
+    of ending the run."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -302,13 +304,11 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         lines += [""] + [f"- {n}" for n in notes]
     lines += ["", "All of this, with every figure embedded and an animation of the first solution: report.html."]
     (out_dir / "summary.md").write_text("\n".join(lines) + "\n")
-    from .html_report import write_reconstruction_report
     captions = []
     for f in figures:
         k = int(f[len("solution_"):-len(".png")])
         why = (["the smallest sum of objectives"] if k == 0 else []) + [
             f"the smallest f_{n}" for n in names if int(result.pareto[f"f_{n}"].idxmin()) == k]
         captions.append((f, f"Pareto row {k}: {', '.join(why)}."))
-    write_reconstruction_report(study, result, out_dir, captions, figures_near, near,
-                                tol, best, warnings, notes,
-                                failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)
+    return dict(figures=captions, near_figure=figures_near, near=near, tol=tol, best=best, warnings=warnings,
+                notes=notes, failure_reasons=failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)

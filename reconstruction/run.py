@@ -28,7 +28,7 @@ from pymoo.core.callback import Callback
 from crashlab.errors import InputError
 from crashlab.execution import Executor, WorkerStartError
 
-from .html_report import refresh_refine_section
+from .html_report import write_reconstruction_report
 from .polish import polish_archive
 from .refine import refine
 from .report import ReconstructionResult, pareto_table, write_outputs
@@ -213,12 +213,11 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
         if bar is not None:
             bar.close()
         result = _result(study, problem, algorithm, name, n_search, budget, t0)
-        if out_dir:
-            write_outputs(study, result, problem.archive_arrays(), out_dir)
+        page = write_outputs(study, result, problem.archive_arrays(), out_dir) if out_dir else None
         if spec.refine is not None:  # the second opinion (refine.py); the search model on the same executor
             result.refine = refine(study, result.pareto, out_dir, executor=executor, progress=progress)
-            if out_dir:
-                refresh_refine_section(out_dir)  # (report.html was written before the second opinion)
+        if page is not None:  # report.html last: it shows every file above
+            write_reconstruction_report(study, result, out_dir, **page)
     return result
 
 

@@ -40,6 +40,7 @@ from crashlab.scene import Scene
 from crashlab.scene_file import load_scene
 from crashlab.units import ms_to_kmh
 from crashlab.vehicle import pydantic_error, read_toml
+from crashlab.version import package_version
 
 from .evidence import build_evidence
 from .problem import ReconstructionProblem, UncertainVariable
@@ -60,14 +61,6 @@ def _canonical(obj) -> str:
 
 def _digest(obj) -> str:
     return hashlib.sha256(_canonical(obj).encode()).hexdigest()[:16]
-
-
-def crashlab_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("crashlab")
-    except PackageNotFoundError:
-        return "unknown"
 
 
 class Study:
@@ -116,7 +109,7 @@ class Study:
             parts["evidence"] = _digest([parts["evidence"]] + [
                 [it.label, it.components, it.values, it.sigmas, it.points] for it in self.evidence_set.items])
         parts["model and its options"] = _digest([self.spec.model, self.spec.model_options])
-        parts["crashlab version"] = crashlab_version()
+        parts["crashlab version"] = package_version()
         return parts
 
     def make_problem(self, constraints_as_penalty: bool = False) -> ReconstructionProblem:

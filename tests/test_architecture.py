@@ -138,5 +138,5 @@ def test_a_planted_upward_import_fails(tmp_path, planted, layer):
 def test_a_planted_circle_fails(tmp_path):
     repo = _copy_sources(tmp_path)
     f = repo / "framework" / "units.py"
-    f.write_text(f.read_text() + "\n\ndef _planted():\n    from .scene import Scene  # noqa\n")
+    f.write_text(f.read_text() + "\n\ndef _planted():\n    from .scene_file import load_scene  # noqa\n")
     assert any("crashlab.units" in c for c in circles(repo))

@@ -244,21 +244,16 @@ def test_a_missing_or_failing_animation_is_said_so(tmp_path, monkeypatch):
     assert "animation unavailable" in html_report.animation_section(None, tmp_path, "row 0")
 
 
-def test_refine_files_become_a_section(reconstruct_out, tmp_path):
-    out = tmp_path / "out"
-    shutil.copytree(reconstruct_out, out)
-    assert "refine" not in _read(out).tables
-    (out / "refine.md").write_text("# Refinement\n\nV1.speed <narrowed> & kept\n")
+def test_refine_files_become_a_section(tmp_path):
+    """refine.md (escaped, as written) and refine.csv (a table) make the Refinement section; none without them."""
+    assert html_report.refine_section(tmp_path) == ""
+    (tmp_path / "refine.md").write_text("# Refinement\n\nV1.speed <narrowed> & kept\n")
     pd.DataFrame({"variable": ["V1.speed", "V2.speed"], "before": [49.9, 30.1], "after": [50.0004, 1.5e-5]}) \
-        .to_csv(out / "refine.csv", index=False)
-    assert html_report.refresh_refine_section(out)
-    page = _read(out)
-    assert page.tables["refine"] == [["variable", "before", "after"], ["V1.speed", "49.900", "50.000"],
-                                     ["V2.speed", "30.100", "1.500e-05"]]
-    assert "V1.speed <narrowed> & kept" in "".join(page.text)  # escaped, shown as written
-    assert html_report.refresh_refine_section(out)  # again: replaced, not added twice
-    assert (out / "report.html").read_text().count("<h2>Refinement</h2>") == 1
-    assert_self_contained(out, _read(out), {"solution_0.png"})
+        .to_csv(tmp_path / "refine.csv", index=False)
+    text = html_report.refine_section(tmp_path)
+    assert text.count("<h2>Refinement</h2>") == 1
+    assert "V1.speed &lt;narrowed&gt; &amp; kept" in text
+    assert "<td>50.000</td>" in text and "<td>1.500e-05</td>" in text and "<td>49.900</td>" in text
 
 
 # ------------------------------------------------------------------ case 5 in headless Chromium (slow)

@@ -14,6 +14,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..registry import UnknownPluginError
 from ..units import wrap_deg
+from ..version import package_version
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -337,14 +338,6 @@ def cmd_schema(args):
     model, extras = roots[args.kind]
     print(json.dumps(json_schema(model, extras, title=f"crashlab {TITLES[args.kind].lower()}"), indent=2))
     return 0
-
-
-def package_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("crashlab")
-    except PackageNotFoundError:
-        return "unknown (not installed)"
 
 
 def build_parser():
