@@ -12,7 +12,7 @@ The scene space (one scene per seed; `draw(seed)` rebuilds the scene of a CSV ro
   restitution      0-0.5, impact_friction 0.1-0.6, road_friction 0.3-1.0, uniform
   wheels           each vehicle's wheel state, any of crashlab.scene.WHEEL_STATES ("V1/V2")
 
-The vehicles are placed as `crashlab stress` places them (crashlab.stress): both CGs due at the crossing point
+The vehicles are placed as `crashlab stress` places them ((crashlab.tools.stress)): both CGs due at the crossing point
 0.4 s after the start (later, up to 4 s, where the outlines would overlap at the start); a draw whose
 vehicles cannot start apart within 4 s (slow, nearly parallel) is skipped, so seeds have gaps. Duration
 10 s, stopping at rest. The same seeded sample serves every model and setting (a coarse setting runs a

@@ -68,7 +68,7 @@ timeout_s = 0
 """
 
 def two_frame_gif(scene, outcome, path, fps):
-    """Stands in for crashlab.animation in report.html (the animation itself: tests/test_animation.py)."""
+    """Stands in for crashlab.tools.animation in report.html (the animation itself: tests/test_animation.py)."""
     from PIL import Image
     frames = [Image.new("P", (8, 8), c) for c in (0, 1)]
     frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)

@@ -1,4 +1,4 @@
-"""`crashlab simulate SCENE --animate FILE.gif|mp4` and crashlab.animation.write_animation: the GIF has one frame
+"""`crashlab simulate SCENE --animate FILE.gif|mp4` and crashlab.tools.animation.write_animation: the GIF has one frame
 per frame time, frame 0 shows the start poses and the last frame the outcome's rest poses (checked on the
 pixels), a bad extension or a missing ffmpeg is one line and exit status 2."""
 from __future__ import annotations

@@ -144,7 +144,7 @@ def test_yaw_inertia_override_conserves_angular_momentum(yaw_inertia):
 
 @pytest.mark.slow
 def test_end_overlap_is_judged_with_the_contact_bodies():
-    """Stress scene random 2:17 (crashlab.stress, seed 2): V1 (a saloon) comes to rest with a corner 3 cm from
+    """Stress scene random 2:17 (crashlab.tools.stress, seed 2): V1 (a saloon) comes to rest with a corner 3 cm from
     the barrier. Its rectangular outline overlaps the barrier's by 0.26 m there (the superellipsoid's rounded
     corner lies inside the rectangle), which the guard's outline check called an interpenetration; the model
     checks its contact bodies instead (guard_skip) and the run passes."""

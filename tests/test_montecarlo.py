@@ -1,4 +1,4 @@
-"""Forward Monte Carlo (crashlab.montecarlo, `crashlab simulate SCENE --monte-carlo N`), docs/physics.md
+"""Forward Monte Carlo (crashlab.reconstruction.montecarlo, `crashlab simulate SCENE --monte-carlo N`), docs/physics.md
 (uncertain parameters and Monte Carlo): the table of draws through the CLI, rest clouds that widen when
 the friction's spread widens (sliding distance v^2 / (2 mu g)), momentum in every draw's delta-V with an
 uncertain mass, failed draws counted and kept, and a scene without [[uncertain]] refused (exit 2)."""

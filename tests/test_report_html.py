@@ -231,7 +231,7 @@ def test_posterior_report_embeds_its_figures_the_quantiles_and_the_sigmas(infer_
 # ------------------------------------------------------------------ animation and refine
 def test_a_missing_or_failing_animation_is_said_so(tmp_path, monkeypatch):
     def missing(*a, **k):
-        raise ImportError("No module named 'crashlab.animation'")
+        raise ImportError("No module named 'crashlab.tools.animation'")
 
     def failing(*a, **k):
         raise RuntimeError("no frames")

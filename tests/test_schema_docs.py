@@ -1,5 +1,5 @@
 """The file reference (docs/reference.md) and the JSON Schemas are generated from the pydantic schemas
-(crashlab.schema_docs): every field is described, the docs equal the generator's output, the printed
+((crashlab.cli.schema_docs)): every field is described, the docs equal the generator's output, the printed
 schemas accept the bundled files."""
 from __future__ import annotations
 

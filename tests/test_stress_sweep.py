@@ -1,4 +1,4 @@
-"""Stress sweep (crashlab.stress): seeded random crashes judged by the physics guard.
+"""Stress sweep ((crashlab.tools.stress)): seeded random crashes judged by the physics guard.
 
 Goal of issue 10 after the root-cause fixes: no impulse or pymunk run caught, at most 1 in 40 multibody and
 exudyn runs. The full sweep is slow (`python -m pytest -m slow tests/test_stress_sweep.py`, or

@@ -65,7 +65,7 @@ def result_json(scene, out) -> dict:
 def results_json(scene_file, scene, outcomes: dict) -> dict:
     """The one JSON shape of `simulate --json` (one result) and `compare --json` (one per model):
     {"scene": {"name", "file"}, "results": [result_json ...], "references": {source: {vehicle: {x, y,
-    heading, ...}}}, "comparison": [a row of crashlab.compare.comparison_table per source and vehicle],
+    heading, ...}}}, "comparison": [a row of crashlab.tools.compare.comparison_table per source and vehicle],
     "units": JSON_UNITS | the impact table's units}."""
     from ..outcome import IMPACT_UNITS
     from ..tools.compare import comparison_table
@@ -120,7 +120,8 @@ def _get_model(name, where):
 
 
 def cmd_monte_carlo(args, scene, model):
-    """`simulate SCENE --monte-carlo N`: the scene's [[uncertain]] parameters drawn N times (crashlab.montecarlo)."""
+    """`simulate SCENE --monte-carlo N`: the scene's [[uncertain]] parameters drawn N times
+    (crashlab.reconstruction.montecarlo)."""
     from crashlab.reconstruction import montecarlo
     if args.monte_carlo < 1:
         raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {args.monte_carlo}")

@@ -5,7 +5,7 @@
 draws, frame by frame, every vehicle's outline with a heading arrow at its interpolated pose, its CG path
 growing behind it, each impact flashed at its point (a large star and its time for FLASH_S of simulated
 time, then a small star), the time stamp, and the zones, barriers and scale bar as the top view draws
-them (crashlab.plotting). The frames sample the recorded trajectories at `animation_times` (frame 0 is the
+them ((crashlab.tools.plotting)). The frames sample the recorded trajectories at `animation_times` (frame 0 is the
 start, the last frame the end of the run, so the last frame shows the rest or end poses of
 `outcome.rest_si`). A GIF is written with Pillow; an MP4 with ffmpeg, refused in one line
 (crashlab.InputError) when ffmpeg is not on PATH. Matplotlib runs headless (Agg).

@@ -1,5 +1,5 @@
 """Figures: the top view of a simulated scene, and the drawing helpers the other figures share
-(crashlab.animation, the Monte Carlo figure): zones, barriers, the point of impact, a scale bar."""
+(crashlab.tools.animation, the Monte Carlo figure): zones, barriers, the point of impact, a scale bar."""
 from __future__ import annotations
 
 import numpy as np
