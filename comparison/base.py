@@ -14,9 +14,10 @@ from crashlab.errors import InputError
 from crashlab.registry import MODELS, UnknownPluginError, available_models, load
 from crashlab.scene import Scene
 from crashlab.scene_file import load_scene
+from crashlab.tools import examples
 from crashlab.units import wrap_deg
 
-STUDIES_DIR = Path(__file__).resolve().parent.parent / "studies"
+STUDIES_DIR = examples.root()  # the bundled studies/ (package data crashlab.examples)
 
 
 def resolve_models(spec: str | None) -> list[str]:

@@ -291,6 +291,23 @@ def cmd_bench(args):
     return 0
 
 
+def cmd_examples(args):
+    """`crashlab examples`: the bundled examples and vehicles; `crashlab examples copy DIR` writes them out."""
+    from ..tools import examples
+    if args.action is None:
+        rows = [(rel, examples.describe(p)) for rel, p in examples.files()]
+        width = max(len(r) for r, _ in rows)
+        print("\n".join(f"{r:<{width}}  {d}" for r, d in rows))
+        print(f"\n{len(rows)} files; `crashlab examples copy DIR` writes them to DIR")
+        return 0
+    if args.action != "copy" or not args.dir:
+        raise InputError("command line", "examples", "give nothing (list) or `copy DIR`")
+    written = examples.copy(args.dir)
+    side = Path(args.dir) / "pc_crash" / "side.toml"
+    print(f"wrote {len(written)} files to {args.dir} (try: crashlab compare {side} --models impulse)")
+    return 0
+
+
 def cmd_stress(args):
     from ..tools import stress
     model = _get_model(args.model, "crashlab stress")
@@ -392,6 +409,10 @@ def build_parser():
     b.add_argument("--batch", type=int, default=1000, help="scenes per batched call")
     b.add_argument("--repeat", type=int, default=3, help="timed repetitions (the best one counts)")
     b.set_defaults(fn=cmd_bench)
+    ex = command("examples", "the bundled example scenes, studies and vehicles; `copy DIR` writes them out")
+    ex.add_argument("action", nargs="?", choices=["copy"], help="copy: write every example to DIR")
+    ex.add_argument("dir", nargs="?", metavar="DIR", help="a new or empty folder")
+    ex.set_defaults(fn=cmd_examples)
     st = command("stress", "seeded random crashes judged by the physics guard")
     st.add_argument("--model", default="impulse", help="collision model")
     st.add_argument("--runs", type=int, default=100, help="random scenes (the fixed extreme scenes run besides)")

@@ -9,9 +9,9 @@ from pathlib import Path
 
 
 def default_scene_path() -> Path:
-    """The bundled side collision (PC-Crash case 3), from the repository or the installed examples."""
-    here = Path(__file__).resolve().parent.parent / "studies" / "pc_crash" / "side.toml"
-    return here
+    """The bundled side collision (PC-Crash case 3), from the installed examples (crashlab.tools.examples)."""
+    from .examples import path
+    return path("pc_crash/side.toml")
 
 
 def machine() -> str:
