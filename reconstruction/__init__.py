@@ -19,8 +19,9 @@ The package builds on the framework (crashlab) and reaches optimizers through th
 """
 from .command import run_cli
 from .evidence import EvidenceItem, EvidenceSet, log_likelihood_of
-from .infer import Posterior, PosteriorResult, load_posterior, parse_question, run_posterior
+from .infer import PosteriorResult, run_posterior
 from .polish import POLISH_SPACING, PolishResult, polish_archive, spaced_starts
+from .posterior import Posterior, load_posterior
 from .problem import (
     FAILED_OBJECTIVE,
     ReconstructionProblem,
@@ -29,6 +30,7 @@ from .problem import (
     outline_depth,
     search_bounds,
 )
+from .questions import parse_question
 from .refine import RefineResult, refine
 from .repair import CollisionRepair, repair_poses
 from .report import (

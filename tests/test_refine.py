@@ -136,7 +136,8 @@ def test_reconstruct_with_refine_puts_it_on_the_report_page(tmp_path):
 def test_infer_with_refine_refines_the_most_likely_draws(tmp_path):
     """`[refine]` in a posterior study: after sampling, the most likely draws get the second opinion
     (source "posterior draws"), refine.csv is written and report.html shows it."""
-    from crashlab.reconstruction.infer import load_posterior, run_posterior
+    from crashlab.reconstruction.infer import run_posterior
+    from crashlab.reconstruction.posterior import load_posterior
     twin_infer = SIDE.parents[1] / "infer" / "twin_infer.toml"
     text = twin_infer.read_text().replace('scene = "../pc_crash/side.toml"', f'scene = "{SIDE.as_posix()}"')
     path = tmp_path / "infer_refine.toml"

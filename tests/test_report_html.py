@@ -21,7 +21,8 @@ import pytest
 from conftest import two_frame_gif
 
 from crashlab.reconstruction import html_report, load_study
-from crashlab.reconstruction.infer import load_posterior, run_posterior
+from crashlab.reconstruction.infer import run_posterior
+from crashlab.reconstruction.posterior import load_posterior
 
 REPO = Path(__file__).resolve().parent.parent
 SIDE = REPO / "studies" / "pc_crash" / "side.toml"

@@ -324,7 +324,7 @@ def reference_markdown(roots: dict) -> str:
 def schema_roots() -> dict:
     """kind -> (root model, extras) of the scene, vehicle and study files, read from their schemas: the study's
     models live in the reconstruction, which the command line's package sits above (docs/architecture.md)."""
-    from crashlab.reconstruction.infer import InferSection, QuestionFile
+    from crashlab.reconstruction.posterior import InferSection, QuestionFile
     from crashlab.reconstruction.schema import StudyFile
 
     from ..uncertainty import UncertainFile

@@ -52,7 +52,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from crashlab.reconstruction.infer import load_posterior, run_posterior
+from crashlab.reconstruction.infer import run_posterior
+from crashlab.reconstruction.posterior import load_posterior
 
 HERE = Path(__file__).resolve().parent
 TWIN = HERE / "calibration_twin.toml"
