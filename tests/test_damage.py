@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import tomllib
 from importlib import resources
 
@@ -238,8 +239,28 @@ def test_every_library_vehicle_has_every_side(ref):
         assert 0 < s.width <= (v.length if side == "side" else v.width)
 
 
+# the numbers a library file's [structure.<side>] source states (docs/physics.md §28)
+_ESTIMATE = re.compile(r"m = ([0-9.]+) kg .*L = ([0-9.]+) m .*b0 = ([0-9.]+) m/s, b1 = \(([0-9.]+) - [0-9.]+\) / "
+                       r"([0-9.]+) m")
+
+
+@pytest.mark.parametrize("ref", library())
+def test_library_structure_estimates_are_their_stated_formula(ref):
+    """Every library side is an estimate whose source states the crash-plot numbers; A and B reproduce from
+    them (rounded to 100 N/m and 1000 N/m^2), and m is the file's mass."""
+    v = load_vehicle(ref)
+    for side, s in v.structure.items():
+        assert not s.default and s.source.startswith("estimate:"), (ref, side)
+        m, L, b0, ebs, c = map(float, _ESTIMATE.search(s.source).groups())
+        assert m == pytest.approx(v.mass)
+        b1 = (ebs - b0) / c
+        assert s.A == pytest.approx(m * b0 * b1 / L, abs=50.0) and s.B == pytest.approx(m * b1 * b1 / L, abs=500.0)
+
+
 def _clio_with(tmp_path, extra: str):
+    """clio.toml with its [structure.*] tables replaced by `extra`."""
     text = resources.files("crashlab").joinpath("vehicles", "clio.toml").read_text()
+    text = re.sub(r"\[structure\.[a-z]+\][^\[]*", "", text)
     head, sep, tail = text.partition("\n[sources]")
     f = tmp_path / "v.toml"
     f.write_text(head + "\n" + extra + "\n" + sep + tail)
