@@ -12,12 +12,18 @@ offset [m] is the position of the centre of the damaged width: for the front and
 vehicle's centreline (positive left); for a side, ahead of the CG (positive forward). A side's struck flank
 (left or right) is the one the PDOF points at (left for PDOF > 0, the default +90).
 
+Damage as evidence: `DamageEvidence` ([evidence.damage.<vehicle>] of a study file), `damage_ees` (the EES from
+the damage and its sigma), `damage_residual` (simulated against measured, in sigma units).
+
 Only the core is imported (crashlab.errors, crashlab.vehicle, crashlab.units).
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, Strict
 
 from .errors import InputError
 from .units import wrap_deg
@@ -241,3 +247,80 @@ def format_report(rep: dict) -> str:
         f"{rep['pdof_factor']:.3f}); crush energy {rep['energy'] / 1e3:.1f} kJ; EES {rep['ees_kmh']:.1f} km/h",
         f"  moment arm {rep['moment_arm']:.2f} m, radius of gyration {rep['radius_of_gyration']:.2f} m, "
         f"effective-mass factor {rep['gamma']:.3f}"] + [f"  warning: {w}" for w in rep["warnings"]])
+
+
+# ---------------------------------------------------------------- damage as evidence (docs/physics.md §28)
+class DamageEvidence(BaseModel):
+    """[evidence.damage.<vehicle>]: a measured crush profile as evidence of the impact's severity. The EES
+    from the damage (this module's `report`) is compared with the EES of the simulated impact; its sigma
+    comes from the crush measurement and the stiffness uncertainty (`damage_ees`)."""
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    side: Literal["front", "rear", "side"] = Field(description="the struck side: front, rear or side")
+    profile: list[Annotated[float, Strict()]] = Field(description="m, 2, 4 or 6 residual crush depths C1..Cn, "
+                                                      "equally spaced over the width, left to right seen from "
+                                                      "outside the vehicle")
+    width: Annotated[float, Strict()] = Field(gt=0, le=30, description="m, the damaged width; (0, 30]")
+    offset: Annotated[float, Strict()] = Field(0.0, ge=-15, le=15, description="m, the centre of the damage: "
+                                               "left of the centreline (front, rear) or ahead of the CG (side)")
+    pdof: Annotated[float, Strict()] | None = Field(None, ge=-180, le=180, description="deg, the principal "
+                                                    "direction of force in vehicle axes (0 = from ahead, +90 = "
+                                                    "from the left); default normal to the side")
+    sigma_crush: Annotated[float, Strict()] = Field(gt=0, le=0.5, description="m, the standard deviation of each "
+                                                    "crush depth's measurement; (0, 0.5]")
+    sigma_stiffness: Annotated[float, Strict()] = Field(gt=0, le=1, description="-, the relative standard "
+                                                        "deviation of the stiffness (A and B scaled together); "
+                                                        "(0, 1]")
+
+
+def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: float) -> list[float]:
+    """dE/dC_i [J/m] of `crush_energy` (no PDOF correction): each segment (i, j) adds
+    d [A/2 + B (2 C_i + C_j)/6] to C_i."""
+    n = len(profile)
+    d = width / (n - 1)
+    grad = [0.0] * n
+    for k, (ci, cj) in enumerate(zip(profile[:-1], profile[1:])):
+        grad[k] += d * (A / 2.0 + B * (2.0 * ci + cj) / 6.0)
+        grad[k + 1] += d * (A / 2.0 + B * (ci + 2.0 * cj) / 6.0)
+    return grad
+
+
+def damage_ees(evidence: DamageEvidence, spec: VehicleSpec, where: str = "evidence.damage") -> tuple[float, float]:
+    """(EES [km/h], sigma [km/h]) from a damage measurement: EES = sqrt(2 E / m) of `report`, and its
+    first-order (delta-method) standard deviation from independent crush errors sigma_crush on every C_i and
+    a common relative stiffness error sigma_stiffness (E proportional to the stiffness scale):
+        sigma_E^2 = f^2 sum_i (dE/dC_i)^2 sigma_crush^2 + (E sigma_stiffness)^2,   sigma_EES = EES sigma_E / 2E
+    (f the PDOF factor). Bad input: InputError naming `where`.<key>."""
+    rep = report(spec, evidence.side, evidence.profile, evidence.width, evidence.offset, evidence.pdof, where)
+    s = spec.structure[evidence.side]
+    grad = crush_energy_gradient(rep["profile"], rep["width"], s.A, s.B)
+    var_crush = sum((rep["pdof_factor"] * g * evidence.sigma_crush) ** 2 for g in grad)
+    energy = rep["energy"]
+    sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
+    ees_kmh = rep["ees_kmh"]
+    return ees_kmh, ees_kmh * sigma_e / (2.0 * energy)
+
+
+def combined_ees(ees_values: Sequence[float]) -> float:
+    """The EES of several impact rows of one vehicle (same unit): sqrt(sum EES_k^2), their energies added."""
+    return math.sqrt(sum(e * e for e in ees_values))
+
+
+def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec: VehicleSpec) -> float:
+    """(EES_simulated - EES_damage) / sigma [sigma units] for a vehicle's simulated EES [km/h] (its impact
+    rows' `combined_ees`); NaN when the simulated EES is not finite (a run that cannot be scored)."""
+    if ees_simulated is None or not math.isfinite(ees_simulated):
+        return math.nan
+    value, sigma = damage_ees(damage_evidence, spec)
+    return (ees_simulated - value) / sigma
+
+
+def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, n: int = 6,
+                    pdof: float | None = None) -> list[float]:
+    """A uniform n-point profile [m] over `width` whose `report` EES is `ees_kmh` (for twin experiments):
+    C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros."""
+    s = spec.structure[_side(side, "damage")]
+    factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof))
+    per_width = 0.5 * spec.mass * (ees_kmh / 3.6) ** 2 / (factor * width) - s.G
+    c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B
+    return [c] * n

@@ -294,3 +294,65 @@ def test_a_bad_structure_is_one_line_naming_the_key(tmp_path, extra, key):
     with pytest.raises(InputError) as err:
         load_vehicle(f.name, base_dir=tmp_path)
     assert err.value.key == key, str(err.value)
+
+
+# ---------------------------------------------------------------- damage as evidence
+def _six_point_energy(c, L, A, B):
+    """The printed six-point CRASH3 form, vectorised over rows of c (n, 6)."""
+    c = np.asarray(c)
+    lin = c[:, 0] + 2 * c[:, 1:5].sum(axis=1) + c[:, 5]
+    quad_ = c[:, 0] ** 2 + 2 * (c[:, 1:5] ** 2).sum(axis=1) + c[:, 5] ** 2 + (c[:, :-1] * c[:, 1:]).sum(axis=1)
+    return (L / 5) * (A / 2 * lin + B / 6 * quad_ + 5 * A * A / (2 * B))
+
+
+def test_damage_ees_sigma_is_the_monte_carlo_spread():
+    """The first-order sigma of the EES from the damage equals the spread of a Monte Carlo of the measurement
+    (independent crush errors on every point) and the stiffness (A and B scaled together), within 3 %."""
+    v = load_vehicle("civic_1998")
+    s = v.structure["front"]
+    c0 = np.array([0.12, 0.25, 0.33, 0.35, 0.28, 0.15])
+    L, sc, ss = 1.5, 0.015, 0.12
+    ev = damage.DamageEvidence(side="front", profile=list(c0), width=L, pdof=20.0, sigma_crush=sc,
+                               sigma_stiffness=ss)
+    ees, sigma = damage.damage_ees(ev, v)
+    f = 1 + math.tan(math.radians(20.0)) ** 2
+    rng = np.random.default_rng(7)
+    n = 200_000
+    scale = 1 + ss * rng.standard_normal(n)
+    e = f * scale * _six_point_energy(c0 + sc * rng.standard_normal((n, 6)), L, s.A, s.B)
+    sample = np.sqrt(2 * e / v.mass) * 3.6
+    assert ees == pytest.approx(math.sqrt(2 * f * _six_point_energy(c0[None], L, s.A, s.B)[0] / v.mass) * 3.6)
+    assert sigma == pytest.approx(sample.std(), rel=0.03)
+    # the crush term alone
+    ev0 = ev.model_copy(update={"sigma_stiffness": 1e-9})
+    e0 = f * _six_point_energy(c0 + sc * rng.standard_normal((n, 6)), L, s.A, s.B)
+    assert damage.damage_ees(ev0, v)[1] == pytest.approx((np.sqrt(2 * e0 / v.mass) * 3.6).std(), rel=0.03)
+
+
+def test_damage_residual_in_sigma_units():
+    v = load_vehicle("saloon")
+    ev = damage.DamageEvidence(side="rear", profile=[0.2, 0.3, 0.3, 0.2], width=1.4, sigma_crush=0.02,
+                               sigma_stiffness=0.25)
+    ees, sigma = damage.damage_ees(ev, v)
+    assert damage.damage_residual(ees, ev, v) == pytest.approx(0.0, abs=1e-12)
+    assert damage.damage_residual(ees + 2 * sigma, ev, v) == pytest.approx(2.0)
+    assert damage.damage_residual(ees - sigma, ev, v) == pytest.approx(-1.0)
+    assert math.isnan(damage.damage_residual(float("nan"), ev, v))
+    assert damage.combined_ees([3.0, 4.0]) == pytest.approx(5.0)  # energies add: 9 + 16 = 25
+
+
+def test_profile_for_ees_is_the_inverse_of_report():
+    v = load_vehicle("explorer_1998")
+    for side, width, pdof in (("front", 1.6, None), ("side", 2.5, 70.0), ("rear", 1.2, 170.0)):
+        c = damage.profile_for_ees(35.0, v, side, width, pdof=pdof)
+        assert damage.report(v, side, c, width, pdof=pdof)["ees_kmh"] == pytest.approx(35.0, rel=1e-9)
+    assert damage.profile_for_ees(1.0, v, "front", 1.6) == [0.0] * 6  # below the no-damage speed
+
+
+@pytest.mark.parametrize("bad", [dict(sigma_crush=0.0), dict(sigma_stiffness=1.5), dict(side="roof"),
+                                 dict(width=-1.0), dict(profile=[0.1, "x"]), dict(extra=1.0)])
+def test_damage_evidence_schema_refuses_bad_values(bad):
+    from pydantic import ValidationError
+    good = dict(side="front", profile=[0.1, 0.2], width=1.0, sigma_crush=0.02, sigma_stiffness=0.2)
+    with pytest.raises(ValidationError):
+        damage.DamageEvidence(**{**good, **bad})
