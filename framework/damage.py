@@ -19,8 +19,10 @@ Only the core is imported (crashlab.errors, crashlab.vehicle, crashlab.units).
 """
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, Strict
@@ -68,9 +70,9 @@ def parse_profile(text: str, key: str = "--profile", where: str = "command line"
     return check_profile(values, key, where)
 
 
-def _side(side: str, where: str) -> str:
+def _side(side: str, where: str, key: str = "side") -> str:
     if side not in STRUCTURE_SIDES:
-        raise InputError(where, "side", f"unknown side {side!r}: one of {', '.join(STRUCTURE_SIDES)}")
+        raise InputError(where, key, f"unknown side {side!r}: one of {', '.join(STRUCTURE_SIDES)}")
     return side
 
 
@@ -178,31 +180,34 @@ def _geometry(spec: VehicleSpec, side: str, offset: float, alpha_deg: float, pdo
 
 
 def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float, offset: float = 0.0,
-           pdof: float | None = None, where: str = "damage") -> dict:
+           pdof: float | None = None, where: str = "damage", prefix: str = "") -> dict:
     """One vehicle's damage: the crush energy (with the PDOF correction), EES and the effective-mass factor of
-    the force through the damage centroid, as a JSON-serialisable dict (SI, speeds also in km/h). `where`
-    names the input in errors (the scene or vehicle file, or "command line"). Bad input: InputError."""
-    side = _side(side, where)
-    profile = check_profile(profile, "profile", where)
-    width = _finite(width, "width", where)
-    offset = _finite(offset, "offset", where)
+    the force through the damage centroid, as a JSON-serialisable dict (SI, speeds also in km/h). Bad input:
+    InputError naming `where` (the scene, study or vehicle file, or "command line") and the key, `prefix` +
+    side, profile, width, offset or pdof (e.g. prefix "--" on the command line, "evidence.damage.V1." in a
+    study file)."""
+    side = _side(side, where, prefix + "side")
+    profile = check_profile(profile, prefix + "profile", where)
+    width = _finite(width, prefix + "width", where)
+    offset = _finite(offset, prefix + "offset", where)
     structure: Structure = spec.structure[side]
     limit, what = (spec.length, "length") if side == "side" else (spec.width, "width")
     if not 0.0 < width <= structure.width * (1 + 1e-9):
-        raise InputError(where, "width", f"damaged width {width:g} m must be positive and at most the {side}'s "
-                         f"structure width {structure.width:g} m (the vehicle's {what} {limit:g} m)")
+        raise InputError(where, prefix + "width", f"damaged width {width:g} m must be positive and at most the "
+                         f"{side}'s structure width {structure.width:g} m (the vehicle's {what} {limit:g} m)")
     if side == "side":
         lo, hi = -spec.cg_to_rear, spec.cg_to_front
     else:
         lo, hi = -spec.width / 2.0, spec.width / 2.0
     if offset - width / 2.0 < lo - 1e-9 or offset + width / 2.0 > hi + 1e-9:
-        raise InputError(where, "offset", f"the damage ({width:g} m wide about {offset:g} m) reaches outside the "
-                         f"{side} ({lo:g} .. {hi:g} m from the {'CG' if side == 'side' else 'centreline'})")
+        raise InputError(where, prefix + "offset", f"the damage ({width:g} m wide about {offset:g} m) reaches "
+                         f"outside the {side} ({lo:g} .. {hi:g} m from the "
+                         f"{'CG' if side == 'side' else 'centreline'})")
     if pdof is not None:
-        pdof = _finite(pdof, "pdof", where)
+        pdof = _finite(pdof, prefix + "pdof", where)
     pdof_used = SIDE_NORMAL[side] if pdof is None else pdof
-    alpha = pdof_angle(side, pdof_used)
-    factor, warning = pdof_factor(alpha, "pdof", where)
+    alpha = pdof_angle(side, pdof_used) + 0.0  # no -0
+    factor, warning = pdof_factor(alpha, prefix + "pdof", where)
     e0 = crush_energy(profile, width, structure.A, structure.B)
     energy = e0 * factor
     lateral, depth = crush_centroid(profile, width)
@@ -238,7 +243,9 @@ def format_report(rep: dict) -> str:
                      + ", ".join(f"{r['vehicle']} delta-V {dv:.1f} km/h"
                                  for r, dv in zip(rep["vehicles"], rep["delta_v_kmh"])))
         return "\n".join(lines)
-    src = "class default" if rep["structure_default"] else rep["structure_source"]
+    src = rep["structure_source"]
+    src = ("class default" if rep["structure_default"] else "estimate, docs/physics.md §28"
+           if src.startswith("estimate") else src if len(src) <= 60 else src[:57] + "...")
     return "\n".join([
         f"{rep['vehicle']}: {rep['side']}, {len(rep['profile'])}-point profile "
         f"{', '.join(f'{c:.3f}' for c in rep['profile'])} m over {rep['width']:.3f} m, offset {rep['offset']:.3f} m",
@@ -247,6 +254,70 @@ def format_report(rep: dict) -> str:
         f"{rep['pdof_factor']:.3f}); crush energy {rep['energy'] / 1e3:.1f} kJ; EES {rep['ees_kmh']:.1f} km/h",
         f"  moment arm {rep['moment_arm']:.2f} m, radius of gyration {rep['radius_of_gyration']:.2f} m, "
         f"effective-mass factor {rep['gamma']:.3f}"] + [f"  warning: {w}" for w in rep["warnings"]])
+
+
+# ---------------------------------------------------------------- `crashlab damage` (the CLI calls `command`)
+def is_scene(target: str) -> bool:
+    """A `crashlab damage` target that is a scene file (a .toml file with [[vehicles]])."""
+    from .vehicle import read_toml
+    return target.endswith(".toml") and Path(target).is_file() and "vehicles" in read_toml(Path(target), "scene")
+
+
+def vehicle_for(target: str, vehicle: str | None = None, where: str = "command line") -> VehicleSpec:
+    """The vehicle of `crashlab damage SCENE|VEHICLE`: a library vehicle's name or a vehicle file; a .toml file
+    with [[vehicles]] is a scene, and `vehicle` names one of its vehicles (may be left out when it has one)."""
+    from .scene import load_scene
+    from .vehicle import load_vehicle
+
+    if is_scene(target):
+        scene = load_scene(target)
+        names = [v.name for v in scene.vehicles]
+        if vehicle is None:
+            if len(names) != 1:
+                raise InputError(where, "--vehicle", f"the scene has {len(names)} vehicles: name one of "
+                                 f"{', '.join(names)}")
+            return scene.vehicles[0].spec
+        if vehicle not in names:
+            raise InputError(where, "--vehicle", f"no vehicle {vehicle!r} in {target}: one of {', '.join(names)}")
+        return scene.vehicles[names.index(vehicle)].spec
+    if vehicle is not None:
+        raise InputError(where, "--vehicle", "names a vehicle of a scene; the target is a vehicle")
+    return load_vehicle(target, base_dir=Path.cwd(), where="target", scene_file=where)
+
+
+def parse_other(text: str, key: str = "--with", where: str = "command line") -> dict:
+    """'VEHICLE:SIDE:C1,...,Cn:WIDTH[:OFFSET[:PDOF]]' (metres, degrees) as report arguments + the vehicle."""
+    parts = str(text).split(":")
+    if not 4 <= len(parts) <= 6:
+        raise InputError(where, key, f"VEHICLE:SIDE:C1,...,Cn:WIDTH[:OFFSET[:PDOF]], got {text!r}")
+    try:
+        nums = [float(t) for t in parts[3:]]
+    except ValueError:
+        raise InputError(where, key, f"WIDTH, OFFSET and PDOF are numbers (m, m, deg), got {text!r}") from None
+    return dict(vehicle=parts[0], side=parts[1], profile=parse_profile(parts[2], key, where), width=nums[0],
+                offset=nums[1] if len(nums) > 1 else 0.0, pdof=nums[2] if len(nums) > 2 else None)
+
+
+def command(target: str, side: str, profile: str, width: float, offset: float = 0.0, pdof: float | None = None,
+            vehicle: str | None = None, other: str | None = None, restitution: float = 0.0,
+            as_json: bool = False) -> str:
+    """What `crashlab damage` prints: one vehicle's damage (`report`), or with `other` (parse_other: a second
+    vehicle of the same scene, or a library vehicle or vehicle file when the target is a vehicle) both and
+    their delta-V (`pair_report`); text (`format_report`) or JSON. Bad input: InputError naming the option."""
+    spec = vehicle_for(target, vehicle)
+    rep = report(spec, side, parse_profile(profile), width, offset, pdof, "command line", "--")
+    if other is not None:
+        o = parse_other(other)
+        name = o.pop("vehicle")
+        spec2 = vehicle_for(target, name) if is_scene(target) else vehicle_for(name)
+        rep2 = report(spec2, o["side"], o["profile"], o["width"], o["offset"], o["pdof"], "command line",
+                      "--with ")
+        if not (isinstance(restitution, (int, float)) and 0.0 <= restitution < 1.0):
+            raise InputError("command line", "--restitution", f"in [0, 1), got {restitution!r}")
+        rep = pair_report(rep, rep2, restitution)
+    elif restitution:
+        raise InputError("command line", "--restitution", "only with --with (the delta-V of two vehicles)")
+    return json.dumps(rep, indent=2) if as_json else format_report(rep)
 
 
 # ---------------------------------------------------------------- damage as evidence (docs/physics.md §28)
@@ -285,13 +356,15 @@ def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: f
     return grad
 
 
-def damage_ees(evidence: DamageEvidence, spec: VehicleSpec, where: str = "evidence.damage") -> tuple[float, float]:
+def damage_ees(evidence: DamageEvidence, spec: VehicleSpec, where: str = "study",
+               prefix: str = "evidence.damage.") -> tuple[float, float]:
     """(EES [km/h], sigma [km/h]) from a damage measurement: EES = sqrt(2 E / m) of `report`, and its
     first-order (delta-method) standard deviation from independent crush errors sigma_crush on every C_i and
     a common relative stiffness error sigma_stiffness (E proportional to the stiffness scale):
         sigma_E^2 = f^2 sum_i (dE/dC_i)^2 sigma_crush^2 + (E sigma_stiffness)^2,   sigma_EES = EES sigma_E / 2E
-    (f the PDOF factor). Bad input: InputError naming `where`.<key>."""
-    rep = report(spec, evidence.side, evidence.profile, evidence.width, evidence.offset, evidence.pdof, where)
+    (f the PDOF factor). Bad input: InputError naming `where` (the study file) and `prefix` + the key."""
+    rep = report(spec, evidence.side, evidence.profile, evidence.width, evidence.offset, evidence.pdof, where,
+                 prefix)
     s = spec.structure[evidence.side]
     grad = crush_energy_gradient(rep["profile"], rep["width"], s.A, s.B)
     var_crush = sum((rep["pdof_factor"] * g * evidence.sigma_crush) ** 2 for g in grad)
@@ -306,12 +379,13 @@ def combined_ees(ees_values: Sequence[float]) -> float:
     return math.sqrt(sum(e * e for e in ees_values))
 
 
-def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec: VehicleSpec) -> float:
+def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec: VehicleSpec,
+                    where: str = "study", prefix: str = "evidence.damage.") -> float:
     """(EES_simulated - EES_damage) / sigma [sigma units] for a vehicle's simulated EES [km/h] (its impact
     rows' `combined_ees`); NaN when the simulated EES is not finite (a run that cannot be scored)."""
     if ees_simulated is None or not math.isfinite(ees_simulated):
         return math.nan
-    value, sigma = damage_ees(damage_evidence, spec)
+    value, sigma = damage_ees(damage_evidence, spec, where, prefix)
     return (ees_simulated - value) / sigma
 
 

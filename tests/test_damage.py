@@ -34,11 +34,12 @@ def _reference_energy(profile, width, A, B):
     """∫ (A C + B C²/2 + A²/2B) dw with C linear between equally spaced points (scipy quad per segment)."""
     xs = np.linspace(0.0, width, len(profile))
     G = A * A / (2 * B)
-    total = 0.0
-    for x0, x1 in zip(xs[:-1], xs[1:]):
-        c = lambda w: np.interp(w, xs, profile)  # noqa: E731
-        total += quad(lambda w: A * c(w) + B * c(w) ** 2 / 2 + G, x0, x1)[0]
-    return total
+
+    def per_width(w):
+        c = np.interp(w, xs, profile)
+        return A * c + B * c ** 2 / 2 + G
+
+    return sum(quad(per_width, x0, x1)[0] for x0, x1 in zip(xs[:-1], xs[1:]))
 
 
 @pytest.mark.parametrize("profile", [[0.2, 0.5], [0.0, 0.3, 0.35, 0.1], [0.05, 0.2, 0.4, 0.42, 0.25, 0.0],
@@ -52,8 +53,8 @@ def test_six_point_energy_is_the_printed_crash3_form():
     A, B, L = 61.3e3, 812e3, 1.42
     c = [0.10, 0.22, 0.31, 0.33, 0.27, 0.12]
     printed = (L / 5) * (A / 2 * (c[0] + 2 * c[1] + 2 * c[2] + 2 * c[3] + 2 * c[4] + c[5])
-                         + B / 6 * (c[0] ** 2 + 2 * c[1] ** 2 + 2 * c[2] ** 2 + 2 * c[3] ** 2 + 2 * c[4] ** 2 + c[5] ** 2
-                                    + c[0] * c[1] + c[1] * c[2] + c[2] * c[3] + c[3] * c[4] + c[4] * c[5])
+                         + B / 6 * (c[0] ** 2 + 2 * c[1] ** 2 + 2 * c[2] ** 2 + 2 * c[3] ** 2 + 2 * c[4] ** 2
+                                    + c[5] ** 2 + c[0] * c[1] + c[1] * c[2] + c[2] * c[3] + c[3] * c[4] + c[4] * c[5])
                          + 5 * A * A / (2 * B))
     assert damage.crush_energy(c, L, A, B) == pytest.approx(printed, rel=1e-12)
     alpha = 30.0
@@ -356,3 +357,63 @@ def test_damage_evidence_schema_refuses_bad_values(bad):
     good = dict(side="front", profile=[0.1, 0.2], width=1.0, sigma_crush=0.02, sigma_stiffness=0.2)
     with pytest.raises(ValidationError):
         damage.DamageEvidence(**{**good, **bad})
+
+
+# ---------------------------------------------------------------- `crashlab damage` (damage.command)
+SCENE = """duration = 1.0
+[road]
+friction = 0.8
+[impact]
+restitution = 0.1
+friction = 0.3
+[[vehicles]]
+name = "V1"
+vehicle = "saloon"
+speed = 50.0
+[[vehicles]]
+name = "V2"
+vehicle = "clio"
+speed = 0.0
+x = 8.0
+overrides = { mass = 1050.0 }
+"""
+
+
+def test_command_on_a_vehicle_and_on_a_scene(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(SCENE)
+    one = json.loads(damage.command("saloon", "front", "0.2,0.3,0.3,0.2", 1.5, as_json=True))
+    assert one == json.loads(json.dumps(damage.report(load_vehicle("saloon"), "front", [0.2, 0.3, 0.3, 0.2], 1.5)))
+    # a scene: its vehicles with their overrides (V2's mass), the second by --with
+    both = json.loads(damage.command("s.toml", "front", "0.2,0.3,0.3,0.2", 1.5, vehicle="V1",
+                                     other="V2:rear:0.3,0.35,0.35,0.3:1.4:0.05", restitution=0.1, as_json=True))
+    r1, r2 = both["vehicles"]
+    assert r2["mass"] == 1050.0 and r2["offset"] == 0.05 and r2["side"] == "rear"
+    assert both["delta_v"] == list(damage.pair_delta_v(r1["energy"] + r2["energy"], r1["mass"], r2["mass"],
+                                                       r1["gamma"], r2["gamma"], 0.1))
+    text = damage.command("s.toml", "front", "0.2,0.3,0.3,0.2", 1.5, vehicle="V1", other="V2:rear:0.3,0.3:1.4")
+    assert "delta-V" in text and "estimate, docs/physics.md §28" in text
+
+
+@pytest.mark.parametrize("kwargs, key", [
+    (dict(target="s.toml"), "--vehicle"),                          # two vehicles: name one
+    (dict(target="s.toml", vehicle="V9"), "--vehicle"),
+    (dict(target="saloon", vehicle="V1"), "--vehicle"),
+    (dict(target="sedan"), "target"),                               # no such library vehicle
+    (dict(target="saloon", profile="0.1,-0.1"), "--profile[2]"),
+    (dict(target="saloon", profile="0.1,0.1,0.1"), "--profile"),
+    (dict(target="saloon", width=3.0), "--width"),
+    (dict(target="saloon", pdof=180.0), "--pdof"),
+    (dict(target="saloon", other="clio:rear:0.3,0.3"), "--with"),
+    (dict(target="saloon", other="clio:rear:0.3,0.3:2.4"), "--with width"),
+    (dict(target="saloon", other="clio:roof:0.3,0.3:1.0"), "--with side"),
+    (dict(target="saloon", other="clio:rear:0.3,0.3:1.0", restitution=1.0), "--restitution"),
+    (dict(target="saloon", restitution=0.1), "--restitution"),
+])
+def test_command_bad_input_names_the_option(tmp_path, monkeypatch, kwargs, key):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(SCENE)
+    args = dict(side="front", profile="0.2,0.3,0.3,0.2", width=1.5) | kwargs
+    with pytest.raises(InputError) as err:
+        damage.command(**args)
+    assert err.value.key == key and err.value.file == "command line", str(err.value)
