@@ -103,7 +103,8 @@ def pdof_factor(alpha_deg: float, key: str = "pdof", where: str = "damage") -> t
         return 1.0 + math.tan(math.radians(alpha_deg)) ** 2, None
     return 2.0, (f"the force is {a:.1f} deg off the normal of the struck side: the CRASH3 PDOF correction "
                  f"1 + tan^2 is held at its {PDOF_LIMIT:g} deg value 2 (beyond, friction in the crush zone cannot "
-                 "carry the tangential force the correction assumes); the energy may be underestimated")
+                 "carry the tangential force the correction assumes); the energy is uncertain here (it depends on how "
+                 "far the surfaces slid)")
 
 
 def crush_energy(profile: Sequence[float], width: float, A: float, B: float) -> float:
