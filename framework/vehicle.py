@@ -109,6 +109,78 @@ class MultibodySection(_MultibodyPart):
 
 
 VEHICLE_CLASSES = ("small", "compact", "mid-size", "large", "SUV", "pickup", "van", "heavy")
+
+# ---------------------------------------------------------------- structure (CRASH3 stiffness, docs/physics.md §28)
+STRUCTURE_SIDES = ("front", "rear", "side")
+A_RANGE = (0.0, 2e6)   # N/m: cars 20-80e3 (front), a bus or truck front some 1e5-5e5
+B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
+
+
+class StructureSideFile(BaseModel):
+    """[structure.front], [structure.rear] or [structure.side]: the CRASH3 stiffness of that side."""
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    A: Real = _num(*A_RANGE, "N/m, CRASH3 stiffness coefficient A: force per unit width at the onset of residual "
+                   "crush (F/w = A + B C)", lo_open=True)
+    B: Real = _num(*B_RANGE, "N/m^2, CRASH3 stiffness coefficient B: force per unit width per metre of residual "
+                   "crush; G = A^2 / 2B is the energy per unit width absorbed without residual crush", lo_open=True)
+    width: Real | None = _num(0.1, 30.0, "m, the width over which A and B hold (the widest damage they apply to); "
+                              "default the vehicle's width for front and rear, its length for a side; at most that",
+                              default=None)
+    source: str = Field("", description="where A and B come from; an estimated pair's source starts with "
+                        "'estimate:'", pattern=r"^[^\x00-\x1f\x7f]*$")
+
+
+# The class defaults and the library's estimates (docs/physics.md §28): Campbell's crash plot through the
+# no-damage speed b0, EBS = b0 + b1 C (C the residual crush), gives per unit of damaged width L
+#     A = m b0 b1 / L,   B = m b1^2 / L,   G = m b0^2 / (2 L)
+# (Campbell SAE 740565; CRASH3 Technical Manual, NHTSA DOT HS 805 732). One reference point per side:
+# side -> (b0 [m/s], reference EBS [m/s], residual crush C at that EBS [m], damaged width L of the test [m] or
+# None for the vehicle's width).
+CRUSH_REFERENCE = {
+    "front": (2.2, 15.6, 0.50, None),   # 5 mph no-damage; US NCAP 56 km/h full-width rigid barrier
+    "rear": (2.2, 9.9, 0.40, None),     # FMVSS 301 30 mph 1814 kg rigid moving barrier into a 1500 kg car, e = 0
+    "side": (0.9, 7.0, 0.30, 1.68),     # 2 mph; FMVSS 214-like moving deformable barrier, 1.68 m face
+}
+# class -> (mass [kg], width [m]): the means of the library's vehicles of each class
+CLASS_REFERENCE = {"small": (971.0, 1.630), "compact": (1171.0, 1.702), "mid-size": (1544.0, 1.837),
+                   "large": (1638.0, 1.850), "SUV": (1742.0, 1.796), "pickup": (1764.0, 1.842),
+                   "van": (2045.0, 1.962), "heavy": (18000.0, 2.550)}
+DEFAULT_CLASS = "mid-size"  # for a vehicle file without a class
+
+
+def crash_plot_coefficients(side: str, mass: float, width: float) -> tuple[float, float]:
+    """(A [N/m], B [N/m^2]) of the reference crash plot of `side` (CRUSH_REFERENCE) for a vehicle of `mass`
+    [kg] and `width` [m] (the damaged width of a front or rear test; a side test uses its barrier's)."""
+    b0, ebs, crush, test_width = CRUSH_REFERENCE[side]
+    b1 = (ebs - b0) / crush
+    w = test_width or width
+    return mass * b0 * b1 / w, mass * b1 * b1 / w
+
+
+def class_structure(vehicle_class: str | None) -> dict:
+    """side -> (A, B, source) of a class's default structure (docs/physics.md §28)."""
+    cls = vehicle_class if vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
+    mass, width = CLASS_REFERENCE[cls]
+    out = {}
+    for side in STRUCTURE_SIDES:
+        a, b = crash_plot_coefficients(side, mass, width)
+        b0, ebs, crush, test_width = CRUSH_REFERENCE[side]
+        out[side] = (a, b, f"estimate: class default of {cls!r}{'' if cls == vehicle_class else ' (no class given)'}"
+                     f": A = m b0 b1 / L, B = m b1^2 / L with m = {mass:g} kg, L = {test_width or width:g} m, "
+                     f"b0 = {b0:g} m/s, b1 = ({ebs:g} - {b0:g}) / {crush:g} m (docs/physics.md §28)")
+    return out
+
+
+class StructureSection(BaseModel):
+    """[structure] of a vehicle file: the sides that can be struck. A side not given takes the class default
+    (CLASS_STRUCTURE, docs/physics.md §28)."""
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    front: StructureSideFile | None = Field(None, description="[structure.front]: the front (bumper to the "
+                                            "front axle and beyond)")
+    rear: StructureSideFile | None = Field(None, description="[structure.rear]: the rear")
+    side: StructureSideFile | None = Field(None, description="[structure.side]: either side (left and right alike)")
 # keys of a vehicle file that describe it (for people and `crashlab vehicles`) and reach no model
 METADATA_KEYS = ("class", "sources")
 
@@ -149,6 +221,9 @@ class VehicleFile(BaseModel):
     wheel_radius: Real = _num(0.1, 1.5, "m, rolling radius of the wheels", default=0.3)
     multibody: MultibodySection | None = Field(None, description="[multibody]: data of the 3D multibody models "
                                                "(models/common/vehicle_3d.py; defaults there)")
+    structure: StructureSection | None = Field(None, description="[structure]: CRASH3 stiffness A, B of the front, "
+                                               "rear and side (crashlab.damage; docs/physics.md §28); a side not "
+                                               "given takes its class default")
 
 
 
@@ -164,6 +239,14 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
         out.append((("cg_to_front_axle", "wheelbase", "cg_to_front", "length"),
                     "the axles must lie inside the outline (cg_to_front_axle < cg_to_front and "
                     "wheelbase - cg_to_front_axle < length - cg_to_front)"))
+    section = getattr(v, "structure", None)
+    for side in STRUCTURE_SIDES if isinstance(section, StructureSection) else ():
+        given = getattr(section, side)
+        limit, name = (v.length, "length") if side == "side" else (v.width, "width")
+        if given is not None and given.width is not None and given.width > limit * (1 + 1e-9):
+            out.append(((f"structure.{side}.width", name),
+                        f"structure.{side}.width ({given.width:g} m) must not exceed the vehicle's {name} "
+                        f"({limit:g} m)"))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
     if v.cg_height >= v.height:
@@ -194,6 +277,23 @@ def _non_finite(data, path=()):
 
 
 @dataclasses.dataclass(frozen=True)
+class Structure:
+    """One side's CRASH3 stiffness (docs/physics.md §28): force per unit width F/w = A + B C for a residual
+    crush C, over `width` [m]; `default` when the vehicle file gave none and the class default is used."""
+
+    A: float       # N/m
+    B: float       # N/m^2
+    width: float   # m
+    source: str
+    default: bool = False
+
+    @property
+    def G(self) -> float:
+        """J/m, the energy per unit width absorbed without residual crush: A^2 / 2B."""
+        return self.A * self.A / (2.0 * self.B)
+
+
+@dataclasses.dataclass(frozen=True)
 class VehicleSpec:
     """What every model may need to know about a vehicle (SI). `sections` holds per-model data."""
 
@@ -214,6 +314,8 @@ class VehicleSpec:
     cornering_stiffness: float
     wheel_radius: float
     sections: dict = dataclasses.field(default_factory=dict, compare=False, hash=False)
+    # side ("front", "rear", "side") -> Structure; every side is present after load_vehicle
+    structure: dict = dataclasses.field(default_factory=dict, hash=False)
 
     @property
     def cg_to_rear_axle(self) -> float:
@@ -315,26 +417,43 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
         for key, val in overrides.items():
             if key not in known:
                 raise InputError(scene_file, f"{where}.overrides.{key}", "unknown vehicle key")
-            if isinstance(data.get(key), dict) != isinstance(val, dict):
+            if key in data and isinstance(data[key], dict) != isinstance(val, dict):
                 raise InputError(scene_file, f"{where}.overrides.{key}",
                                  "a table is overridden by a table, a value by a value")
         data = _deep_merge(data, overrides)
         spec = _validate(data, scene_file, f"{where}.overrides.", overrides)
-    core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k != "sections"}
+    core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k not in ("sections", "structure")}
     # per-model sections as written (not the schema's dump, which would add None for absent keys)
     sections = {k: v for k, v in data.items()
                 if k not in VehicleSpec.__dataclass_fields__ and k not in METADATA_KEYS}
     core["name"] = core["name"] or ref
     if core["cg_to_front"] is None:
         core["cg_to_front"] = spec.length / 2
-    return VehicleSpec(**core, sections=sections)
+    return VehicleSpec(**core, sections=sections, structure=structure_of(spec))
+
+
+def structure_of(v: VehicleFile) -> dict:
+    """side -> Structure of a checked vehicle file: the file's [structure.<side>], else the class default."""
+    defaults = class_structure(v.vehicle_class)
+    out = {}
+    for side in STRUCTURE_SIDES:
+        given = getattr(v.structure, side) if v.structure is not None else None
+        extent = v.length if side == "side" else v.width
+        if given is None:
+            a, b, src = defaults[side]
+            out[side] = Structure(a, b, extent, src, default=True)
+        else:
+            out[side] = Structure(given.A, given.B, extent if given.width is None else given.width,
+                                  given.source or "not given")
+    return out
 
 
 def library_table() -> list[dict]:
     """The library's vehicles with their key numbers (SI), one dict each, sorted by class then mass:
     file (library name), name, class, mass, length, width, wheelbase, yaw_inertia, yaw_inertia_source
-    ('measured', 'estimate' or 'published', by the start of the file's [sources] entry) and source (the yaw
-    inertia's entry)."""
+    ('measured', 'estimate' or 'published', by the start of the file's [sources] entry), source (the yaw
+    inertia's entry), front_A [N/m], front_B [N/m^2] and structure_source ('class default' when the file has no
+    [structure.front], else 'estimate' or 'published' by the start of its source)."""
     order = {c: i for i, c in enumerate(VEHICLE_CLASSES)}
     rows = []
     for ref in library():
@@ -347,19 +466,29 @@ def library_table() -> list[dict]:
                          yaw_inertia=spec.yaw_inertia,
                          yaw_inertia_source=next((w for w in ("estimate", "measured")
                                                   if src.lower().startswith(w)), "published" if src else ""),
-                         source=src))
+                         source=src, front_A=spec.structure["front"].A, front_B=spec.structure["front"].B,
+                         structure_source=_structure_kind(spec.structure["front"])))
     rows.sort(key=lambda r: (order.get(r["vehicle_class"], len(order)), r["mass"], r["file"]))
     return rows
 
 
+def _structure_kind(s: Structure) -> str:
+    if s.default:
+        return "class default"
+    return "estimate" if s.source.lower().startswith("estimate") else "published"
+
+
 def format_library_table(rows: list[dict] | None = None) -> str:
-    """`crashlab vehicles`: one line per library vehicle, units in the header."""
+    """`crashlab vehicles`: one line per library vehicle, units in the header; the front's CRASH3 stiffness
+    and whether it is the file's (estimate or published) or the class default (docs/physics.md §28)."""
     rows = library_table() if rows is None else rows
     head = (f"{'vehicle':<16} {'class':<9} {'mass [kg]':>9} {'length [m]':>10} {'width [m]':>9} "
-            f"{'wheelbase [m]':>13} {'yaw inertia [kg m^2]':>20}  yaw inertia is  name")
+            f"{'wheelbase [m]':>13} {'yaw inertia [kg m^2]':>20}  yaw inertia is  "
+            f"{'front A [kN/m]':>14} {'B [kN/m^2]':>10}  front A, B are  name")
     lines = [head]
     for r in rows:
         lines.append(f"{r['file']:<16} {r['vehicle_class']:<9} {r['mass']:>9.1f} {r['length']:>10.3f} "
                      f"{r['width']:>9.3f} {r['wheelbase']:>13.3f} {r['yaw_inertia']:>20.1f}  "
-                     f"{r['yaw_inertia_source']:<14}  {r['name']}")
+                     f"{r['yaw_inertia_source']:<14}  {r['front_A'] / 1e3:>14.1f} {r['front_B'] / 1e3:>10.0f}  "
+                     f"{r['structure_source']:<14}  {r['name']}")
     return "\n".join(lines)

@@ -214,8 +214,13 @@ def test_library_table_lists_every_vehicle_with_its_key_numbers():
     assert by["citaro_bus"]["yaw_inertia_source"] == "estimate"
     assert by["crv_1998"]["yaw_inertia_source"] == "measured"
     assert {r["vehicle_class"] for r in rows} == set(VEHICLE_CLASSES)
+    assert by["clio"]["front_A"] == clio.structure["front"].A and by["clio"]["structure_source"] == "estimate"
     text = format_library_table(rows)
     assert "mass [kg]" in text and "yaw inertia [kg m^2]" in text and len(text.splitlines()) == len(rows) + 1
+    assert "front A [kN/m]" in text and "B [kN/m^2]" in text
+    # a vehicle without [structure] shows its class default, said so
+    row = dict(by["clio"], structure_source="class default")
+    assert "class default" in format_library_table([row])
     assert all(r["file"] in text for r in rows)
 
 

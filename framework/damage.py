@@ -1,0 +1,401 @@
+"""Damage analysis (CRASH3): crush energy from a measured crush profile, the energy equivalent speed (EES) and,
+for two vehicles, the delta-V from their energies and masses (docs/physics.md §28).
+
+A crush profile is n = 2, 4 or 6 residual crush depths C1..Cn [m], measured at equal spacing over the damaged
+width L [m] of one side of the vehicle (front, rear or side), from left to right seen from outside the vehicle
+(the order only matters for the centroid of the damage). The side's CRASH3 stiffness A [N/m], B [N/m^2] comes
+from the vehicle file's [structure] (crashlab.vehicle.Structure; the class default when the file gives none).
+
+Conventions (those of the impact rows, docs/physics.md §21): PDOF in degrees in vehicle axes, the direction
+the force comes from, 0 = from straight ahead, counter-clockwise positive (+90 from the left); the damage
+offset [m] is the position of the centre of the damaged width: for the front and rear, to the left of the
+vehicle's centreline (positive left); for a side, ahead of the CG (positive forward). A side's struck flank
+(left or right) is the one the PDOF points at (left for PDOF > 0, the default +90).
+
+Damage as evidence: `DamageEvidence` ([evidence.damage.<vehicle>] of a study file), `damage_ees` (the EES from
+the damage and its sigma), `damage_residual` (simulated against measured, in sigma units).
+
+Only the core is imported (crashlab.errors, crashlab.vehicle, crashlab.units).
+"""
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, Strict
+
+from .errors import InputError
+from .units import wrap_deg
+from .vehicle import STRUCTURE_SIDES, Structure, VehicleSpec
+
+PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
+PDOF_LIMIT = 45.0  # deg: the largest angle between the force and the side's normal the correction is used for
+# deg: the direction the force comes from when it is normal to the side (vehicle axes, docs/physics.md §21)
+SIDE_NORMAL = {"front": 0.0, "rear": 180.0, "side": 90.0}
+
+
+# ---------------------------------------------------------------- checks of the inputs
+def _finite(value, key: str, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(where, key, f"must be a finite number, got {value!r}")
+    return float(value)
+
+
+def check_profile(profile: Sequence[float], key: str = "profile", where: str = "damage") -> list[float]:
+    """The profile as floats: 2, 4 or 6 finite, non-negative depths [m], not all zero; InputError otherwise."""
+    if isinstance(profile, (str, bytes)) or not isinstance(profile, Sequence):
+        raise InputError(where, key, f"a list of {', '.join(map(str, PROFILE_POINTS))} crush depths [m]")
+    if len(profile) not in PROFILE_POINTS:
+        raise InputError(where, key, f"{len(profile)} crush depths given: CRASH3 uses 2, 4 or 6 equally "
+                         "spaced points over the damaged width")
+    out = [_finite(c, f"{key}[{i + 1}]", where) for i, c in enumerate(profile)]
+    for i, c in enumerate(out):
+        if c < 0:
+            raise InputError(where, f"{key}[{i + 1}]", f"crush depth {c:g} m is negative (residual crush is "
+                             "measured inwards from the undamaged outline)")
+    if max(out) > 5.0:
+        raise InputError(where, key, f"crush depth {max(out):g} m: more than 5 m is not a crush depth in metres")
+    return out
+
+
+def parse_profile(text: str, key: str = "--profile", where: str = "command line") -> list[float]:
+    """'C1,...,Cn' (metres, comma separated) as a checked profile."""
+    try:
+        values = [float(t) for t in str(text).split(",")]
+    except ValueError:
+        raise InputError(where, key, f"comma-separated crush depths in metres, got {text!r}") from None
+    return check_profile(values, key, where)
+
+
+def _side(side: str, where: str, key: str = "side") -> str:
+    if side not in STRUCTURE_SIDES:
+        raise InputError(where, key, f"unknown side {side!r}: one of {', '.join(STRUCTURE_SIDES)}")
+    return side
+
+
+# ---------------------------------------------------------------- the laws (docs/physics.md §28)
+def pdof_angle(side: str, pdof_deg: float | None) -> float:
+    """Angle [deg] between the force and the normal of the struck side; a side's normal is +90 or -90,
+    whichever is nearer to the PDOF."""
+    if pdof_deg is None:
+        return 0.0
+    normal = SIDE_NORMAL[side]
+    if side == "side" and wrap_deg(pdof_deg) < 0:
+        normal = -90.0
+    return wrap_deg(pdof_deg - normal)
+
+
+def pdof_factor(alpha_deg: float, key: str = "pdof", where: str = "damage") -> tuple[float, str | None]:
+    """CRASH3's correction of the crush energy for a force oblique to the damaged surface, 1 + tan^2(alpha),
+    and a warning or None. The correction is used up to |alpha| = 45 deg, where it reaches 2; beyond, the
+    tangential force would exceed what friction in the crush zone can carry, and the factor is held at 2
+    (the limit McHenry gives for the revised energy correction factor) with a warning. A force more than
+    90 deg off the normal pulls the side outwards and cannot have crushed it: InputError."""
+    a = abs(alpha_deg)
+    if a >= 90.0 - 1e-9:
+        raise InputError(where, key, f"the force is {a:.1f} deg off the normal of the struck side: it cannot have "
+                         "crushed this side (check the side and the PDOF: vehicle axes, the direction the force "
+                         "comes from, 0 = from straight ahead, +90 = from the left)")
+    if a <= PDOF_LIMIT + 1e-9:
+        return 1.0 + math.tan(math.radians(alpha_deg)) ** 2, None
+    return 2.0, (f"the force is {a:.1f} deg off the normal of the struck side: the CRASH3 PDOF correction "
+                 f"1 + tan^2 is held at its {PDOF_LIMIT:g} deg value 2 (beyond, friction in the crush zone cannot "
+                 "carry the tangential force the correction assumes); the energy is uncertain here (it depends on how "
+                 "far the surfaces slid)")
+
+
+def crush_energy(profile: Sequence[float], width: float, A: float, B: float) -> float:
+    """J, CRASH3 crush energy of a profile of n equally spaced depths over `width` [m], without the PDOF
+    correction: the integral over the width of A C + B C^2 / 2 + G (G = A^2 / 2B), the crush linear
+    between the points: per segment of width d between depths Ci, Cj,
+        d [A (Ci + Cj) / 2 + B (Ci^2 + Ci Cj + Cj^2) / 6 + G]."""
+    n = len(profile)
+    d = width / (n - 1)
+    G = A * A / (2.0 * B)
+    e = 0.0
+    for ci, cj in zip(profile[:-1], profile[1:]):
+        e += d * (A * (ci + cj) / 2.0 + B * (ci * ci + ci * cj + cj * cj) / 6.0 + G)
+    return e
+
+
+def crush_centroid(profile: Sequence[float], width: float) -> tuple[float, float]:
+    """(lateral position of the centroid of the crushed area from the centre of the damaged width, in the
+    direction of C1 -> Cn [m]; its depth below the undamaged outline [m]); an all-zero profile: (0, 0)."""
+    n = len(profile)
+    d = width / (n - 1)
+    area = s_lat = s_depth = 0.0
+    for k, (ci, cj) in enumerate(zip(profile[:-1], profile[1:])):
+        a = d * (ci + cj) / 2.0
+        if a <= 0.0:
+            continue
+        x0 = -width / 2.0 + k * d
+        s_lat += d * d * (ci + 2.0 * cj) / 6.0 + x0 * a        # first moment of the trapezoid about x = 0
+        s_depth += d * (ci * ci + ci * cj + cj * cj) / 6.0     # first moment about the outline (depth)
+        area += a
+    return (s_lat / area, s_depth / area) if area > 0.0 else (0.0, 0.0)
+
+
+def ees(energy: float, mass: float) -> float:
+    """m/s, energy equivalent speed sqrt(2 E / m) (docs/physics.md §21, §28)."""
+    return math.sqrt(2.0 * energy / mass)
+
+
+def effective_mass_factor(yaw_inertia: float, mass: float, moment_arm: float) -> float:
+    """gamma = k^2 / (k^2 + h^2): the share of the mass an eccentric impulse with moment arm h [m] about the
+    CG acts on (k^2 = I / m) (CRASH3; Brach, Vehicle Accident Analysis and Reconstruction Methods)."""
+    k2 = yaw_inertia / mass
+    return k2 / (k2 + moment_arm * moment_arm)
+
+
+def pair_delta_v(e_total: float, m1: float, m2: float, gamma1: float = 1.0, gamma2: float = 1.0,
+                 restitution: float = 0.0) -> tuple[float, float]:
+    """m/s, (dV1, dV2): the CG speed changes of two vehicles whose crush absorbed e_total [J] together, from
+    the impulse P = sqrt(2 E mu (1 + e) / (1 - e)) along the PDOF, mu = M1 M2 / (M1 + M2) with the effective
+    masses M = gamma m; dV = P / m. For e = 0 and gamma = 1: dV1 = sqrt(2 E m2 / (m1 (m1 + m2)))."""
+    if not 0.0 <= restitution < 1.0:
+        raise InputError("damage", "restitution", f"{restitution:g}: must lie in [0, 1)")
+    M1, M2 = gamma1 * m1, gamma2 * m2
+    mu = M1 * M2 / (M1 + M2)
+    impulse = math.sqrt(2.0 * e_total * mu * (1.0 + restitution) / (1.0 - restitution))
+    return impulse / m1, impulse / m2
+
+
+# ---------------------------------------------------------------- one vehicle's damage
+def _geometry(spec: VehicleSpec, side: str, offset: float, alpha_deg: float, pdof_deg: float,
+              lateral: float, depth: float) -> float:
+    """m, the moment arm about the CG of the force through the centroid of the damage along the PDOF."""
+    if side == "front":
+        # C1 -> Cn runs from right to left seen from ahead (left to right seen from outside, facing the car)
+        px, py = spec.cg_to_front - depth, offset + lateral
+    elif side == "rear":
+        px, py = -spec.cg_to_rear + depth, offset - lateral
+    else:
+        flank = 1.0 if wrap_deg(pdof_deg) >= 0 else -1.0
+        px, py = offset - flank * lateral, flank * (spec.width / 2.0 - depth)
+    th = math.radians(pdof_deg)
+    ux, uy = -math.cos(th), -math.sin(th)  # the force's direction (it comes from the PDOF)
+    return abs(px * uy - py * ux)
+
+
+def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float, offset: float = 0.0,
+           pdof: float | None = None, where: str = "damage", prefix: str = "") -> dict:
+    """One vehicle's damage: the crush energy (with the PDOF correction), EES and the effective-mass factor of
+    the force through the damage centroid, as a JSON-serialisable dict (SI, speeds also in km/h). Bad input:
+    InputError naming `where` (the scene, study or vehicle file, or "command line") and the key, `prefix` +
+    side, profile, width, offset or pdof (e.g. prefix "--" on the command line, "evidence.damage.V1." in a
+    study file)."""
+    side = _side(side, where, prefix + "side")
+    profile = check_profile(profile, prefix + "profile", where)
+    width = _finite(width, prefix + "width", where)
+    offset = _finite(offset, prefix + "offset", where)
+    structure: Structure = spec.structure[side]
+    limit, what = (spec.length, "length") if side == "side" else (spec.width, "width")
+    if not 0.0 < width <= structure.width * (1 + 1e-9):
+        raise InputError(where, prefix + "width", f"damaged width {width:g} m must be positive and at most the "
+                         f"{side}'s structure width {structure.width:g} m (the vehicle's {what} {limit:g} m)")
+    if side == "side":
+        lo, hi = -spec.cg_to_rear, spec.cg_to_front
+    else:
+        lo, hi = -spec.width / 2.0, spec.width / 2.0
+    if offset - width / 2.0 < lo - 1e-9 or offset + width / 2.0 > hi + 1e-9:
+        raise InputError(where, prefix + "offset", f"the damage ({width:g} m wide about {offset:g} m) reaches "
+                         f"outside the {side} ({lo:g} .. {hi:g} m from the "
+                         f"{'CG' if side == 'side' else 'centreline'})")
+    if pdof is not None:
+        pdof = _finite(pdof, prefix + "pdof", where)
+    pdof_used = SIDE_NORMAL[side] if pdof is None else pdof
+    alpha = pdof_angle(side, pdof_used) + 0.0  # no -0
+    factor, warning = pdof_factor(alpha, prefix + "pdof", where)
+    e0 = crush_energy(profile, width, structure.A, structure.B)
+    energy = e0 * factor
+    lateral, depth = crush_centroid(profile, width)
+    arm = _geometry(spec, side, offset, alpha, pdof_used, lateral, depth)
+    gamma = effective_mass_factor(spec.yaw_inertia, spec.mass, arm)
+    speed = ees(energy, spec.mass)
+    return {
+        "vehicle": spec.name, "mass": spec.mass, "side": side, "profile": profile, "width": width,
+        "offset": offset, "pdof": pdof_used, "pdof_angle": alpha, "pdof_factor": factor,
+        "A": structure.A, "B": structure.B, "G": structure.G, "structure_width": structure.width,
+        "structure_source": structure.source, "structure_default": structure.default,
+        "energy_uncorrected": e0, "energy": energy, "ees": speed, "ees_kmh": speed * 3.6,
+        "centroid_lateral": lateral, "centroid_depth": depth, "moment_arm": arm,
+        "radius_of_gyration": math.sqrt(spec.yaw_inertia / spec.mass), "gamma": gamma,
+        "warnings": [warning] if warning else [],
+    }
+
+
+def pair_report(r1: dict, r2: dict, restitution: float = 0.0) -> dict:
+    """Two vehicles' reports (`report`) of the same impact: the total crush energy and each one's delta-V
+    (pair_delta_v with their effective-mass factors), JSON-serialisable."""
+    total = r1["energy"] + r2["energy"]
+    dv1, dv2 = pair_delta_v(total, r1["mass"], r2["mass"], r1["gamma"], r2["gamma"], restitution)
+    return {"vehicles": [r1, r2], "energy_total": total, "restitution": restitution,
+            "delta_v": [dv1, dv2], "delta_v_kmh": [dv1 * 3.6, dv2 * 3.6]}
+
+
+def format_report(rep: dict) -> str:
+    """The text `crashlab damage` prints for a `report` or a `pair_report`."""
+    if "vehicles" in rep:
+        lines = [format_report(r) for r in rep["vehicles"]]
+        lines.append(f"both: crush energy {rep['energy_total'] / 1e3:.1f} kJ, restitution {rep['restitution']:g}; "
+                     + ", ".join(f"{r['vehicle']} delta-V {dv:.1f} km/h"
+                                 for r, dv in zip(rep["vehicles"], rep["delta_v_kmh"])))
+        return "\n".join(lines)
+    src = rep["structure_source"]
+    src = ("class default" if rep["structure_default"] else "estimate, docs/physics.md §28"
+           if src.startswith("estimate") else src if len(src) <= 60 else src[:57] + "...")
+    return "\n".join([
+        f"{rep['vehicle']}: {rep['side']}, {len(rep['profile'])}-point profile "
+        f"{', '.join(f'{c:.3f}' for c in rep['profile'])} m over {rep['width']:.3f} m, offset {rep['offset']:.3f} m",
+        f"  stiffness A {rep['A'] / 1e3:.1f} kN/m, B {rep['B'] / 1e3:.0f} kN/m^2, G {rep['G']:.0f} J/m ({src})",
+        f"  PDOF {rep['pdof']:.0f} deg ({rep['pdof_angle']:.0f} deg off the normal, factor "
+        f"{rep['pdof_factor']:.3f}); crush energy {rep['energy'] / 1e3:.1f} kJ; EES {rep['ees_kmh']:.1f} km/h",
+        f"  moment arm {rep['moment_arm']:.2f} m, radius of gyration {rep['radius_of_gyration']:.2f} m, "
+        f"effective-mass factor {rep['gamma']:.3f}"] + [f"  warning: {w}" for w in rep["warnings"]])
+
+
+# ---------------------------------------------------------------- `crashlab damage` (the CLI calls `command`)
+def is_scene(target: str) -> bool:
+    """A `crashlab damage` target that is a scene file (a .toml file with [[vehicles]])."""
+    from .vehicle import read_toml
+    return target.endswith(".toml") and Path(target).is_file() and "vehicles" in read_toml(Path(target), "scene")
+
+
+def vehicle_for(target: str, vehicle: str | None = None, where: str = "command line") -> VehicleSpec:
+    """The vehicle of `crashlab damage SCENE|VEHICLE`: a library vehicle's name or a vehicle file; a .toml file
+    with [[vehicles]] is a scene, and `vehicle` names one of its vehicles (may be left out when it has one)."""
+    from .scene import load_scene
+    from .vehicle import load_vehicle
+
+    if is_scene(target):
+        scene = load_scene(target)
+        names = [v.name for v in scene.vehicles]
+        if vehicle is None:
+            if len(names) != 1:
+                raise InputError(where, "--vehicle", f"the scene has {len(names)} vehicles: name one of "
+                                 f"{', '.join(names)}")
+            return scene.vehicles[0].spec
+        if vehicle not in names:
+            raise InputError(where, "--vehicle", f"no vehicle {vehicle!r} in {target}: one of {', '.join(names)}")
+        return scene.vehicles[names.index(vehicle)].spec
+    if vehicle is not None:
+        raise InputError(where, "--vehicle", "names a vehicle of a scene; the target is a vehicle")
+    return load_vehicle(target, base_dir=Path.cwd(), where="target", scene_file=where)
+
+
+def parse_other(text: str, key: str = "--with", where: str = "command line") -> dict:
+    """'VEHICLE:SIDE:C1,...,Cn:WIDTH[:OFFSET[:PDOF]]' (metres, degrees) as report arguments + the vehicle."""
+    parts = str(text).split(":")
+    if not 4 <= len(parts) <= 6:
+        raise InputError(where, key, f"VEHICLE:SIDE:C1,...,Cn:WIDTH[:OFFSET[:PDOF]], got {text!r}")
+    try:
+        nums = [float(t) for t in parts[3:]]
+    except ValueError:
+        raise InputError(where, key, f"WIDTH, OFFSET and PDOF are numbers (m, m, deg), got {text!r}") from None
+    return dict(vehicle=parts[0], side=parts[1], profile=parse_profile(parts[2], key, where), width=nums[0],
+                offset=nums[1] if len(nums) > 1 else 0.0, pdof=nums[2] if len(nums) > 2 else None)
+
+
+def command(target: str, side: str, profile: str, width: float, offset: float = 0.0, pdof: float | None = None,
+            vehicle: str | None = None, other: str | None = None, restitution: float = 0.0,
+            as_json: bool = False) -> str:
+    """What `crashlab damage` prints: one vehicle's damage (`report`), or with `other` (parse_other: a second
+    vehicle of the same scene, or a library vehicle or vehicle file when the target is a vehicle) both and
+    their delta-V (`pair_report`); text (`format_report`) or JSON. Bad input: InputError naming the option."""
+    spec = vehicle_for(target, vehicle)
+    rep = report(spec, side, parse_profile(profile), width, offset, pdof, "command line", "--")
+    if other is not None:
+        o = parse_other(other)
+        name = o.pop("vehicle")
+        spec2 = vehicle_for(target, name) if is_scene(target) else vehicle_for(name)
+        rep2 = report(spec2, o["side"], o["profile"], o["width"], o["offset"], o["pdof"], "command line",
+                      "--with ")
+        if not (isinstance(restitution, (int, float)) and 0.0 <= restitution < 1.0):
+            raise InputError("command line", "--restitution", f"in [0, 1), got {restitution!r}")
+        rep = pair_report(rep, rep2, restitution)
+    elif restitution:
+        raise InputError("command line", "--restitution", "only with --with (the delta-V of two vehicles)")
+    return json.dumps(rep, indent=2) if as_json else format_report(rep)
+
+
+# ---------------------------------------------------------------- damage as evidence (docs/physics.md §28)
+class DamageEvidence(BaseModel):
+    """[evidence.damage.<vehicle>]: a measured crush profile as evidence of the impact's severity. The EES
+    from the damage (this module's `report`) is compared with the EES of the simulated impact; its sigma
+    comes from the crush measurement and the stiffness uncertainty (`damage_ees`)."""
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    side: Literal["front", "rear", "side"] = Field(description="the struck side: front, rear or side")
+    profile: list[Annotated[float, Strict()]] = Field(description="m, 2, 4 or 6 residual crush depths C1..Cn, "
+                                                      "equally spaced over the width, left to right seen from "
+                                                      "outside the vehicle")
+    width: Annotated[float, Strict()] = Field(gt=0, le=30, description="m, the damaged width; (0, 30]")
+    offset: Annotated[float, Strict()] = Field(0.0, ge=-15, le=15, description="m, the centre of the damage: "
+                                               "left of the centreline (front, rear) or ahead of the CG (side)")
+    pdof: Annotated[float, Strict()] | None = Field(None, ge=-180, le=180, description="deg, the principal "
+                                                    "direction of force in vehicle axes (0 = from ahead, +90 = "
+                                                    "from the left); default normal to the side")
+    sigma_crush: Annotated[float, Strict()] = Field(gt=0, le=0.5, description="m, the standard deviation of each "
+                                                    "crush depth's measurement; (0, 0.5]")
+    sigma_stiffness: Annotated[float, Strict()] = Field(gt=0, le=1, description="-, the relative standard "
+                                                        "deviation of the stiffness (A and B scaled together); "
+                                                        "(0, 1]")
+
+
+def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: float) -> list[float]:
+    """dE/dC_i [J/m] of `crush_energy` (no PDOF correction): each segment (i, j) adds
+    d [A/2 + B (2 C_i + C_j)/6] to C_i."""
+    n = len(profile)
+    d = width / (n - 1)
+    grad = [0.0] * n
+    for k, (ci, cj) in enumerate(zip(profile[:-1], profile[1:])):
+        grad[k] += d * (A / 2.0 + B * (2.0 * ci + cj) / 6.0)
+        grad[k + 1] += d * (A / 2.0 + B * (ci + 2.0 * cj) / 6.0)
+    return grad
+
+
+def damage_ees(evidence: DamageEvidence, spec: VehicleSpec, where: str = "study",
+               prefix: str = "evidence.damage.") -> tuple[float, float]:
+    """(EES [km/h], sigma [km/h]) from a damage measurement: EES = sqrt(2 E / m) of `report`, and its
+    first-order (delta-method) standard deviation from independent crush errors sigma_crush on every C_i and
+    a common relative stiffness error sigma_stiffness (E proportional to the stiffness scale):
+        sigma_E^2 = f^2 sum_i (dE/dC_i)^2 sigma_crush^2 + (E sigma_stiffness)^2,   sigma_EES = EES sigma_E / 2E
+    (f the PDOF factor). Bad input: InputError naming `where` (the study file) and `prefix` + the key."""
+    rep = report(spec, evidence.side, evidence.profile, evidence.width, evidence.offset, evidence.pdof, where,
+                 prefix)
+    s = spec.structure[evidence.side]
+    grad = crush_energy_gradient(rep["profile"], rep["width"], s.A, s.B)
+    var_crush = sum((rep["pdof_factor"] * g * evidence.sigma_crush) ** 2 for g in grad)
+    energy = rep["energy"]
+    sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
+    ees_kmh = rep["ees_kmh"]
+    return ees_kmh, ees_kmh * sigma_e / (2.0 * energy)
+
+
+def combined_ees(ees_values: Sequence[float]) -> float:
+    """The EES of several impact rows of one vehicle (same unit): sqrt(sum EES_k^2), their energies added."""
+    return math.sqrt(sum(e * e for e in ees_values))
+
+
+def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec: VehicleSpec,
+                    where: str = "study", prefix: str = "evidence.damage.") -> float:
+    """(EES_simulated - EES_damage) / sigma [sigma units] for a vehicle's simulated EES [km/h] (its impact
+    rows' `combined_ees`); NaN when the simulated EES is not finite (a run that cannot be scored)."""
+    if ees_simulated is None or not math.isfinite(ees_simulated):
+        return math.nan
+    value, sigma = damage_ees(damage_evidence, spec, where, prefix)
+    return (ees_simulated - value) / sigma
+
+
+def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, n: int = 6,
+                    pdof: float | None = None) -> list[float]:
+    """A uniform n-point profile [m] over `width` whose `report` EES is `ees_kmh` (for twin experiments):
+    C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros."""
+    s = spec.structure[_side(side, "damage")]
+    factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof))
+    per_width = 0.5 * spec.mass * (ees_kmh / 3.6) ** 2 / (factor * width) - s.G
+    c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B
+    return [c] * n
