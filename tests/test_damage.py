@@ -26,6 +26,7 @@ import pytest
 from scipy.integrate import quad
 
 from crashlab import damage
+from crashlab.cli import damage as damage_command
 from crashlab.errors import InputError
 from crashlab.vehicle import STRUCTURE_SIDES, library, load_vehicle
 
@@ -223,10 +224,10 @@ def test_bad_damage_geometry_is_one_line_naming_the_key(args, key):
 
 
 def test_parse_profile():
-    assert damage.parse_profile("0.1,0.2, 0.3,0.3,0.2,0.1") == [0.1, 0.2, 0.3, 0.3, 0.2, 0.1]
+    assert damage_command.parse_profile("0.1,0.2, 0.3,0.3,0.2,0.1") == [0.1, 0.2, 0.3, 0.3, 0.2, 0.1]
     for text in ("0.1;0.2", "a,b", "0.1,0.2,0.3"):
         with pytest.raises(InputError, match="--profile"):
-            damage.parse_profile(text)
+            damage_command.parse_profile(text)
 
 
 # ---------------------------------------------------------------- the vehicle files' [structure]
@@ -359,7 +360,7 @@ def test_damage_evidence_schema_refuses_bad_values(bad):
         damage.DamageEvidence(**{**good, **bad})
 
 
-# ---------------------------------------------------------------- `crashlab damage` (damage.command)
+# ---------------------------------------------------------------- `crashlab damage` (crashlab.cli.damage)
 SCENE = """duration = 1.0
 [road]
 friction = 0.8
@@ -382,16 +383,16 @@ overrides = { mass = 1050.0 }
 def test_command_on_a_vehicle_and_on_a_scene(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "s.toml").write_text(SCENE)
-    one = json.loads(damage.command("saloon", "front", "0.2,0.3,0.3,0.2", 1.5, as_json=True))
+    one = json.loads(damage_command.command("saloon", "front", "0.2,0.3,0.3,0.2", 1.5, as_json=True))
     assert one == json.loads(json.dumps(damage.report(load_vehicle("saloon"), "front", [0.2, 0.3, 0.3, 0.2], 1.5)))
     # a scene: its vehicles with their overrides (V2's mass), the second by --with
-    both = json.loads(damage.command("s.toml", "front", "0.2,0.3,0.3,0.2", 1.5, vehicle="V1",
+    both = json.loads(damage_command.command("s.toml", "front", "0.2,0.3,0.3,0.2", 1.5, vehicle="V1",
                                      other="V2:rear:0.3,0.35,0.35,0.3:1.4:0.05", restitution=0.1, as_json=True))
     r1, r2 = both["vehicles"]
     assert r2["mass"] == 1050.0 and r2["offset"] == 0.05 and r2["side"] == "rear"
     assert both["delta_v"] == list(damage.pair_delta_v(r1["energy"] + r2["energy"], r1["mass"], r2["mass"],
                                                        r1["gamma"], r2["gamma"], 0.1))
-    text = damage.command("s.toml", "front", "0.2,0.3,0.3,0.2", 1.5, vehicle="V1", other="V2:rear:0.3,0.3:1.4")
+    text = damage_command.command("s.toml", "front", "0.2,0.3,0.3,0.2", 1.5, vehicle="V1", other="V2:rear:0.3,0.3:1.4")
     assert "delta-V" in text and "estimate, docs/physics.md §28" in text
 
 
@@ -415,5 +416,16 @@ def test_command_bad_input_names_the_option(tmp_path, monkeypatch, kwargs, key):
     (tmp_path / "s.toml").write_text(SCENE)
     args = dict(side="front", profile="0.2,0.3,0.3,0.2", width=1.5) | kwargs
     with pytest.raises(InputError) as err:
-        damage.command(**args)
+        damage_command.command(**args)
     assert err.value.key == key and err.value.file == "command line", str(err.value)
+
+
+def test_the_command_line_answers_bad_profiles_with_one_line(capsys):
+    from crashlab.cli import main
+    assert main(["damage", "saloon", "--side", "front", "--profile", "0.1,-0.1", "--width", "1.5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "profile" in err[0]
+    assert main(["damage", "saloon", "--side", "front", "--profile", "0.2,0.3,0.3,0.2", "--width", "1.5",
+                 "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["energy"] > 0

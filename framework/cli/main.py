@@ -291,6 +291,14 @@ def cmd_bench(args):
     return 0
 
 
+def cmd_damage(args):
+    """`crashlab damage`: CRASH3 crush energy, EES and delta-V from a crush profile (crashlab.damage)."""
+    from .damage import command
+    print(command(args.target, args.side, args.profile, args.width, args.offset, args.pdof, args.vehicle,
+                  args.other, args.restitution, args.json))
+    return 0
+
+
 def cmd_examples(args):
     """`crashlab examples`: the bundled examples and vehicles; `crashlab examples copy DIR` writes them out."""
     from ..tools import examples
@@ -409,6 +417,21 @@ def build_parser():
     b.add_argument("--batch", type=int, default=1000, help="scenes per batched call")
     b.add_argument("--repeat", type=int, default=3, help="timed repetitions (the best one counts)")
     b.set_defaults(fn=cmd_bench)
+    d = command("damage", "CRASH3 crush energy, EES and delta-V from a measured crush profile (docs/physics.md)")
+    d.add_argument("target", metavar="SCENE|VEHICLE", help="a scene file (with --vehicle) or a vehicle name/file")
+    d.add_argument("--side", required=True, choices=["front", "rear", "side"], help="the damaged side")
+    d.add_argument("--profile", required=True, metavar="C1,...,Cn", help="crush depths [m], 2, 4 or 6 points")
+    d.add_argument("--width", required=True, type=float, help="damaged width [m]")
+    d.add_argument("--offset", type=float, default=0.0, help="m, the damage centre left of the centreline "
+                   "(front/rear) or ahead of the CG (side)")
+    d.add_argument("--pdof", type=float, default=None, help="deg in the vehicle's axes: 0 from ahead, +90 from "
+                   "the left (default: none, no correction)")
+    d.add_argument("--vehicle", default=None, help="the scene's vehicle (by name)")
+    d.add_argument("--with", dest="other", default=None, metavar="VEHICLE:SIDE:C1,..,Cn:WIDTH[:OFFSET[:PDOF]]",
+                   help="a second vehicle's damage: both delta-Vs")
+    d.add_argument("--restitution", type=float, default=0.0, help="with --with: the impact's restitution")
+    d.add_argument("--json", action="store_true", help="print JSON")
+    d.set_defaults(fn=cmd_damage)
     ex = command("examples", "the bundled example scenes, studies and vehicles; `copy DIR` writes them out")
     ex.add_argument("action", nargs="?", choices=["copy"], help="copy: write every example to DIR")
     ex.add_argument("dir", nargs="?", metavar="DIR", help="a new or empty folder")

@@ -25,7 +25,7 @@ from pydantic_core import PydanticUndefined
 
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 # units a description may start with ("m, CG position ..."; "km/h; [0, 400]"): the Unit column
-UNITS = ("kg m^2", "N s/m", "N/rad", "N/m", "N", "m/deg", "deg/s", "deg", "km/h", "kg", "m", "s", "-")
+UNITS = ("kg m^2", "N s/m", "N/rad", "N/m^2", "N/m", "N", "m/deg", "deg/s", "deg", "km/h", "kg", "m", "s", "-")
 TITLES = {"scene": "Scene file", "vehicle": "Vehicle file", "study": "Study file"}
 
 
