@@ -1,4 +1,5 @@
-"""Plugins found through entry points (groups `crashlab.models`, `crashlab.optimizers`).
+"""Plugins found through entry points (groups `crashlab.models`, `crashlab.optimizers`), or named by a
+"module:attribute" reference as an entry point is written (`load`).
 
 Listing names reads only package metadata; a plugin's module is imported when it is asked for, so
 exudyn or pymunk is imported only by a run that uses it. Unknown names get a "did you mean".
@@ -47,6 +48,13 @@ def names(group: str) -> list[str]:
 
 
 def load(group: str, name: str):
+    """The plugin registered as `name`, or the object a reference "package.module:attribute" names (written as
+    an entry point's value: a model or optimizer not installed as a plugin, e.g. one defined in a script or a
+    test module that worker processes can import)."""
+    if ":" in name:
+        import importlib
+        module, attr = name.split(":", 1)
+        return getattr(importlib.import_module(module), attr)  # ImportError, AttributeError say why not
     eps = _entry_points(group)
     if name not in eps:
         kind = "model" if group == MODELS else "optimizer"

@@ -19,7 +19,7 @@ import pytest
 
 import crashlab
 from crashlab import execution
-from crashlab.execution import Evaluations, Executor, evaluate_scenes
+from crashlab.execution import Evaluations, Executor, evaluate_scenes, evaluations_of, simulate_each
 
 REPO = Path(__file__).resolve().parent.parent
 SIDE = REPO / "studies" / "pc_crash" / "side.toml"
@@ -114,10 +114,11 @@ def reference() -> Evaluations:
 
 
 @pytest.fixture
-def short_grace(monkeypatch):
-    """The first call of each worker gets 30 s more (loading the model's numba cache), not 600 s: the
-    deadline is kept by this process. The hanging scenes are never a worker's first call here."""
-    monkeypatch.setattr(execution, "FIRST_CALL_GRACE_S", 30.0)
+def short_grace():
+    """first_call_grace_s for these tests' executors: a worker's first call gets 30 s more (loading the
+    model's numba cache), not 600 s; the deadline is kept by this process. The hanging scenes are never a
+    worker's first call here."""
+    return 30.0
 
 
 def _check(ev: Evaluations, reference: Evaluations, words: str):
@@ -143,13 +144,8 @@ def test_outcome_failed_by_the_guard_carries_the_guards_reason():
             out = [EchoModel().simulate(s) for s in scenes]
             out[1].fail("interpenetration", "V1 and V2 overlap by 0.40 m at the end")
             return out
-    execution._model.cache_clear()
-    orig = execution._model
-    try:
-        execution._model = lambda name, items: Guarded()
-        ev = evaluate_scenes("x", (), _scenes()[:3])
-    finally:
-        execution._model = orig
+    scenes = _scenes()[:3]  # what evaluate_scenes does with the model it builds
+    ev = evaluations_of(simulate_each(Guarded(), scenes), len(scenes[0].vehicles))
     assert list(ev.ok) == [True, False, True]
     assert ev.reason[1] == "physics guard: interpenetration: V1 and V2 overlap by 0.40 m at the end"
 
@@ -159,7 +155,7 @@ def test_the_evidence_is_scored_where_the_scenes_run_with_the_timeout(backend, r
     """A scorer (the evidence of impact rows or paths) runs in the worker beside the simulation: the hanging
     scenes time out and fail, unscored; the others carry the scores of their own outcomes (scores of the
     same outcomes in this process for comparison)."""
-    with Executor(backend, workers=2, timeout_s=2.0) as ex:
+    with Executor(backend, workers=2, first_call_grace_s=short_grace, timeout_s=2.0) as ex:
         ev = ex.evaluate("test_execution:HangingModel", {}, _scenes(), scorer=ImpactTimeScorer())
     _check(ev, reference, "timeout: evaluation ran longer than 2 s")
     bad = np.array([v > 60.0 for v in SPEEDS])
@@ -180,7 +176,7 @@ def test_a_scorer_that_raises_fails_its_batch_with_the_reason():
 def test_each_models_first_call_in_a_worker_gets_the_compile_grace(reference, short_grace):
     """A worker that has run one model still compiles the next one on its first call: the grace is per model
     (it was per worker: a refine step's multibody batch timed out in a worker that had run the search)."""
-    with Executor("serial", timeout_s=1.0) as ex:
+    with Executor("serial", first_call_grace_s=short_grace, timeout_s=1.0) as ex:
         ex.evaluate("test_execution:EchoModel", {}, _scenes())
         ev = ex.evaluate("test_execution:SlowFirstCallModel", {}, _scenes())
     assert ev.ok.all(), ev.reason
@@ -190,7 +186,7 @@ def test_each_models_first_call_in_a_worker_gets_the_compile_grace(reference, sh
 @pytest.mark.parametrize("backend", ["serial", pytest.param("processes", marks=pytest.mark.slow)])
 def test_a_hanging_evaluation_times_out_and_the_run_goes_on(backend, reference, short_grace):
     t0 = time.perf_counter()
-    with Executor(backend, workers=2, timeout_s=2.0) as ex:
+    with Executor(backend, workers=2, first_call_grace_s=short_grace, timeout_s=2.0) as ex:
         ev = ex.evaluate("test_execution:HangingModel", {}, _scenes())
         again = ex.evaluate("test_execution:EchoModel", {}, _scenes())  # the pool still serves
     print(f"\n{backend}: {time.perf_counter() - t0:.1f} s for two hangs of an hour at a 2 s timeout")
@@ -200,7 +196,7 @@ def test_a_hanging_evaluation_times_out_and_the_run_goes_on(backend, reference, 
 
 @pytest.mark.slow  # the hanging batch is the worker's first call: 30 s of grace first
 def test_a_vectorised_batch_that_hangs_is_split_so_only_the_culprits_fail(reference, short_grace):
-    with Executor("serial", timeout_s=1.0) as ex:
+    with Executor("serial", first_call_grace_s=short_grace, timeout_s=1.0) as ex:
         ev = ex.evaluate("test_execution:HangingBatchModel", {}, _scenes())
         assert ex._pool.restarts == 3  # the batch, then each of the two hanging scenes
     _check(ev, reference, "timeout")
@@ -298,13 +294,13 @@ def test_dask_a_dying_worker_fails_its_evaluations_and_the_run_goes_on(reference
 
 @pytest.mark.slow
 def test_dask_a_hanging_evaluation_times_out(reference, short_grace):
-    _dask_then_echo("HangingModel", 2.0, reference, "timeout: evaluation ran longer than 2 s")
+    _dask_then_echo("HangingModel", 2.0, reference, "timeout: evaluation ran longer than 2 s", short_grace)
 
 
-def _dask_then_echo(model: str, timeout_s: float, reference, words: str):
+def _dask_then_echo(model: str, timeout_s: float, reference, words: str, grace_s: float = 600.0):
     """On a local Dask cluster: `model` fails with `words`, and the cluster then evaluates as before."""
     pytest.importorskip("dask.distributed")
-    with Executor("dask", workers=2, timeout_s=timeout_s) as ex:
+    with Executor("dask", workers=2, timeout_s=timeout_s, first_call_grace_s=grace_s) as ex:
         ev = ex.evaluate(f"test_execution:{model}", {}, _scenes())
         again = ex.evaluate("test_execution:EchoModel", {}, _scenes())
     _check(ev, reference, words)

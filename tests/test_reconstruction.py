@@ -19,7 +19,7 @@ import pytest
 from conftest import assert_one_error_line
 
 import crashlab
-from crashlab import execution
+from crashlab.execution import evaluate as evaluation
 from crashlab.reconstruction import FAILED_OBJECTIVE, ReconstructionProblem, load_study
 from crashlab.reconstruction.polish import polish
 from crashlab.reconstruction.repair import CollisionRepair, _least_separation, repair_poses
@@ -121,7 +121,7 @@ def test_repair_brings_near_misses_onto_a_collision_course():
     assert np.all((gaps < -0.1) & (gaps > -0.5)), "straight paths miss by 0.1-0.5 m"
 
     def impacts(X):
-        return execution.evaluate_scenes("impulse", (), [problem.scene_for(x) for x in X])[3]
+        return evaluation.evaluate_scenes("impulse", (), [problem.scene_for(x) for x in X])[3]
 
     assert np.all(impacts(X) == 0), "no contact before the repair"
     Xr, rep = _repair(problem, X, max_shift=1.0)
@@ -216,7 +216,7 @@ class FlakyModel:
 
 
 def test_failed_evaluations_are_counted_infeasible_and_do_not_stop_the_run(monkeypatch, tmp_path):
-    monkeypatch.setattr(execution, "_model", lambda name, items: FlakyModel())
+    monkeypatch.setattr(evaluation, "model_instance", lambda name, items: FlakyModel())
     study = load_study(small_study(tmp_path, pop_size=12, generations=3))
     problem = study.make_problem()
     X = np.array([[50.0, 30.0], [65.0, 30.0], [50.0, 12.0], [40.0, 20.0]])

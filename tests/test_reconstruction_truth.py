@@ -18,8 +18,8 @@ import pytest
 from conftest import assert_one_error_line
 
 import crashlab
-from crashlab import execution
 from crashlab.errors import InputError
+from crashlab.execution import evaluate as evaluation
 from crashlab.reconstruction import FAILED_OBJECTIVE, POLISH_MIN, load_study, pareto_table
 
 REPO = Path(__file__).resolve().parent.parent
@@ -108,7 +108,7 @@ class GuardFailingModel:
 
 
 def test_guard_failed_candidates_are_failed_and_listed_in_failures_csv(tmp_path, monkeypatch):
-    monkeypatch.setattr(execution, "_model", lambda name, items: GuardFailingModel())
+    monkeypatch.setattr(evaluation, "model_instance", lambda name, items: GuardFailingModel())
     path = study_file(tmp_path)
     study = load_study(path)
     res = study.run(out_dir=tmp_path / "out")
