@@ -275,7 +275,8 @@ def write_markdown(rows: list[dict], path: Path, wall_time_s: float | None = Non
     goals = goal_rows(rows)
     if goals:
         lines += ["", "## Car-to-car delta-V against the goal (largest |error %| over the tests run)", "",
-                  "| model | law | e | contact | tests | worst error % | goal % | met |", "|---|---|---|---|---|---:|---:|---|"]
+                  "| model | law | e | contact | tests | worst error % | goal % | met |",
+                  "|---|---|---|---|---|---:|---:|---|"]
         for g in goals:
             worst = f"{g['worst_pct']:.1f}" + (f" ({g['failed']} failed)" if g["failed"] else "")
             goal = "" if g["goal_pct"] is None else f"{g['goal_pct']:.0f}"
