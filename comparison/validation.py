@@ -309,10 +309,12 @@ def write_figure(rows: list[dict], path: Path) -> Path | None:
     for k, var in enumerate(variants):
         model, law, contact, e = var
         sel = [r for r in pts if (r["model"], r["law"], r["contact"], str(r["restitution"])) == var]
-        ax.scatter([r["published"] for r in sel], [r["simulated"] for r in sel], marker=markers[k % len(markers)],
-                   facecolors="none", edgecolors=[colours(tests.index(r["test"]) % 10) for r in sel],
-                   s=45, label=f"{model}" + ("" if law == "-" else f" {law}") + f", {contact}, e={e}")
-    for j, t in enumerate(tests):  # the tests' colours
+        marker = markers[k % len(markers)]
+        ax.scatter([r["published"] for r in sel], [r["simulated"] for r in sel], marker=marker, s=45,
+                   facecolors="none", edgecolors=[colours(tests.index(r["test"]) % 10) for r in sel])
+        ax.scatter([], [], marker=marker, facecolors="none", edgecolors="k",  # legend: the variant's marker
+                   label=f"{model}" + ("" if law == "-" else f" {law}") + f", {contact}, e={e}")
+    for j, t in enumerate(tests):  # legend: the tests' colours
         ax.scatter([], [], color=colours(j % 10), marker="s", label=t)
     ax.set_xlim(0, top)
     ax.set_ylim(0, top)
