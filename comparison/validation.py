@@ -2,36 +2,66 @@
 
 The tests and their published quantities are listed in studies/validation/published/tests.toml (each
 number with its source; studies/validation/README.md lists the sources). Every model runs every test's
-scene with the scene's own parameters: one parameter set for all tests, nothing fitted per test.
+scene with one parameter set for all tests (the scenes' [impact] friction and laws, road friction 0.8);
+nothing is fitted per test. Variants, each one constant to extend:
+  IMPACT_LAWS           every [impact] law of the scene schema (read from its Literal), for the models in
+                        LAW_MODELS (the others do not read it: law "-")
+  RESTITUTION_VARIANTS  the [impact] restitution settings each run is repeated with
+  contact               "given": the scene's own [impact] point and plane_angle (PC-Crash style, the
+                        published collision position), for the models in GIVEN_POINT_MODELS; "found": the
+                        model finds its own contact, from the scene as written or, for a scene with a given
+                        point, from approach_scene (the cars moved back along their velocities until apart)
 
 Quantities (simulated side):
   delta_v        |sum of the vehicle's impact-row velocity changes| [km/h] (Outcome.impact_rows, SI)
+  impact_delta_v |velocity change of the vehicle's first impact row| [km/h]: the first impact (contact
+                 episode) alone, for tests whose published delta-V is the impact's alone
+  impact_yaw_rate_change  |yaw-rate change of that row| [deg/s]
   rebound_speed  speed right after the impact [km/h]: velocity at first contact + the summed delta-V
   post_vx        global x velocity right after the impact [km/h] (same construction)
   pdof           principal direction of force of the vehicle's largest impact row [deg]
   crush_dynamic, crush_residual   deepest contact overlap of the run [m] (Diagnostics.max_penetration;
                  0 for an impulse model, which has no contact depth)
 
-Writes DIR/validation.csv (model, test, quantity, published, simulated, error, then unit, source, ok,
-kind, vehicle) and DIR/validation.md. A run that fails (an exception, or outcome_ok False) gives rows with
-simulated NaN and ok False; the study goes on.
+Writes DIR/validation.csv (model, test, quantity, published, simulated, error, error_pct, then unit,
+source, ok, kind, vehicle, law, restitution, contact, impacts), DIR/validation.md and DIR/validation_dv.png
+(simulated against measured delta-V of the crash tests). A run that fails (an exception, or outcome_ok
+False) gives rows with simulated NaN and ok False; the study goes on.
 """
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import time
 import tomllib
+import typing
 from pathlib import Path
 
 from .base import STUDIES_DIR
 
 VALIDATION_DIR = STUDIES_DIR / "validation"
 TESTS_FILE = VALIDATION_DIR / "published" / "tests.toml"
-COLUMNS = ["model", "test", "quantity", "published", "simulated", "error", "unit", "source", "ok", "kind",
-           "vehicle"]
+COLUMNS = ["model", "test", "quantity", "published", "simulated", "error", "error_pct", "unit", "source", "ok",
+           "kind", "vehicle", "law", "restitution", "contact", "impacts"]
 FULL_MODELS = ("impulse", "pymunk")  # --quick runs every test for these, QUICK_TESTS for the others
 QUICK_TESTS = ("nhtsa10146",)
+
+
+def _schema_laws() -> tuple[str, ...]:
+    from crashlab.scene_file import ImpactFile
+    return typing.get_args(ImpactFile.model_fields["law"].annotation)
+
+
+IMPACT_LAWS = _schema_laws()   # every impulse law of the scene schema's [impact] law (a new one joins itself)
+LAW_MODELS = ("impulse",)      # the models that read [impact] law (docs/physics.md §3)
+GIVEN_POINT_MODELS = ("impulse",)  # the models that apply a given [impact] point (pymunk ignores it)
+# [impact] restitution of every run (the documented parameter set: 0.1); issue 24 item 4 adds "speed"
+RESTITUTION_VARIANTS: tuple = (0.1,)
+APPROACH_GAP = 0.1  # m of closing travel between the cars at the start of an approach_scene
+DV_QUANTITIES = ("delta_v", "impact_delta_v")  # the delta-V quantities (figure, goal check)
+GOAL_PCT = {"impulse": 10.0, "multibody": 15.0, "exudyn": 15.0}  # issue 24's goal on car-to-car delta-V
+FIGURE = "validation_dv.png"
 
 
 def load_tests(path: Path = TESTS_FILE) -> list[dict]:
@@ -42,6 +72,50 @@ def load_tests(path: Path = TESTS_FILE) -> list[dict]:
     for t in data["test"]:
         tests.append({**t, "scene": path.parent.parent / t["scene"], "quantity": list(t.get("quantity", []))})
     return tests
+
+
+def variant_scene(path: Path, law: str | None = None, restitution=None):
+    """The scene of `path` with [impact] law and restitution set as in the file's units (None: the file's
+    own); set on the file's data, so any value the schema takes (a number, or a law's name) works."""
+    from crashlab.scene_file import scene_from_dict
+    with open(path, "rb") as fh:
+        data = tomllib.load(fh)
+    imp = data.setdefault("impact", {})
+    if law is not None:
+        imp["law"] = law
+    if restitution is not None:
+        imp["restitution"] = restitution
+    return scene_from_dict(data, source=path, base_dir=path.parent)
+
+
+def approach_scene(scene, gap: float = APPROACH_GAP):
+    """A scene with a given point of impact (the collision position, outlines overlapping) as a model that
+    finds its own contact needs it: the point dropped and every vehicle moved back along its start velocity
+    by one time T, the shortest that parts the outlines (bisection) plus `gap` / closing speed; driving on
+    undisturbed, the cars would reach the published collision position together. Unchanged without a
+    given point."""
+    from crashlab.scene import start_overlaps
+    if scene.impact.point is None:
+        return scene
+    free = scene.replace(impact=dataclasses.replace(scene.impact, point=None, plane_angle=None))
+
+    def moved(t):
+        return free.replace(vehicles=tuple(
+            dataclasses.replace(v, x=v.x - t * v.speed * math.cos(v.heading),
+                                y=v.y - t * v.speed * math.sin(v.heading)) for v in free.vehicles))
+
+    lo, hi = 0.0, 0.01
+    while start_overlaps(moved(hi)):
+        lo, hi = hi, 2.0 * hi
+        if hi > 60.0:
+            raise ValueError(f"{scene.source}: the vehicles do not part when moved back along their velocities")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if start_overlaps(moved(mid)) else (lo, mid)
+    vel = [(v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)) for v in free.vehicles]
+    closing = max((math.hypot(a[0] - b[0], a[1] - b[1]) for k, a in enumerate(vel) for b in vel[k + 1:]),
+                  default=0.0)
+    return moved(hi + (gap / closing if closing > 0 else 0.0))
 
 
 def _vehicle_rows(outcome, name: str) -> list[dict]:
@@ -62,19 +136,25 @@ def _post_velocity(outcome, scene, name: str) -> tuple[float, float]:
 
 
 def simulated_quantity(outcome, scene, quantity: str, vehicle: str) -> float:
-    """One quantity of `outcome` in the study's units (km/h, deg, m); NaN when the run has none."""
+    """One quantity of `outcome` in the study's units (km/h, deg, deg/s, m); NaN when the run has none."""
+    rows = _vehicle_rows(outcome, vehicle)
     if quantity == "delta_v":
-        rows = _vehicle_rows(outcome, vehicle)
         if not rows:
             return math.nan
         return 3.6 * math.hypot(sum(r["dvx"] for r in rows), sum(r["dvy"] for r in rows))
+    if quantity in ("impact_delta_v", "impact_yaw_rate_change"):
+        if not rows:
+            return math.nan
+        first = min(rows, key=lambda r: r["t"])
+        if quantity == "impact_delta_v":
+            return 3.6 * math.hypot(first["dvx"], first["dvy"])
+        return abs(math.degrees(first["d_yaw_rate"]))
     if quantity in ("rebound_speed", "post_vx"):
-        if not _vehicle_rows(outcome, vehicle):
+        if not rows:
             return math.nan
         vx, vy = _post_velocity(outcome, scene, vehicle)
         return 3.6 * (math.hypot(vx, vy) if quantity == "rebound_speed" else vx)
     if quantity == "pdof":
-        rows = _vehicle_rows(outcome, vehicle)
         if not rows:
             return math.nan
         big = max(rows, key=lambda r: math.hypot(r["dvx"], r["dvy"]))
@@ -101,31 +181,48 @@ def _fmt(x: float, nd: int = 3) -> str:
     return "" if x is None or not math.isfinite(x) else f"{x:.{nd}f}"
 
 
+def runs(model: str, test: dict) -> list[dict]:
+    """The variants one model runs on one test: dicts law ("-": the model does not read it), restitution,
+    contact ("given" / "found")."""
+    laws = IMPACT_LAWS if model in LAW_MODELS else ("-",)
+    with open(test["scene"], "rb") as fh:
+        has_point = "point" in tomllib.load(fh).get("impact", {})
+    contacts = ("given", "found") if has_point and model in GIVEN_POINT_MODELS else ("found",)
+    return [{"law": law, "restitution": e, "contact": c}
+            for law in laws for e in RESTITUTION_VARIANTS for c in contacts]
+
+
 def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | None = None) -> list[dict]:
-    """One row per (model, test, published quantity)."""
-    from crashlab.scene_file import load_scene
+    """One row per (model, variant, test, published quantity)."""
     tests = load_tests() if tests is None else tests
-    scenes = {t["id"]: load_scene(t["scene"]) for t in tests}
     rows = []
     for model in models:
         for t in tests:
             if quick and model not in FULL_MODELS and t["id"] not in QUICK_TESTS:
                 continue
-            scene = scenes[t["id"]]
-            outcome, reason = _simulate(model, scene)
-            for q in t["quantity"]:
-                sim = math.nan
-                if outcome is not None:
-                    try:
-                        sim = simulated_quantity(outcome, scene, q["name"], q["vehicle"])
-                    except Exception as err:  # a broken outcome: failed cell, not a failed study
-                        reason = f"{type(err).__name__}: {err}"[:200]
-                pub = float(q["published"])
-                ok = outcome is not None and math.isfinite(sim)
-                rows.append({"model": model, "test": t["id"], "quantity": q["name"], "published": pub,
-                             "simulated": sim, "error": sim - pub if ok else math.nan,
-                             "unit": q.get("unit", ""), "source": t["source"], "ok": ok, "kind": t["kind"],
-                             "vehicle": q["vehicle"], "_reason": reason})
+            for run_ in runs(model, t):
+                scene = variant_scene(t["scene"], None if run_["law"] == "-" else run_["law"], run_["restitution"])
+                if run_["contact"] == "found":
+                    scene = approach_scene(scene)
+                outcome, reason = _simulate(model, scene)
+                impacts = 0 if outcome is None else len({r["t"] for r in outcome.impact_rows})
+                for q in t["quantity"]:
+                    sim = math.nan
+                    if outcome is not None:
+                        try:
+                            sim = simulated_quantity(outcome, scene, q["name"], q["vehicle"])
+                        except Exception as err:  # a broken outcome: failed cell, not a failed study
+                            reason = f"{type(err).__name__}: {err}"[:200]
+                    pub = float(q["published"])
+                    ok = outcome is not None and math.isfinite(sim)
+                    err = sim - pub if ok else math.nan
+                    rows.append({"model": model, "test": t["id"], "quantity": q["name"], "published": pub,
+                                 "simulated": sim, "error": err,
+                                 "error_pct": 100.0 * err / abs(pub) if ok and pub != 0 else math.nan,
+                                 "unit": q.get("unit", ""), "source": t["source"], "ok": ok, "kind": t["kind"],
+                                 "vehicle": q["vehicle"], "law": run_["law"], "restitution": run_["restitution"],
+                                 "contact": run_["contact"], "impacts": impacts,
+                                 "car_to_car": len(scene.vehicles) > 1, "_reason": reason})
     return rows
 
 
@@ -134,34 +231,113 @@ def write_csv(rows: list[dict], path: Path) -> Path:
         w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
         for r in rows:
-            w.writerow({**r, "published": repr(float(r["published"])), "simulated": repr(float(r["simulated"])),
-                        "error": repr(float(r["error"]))})
+            w.writerow({**r, **{k: repr(float(r[k])) for k in ("published", "simulated", "error", "error_pct")}})
     return path
+
+
+def goal_rows(rows: list[dict]) -> list[dict]:
+    """Per model and variant: the largest |error %| of delta-V over the car-to-car crash tests, against the
+    issue's goal (GOAL_PCT; no goal for the other models)."""
+    out = {}
+    for r in rows:
+        if r["kind"] != "crash test" or r["quantity"] not in DV_QUANTITIES or not r["car_to_car"]:
+            continue
+        key = (r["model"], r["law"], r["restitution"], r["contact"])
+        g = out.setdefault(key, {"model": r["model"], "law": r["law"], "restitution": r["restitution"],
+                                 "contact": r["contact"], "worst_pct": 0.0, "tests": set(), "failed": 0})
+        g["tests"].add(r["test"])
+        if not r["ok"]:
+            g["failed"] += 1
+        else:
+            g["worst_pct"] = max(g["worst_pct"], abs(r["error_pct"]))
+    for g in out.values():
+        goal = GOAL_PCT.get(g["model"])
+        g["goal_pct"] = goal
+        g["met"] = None if goal is None else (g["failed"] == 0 and g["worst_pct"] <= goal)
+    return list(out.values())
 
 
 def write_markdown(rows: list[dict], path: Path, wall_time_s: float | None = None) -> Path:
     lines = ["# Validation against published tests", "",
-             "One parameter set for all tests (each scene's [impact]: restitution 0.1, friction 0.3); "
-             "error = simulated - published. Sources: studies/validation/README.md.", "",
-             "| model | test | kind | quantity | vehicle | unit | published | simulated | error | ok |",
-             "|---|---|---|---|---|---|---:|---:|---:|---|"]
+             "One parameter set for all tests (each scene's [impact]: friction 0.3, exact-restitution force law; "
+             "road 0.8; restitution as the column says); error = simulated - published. Sources: "
+             "studies/validation/README.md. law: the impulse law (\"-\": the model does not read it); contact: "
+             "\"given\" = at the published point of impact, \"found\" = the model finds its own contact; "
+             "impacts: impact rows (contact episodes) of the run.", "",
+             "| model | law | e | contact | test | quantity | vehicle | unit | published | simulated | error | "
+             "error % | impacts | ok |",
+             "|---|---|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|"]
     for r in rows:
-        sim = _fmt(r["simulated"]) or f"NaN ({r['_reason']})" if not r["ok"] else _fmt(r["simulated"])
-        lines.append(f"| {r['model']} | {r['test']} | {r['kind']} | {r['quantity']} | {r['vehicle']} | "
-                     f"{r['unit']} | {_fmt(r['published'])} | {sim} | {_fmt(r['error'])} | {r['ok']} |")
+        sim = _fmt(r["simulated"]) if r["ok"] else f"NaN ({r['_reason']})"
+        lines.append(f"| {r['model']} | {r['law']} | {r['restitution']} | {r['contact']} | {r['test']} | "
+                     f"{r['quantity']} | {r['vehicle']} | {r['unit']} | {_fmt(r['published'])} | {sim} | "
+                     f"{_fmt(r['error'])} | {_fmt(r['error_pct'], 1)} | {r['impacts']} | {r['ok']} |")
+    goals = goal_rows(rows)
+    if goals:
+        lines += ["", "## Car-to-car delta-V against the goal (largest |error %| over the tests run)", "",
+                  "| model | law | e | contact | tests | worst error % | goal % | met |",
+                  "|---|---|---|---|---|---:|---:|---|"]
+        for g in goals:
+            worst = f"{g['worst_pct']:.1f}" + (f" ({g['failed']} failed)" if g["failed"] else "")
+            goal = "" if g["goal_pct"] is None else f"{g['goal_pct']:.0f}"
+            met = "" if g["met"] is None else str(g["met"])
+            lines.append(f"| {g['model']} | {g['law']} | {g['restitution']} | {g['contact']} | "
+                         f"{', '.join(sorted(g['tests']))} | {worst} | {goal} | {met} |")
     if wall_time_s is not None:
         lines += ["", f"Wall time of the study: {wall_time_s:.1f} s."]
     path.write_text("\n".join(lines) + "\n")
     return path
 
 
+def write_figure(rows: list[dict], path: Path) -> Path | None:
+    """Simulated against measured delta-V of every crash test (every model and variant), with the 1:1 line
+    and a +-10 % band; None when there is no such row."""
+    pts = [r for r in rows if r["ok"] and r["kind"] == "crash test" and r["quantity"] in DV_QUANTITIES]
+    if not pts:
+        return None
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    tests = sorted({r["test"] for r in pts})
+    variants = sorted({(r["model"], r["law"], r["contact"], str(r["restitution"])) for r in pts})
+    markers = "osD^v<>PXh*"
+    colours = plt.get_cmap("tab10")
+    top = 1.1 * max(max(r["published"], r["simulated"]) for r in pts)
+    fig, ax = plt.subplots(figsize=(7.5, 6.5))
+    ax.fill_between([0, top], [0, 0.9 * top], [0, 1.1 * top], color="0.85", label="+-10 %")
+    ax.plot([0, top], [0, top], color="k", lw=1, label="1:1")
+    for k, var in enumerate(variants):
+        model, law, contact, e = var
+        sel = [r for r in pts if (r["model"], r["law"], r["contact"], str(r["restitution"])) == var]
+        marker = markers[k % len(markers)]
+        ax.scatter([r["published"] for r in sel], [r["simulated"] for r in sel], marker=marker, s=45,
+                   facecolors="none", edgecolors=[colours(tests.index(r["test"]) % 10) for r in sel])
+        ax.scatter([], [], marker=marker, facecolors="none", edgecolors="k",  # legend: the variant's marker
+                   label=f"{model}" + ("" if law == "-" else f" {law}") + f", {contact}, e={e}")
+    for j, t in enumerate(tests):  # legend: the tests' colours
+        ax.scatter([], [], color=colours(j % 10), marker="s", label=t)
+    ax.set_xlim(0, top)
+    ax.set_ylim(0, top)
+    ax.set_aspect("equal")
+    ax.set_xlabel("measured delta-V [km/h]")
+    ax.set_ylabel("simulated delta-V [km/h]")
+    ax.set_title("Validation: simulated against measured delta-V (each vehicle of each crash test)")
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def run(models: list[str], out: Path, quick: bool = False, tests: list[dict] | None = None) -> Path:
-    """Every model on every test (quick: all tests for impulse and pymunk, QUICK_TESTS for the others);
-    writes DIR/validation.csv and DIR/validation.md and returns the CSV path."""
+    """Every model on every test (quick: all tests for impulse and pymunk, QUICK_TESTS for the others),
+    each in its variants (runs); writes DIR/validation.csv, DIR/validation.md and DIR/validation_dv.png and
+    returns the CSV path."""
     from .base import output_dir
     out = output_dir(out)
     t0 = time.perf_counter()
     rows = validation_rows(models, quick=quick, tests=tests)
     path = write_csv(rows, out / "validation.csv")
+    write_figure(rows, out / FIGURE)
     write_markdown(rows, out / "validation.md", time.perf_counter() - t0)
     return path

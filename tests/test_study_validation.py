@@ -59,3 +59,152 @@ def test_failed_model_is_recorded(tmp_path, monkeypatch):
     path = validation.run(["impulse"], tmp_path, tests=tests)
     rows = list(csv.DictReader(open(path, newline="")))
     assert rows and all(r["ok"] == "False" and math.isnan(float(r["simulated"])) for r in rows)
+
+
+# ---------------------------------------------------------------- the published car-to-car tests
+# An independent transcription of the source tables (/work/shared README: Rose et al. SAE 2006-01-0908 as quoted
+# in pycrash test_inputs_rose.py; RICSAC as tabulated by Day SAE 2004-01-1207), in the published units.
+MPH, LB, SLUG_FT2, INCH, FOOT = 1.609344, 0.45359237, 1.3558179, 0.0254, 0.3048
+# vehicle: weight [lb], yaw inertia [slug ft^2], length, width, wheelbase, CG to front axle [in]
+ROSE_VEHICLES = {("nhtsa4363", "V1"): (3451.1, 2152, 185.8, 70.1, 107.1, 45.88),
+                 ("nhtsa4363", "V2"): (4695.4, 2805, 181.5, 67.7, 107.1, 53.55),
+                 ("nhtsa4438", "V1"): (3305.7, 2066, 185.8, 70.1, 107.1, 44.7),
+                 ("nhtsa4438", "V2"): (4725.3, 2889, 181.2, 66.2, 106.8, 52.2)}
+# test: per vehicle (d [ft], theta [deg], heading [deg], speed [mph]), normal [deg in V1's frame], Rose's e,
+# measured delta-V V1, V2 [mph], measured |yaw-rate change| V1, V2 [deg/s]
+ROSE_TESTS = {"nhtsa4363": ((2.6, 23.8, 180, 35.1), (5.7, 10.6, 32, 35.0), 55, 0.126, (39.5, 29.1), (31, 182)),
+              "nhtsa4438": ((2.8, 35.3, 180, 34.7), (5.0, 13.2, 30, 35.0), 50.7, 0.095, (39.7, 27.8), (68, 166))}
+# RICSAC: speeds [mph], measured delta-V [mph], estimated weights [lb]
+RICSAC_TESTS = {"ricsac2": ((31.53, 31.53), (19.5, 25.8), (3982, 3010)),
+                "ricsac3": ((21.23, 0.0), (9.4, 15.4), (4930, 3010))}
+CAR_TO_CAR = ("nhtsa4363", "nhtsa4438", "ricsac2", "ricsac3")
+
+
+def _tests(*ids):
+    tests = {t["id"]: t for t in validation.load_tests()}
+    return [tests[i] for i in ids]
+
+
+def _published(test, quantity, vehicle):
+    return next(q["published"] for q in test["quantity"] if q["name"] == quantity and q["vehicle"] == vehicle)
+
+
+def test_car_to_car_scenes_and_published_numbers_match_the_source_tables():
+    for t in _tests(*CAR_TO_CAR):
+        scene = load_scene(t["scene"])
+        assert t["kind"] == "crash test" and len(scene.vehicles) == 2
+        if t["id"] in ROSE_TESTS:
+            v1, v2, normal, _e, dv, dyaw = ROSE_TESTS[t["id"]]
+            for k, (geo, name) in enumerate(((v1, "V1"), (v2, "V2"))):
+                w, izz, length, width, wb, a = ROSE_VEHICLES[(t["id"], name)]
+                v = scene.vehicles[k]
+                s = v.spec
+                assert math.isclose(s.mass, w * LB, abs_tol=0.01)
+                assert math.isclose(s.yaw_inertia, izz * SLUG_FT2, abs_tol=0.1)
+                for got, inch in ((s.length, length), (s.width, width), (s.wheelbase, wb), (s.cg_to_front_axle, a)):
+                    assert math.isclose(got, inch * INCH, abs_tol=1e-4)
+                d, theta, heading, speed = geo
+                assert math.isclose(math.degrees(v.heading) % 360, heading, abs_tol=1e-9)
+                assert math.isclose(v.speed * 3.6, speed * MPH, abs_tol=1e-3)
+                # the point of impact lies at Rose's d and theta from this CG (vehicle frame, counter-clockwise)
+                px, py = scene.impact.point
+                rx, ry = px - v.x, py - v.y
+                assert math.isclose(math.hypot(rx, ry), d * FOOT, abs_tol=1e-3)
+                ang = math.degrees(math.atan2(ry, rx) - v.heading)
+                assert math.isclose((ang - theta + 180) % 360 - 180, 0.0, abs_tol=0.01)
+                assert math.isclose(_published(t, "impact_delta_v", name), dv[k] * MPH, abs_tol=1e-3)
+                assert _published(t, "impact_yaw_rate_change", name) == dyaw[k]
+            plane = math.degrees(scene.impact.plane_angle)
+            assert math.isclose(plane, v1[2] + normal - 90, abs_tol=1e-9)
+        else:
+            speeds, dv, weights = RICSAC_TESTS[t["id"]]
+            for k, name in enumerate(("V1", "V2")):
+                v = scene.vehicles[k]
+                assert math.isclose(v.spec.mass, weights[k] * LB, abs_tol=0.1)
+                assert math.isclose(v.speed * 3.6, speeds[k] * MPH, abs_tol=1e-3)
+                assert math.isclose(_published(t, "impact_delta_v", name), dv[k] * MPH, abs_tol=1e-3)
+
+
+def test_rose_geometry_reproduces_roses_own_analysis():
+    """The transcription check of the collision position: with Rose's own fitted restitution, the Brach law
+    and a sticking impact (Rose's impulse ratio 100 % of critical), the impulse at the scene's point of
+    impact gives the measured delta-V (published to 0.1 mph) and yaw-rate changes (to 1 deg/s; the
+    distances are given to 0.1 ft: 3 deg/s). Not the predictive run: e is Rose's fit."""
+    import dataclasses
+
+    from crashlab.registry import get_model
+    for t in _tests("nhtsa4363", "nhtsa4438"):
+        _v1, _v2, _n, e_rose, dv, dyaw = ROSE_TESTS[t["id"]]
+        scene = validation.variant_scene(t["scene"], "brach", e_rose)
+        scene = scene.replace(impact=dataclasses.replace(scene.impact, friction=5.0))
+        out = get_model("impulse").simulate(scene)
+        first = [r for r in out.impact_rows if r["t"] == 0.0]
+        assert [r["vehicle"] for r in first] == ["V1", "V2"] and all(r["kind"] == "full" for r in first)
+        for k, r in enumerate(first):
+            assert math.isclose(3.6 * math.hypot(r["dvx"], r["dvy"]), dv[k] * MPH, abs_tol=0.1 * MPH)
+            assert math.isclose(abs(math.degrees(r["d_yaw_rate"])), dyaw[k], abs_tol=3.0)
+
+
+def test_car_to_car_impulse_conserves_momentum_and_errors_are_recorded(tmp_path, record_property):
+    """Every variant of the impulse model on the car-to-car tests: the first impact conserves linear
+    momentum (m1 dv1 = -m2 dv2, docs/physics.md §3) and every row carries its error in %. The errors are
+    recorded (junit properties and the CSV), not asserted: the study measures, it is not fitted."""
+    tests = _tests(*CAR_TO_CAR)
+    path = validation.run(["impulse"], tmp_path, tests=tests)
+    rows = list(csv.DictReader(open(path, newline="")))
+    runs = {(r["test"], r["law"], r["contact"], r["restitution"]) for r in rows}
+    assert {law for _, law, _, _ in runs} == set(validation.IMPACT_LAWS)
+    assert {(t, c) for t, _, c, _ in runs} == {("nhtsa4363", "given"), ("nhtsa4363", "found"),
+                                               ("nhtsa4438", "given"), ("nhtsa4438", "found"),
+                                               ("ricsac2", "found"), ("ricsac3", "found")}
+    assert all(r["ok"] == "True" for r in rows)
+    for r in rows:
+        pub, sim = float(r["published"]), float(r["simulated"])
+        assert math.isclose(float(r["error_pct"]), 100 * (sim - pub) / pub, rel_tol=1e-9)
+        if r["quantity"] == "impact_delta_v":
+            record_property(f"{r['test']}/{r['law']}/{r['contact']}/{r['vehicle']} dV error %",
+                            round(float(r["error_pct"]), 2))
+    assert (tmp_path / validation.FIGURE).is_file()
+    for t in tests:
+        for law in validation.IMPACT_LAWS:
+            for scene in (validation.variant_scene(t["scene"], law),
+                          validation.approach_scene(validation.variant_scene(t["scene"], law))):
+                out = validation._simulate("impulse", scene)[0]
+                first = sorted(out.impact_rows, key=lambda r: r["t"])[:2]
+                assert {r["vehicle"] for r in first} == {"V1", "V2"}
+                m = {v.name: v.spec.mass for v in scene.vehicles}
+                for axis in ("dvx", "dvy"):
+                    p = sum(m[r["vehicle"]] * r[axis] for r in first)
+                    scale = max(m[r["vehicle"]] * abs(r[axis]) for r in first)
+                    assert abs(p) <= 1e-9 * scale + 1e-12
+
+
+def test_approach_scene_parts_the_cars_along_their_velocities():
+    from crashlab.scene import start_overlaps
+    for t in _tests("nhtsa4363", "nhtsa4438"):
+        given = load_scene(t["scene"])
+        assert start_overlaps(given)  # the collision position: the outlines overlap by design
+        app = validation.approach_scene(given)
+        assert app.impact.point is None and not start_overlaps(app)
+        back = []
+        for a, g in zip(app.vehicles, given.vehicles):
+            dx, dy = g.x - a.x, g.y - a.y  # forward along the velocity by the same time for both
+            back.append(math.hypot(dx, dy) / g.speed)
+            assert math.isclose(dx * math.sin(g.heading) - dy * math.cos(g.heading), 0.0, abs_tol=1e-9)
+            assert dx * math.cos(g.heading) + dy * math.sin(g.heading) > 0
+        assert math.isclose(back[0], back[1], rel_tol=1e-9)
+        # without the gap the outlines just touch: a little further forward they overlap
+        nogap = validation.approach_scene(given, gap=0.0)
+        closer = validation.approach_scene(given, gap=-0.01)
+        assert not start_overlaps(nogap) and start_overlaps(closer)
+
+
+def test_impact_laws_are_the_schemas():
+    import typing
+
+    from crashlab.scene import ImpactFile
+    assert validation.IMPACT_LAWS == typing.get_args(ImpactFile.model_fields["law"].annotation)
+    assert {"kudlich-slibar", "brach"} <= set(validation.IMPACT_LAWS)
+    t = _tests("ricsac3")[0]
+    assert len(validation.runs("impulse", t)) == len(validation.IMPACT_LAWS) * len(validation.RESTITUTION_VARIANTS)
+    assert [r["law"] for r in validation.runs("multibody", t)] == ["-"] * len(validation.RESTITUTION_VARIANTS)
