@@ -250,13 +250,16 @@ def format_report(rep: dict) -> str:
 class DamageEvidence(BaseModel):
     """[evidence.damage.<vehicle>]: a measured crush profile as evidence of the impact's severity. The EES
     from the damage (this module's `report`) is compared with the EES of the simulated impact; its sigma
-    comes from the crush measurement and the stiffness uncertainty (`damage_ees`)."""
+    comes from the crush measurement and the stiffness uncertainty (`damage_ees`). A twin study leaves the
+    profile out: its run fills it (crashlab.reconstruction.evidence, `profile_for_ees`)."""
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     side: Literal["front", "rear", "side"] = Field(description="the struck side: front, rear or side")
-    profile: list[Annotated[float, Strict()]] = Field(description="m, 2, 4 or 6 residual crush depths C1..Cn, "
-                                                      "equally spaced over the width, left to right seen from "
-                                                      "outside the vehicle")
+    profile: list[Annotated[float, Strict()]] | None = Field(None, description="m, 2, 4 or 6 residual crush "
+                                                             "depths C1..Cn, equally spaced over the width, left "
+                                                             "to right seen from outside the vehicle; absent "
+                                                             "only in a twin (its run fills a uniform 6-point "
+                                                             "profile)")
     width: Annotated[float, Strict()] = Field(gt=0, le=30, description="m, the damaged width; (0, 30]")
     offset: Annotated[float, Strict()] = Field(0.0, ge=-15, le=15, description="m, the centre of the damage: "
                                                "left of the centreline (front, rear) or ahead of the CG (side)")
@@ -289,6 +292,15 @@ def damage_ees(evidence: DamageEvidence, spec: VehicleSpec, where: str = "study"
     a common relative stiffness error sigma_stiffness (E proportional to the stiffness scale):
         sigma_E^2 = f^2 sum_i (dE/dC_i)^2 sigma_crush^2 + (E sigma_stiffness)^2,   sigma_EES = EES sigma_E / 2E
     (f the PDOF factor). Bad input: InputError naming `where` (the study file) and `prefix` + the key."""
+    return damage_ees_report(evidence, spec, where, prefix)[:2]
+
+
+def damage_ees_report(evidence: DamageEvidence, spec: VehicleSpec, where: str = "study",
+                      prefix: str = "evidence.damage.") -> tuple[float, float, dict]:
+    """`damage_ees` and the damage's `report` (its warnings, the PDOF factor, the stiffness used)."""
+    if evidence.profile is None:
+        raise InputError(where, prefix + "profile", "missing key: the measured crush depths [m] (only a twin's "
+                         "run fills them)")
     rep = report(spec, evidence.side, evidence.profile, evidence.width, evidence.offset, evidence.pdof, where,
                  prefix)
     s = spec.structure[evidence.side]
@@ -297,7 +309,7 @@ def damage_ees(evidence: DamageEvidence, spec: VehicleSpec, where: str = "study"
     energy = rep["energy"]
     sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
     ees_kmh = rep["ees_kmh"]
-    return ees_kmh, ees_kmh * sigma_e / (2.0 * energy)
+    return ees_kmh, ees_kmh * sigma_e / (2.0 * energy), rep
 
 
 def combined_ees(ees_values: Sequence[float]) -> float:

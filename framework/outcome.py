@@ -40,7 +40,8 @@ class Outcome:
     [rad/s]; contact_si: (n, 4) x, y, heading, speed at first contact (NaN without contact);
     trajectories: name -> dict of SI arrays (t, x, y, heading, vx, vy, yaw_rate, optional z, roll, pitch
     and z_min, the lowest point of a 3D vehicle's body above the road, energy, its full mechanical energy [J]);
-    impact_rows: list of dicts in SI (see `impacts`), or a picklable callable returning it (built on
+    impact_rows: list of dicts in SI (see `impacts`; each also carries crush_energy [J], the vehicle's share of
+    the energy, docs/physics.md §21), or a picklable callable returning it (built on
     first access, so batch runs that only need rest poses do not pay for it);
     impact_energy: optional array of the energy dissipated per impact [J] (the guard reads it without
     building the rows); contact_intervals: optional list of (t_start, t_end) [s] during which any

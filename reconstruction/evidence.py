@@ -19,9 +19,16 @@ Residual components (simulated minus measured, each divided by its sigma; file u
                  model's `simulate_batch` records none);
   edr.<V>        (v_c - v*) / sigma_speed with v_c the speed at first contact (Outcome.contact_si[:, 3]);
                  (|dv| - dv*) / sigma_delta_v with dv the sum of the vehicle's impact-row velocity changes
-                 (dvx, dvy) [km/h]; a vehicle in no impact row has dv = 0.
-A candidate that cannot be scored (Outcome not ok, None or an exception, no impact where the point of impact
-or an EDR speed is evidence, no CG path where marks are) has NaN residuals and log-likelihood -inf.
+                 (dvx, dvy) [km/h]; a vehicle in no impact row has dv = 0;
+  damage.<V>     (EES_sim - EES_damage) / sigma [km/h]: EES_damage and its sigma from the measured crush profile
+                 (crashlab.damage.damage_ees, CRASH3, docs/physics.md §28); EES_sim = sqrt(2 sum_k E_k / m)
+                 over the vehicle's impact rows (their crush_energy E_k, the vehicle's share of each impact's
+                 dissipated energy: energies add), m the vehicle's mass in the study's scene. Expressing the
+                 simulated energy at that mass makes the residual exactly the one at the candidate's own mass
+                 when the mass is uncertain (both EES and sigma scale as 1/sqrt(m)). No impact row of the
+                 vehicle: it cannot be scored (the damage says it was struck).
+A candidate that cannot be scored (Outcome not ok, None or an exception, no impact where the point of impact,
+an EDR speed or a vehicle's damage is evidence, no CG path where marks are) has NaN residuals and log-likelihood -inf.
 
 The log-likelihood is that of independent Gaussian measurement errors, up to the additive constant
 -sum(log sigma) - m/2 log(2 pi), the same for every candidate (Davis, Law, Probability and Risk 2003):
@@ -35,15 +42,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from crashlab.damage import combined_ees, ees
 from crashlab.units import ms_to_kmh, wrap_deg
+
+# units of the residual components (file units), for the tables that list the evidence
+UNITS = {"x": "m", "y": "m", "heading": "deg", "speed_at_impact": "km/h", "delta_v": "km/h", "ees": "km/h"}
 
 
 @dataclass(frozen=True)
 class EvidenceItem:
-    """One piece of evidence. kind: "rest", "impact", "marks", "edr"; label: "rest.V1", "impact", "marks.0",
-    "edr.V1"; vehicles: whose objective it enters (the impact: every vehicle); components: the names of its
-    residual components (e.g. ("x", "y", "heading")); values / sigmas: measured values and their standard
-    deviations, per component, file units (m, deg, km/h); points: (p, 2) a mark's points [m]."""
+    """One piece of evidence. kind: "rest", "impact", "marks", "edr", "damage"; label: "rest.V1", "impact",
+    "marks.0", "edr.V1", "damage.V1"; vehicles: whose objective it enters (the impact: every vehicle);
+    components: the names of its residual components (e.g. ("x", "y", "heading")); values / sigmas: measured
+    values and their standard deviations, per component, file units (m, deg, km/h); points: (p, 2) a mark's
+    points [m]; mass: damage, the vehicle's mass [kg] at which the simulated crush energy is an EES;
+    detail: damage, what the value was computed from (for summary.md)."""
     kind: str
     label: str
     vehicles: tuple[str, ...]
@@ -51,6 +64,8 @@ class EvidenceItem:
     values: tuple[float, ...]
     sigmas: tuple[float, ...]
     points: np.ndarray | None = field(default=None, compare=False)
+    mass: float = math.nan
+    detail: str = field(default="", compare=False)
 
 
 def polyline_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
@@ -84,6 +99,15 @@ def delta_v(outcome, name: str) -> float:
     dvx = sum(r["dvx"] for r in outcome.impact_rows if r["vehicle"] == name)
     dvy = sum(r["dvy"] for r in outcome.impact_rows if r["vehicle"] == name)
     return float(math.hypot(dvx, dvy))
+
+
+def crush_ees(outcome, name: str, mass: float) -> float:
+    """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows
+    (crashlab.damage.combined_ees of each row's sqrt(2 E_k / m): energies add); NaN when it is in no row."""
+    energies = [r["crush_energy"] for r in outcome.impact_rows if r["vehicle"] == name]
+    if not energies:
+        return math.nan
+    return combined_ees([ees(max(e, 0.0), mass) for e in energies])
 
 
 def cg_path(outcome, name: str) -> np.ndarray:
@@ -123,6 +147,8 @@ class EvidenceSet:
             return list(first_impact_point(o))
         if it.kind == "marks":
             return list(polyline_distance(it.points, cg_path(o, it.vehicles[0])))
+        if it.kind == "damage":
+            return [ms_to_kmh(crush_ees(o, it.vehicles[0], it.mass))]
         i = self.names.index(it.vehicles[0])
         sim = {"speed_at_impact": lambda: ms_to_kmh(float(o.contact_si[i, 3])),  # NaN without contact
                "delta_v": lambda: ms_to_kmh(delta_v(o, it.vehicles[0]))}
@@ -187,9 +213,9 @@ class EvidenceSet:
                 pts = ", ".join(f"({x:.2f}, {y:.2f})" for x, y in it.points)
                 lines.append(f"{it.label}: {it.vehicles[0]}'s CG path within {it.sigmas[0]:g} m of {pts}")
                 continue
-            unit = {"x": "m", "y": "m", "heading": "deg", "speed_at_impact": "km/h", "delta_v": "km/h"}
-            lines.append(f"{it.label}: " + ", ".join(f"{c} = {v:.2f} ± {s:g} {unit[c]}"
-                                                      for c, v, s in zip(it.components, it.values, it.sigmas)))
+            lines.append(f"{it.label}: " + ", ".join(f"{c} = {v:.2f} ± {s:.3g} {UNITS[c]}"
+                                                      for c, v, s in zip(it.components, it.values, it.sigmas))
+                         + (f" ({it.detail})" if it.detail else ""))
         return lines
 
 
@@ -206,10 +232,11 @@ def _noise(rng, sigma):
     return 0.0 if rng is None else float(rng.normal(0.0, sigma))
 
 
-def build_evidence(path, spec, names, twin_outcome=None):
+def build_evidence(path, spec, names, twin_outcome=None, specs=None):
     """(EvidenceSet, rest dict name -> (x, y, heading deg or None), mode) from a study file's [evidence] and
     [objective]; twin_outcome: the model's run of the base scene (evidence.twin), which fills every value
-    the file leaves out (module docstring of crashlab.reconstruction.study). InputError names the key."""
+    the file leaves out (module docstring of crashlab.reconstruction.study); specs: name -> VehicleSpec of the
+    scene's vehicles (needed by damage evidence). InputError names the key."""
     from crashlab.errors import InputError
     ev = spec.evidence
     twin = ev.twin
@@ -230,7 +257,7 @@ def build_evidence(path, spec, names, twin_outcome=None):
 
     items: list[EvidenceItem] = []
     rest: dict = {}
-    only_rest_twin = twin and not (ev.rest or ev.impact or ev.marks or ev.edr)
+    only_rest_twin = twin and not (ev.rest or ev.impact or ev.marks or ev.edr or ev.damage)
     if only_rest_twin:  # the thesis's twin: every vehicle's rest pose, as before
         for i, n in enumerate(names):
             rest[n] = (float(o.rest_si[i, 0]), float(o.rest_si[i, 1]), math.degrees(o.rest_si[i, 2]))
@@ -319,6 +346,8 @@ def build_evidence(path, spec, names, twin_outcome=None):
             raise InputError(path, key, "no value: give speed_at_impact and sigma_speed and/or delta_v and "
                              "sigma_delta_v")
         items.append(EvidenceItem("edr", f"edr.{n}", (n,), tuple(comps), tuple(vals), tuple(sig)))
+    for n, e in ev.damage.items():
+        items.append(_damage_item(path, n, e, names, (specs or {}).get(n), o if twin else None, rng))
     if mode == "thesis":
         if items:
             raise InputError(path, "objective.mode", "the thesis objective scores rest poses only: "
@@ -334,5 +363,33 @@ def build_evidence(path, spec, names, twin_outcome=None):
     return EvidenceSet(names, items), rest, mode
 
 
-__all__ = ["EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "delta_v", "first_impact_point",
-           "log_likelihood_of", "polyline_distance"]
+def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
+    """The EvidenceItem of [evidence.damage.<n>] (module docstring). A twin's run fills the profile: a uniform
+    6-point profile whose EES is the run's (crashlab.damage.profile_for_ees), plus Gaussian noise sigma_crush
+    on every depth (noise_seed; clipped at 0); the stiffness is the file's (its sigma is not drawn)."""
+    from crashlab.damage import damage_ees_report, profile_for_ees
+    from crashlab.errors import InputError
+    key = f"evidence.damage.{n}"
+    if n not in names:
+        raise InputError(path, key, f"no vehicle {n!r} in the scene ({', '.join(names)})")
+    if twin_outcome is not None:
+        if e.profile is not None:
+            raise InputError(path, f"{key}.profile", "a twin's run gives this value: leave it out (or twin = false)")
+        sim = ms_to_kmh(crush_ees(twin_outcome, n, vspec.mass))
+        if not math.isfinite(sim):
+            raise InputError(path, key, f"the twin's run has no impact of {n}")
+        profile = np.array(profile_for_ees(sim, vspec, e.side, e.width, pdof=e.pdof))
+        if rng is not None:
+            profile = np.maximum(profile + rng.normal(0.0, e.sigma_crush, len(profile)), 0.0)
+        e = e.model_copy(update={"profile": [float(c) for c in profile]})
+    value, sigma, rep = damage_ees_report(e, vspec, path, f"{key}.")
+    detail = (f"CRASH3, {rep['side']} crush {', '.join(f'{c:.3f}' for c in rep['profile'])} m over "
+              f"{rep['width']:g} m, A {rep['A'] / 1e3:.1f} kN/m, B {rep['B'] / 1e3:.0f} kN/m^2, PDOF factor "
+              f"{rep['pdof_factor']:.2f}; sigma from {e.sigma_crush:g} m per depth and {e.sigma_stiffness:.0%} "
+              "stiffness" + "".join(f"; warning: {w}" for w in rep["warnings"]))
+    return EvidenceItem("damage", f"damage.{n}", (n,), ("ees",), (float(value),), (float(sigma),),
+                        mass=float(vspec.mass), detail=detail)
+
+
+__all__ = ["UNITS", "EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "crush_ees", "delta_v",
+           "first_impact_point", "log_likelihood_of", "polyline_distance"]

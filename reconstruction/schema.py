@@ -13,6 +13,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, field_validator, model_validator
 
+from crashlab.damage import DamageEvidence
 from crashlab.execution import DEFAULT_TIMEOUT_S
 from crashlab.fields import study_path
 
@@ -203,6 +204,9 @@ class Evidence(_Strict):
                                       description="[[evidence.marks]]: tyre or CG marks")
     edr: dict[str, EdrEvidence] = Field(default_factory=dict, description="[evidence.edr.<vehicle>]: event data "
                                         "recorder values by vehicle name")
+    damage: dict[str, DamageEvidence] = Field(default_factory=dict, description="[evidence.damage.<vehicle>]: "
+                                              "measured crush profiles by vehicle name, as evidence of the "
+                                              "impact's severity (its EES, CRASH3)")
     # evidence = the model's own simulation of the base scene (twin experiment): it fills every value the
     # file leaves out (all rest poses when the file gives no other evidence)
     twin: StrictBool = Field(default=False, description="twin experiment: the model's own run of the base "
@@ -215,7 +219,7 @@ class Evidence(_Strict):
     @property
     def has_uncertainty(self) -> bool:
         """Any sigma or any evidence besides rest poses: the normalised misfit is then the default objective."""
-        return bool(self.impact or self.marks or self.edr or any(
+        return bool(self.impact or self.marks or self.edr or self.damage or any(
             p.sigma_xy is not None or p.sigma_heading is not None for p in self.rest.values()))
 
 

@@ -230,7 +230,8 @@ def load_study(path) -> Study:
         if moving:
             raise InputError(path, "evidence.twin", f"{', '.join(moving)} at the end of the base scene: an end pose "
                              "is no rest pose (lengthen the scene's duration)")
-    evidence_set, evidence, mode = build_evidence(path, spec, names, out)
+    evidence_set, evidence, mode = build_evidence(path, spec, names, out,
+                                                  specs={v.name: v.spec for v in scene.vehicles})
     return Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None,
                  uncertain_variables(path, spec, scene))
 

@@ -1,8 +1,9 @@
 """Rows of the impact table (framework/outcome.py IMPACT_COLUMNS, SI), one home for every model.
 
 One impact (or contact episode) between vehicle i and vehicle j, or barrier j - nv when j >= nv (nv vehicles),
-gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, its energy-equivalent
-speed (EES) from that energy split in proportion to 1 / mass (a barrier takes none) and the principal direction
+gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, the vehicle's share of
+it (crush_energy, the energy split in proportion to 1 / mass; a barrier takes none), its energy-equivalent
+speed (EES) from that share and the principal direction
 of force (PDOF) from the direction of the impulse, or summed contact force, on it (docs/physics.md §21).
 """
 from __future__ import annotations
@@ -42,7 +43,8 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
         # deformation energy split assuming crush stiffness proportional to mass (equal force: E_q ~ 1 / m_q)
         e_q = max(energy, 0.0) * inv_q / (inv_i + inv_j)
         rows.append({"t": t, "vehicle": names[q], "other": other, "dvx": dv[s][0], "dvy": dv[s][1],
-                     "d_yaw_rate": dv[s][2], "energy": energy, "ees": math.sqrt(2.0 * e_q / mass[q]),
+                     "d_yaw_rate": dv[s][2], "energy": energy, "crush_energy": e_q,
+                     "ees": math.sqrt(2.0 * e_q / mass[q]),
                      "pdof": pdof(push[s][0], push[s][1], heading[s]), "kind": kind,
                      "point_x": point[0], "point_y": point[1], "plane_angle": plane, **extra})
     return rows
