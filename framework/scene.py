@@ -63,9 +63,10 @@ class ImpactFile(_Strict):
     restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
                            description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
-    law: Literal["kudlich-slibar", "brach"] = Field(
+    law: Literal["kudlich-slibar", "brach", "routh"] = Field(
         default="kudlich-slibar", description="impulse law of the planar impulse models (docs/physics.md §3): "
-        "kudlich-slibar (PC-Crash, Poisson type) or brach (Newton type)")
+        "kudlich-slibar (PC-Crash, Poisson type), brach (Newton type) or routh (friction follows the slip as it "
+        "stops, sticks or reverses; energetic restitution)")
     force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
                        "exact-restitution"] = Field(
         default="flores", description="normal contact-force law of the continuous-contact models (multibody, "
