@@ -10,7 +10,7 @@ import dataclasses
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError, WrapValidator
 
 from .errors import InputError
 from .units import deg_to_rad, kmh_to_ms
@@ -27,6 +27,8 @@ WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
 POSITION_MAX = 1e5  # m: |x|, |y| of vehicles, barriers and the impact point: a local site frame (100 km);
 #                     survey coordinates (UTM, national grids) are shifted to a local origin first
 ANGLE_MAX = 3600.0  # deg: |heading|, |plane_angle|: ten turns (angles count modulo 360)
+ENGAGEMENT_DEPTH = 0.5  # m: [impact] engagement_depth default (docs/physics.md §4)
+ENGAGEMENT_DEPTH_MAX = 3.0  # m: more than a car's half length of crush
 SPEED_MAX = 400.0  # km/h
 YAW_RATE_MAX = 720.0  # deg/s: two turns a second (a start state; post-impact spin comes from the model)
 STEER_MAX = 45.0  # deg at the road wheels (lock of a car ~35-40 deg)
@@ -59,6 +61,11 @@ class RoadFile(_Strict):
     zones: list[ZoneFile] = Field(default_factory=list, description="friction polygons; later zones win")
 
 
+def _point_or_engagement(value, handler):
+    """[impact] point: a position [x, y], or the word "engagement" (docs/physics.md §4)."""
+    return value if value == "engagement" else handler(value)
+
+
 class ImpactFile(_Strict):
     restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
@@ -73,9 +80,15 @@ class ImpactFile(_Strict):
         "exudyn); its damping follows the restitution")
     friction_law: Literal["coulomb", "threlfall", "ambrosio"] = Field(
         default="ambrosio", description="regularised friction law of the continuous-contact models")
-    point: tuple[Position, Position] | None = Field(
-        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}")
+    point: Annotated[tuple[Position, Position] | None, WrapValidator(_point_or_engagement)] = Field(
+        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}; or \"engagement\" "
+        "(impulse model): the point and contact plane where the outlines, moved along their velocities from first "
+        "touch, overlap by engagement_depth (docs/physics.md §4)")
     plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")
+    engagement_depth: Real = Field(default=ENGAGEMENT_DEPTH, gt=0, le=ENGAGEMENT_DEPTH_MAX,
+                                   description="m, overlap of the outlines at engagement (point = \"engagement\"); "
+                                   f"(0, {ENGAGEMENT_DEPTH_MAX:g}]; default 0.5 m: Campbell's linear crush at 50 "
+                                   "km/h into a rigid barrier, the calibration of crush_time (docs/physics.md §4)")
 
 
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\x7f]+$",
@@ -196,6 +209,8 @@ class Impact:
     friction_law: str = "ambrosio"
     point: tuple[float, float] | None = None  # m, global, at first contact
     plane_angle: float | None = None  # rad, tangent of the contact plane, CCW from +x
+    engagement: bool = False  # point = "engagement": point and plane at engagement_depth (impulse model, §4)
+    engagement_depth: float = ENGAGEMENT_DEPTH  # m
 
 
 @dataclasses.dataclass(frozen=True)
@@ -405,6 +420,11 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
     zones = tuple(Zone(friction=z.friction, polygon=tuple(tuple(p) for p in z.polygon), name=z.name or f"zone {k}")
                   for k, z in enumerate(f.road.zones))
     imp = f.impact
+    engagement = imp.point == "engagement"
+    if engagement and imp.plane_angle is not None:
+        raise InputError(source, "impact.plane_angle", 'not with point = "engagement" (the plane follows the overlap)')
+    if engagement:
+        imp = imp.model_copy(update={"point": None})
     if (imp.point is None) != (imp.plane_angle is None):
         raise InputError(source, "impact.point" if imp.point is None else "impact.plane_angle",
                          "point and plane_angle are given together or not at all")
@@ -415,7 +435,8 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
         impact=Impact(restitution=imp.restitution, friction=imp.friction, law=imp.law,
                       force_law=imp.force_law, friction_law=imp.friction_law,
                       point=None if imp.point is None else tuple(imp.point),
-                      plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle)),
+                      plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle),
+                      engagement=engagement, engagement_depth=imp.engagement_depth),
         barriers=tuple(Barrier(b.x, b.y, deg_to_rad(b.heading), b.length, b.width) for b in f.barriers),
         duration=f.duration,
         stop_at_rest=f.stop_at_rest,

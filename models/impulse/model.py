@@ -149,6 +149,7 @@ class ImpulseModel(CollisionModel):
         cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
         cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
         cfg[K.C_CRUSH_TIME] = self.crush_time
+        cfg[K.C_ENGAGE], cfg[K.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
         cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
         A, NA = pack_action_tables(scene.vehicles)
         return P, S0, B, cfg, A, NA, pack_zones(scene.road)
