@@ -63,6 +63,13 @@ class ImpulseModel(CollisionModel):
     case 3 (V1 at 0 deg into V2's side at 90 deg) sits exactly there: V1's rest heading is 53 deg at
     0 deg and -3 or 105 deg at +-0.05 deg; with the zone 53 +- 1 deg over +-0.5 deg, and a search with
     heading evidence finds the truth (twin 2: 0.000 m at ten seeds against 1.04-1.14 m).
+    With [impact] point = "engagement" the point and plane come instead from the outlines moved along their
+    velocities until they overlap by the scene's engagement_depth (kernel._engagement, docs/physics.md §4).
+
+    Impact laws (docs/physics.md §3): kudlich-slibar and brach (friction against the initial slip, PC-Crash
+    style) or routh (friction follows the slip as it stops, sticks or reverses). For the first two every
+    impact is also solved on Routh's path (laws.checked_impulse): where its slip reverses, the row says
+    slip_reversed and the outcome warns with the error of the law there.
 
     Sustained contact. An impulse model resolves an impact in an instant, but after it the pair can stay
     in touch: a rolling striker pushes a braked car, a car slides along a wall, a car is squeezed between
