@@ -7,6 +7,7 @@ scene file writes them); the Scene holds SI, and the conversion is made here wit
     road.friction                               -        tyre-road friction
     road.zones.K.friction  (also zones.K.friction)  -    friction of zone K (counted from 0)
     impact.restitution, impact.friction         -
+    impact.engagement_depth                     m        (point = "engagement")
     vehicles.V.x, vehicles.V.y                  m
     vehicles.V.heading                          deg      -> rad
     vehicles.V.speed                            km/h     -> m/s
@@ -33,19 +34,29 @@ import math
 import re
 from typing import Callable, Sequence
 
-from .scene import ANGLE_MAX, DURATION_MAX, FRICTION_MAX, POSITION_MAX, SPEED_MAX, STEER_MAX, YAW_RATE_MAX, Scene
+from .scene import (
+    ANGLE_MAX,
+    DURATION_MAX,
+    ENGAGEMENT_DEPTH_MAX,
+    FRICTION_MAX,
+    POSITION_MAX,
+    SPEED_MAX,
+    STEER_MAX,
+    YAW_RATE_MAX,
+    Scene,
+)
 from .units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg
 from .vehicle import GYRATION_SHARE, MASS_RANGE, consistency_problems
 
 VEHICLE_STATE = ("x", "y", "heading", "speed", "yaw_rate", "steer")
 VEHICLE_SPEC = ("mass", "yaw_inertia")
 ACTION_QUANTITIES = ("t", "brake", "steer", "ramp")
-IMPACT_QUANTITIES = ("restitution", "friction")
+IMPACT_QUANTITIES = ("restitution", "friction", "engagement_depth")
 
 # file unit of each quantity, and the conversion file -> SI (identity where absent)
 UNITS = {"x": "m", "y": "m", "heading": "deg", "speed": "km/h", "yaw_rate": "deg/s", "steer": "deg",
          "t": "s", "ramp": "s", "brake": "-", "mass": "kg", "yaw_inertia": "kg m^2", "friction": "-",
-         "restitution": "-"}
+         "restitution": "-", "engagement_depth": "m"}
 _TO_SI = {"heading": deg_to_rad, "speed": kmh_to_ms, "yaw_rate": deg_to_rad, "steer": deg_to_rad}
 _FROM_SI = {"heading": rad_to_deg, "speed": ms_to_kmh, "yaw_rate": rad_to_deg, "steer": rad_to_deg}
 # ranges of a scene file (crashlab.scene), file units; mass, yaw_inertia and action times also depend on the
@@ -55,9 +66,11 @@ STATIC_RANGES = {"x": (-POSITION_MAX, POSITION_MAX), "y": (-POSITION_MAX, POSITI
                  "yaw_rate": (-YAW_RATE_MAX, YAW_RATE_MAX), "steer": (-STEER_MAX, STEER_MAX),
                  "t": (0.0, DURATION_MAX), "ramp": (0.0, DURATION_MAX), "brake": (0.0, 1.0),
                  "friction": (0.0, FRICTION_MAX), "restitution": (0.0, 1.0), "mass": MASS_RANGE,
+                 "engagement_depth": (1e-3, ENGAGEMENT_DEPTH_MAX),
                  "yaw_inertia": (1e-9, 1e9)}
 
 VALID_FORMS = ("road.friction, road.zones.K.friction (or zones.K.friction), impact.restitution, impact.friction, "
+               "impact.engagement_depth, "
                f"vehicles.V.{{{'|'.join(VEHICLE_STATE + VEHICLE_SPEC)}}}, "
                f"vehicles.V.actions.K.{{{'|'.join(ACTION_QUANTITIES)}}} (V a vehicle name, K counted from 0)")
 

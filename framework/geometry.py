@@ -133,3 +133,26 @@ def contact_zone_centroid(c1, c2, nx, ny, depth):
         moved[i, 1] -= depth * ny
     x, y, area = overlap_centroid(c1, moved)
     return x + 0.5 * depth * nx, y + 0.5 * depth * ny, area
+
+
+@register_jitable
+def outline_crossings(c1, c2):
+    """The points where the boundaries of two convex outlines cross (edge-edge intersections). Returns
+    (points (8, 2), n): the first n rows hold them (two for two overlapping outlines in general)."""
+    out = np.empty((8, 2))
+    n = 0
+    for a in range(c1.shape[0]):
+        ax, ay = c1[a, 0], c1[a, 1]
+        bx, by = c1[(a + 1) % c1.shape[0], 0], c1[(a + 1) % c1.shape[0], 1]
+        for b in range(c2.shape[0]):
+            cx, cy = c2[b, 0], c2[b, 1]
+            dx, dy = c2[(b + 1) % c2.shape[0], 0], c2[(b + 1) % c2.shape[0], 1]
+            den = (bx - ax) * (dy - cy) - (by - ay) * (dx - cx)
+            if den == 0.0:
+                continue  # parallel edges
+            s = ((cx - ax) * (dy - cy) - (cy - ay) * (dx - cx)) / den
+            u = ((cx - ax) * (by - ay) - (cy - ay) * (bx - ax)) / den
+            if 0.0 <= s < 1.0 and 0.0 <= u < 1.0 and n < 8:
+                out[n, 0], out[n, 1] = ax + s * (bx - ax), ay + s * (by - ay)
+                n += 1
+    return out, n

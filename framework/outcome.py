@@ -18,7 +18,7 @@ REST_SPEED = 0.1  # m/s
 REST_YAW_RATE = 0.1  # rad/s
 
 IMPACT_COLUMNS = ["t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate", "energy", "ees",
-                  "pdof", "pdof_clock", "kind", "point_x", "point_y", "plane_angle"]
+                  "pdof", "pdof_clock", "kind", "slip_reversed", "point_x", "point_y", "plane_angle"]
 # units of the impact table's columns (printed headers)
 IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_yaw_rate": "deg/s", "energy": "J",
                 "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
@@ -179,8 +179,11 @@ class Outcome:
     def impacts(self):
         """One row per vehicle per impact: t [s], vehicle, other, dvx, dvy, delta_v [km/h],
         d_yaw_rate [deg/s], energy [J] (dissipated, per impact), ees [km/h], pdof [deg, counter-clockwise from
-        straight ahead], pdof_clock [h, SAE J224: 12 from straight ahead, 3 from the right], kind,
-        point_x, point_y [m], plane_angle [deg]."""
+        straight ahead], pdof_clock [h, SAE J224: 12 from straight ahead, 3 from the right], kind
+        (impulse model: full, sliding or, law routh, reversed; continuous-contact models: continuous),
+        slip_reversed (impulse model: the slip at the point stops and reverses in this impact, which
+        the laws kudlich-slibar and brach do not follow; docs/physics.md §3), point_x, point_y [m],
+        plane_angle [deg]."""
         import pandas as pd
         rows = []
         for r in self.impact_rows:
@@ -190,6 +193,7 @@ class Outcome:
                          "d_yaw_rate": rad_to_deg(r["d_yaw_rate"]), "energy": r["energy"],
                          "ees": ms_to_kmh(r.get("ees", math.nan)), "pdof": rad_to_deg(r.get("pdof", math.nan)),
                          "pdof_clock": pdof_clock(rad_to_deg(r.get("pdof", math.nan))), "kind": r["kind"],
+                         "slip_reversed": bool(r.get("slip_reversed", False)),
                          "point_x": r["point_x"], "point_y": r["point_y"],
                          "plane_angle": rad_to_deg(r["plane_angle"])})
         return pd.DataFrame(rows, columns=IMPACT_COLUMNS)

@@ -23,6 +23,8 @@ WHEEL_STATES = ("rolling", "locked", "locked_after_impact", "braked")
 POSITION_MAX = 1e5  # m: |x|, |y| of vehicles, barriers and the impact point: a local site frame (100 km);
 #                     survey coordinates (UTM, national grids) are shifted to a local origin first
 ANGLE_MAX = 3600.0  # deg: |heading|, |plane_angle|: ten turns (angles count modulo 360)
+ENGAGEMENT_DEPTH = 0.5  # m: [impact] engagement_depth default (docs/physics.md §4)
+ENGAGEMENT_DEPTH_MAX = 3.0  # m: more than a car's half length of crush
 SPEED_MAX = 400.0  # km/h
 YAW_RATE_MAX = 720.0  # deg/s: two turns a second (a start state; post-impact spin comes from the model)
 STEER_MAX = 45.0  # deg at the road wheels (lock of a car ~35-40 deg)
@@ -65,6 +67,8 @@ class Impact:
     friction_law: str = "ambrosio"
     point: tuple[float, float] | None = None  # m, global, at first contact
     plane_angle: float | None = None  # rad, tangent of the contact plane, CCW from +x
+    engagement: bool = False  # point = "engagement": point and plane at engagement_depth (impulse model, §4)
+    engagement_depth: float = ENGAGEMENT_DEPTH  # m
 
 
 @dataclasses.dataclass(frozen=True)

@@ -8,7 +8,7 @@ import dataclasses
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError, WrapValidator
 
 from . import uncertainty
 from .errors import InputError
@@ -16,6 +16,8 @@ from .scene import (
     ANGLE_MAX,
     BARRIER_SIZE,
     DURATION_MAX,
+    ENGAGEMENT_DEPTH,
+    ENGAGEMENT_DEPTH_MAX,
     FRICTION_MAX,
     POSITION_MAX,
     SPEED_MAX,
@@ -61,22 +63,34 @@ class RoadFile(_Strict):
     zones: list[ZoneFile] = Field(default_factory=list, description="friction polygons; later zones win")
 
 
+def _point_or_engagement(value, handler):
+    """[impact] point: a position [x, y], or the word "engagement" (docs/physics.md §4)."""
+    return value if value == "engagement" else handler(value)
+
+
 class ImpactFile(_Strict):
     restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
                            description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
-    law: Literal["kudlich-slibar", "brach"] = Field(
+    law: Literal["kudlich-slibar", "brach", "routh"] = Field(
         default="kudlich-slibar", description="impulse law of the planar impulse models (docs/physics.md §3): "
-        "kudlich-slibar (PC-Crash, Poisson type) or brach (Newton type)")
+        "kudlich-slibar (PC-Crash, Poisson type), brach (Newton type) or routh (friction follows the slip as it "
+        "stops, sticks or reverses; energetic restitution)")
     force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
                        "exact-restitution"] = Field(
         default="flores", description="normal contact-force law of the continuous-contact models (multibody, "
         "exudyn); its damping follows the restitution")
     friction_law: Literal["coulomb", "threlfall", "ambrosio"] = Field(
         default="ambrosio", description="regularised friction law of the continuous-contact models")
-    point: tuple[Position, Position] | None = Field(
-        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}")
+    point: Annotated[tuple[Position, Position] | None, WrapValidator(_point_or_engagement)] = Field(
+        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}; or \"engagement\" "
+        "(impulse model): the point and contact plane where the outlines, moved along their velocities from first "
+        "touch, overlap by engagement_depth (docs/physics.md §4)")
     plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")
+    engagement_depth: Real = Field(default=ENGAGEMENT_DEPTH, gt=0, le=ENGAGEMENT_DEPTH_MAX,
+                                   description="m, overlap of the outlines at engagement (point = \"engagement\"); "
+                                   f"(0, {ENGAGEMENT_DEPTH_MAX:g}]; default 0.5 m: Campbell's linear crush at 50 "
+                                   "km/h into a rigid barrier, the calibration of crush_time (docs/physics.md §4)")
 
 
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\x7f]+$",
@@ -211,6 +225,11 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
     zones = tuple(Zone(friction=z.friction, polygon=tuple(tuple(p) for p in z.polygon), name=z.name or f"zone {k}")
                   for k, z in enumerate(f.road.zones))
     imp = f.impact
+    engagement = imp.point == "engagement"
+    if engagement and imp.plane_angle is not None:
+        raise InputError(source, "impact.plane_angle", 'not with point = "engagement" (the plane follows the overlap)')
+    if engagement:
+        imp = imp.model_copy(update={"point": None})
     if (imp.point is None) != (imp.plane_angle is None):
         raise InputError(source, "impact.point" if imp.point is None else "impact.plane_angle",
                          "point and plane_angle are given together or not at all")
@@ -221,7 +240,8 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
         impact=Impact(restitution=imp.restitution, friction=imp.friction, law=imp.law,
                       force_law=imp.force_law, friction_law=imp.friction_law,
                       point=None if imp.point is None else tuple(imp.point),
-                      plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle)),
+                      plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle),
+                      engagement=engagement, engagement_depth=imp.engagement_depth),
         barriers=tuple(Barrier(b.x, b.y, deg_to_rad(b.heading), b.length, b.width) for b in f.barriers),
         duration=f.duration,
         stop_at_rest=f.stop_at_rest,

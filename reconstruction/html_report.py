@@ -22,6 +22,7 @@ import numpy as np
 
 from crashlab.version import package_version
 
+from .evidence import UNITS
 from .problem import variable_unit
 
 REPORT_NAME = "report.html"
@@ -177,7 +178,7 @@ def evidence_section(study) -> str:
         return ("<h2>Evidence</h2>\n" + twin + "<p>Measured rest poses (the thesis objective: "
                 "f_&lt;vehicle&gt; = |r - r*| + heading_weight |dpsi| [m]; no standard deviations).</p>\n"
                 + table(["vehicle", "x [m]", "y [m]", "heading [deg]"], rows, table_id="evidence"))
-    unit = {"x": "m", "y": "m", "heading": "deg", "speed_at_impact": "km/h", "delta_v": "km/h"}
+    unit = UNITS  # crashlab.reconstruction.evidence: one unit table
     rows = []
     for it in es.items:
         if it.kind == "marks":

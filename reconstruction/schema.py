@@ -18,7 +18,7 @@ from crashlab.execution import DEFAULT_TIMEOUT_S
 from crashlab.fields import study_path
 
 VEHICLE_FIELDS = ("x", "y", "heading", "speed")
-IMPACT_FIELDS = ("restitution", "friction")
+IMPACT_FIELDS = ("restitution", "friction", "engagement_depth")
 # a driver action's value (vehicle given): actions.K.t|brake|steer|ramp; the road: road.friction and a zone's
 # friction zones.K.friction (no vehicle); docs/physics.md §2a
 ACTION_FIELD = re.compile(r"^actions\.(\d+)\.(t|brake|steer|ramp)$")

@@ -202,7 +202,7 @@ def test_approach_scene_parts_the_cars_along_their_velocities():
 def test_impact_laws_are_the_schemas():
     import typing
 
-    from crashlab.scene import ImpactFile
+    from crashlab.scene_file import ImpactFile
     assert validation.IMPACT_LAWS == typing.get_args(ImpactFile.model_fields["law"].annotation)
     assert {"kudlich-slibar", "brach"} <= set(validation.IMPACT_LAWS)
     t = _tests("ricsac3")[0]

@@ -246,7 +246,7 @@ def _annotation(field, hint):
 
 
 def _placeholder(name: str) -> str:
-    return "vehicle" if name in ("rest", "edr", "reference") else "name"
+    return "vehicle" if name in ("rest", "edr", "reference", "damage") else "name"
 
 
 def missing_descriptions(model, extras=None) -> list[str]:

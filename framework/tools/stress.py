@@ -3,7 +3,7 @@
 `random_scenes(n, seed)` draws two-vehicle crashes from a documented space: library vehicles with their mass
 overridden to 700-3000 kg (inertias scaled with the mass), speeds 5-200 km/h (the struck car standing in a
 quarter of the scenes), any impact angle, a lateral offset of the paths up to 1 m, every wheel state,
-restitution 0-0.5, vehicle-vehicle friction 0.1-0.6, road friction 0.3-1.0, both impulse laws, and a rigid
+restitution 0-0.5, vehicle-vehicle friction 0.1-0.6, road friction 0.3-1.0, the three impulse laws, and a rigid
 barrier in one scene of eight; `extreme_scenes()` adds 200 km/h into a wall, into a standing car and
 head-on, 700 against 3000 kg, and a 2 deg grazing contact. `sweep(model, scenes)` runs each scene and tabulates
 what the guard says.
@@ -91,7 +91,7 @@ def random_scenes(n: int, seed: int = 0) -> list:
         if v2 is not None and rng.random() < 0.25:
             v2["speed"] = 0.0
         impact = {"restitution": float(rng.uniform(0.0, 0.5)), "friction": float(rng.uniform(0.1, 0.6)),
-                  "law": str(rng.choice(["kudlich-slibar", "brach"]))}
+                  "law": str(rng.choice(["kudlich-slibar", "brach", "routh"]))}
         scene = crash_scene(f"random {seed}:{k}", v1, v2, float(rng.uniform(0, 360)), float(rng.uniform(-1, 1)),
                        impact, float(rng.uniform(0.3, 1.0)), barrier)
         k += 1

@@ -31,7 +31,8 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     per side s (0: i, 1: j; side 1 is not read for a barrier): dv[s] = (dvx, dvy, d_yaw_rate) [m/s, rad/s],
     push[s] = (fx, fy) the impulse or summed contact force on that vehicle (global; only its direction is
     used, for the PDOF), heading[s] [rad] the heading the PDOF is measured from; point = (x, y) [m],
-    plane [rad] the contact plane; kind: "full", "sliding" or "continuous"; extra: further keys of every row.
+    plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; extra: further keys of
+    every row (the impulse model: slip_reversed).
     """
     nv = len(names)
     inv_i, inv_j = 1.0 / mass[i], (1.0 / mass[j] if j < nv else 0.0)

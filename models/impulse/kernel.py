@@ -26,7 +26,14 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration, rect_corners_into
+from crashlab.geometry import (
+    clip_convex,
+    contact_zone_centroid,
+    outline_crossings,
+    overlap_centroid,
+    penetration,
+    rect_corners_into,
+)
 from crashlab.models.common.driver_inputs import (
     PATCH,
     ahead,
@@ -53,19 +60,23 @@ from crashlab.models.common.planar_vehicle import (
 from crashlab.models.common.wheel_states import BRAKED, ROLLING
 from crashlab.units import G
 
-from .laws import collision_impulse, impact_matrix
+from .laws import checked_impulse, collision_impulse, impact_matrix
 
 # configuration vector
 (C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
  C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME,
- C_BROAD_PHASE, C_SLEEPING) = range(21)
-N_CFG = 21
+ C_BROAD_PHASE, C_SLEEPING, C_ENGAGE, C_ENGAGE_DEPTH) = range(23)
+N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engagement_depth (_engagement)
 # impact record
 # impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
 # summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
+# I_REVERSED: the slip stops and reverses on Routh's path (laws.checked_impulse); the impact's own impulse
+# (I_OWN_*: n-t frame, yaw-rate changes of i and j) and Routh's for it (I_ALT_*), for the warning of a law
+# that does not follow the reversal (model._slip_warnings)
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
- I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW) = range(20)
-N_IMP = 20
+ I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
+ I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J) = range(29)
+N_IMP = 29
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
  D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
@@ -271,8 +282,10 @@ def _kinetic(P, S, k, nv):
 
 
 @njit(cache=True)
-def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law):
-    """Exchange the impulse at (px, py) with normal n (from i to j). Returns (pn, pt, kind, energy, gn)."""
+def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law, alt):
+    """Exchange the impulse at (px, py) with normal n (from i to j). Returns (pn, pt, kind, energy, gn);
+    for an impact (alt = the impact's row of `imp`, else an empty array) also writes the slip-reversal
+    check and Routh's impulse for the same impact there (laws.checked_impulse; I_REVERSED, I_OWN_*, I_ALT_*)."""
     w1, iI1 = 1.0 / P[i, P_MASS], 1.0 / P[i, P_IZ]
     w2, iI2 = 0.0, 0.0
     if j < nv:
@@ -289,7 +302,16 @@ def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law):
     if gn >= 0.0:
         return 0.0, 0.0, -1, 0.0, gn
     knn, ktt, knt = impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny)
-    pn, pt, kind = collision_impulse(knn, ktt, knt, gn, gt, e, mu, law)
+    if alt.shape[0] > 0:
+        pn, pt, kind, rev, apn, apt = checked_impulse(knn, ktt, knt, gn, gt, e, mu, law)
+        a1, b1 = r1x * ny - r1y * nx, r1x * ty - r1y * tx  # r x n, r x t: yaw-rate change per impulse
+        a2, b2 = r2x * ny - r2y * nx, r2x * ty - r2y * tx
+        alt[I_REVERSED] = 1.0 if rev else 0.0
+        alt[I_OWN_PN], alt[I_OWN_PT], alt[I_ALT_PN], alt[I_ALT_PT] = pn, pt, apn, apt
+        alt[I_OWN_DR_I], alt[I_OWN_DR_J] = -(a1 * pn + b1 * pt) * iI1, (a2 * pn + b2 * pt) * iI2
+        alt[I_ALT_DR_I], alt[I_ALT_DR_J] = -(a1 * apn + b1 * apt) * iI1, (a2 * apn + b2 * apt) * iI2
+    else:
+        pn, pt, kind = collision_impulse(knn, ktt, knt, gn, gt, e, mu, law)
     ix, iy = pn * nx + pt * tx, pn * ny + pt * ty
     ke0 = _kinetic(P, S, i, nv) + _kinetic(P, S, j, nv)
     S[i, 3] -= ix * w1
@@ -300,6 +322,69 @@ def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law):
         S[j, 4] += iy * w2
         S[j, 5] += (r2x * iy - r2y * ix) * iI2
     return pn, pt, kind, ke0 - _kinetic(P, S, i, nv) - _kinetic(P, S, j, nv), gn
+
+
+@njit(cache=True)
+def _advanced(P, S, B, k, nv, tau, out):
+    """The outline of vehicle or barrier k moved tau along its CG velocity (a barrier stays)."""
+    if k >= nv:
+        return _outline(P, S, B, k, nv, out)
+    return rect_corners_into(out, S[k, 0] + tau * S[k, 3], S[k, 1] + tau * S[k, 4], math.cos(S[k, 2]),
+                             math.sin(S[k, 2]), P[k, P_FRONT], P[k, P_REAR], P[k, P_HALFW])
+
+
+@njit(cache=True)
+def _engagement(P, S, B, i, k, nv, depth, nx, ny, oa, ob):
+    """The point of impact and contact normal at engagement (docs/physics.md §4): the outlines of i and k
+    moved along their CG velocities (no turning) until their overlap (`penetration` depth) reaches `depth` (bisection);
+    the point at the overlap's centroid, moved back by half the pair's mean displacement (between the two
+    crush zones, as contact_zone_centroid), the contact plane along the line through the two points where
+    the outlines' boundaries cross (the two farthest apart if more), the normal oriented as the onset normal
+    (nx, ny), from i to k. NaN where the overlap never reaches `depth` within 128 depth / closing speed, the
+    boundaries cross fewer than twice, or the pair does not approach at that point along that normal: the
+    caller keeps the contact-zone point."""
+    vix, viy = S[i, 3], S[i, 4]
+    vkx, vky = (S[k, 3], S[k, 4]) if k < nv else (0.0, 0.0)
+    closing = math.hypot(vkx - vix, vky - viy)
+    if closing <= 0.0 or depth <= 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    hi, reached = depth / closing, False
+    for _ in range(8):  # bracket: 1, 2, 4, ... 128 x depth / closing speed
+        if penetration(_advanced(P, S, B, i, nv, hi, oa), _advanced(P, S, B, k, nv, hi, ob))[0] >= depth:
+            reached = True
+            break
+        hi *= 2.0
+    if not reached:
+        return math.nan, math.nan, math.nan, math.nan
+    lo = 0.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if penetration(_advanced(P, S, B, i, nv, mid, oa), _advanced(P, S, B, k, nv, mid, ob))[0] >= depth:
+            hi = mid
+        else:
+            lo = mid
+    ca, cb = _advanced(P, S, B, i, nv, hi, oa), _advanced(P, S, B, k, nv, hi, ob)
+    cx, cy, _ = overlap_centroid(ca, cb)
+    pts, n = outline_crossings(ca, cb)
+    if n < 2 or math.isnan(cx):
+        return math.nan, math.nan, math.nan, math.nan
+    best, ta, tb = -1.0, 0, 1
+    for a in range(n):
+        for b in range(a + 1, n):
+            d = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
+            if d > best:
+                best, ta, tb = d, a, b
+    if best <= 1e-9:
+        return math.nan, math.nan, math.nan, math.nan
+    ex, ey = (pts[tb, 1] - pts[ta, 1]) / best, -(pts[tb, 0] - pts[ta, 0]) / best  # normal of that line
+    if ex * nx + ey * ny < 0.0:
+        ex, ey = -ex, -ey
+    px, py = cx - 0.5 * hi * (vix + vkx), cy - 0.5 * hi * (viy + vky)
+    v1x, v1y = _point_velocity(S, i, nv, px, py)
+    v2x, v2y = _point_velocity(S, k, nv, px, py)
+    if (v2x - v1x) * ex + (v2y - v1y) * ey >= 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    return px, py, ex, ey
 
 
 @njit(cache=True)
@@ -376,6 +461,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     tol, v_rest, max_imp = cfg[C_ONSET_TOL], cfg[C_V_REST], min(int(cfg[C_MAX_IMPACTS]), imp.shape[0])
     broad, sleeping = cfg[C_BROAD_PHASE] > 0.5, cfg[C_SLEEPING] > 0.5  # study switches (comparison scaling)
     S = S0.copy()
+    no_alt = np.empty(0)
     Snew = np.empty_like(S)
     S_before = np.empty_like(S)
     k1 = np.empty_like(S)
@@ -460,7 +546,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
         diag[D_CONTACT_T] = 0.0
         S_before[:] = S
-        pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, e, mu_imp, law)
+        pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, e, mu_imp, law, imp[0])
         if kind < 0:
             status = STATUS_NOT_APPROACHING
         else:
@@ -665,15 +751,23 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                         status = STATUS_IMPACT_CAP
                         stop = True
                         break
-                    # the point: the middle of the contact zone the approach will crush
-                    zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
-                                                      _outline(P, S, B, k, nv, ob),
-                                                      nx, ny, cfg[C_CRUSH_TIME] * approach)
+                    # the point: the middle of the contact zone the approach will crush, or (point =
+                    # "engagement") the overlap's centroid at engagement with its contact plane
+                    zx = math.nan
+                    if cfg[C_ENGAGE] > 0.5:
+                        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx, ny, oa, ob)
+                        if not math.isnan(zx):
+                            nx, ny = ex, ey
+                    if math.isnan(zx):
+                        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
+                                                          _outline(P, S, B, k, nv, ob),
+                                                          nx, ny, cfg[C_CRUSH_TIME] * approach)
                     if not math.isnan(zx):
                         px, py = zx, zy
                 e_k = e if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
                 S_before[:] = S
-                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, mu_imp, law)
+                alt = imp[n_imp] if is_impact else no_alt  # (the impact's row: its slip-reversal check)
+                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, mu_imp, law, alt)
                 if kind < 0:
                     continue
                 active = True

@@ -1,4 +1,4 @@
-"""Planar impulse-momentum collision laws (docs/physics.md §3): Kudlich-Slibar (PC-Crash) and Brach.
+"""Planar impulse-momentum collision laws (docs/physics.md §3): Kudlich-Slibar (PC-Crash), Brach and Routh.
 
 Sign conventions: n is the unit contact normal from vehicle 1 to vehicle 2, t = k x n the tangent;
 r1, r2 lead from each CG to the point of impact; g = relative velocity of 2 with respect to 1 at the
@@ -6,12 +6,19 @@ point (g_n < 0: approaching); the impulse P = Pn n + Pt t acts on vehicle 2 and 
 Inverse masses and inertias allow a rigid barrier (w = iI = 0).
 """
 
+import math
+
 from numba.extending import register_jitable
 
 KUDLICH_SLIBAR = 0
 BRACH = 1
-FULL = 0
-SLIDING = 1
+ROUTH = 2
+FULL = 0  # the impact's kind: the slip ends (or stays) zero (Routh: sticks)
+SLIDING = 1  # it slides throughout, in one direction
+REVERSED = 2  # (Routh) the slip stops and reverses
+# a tangential velocity at the point within SLIP_TOL of the normal one is no slip (§3): the friction's
+# direction never hangs on round-off (a contact plane entered at 90 or -90 deg leaves |g_t| ~ 1e-16 |g_n|)
+SLIP_TOL = 1e-9
 
 
 @register_jitable
@@ -30,7 +37,11 @@ def impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny):
 
 @register_jitable
 def collision_impulse(knn, ktt, knt, gn, gt, e, mu, law):
-    """Normal and tangential impulse (Pn, Pt) on vehicle 2, and FULL or SLIDING (§3)."""
+    """Normal and tangential impulse (Pn, Pt) on vehicle 2, and FULL or SLIDING (Routh: or REVERSED) (§3)."""
+    if law == ROUTH:
+        return routh_impulse(knn, ktt, knt, gn, gt, e, mu)
+    if abs(gt) <= SLIP_TOL * abs(gn):
+        gt = 0.0  # no slip (SLIP_TOL)
     d = knn * ktt - knt * knt
     if law == KUDLICH_SLIBAR:
         # common velocity at the end of compression, restitution on the whole impulse: g' = -e g
@@ -89,3 +100,56 @@ def energy_limited(knn, ktt, knt, gn, gt, e, pn, pt):
             hi = mid
     pn = -(1.0 + e) * gn / (knn + lo * knt)
     return pn, lo * pn
+
+
+@register_jitable
+def routh_impulse(knn, ktt, knt, gn, gt, e, mu):
+    """Routh's impulse-space solution (§3; Stronge, Impact Mechanics, 2000): (Pn, Pt, kind).
+
+    The normal impulse p is the clock. While the point slips (sign sg), friction opposes the current slip,
+    dPt/dp = -sg mu; where the slip stops the point sticks (dPt/dp = -K_nt/K_tt keeps g_t = 0) if
+    |K_nt| <= mu K_tt, else it slips the other way (sign of K_nt) and then never stops. So g(p) is
+    linear in p on at most two phases. Compression ends where g_n = 0; restitution goes on until the
+    normal impulse's work is e^2 times minus its work in compression (Stronge's energetic coefficient).
+    Each phase's work is (g_end^2 - g_start^2) / (2 dg_n/dp), so the ends are closed-form."""
+    d = knn * ktt - knt * knt
+    stick = abs(knt) <= mu * ktt
+    if stick:  # after the slip stops (or without slip): sticking
+        l2, a2 = -knt / ktt, d / ktt
+    else:  # the slip reverses (or starts) toward the sign of K_nt
+        l2 = -mu if knt > 0.0 else mu
+        a2 = knn + knt * l2
+    if abs(gt) <= SLIP_TOL * abs(gn):  # no initial slip: one phase
+        pf = -(1.0 + e) * gn / a2
+        return pf, l2 * pf, FULL if stick else SLIDING
+    sg = 1.0 if gt > 0.0 else -1.0
+    l1 = -sg * mu  # dPt/dp while the initial slip lasts
+    a1, b1 = knn + knt * l1, knt + ktt * l1  # dg_n/dp, dg_t/dp
+    p1 = -gt / b1 if sg * b1 < 0.0 else math.inf  # where the slip stops
+    g1 = gn + a1 * p1 if p1 < math.inf else math.inf  # g_n there
+    if g1 >= 0.0:  # compression ends within the first phase (then a1 > 0)
+        pc = -gn / a1
+        if p1 >= (1.0 + e) * pc:  # and restitution too: slip never stops, one phase (Newton = Poisson)
+            pf = (1.0 + e) * pc
+            return pf, l1 * pf, SLIDING
+        wr = -0.5 * e * e * gn * pc - 0.5 * a1 * (p1 - pc) ** 2  # restitution work left for phase 2
+        gf = math.sqrt(g1 * g1 + 2.0 * a2 * wr)
+        pf = p1 + 2.0 * wr / (g1 + gf) if g1 + gf > 0.0 else p1
+    else:  # the slip stops during compression
+        wc = 0.5 * (gn + g1) * p1 - 0.5 * g1 * g1 / a2  # normal impulse's work in compression (< 0)
+        pc = p1 - g1 / a2
+        pf = pc + e * math.sqrt(-2.0 * wc / a2)
+    kind = FULL if stick else (REVERSED if mu > 0.0 else SLIDING)
+    return pf, l1 * p1 + l2 * (pf - p1), kind
+
+
+@register_jitable
+def checked_impulse(knn, ktt, knt, gn, gt, e, mu, law):
+    """collision_impulse of the law, and whether the slip stops and reverses on Routh's path for the same
+    impact (K, initial slip, mu), with Routh's impulse: (Pn, Pt, kind, reversed, Pn_routh, Pt_routh).
+    Kudlich-Slibar and Brach keep friction against the initial slip throughout: wrong where it reverses (§3)."""
+    pn, pt, kind = collision_impulse(knn, ktt, knt, gn, gt, e, mu, law)
+    if law == ROUTH:
+        return pn, pt, kind, kind == REVERSED, pn, pt
+    rpn, rpt, rkind = routh_impulse(knn, ktt, knt, gn, gt, e, mu)
+    return pn, pt, kind, rkind == REVERSED, rpn, rpt

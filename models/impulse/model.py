@@ -11,16 +11,18 @@ from pydantic import model_validator
 from crashlab.diagnostics import Diagnostics
 from crashlab.model import CollisionModel
 from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
-from crashlab.models.common.impact_rows import pair_rows
+from crashlab.models.common.impact_rows import barrier_name, pair_rows
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.scene import given_pair
+from crashlab.units import ms_to_kmh
 
 from . import kernel as K
-from .laws import BRACH, FULL, KUDLICH_SLIBAR
+from .laws import BRACH, FULL, KUDLICH_SLIBAR, REVERSED, ROUTH, SLIDING
 
-LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH}
+LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH, "routh": ROUTH}
+KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed"}
 STATUS_TEXT = {K.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
                K.STATUS_IMPACT_CAP: "more impacts than max_impacts: the run was stopped there",
                K.STATUS_NAN: "the state became NaN",
@@ -61,6 +63,13 @@ class ImpulseModel(CollisionModel):
     case 3 (V1 at 0 deg into V2's side at 90 deg) sits exactly there: V1's rest heading is 53 deg at
     0 deg and -3 or 105 deg at +-0.05 deg; with the zone 53 +- 1 deg over +-0.5 deg, and a search with
     heading evidence finds the truth (twin 2: 0.000 m at ten seeds against 1.04-1.14 m).
+    With [impact] point = "engagement" the point and plane come instead from the outlines moved along their
+    velocities until they overlap by the scene's engagement_depth (kernel._engagement, docs/physics.md §4).
+
+    Impact laws (docs/physics.md §3): kudlich-slibar and brach (friction against the initial slip, PC-Crash
+    style) or routh (friction follows the slip as it stops, sticks or reverses). For the first two every
+    impact is also solved on Routh's path (laws.checked_impulse): where its slip reverses, the row says
+    slip_reversed and the outcome warns with the error of the law there.
 
     Sustained contact. An impulse model resolves an impact in an instant, but after it the pair can stay
     in touch: a rolling striker pushes a braked car, a car slides along a wall, a car is squeezed between
@@ -147,6 +156,7 @@ class ImpulseModel(CollisionModel):
         cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
         cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
         cfg[K.C_CRUSH_TIME] = self.crush_time
+        cfg[K.C_ENGAGE], cfg[K.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
         cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
         A, NA = pack_action_tables(scene.vehicles)
         return P, S0, B, cfg, A, NA, pack_zones(scene.road)
@@ -214,6 +224,8 @@ class ImpulseModel(CollisionModel):
                    "vehicle_steps": int(d[K.D_VEHICLE_STEPS]), "outline_tests": int(d[K.D_NARROW])})
         if n_imp == 0:
             warnings.append("no contact between the vehicles")
+        if scene.impact.law != "routh":
+            warnings += _slip_warnings(names, P[:, P_MASS], imp, scene.impact.law)
         return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[K.D_CONTACT_T], None, rows,
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
                        impact_energy=imp[:, K.I_ENERGY].copy())
@@ -230,6 +242,33 @@ def _impact_rows(names, mass, imp):
         dv = ((r[K.I_DVX_I], r[K.I_DVY_I], r[K.I_DR_I]), (r[K.I_DVX_J], r[K.I_DVY_J], r[K.I_DR_J]))
         rows += pair_rows(names, mass, int(r[K.I_I]), int(r[K.I_J]), r[K.I_T], r[K.I_ENERGY], dv,
                           ((-ix, -iy), (ix, iy)), (r[K.I_HEAD_I], r[K.I_HEAD_J]), (r[K.I_PX], r[K.I_PY]), plane,
-                          "full" if int(r[K.I_KIND]) == FULL else "sliding",
-                          t_end=r[K.I_T_END], contact_impulses=int(r[K.I_N_FOLLOW]))
+                          KIND_TEXT[int(r[K.I_KIND])], t_end=r[K.I_T_END],
+                          contact_impulses=int(r[K.I_N_FOLLOW]), slip_reversed=bool(r[K.I_REVERSED]))
     return rows
+
+
+def _slip_warnings(names, mass, imp, law):
+    """A warning per impact whose slip stops and reverses on Routh's path (I_REVERSED), which `law`
+    (friction against the initial slip throughout) gets wrong: its delta-V, direction and yaw-rate changes
+    beside Routh's for the impact's own impulse (docs/physics.md §3)."""
+    out = []
+    nv = len(names)
+    for n, r in enumerate(imp):
+        if r[K.I_REVERSED] < 0.5:
+            continue
+        i, j = int(r[K.I_I]), int(r[K.I_J])
+        own, alt = math.hypot(r[K.I_OWN_PN], r[K.I_OWN_PT]), math.hypot(r[K.I_ALT_PN], r[K.I_ALT_PT])
+        off = math.degrees(abs(math.remainder(math.atan2(r[K.I_OWN_PT], r[K.I_OWN_PN])
+                                              - math.atan2(r[K.I_ALT_PT], r[K.I_ALT_PN]), 2.0 * math.pi)))
+        sides = [(i, K.I_OWN_DR_I, K.I_ALT_DR_I)] + ([(j, K.I_OWN_DR_J, K.I_ALT_DR_J)] if j < nv else [])
+        dv = ", ".join(f"{names[q]} {ms_to_kmh(own / mass[q]):.1f} instead of {ms_to_kmh(alt / mass[q]):.1f} km/h"
+                       for q, _, _ in sides)
+        yaw = ", ".join(f"{names[q]} {math.degrees(r[o]):.0f} instead of {math.degrees(r[a]):.0f} deg/s"
+                        for q, o, a in sides)
+        other = names[j] if j < nv else barrier_name(j - nv)
+        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[K.I_T]:.3f} s): the slip at the point of impact "
+                   f"stops and reverses, which law = \"{law}\" does not follow (friction against the initial slip, or "
+                   f"sticking where it cannot stick): delta-V "
+                   f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
+                   f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
+    return out
