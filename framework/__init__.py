@@ -1,5 +1,4 @@
 """crashlab: vehicle collision models compared, and accidents reconstructed by multi-objective search."""
-from . import numba_cache  # noqa: F401  (keys numba's cache directory before numba loads)
 from .errors import InputError
 from .model import CollisionModel
 from .outcome import Outcome

@@ -1,17 +1,22 @@
-"""Numba's cache directory, keyed on the crashlab sources (imported first by crashlab)."""
+"""Where numba keeps the compiled models: a directory keyed on the crashlab sources.
+
+Numba's on-disk cache keys a compiled function on its own file only, not on the modules it calls into
+(geometry, tyre forces, impact laws); a stale kernel would silently run old physics. `configure()` points
+numba's cache (numba.config.CACHE_DIR; the environment is left as it is) at
+~/.cache/crashlab/numba/<key> (XDG_CACHE_HOME respected), the key taken from the size and time of every
+crashlab source file, so any edit recompiles. The package of the compiled models (crashlab.models) calls it
+when it is imported, before any kernel is compiled; worker processes import it too and find the same
+directory. A user's NUMBA_CACHE_DIR wins: then nothing is changed.
+"""
+from __future__ import annotations
+
+import hashlib
 import os
+from pathlib import Path
 
 
-def key_cache_dir() -> None:
-    """Numba's on-disk cache keys a compiled function on its own file only, not on the modules it calls
-    into (geometry, tyre forces, impact laws); a stale kernel would silently run old physics. Keying the
-    cache directory on the state of every crashlab source file makes any edit recompile. A user's own
-    NUMBA_CACHE_DIR is respected; nothing is done once numba is imported."""
-    import hashlib
-    import sys
-    from pathlib import Path
-    if "NUMBA_CACHE_DIR" in os.environ or "numba" in sys.modules:
-        return
+def cache_dir() -> Path:
+    """~/.cache/crashlab/numba/<key of the crashlab sources>."""
     root = Path(__file__).resolve().parent
     dirs = {root, root.parent / "models", root.parent / "optimizers", root / "models", root / "optimizers"}
     h = hashlib.sha1()
@@ -20,7 +25,14 @@ def key_cache_dir() -> None:
             st = f.stat()
             h.update(f"{f}:{st.st_size}:{st.st_mtime_ns}".encode())
     base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "crashlab" / "numba"
-    os.environ["NUMBA_CACHE_DIR"] = str(base / h.hexdigest()[:16])
+    return base / h.hexdigest()[:16]
 
 
-key_cache_dir()
+def configure() -> Path | None:
+    """Numba's cache directory set to cache_dir(), unless the user set NUMBA_CACHE_DIR (then None)."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return None
+    from numba.core import config
+    path = cache_dir()
+    config.CACHE_DIR = str(path)
+    return path

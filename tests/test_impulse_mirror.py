@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from crashlab.stress import VEHICLES, WHEEL_STATES, crash_scene, random_scenes
+from crashlab.tools.stress import VEHICLES, WHEEL_STATES, crash_scene, random_scenes
 
 LAWS = ("kudlich-slibar", "brach", "routh")
 MIRROR_TOL = 1e-9  # relative to max(1, |value|) (m, rad, m/s, rad/s, J)
