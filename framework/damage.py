@@ -4,7 +4,7 @@ for two vehicles, the delta-V from their energies and masses (docs/physics.md §
 A crush profile is n = 2, 4 or 6 residual crush depths C1..Cn [m], measured at equal spacing over the damaged
 width L [m] of one side of the vehicle (front, rear or side), from left to right seen from outside the vehicle
 (the order only matters for the centroid of the damage). The side's CRASH3 stiffness A [N/m], B [N/m^2] comes
-from the vehicle file's [structure] (crashlab.vehicle.Structure; the class default when the file gives none).
+from the vehicle file's [structure] (crashlab.structure.Structure; the class default when the file gives none).
 
 Conventions (those of the impact rows, docs/physics.md §21): PDOF in degrees in vehicle axes, the direction
 the force comes from, 0 = from straight ahead, counter-clockwise positive (+90 from the left); the damage
@@ -26,8 +26,9 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, Strict
 
 from .errors import InputError
+from .structure import STRUCTURE_SIDES, Structure
 from .units import wrap_deg
-from .vehicle import STRUCTURE_SIDES, Structure, VehicleSpec
+from .vehicle import VehicleSpec
 
 PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
 PDOF_LIMIT = 45.0  # deg: the largest angle between the force and the side's normal the correction is used for

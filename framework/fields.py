@@ -34,6 +34,8 @@ import math
 import re
 from typing import Callable, Sequence
 
+import numpy as np
+
 from .scene import (
     ANGLE_MAX,
     DURATION_MAX,
@@ -111,6 +113,12 @@ class Field:
     def from_si(self, value: float) -> float:
         f = _FROM_SI.get(self.quantity)
         return float(value) if f is None else f(float(value))
+
+    def to_si_array(self, values) -> np.ndarray:
+        """to_si of every value of an array (the population's column of this field)."""
+        f = _TO_SI.get(self.quantity)
+        values = np.asarray(values, dtype=float)
+        return values if f is None else f(values)
 
 
 def parse(path: str) -> Field:

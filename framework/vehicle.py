@@ -15,12 +15,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from .errors import InputError
-
-# A number: int or float, never a bool or a string; NaN and inf are refused by allow_inf_nan=False.
-Real = Annotated[float, Strict()]
+from .file_numbers import Real, bounded
+from .structure import STRUCTURE_SIDES, StructureSection, structure_of
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
@@ -28,12 +27,6 @@ MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articula
 # (Clio: yaw 0.26, roll 0.27), a standing pedestrian near 0.3; below 0.1 is a unit slip or an inertia left
 # unscaled after a mass override (it also makes the yaw mode stiff enough to stall explicit integrators)
 GYRATION_SHARE = (0.1, 1.0)
-
-
-def _num(lo: float, hi: float, what: str, *, lo_open: bool = False, default=...):
-    """A Field for a number in [lo, hi] ((lo, hi] with lo_open); the bounds are part of its description."""
-    bounds = dict(gt=lo) if lo_open else dict(ge=lo)
-    return Field(default, le=hi, description=f"{what}; {'(' if lo_open else '['}{lo:g}, {hi:g}]", **bounds)
 
 
 class _MultibodyPart(BaseModel):
@@ -53,7 +46,7 @@ class MultibodyChassis(_MultibodyPart):
     # 2/eps: 2 is an ellipsoid, larger is boxier; below 2 the shape is not convex
     shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = \
         Field(None, description="2/eps of the superellipsoid; each in [2, 20] (convex)")
-    mass: Real | None = _num(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
+    mass: Real | None = bounded(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
     inertia: Positive3 | None = Field(None, description="kg m^2: Ixx, Iyy, Izz; each in (0, 1e7]")
 
 
@@ -63,20 +56,20 @@ class MultibodyWheel(_MultibodyPart):
         None, description="m, the wheel's superellipsoid about its centre; each in (0, 2]")
     shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = \
         Field(None, description="2/eps of the wheel's superellipsoid; each in [2, 20] (convex)")
-    mass: Real | None = _num(0.0, 2000.0, "kg, one wheel", lo_open=True, default=None)
+    mass: Real | None = bounded(0.0, 2000.0, "kg, one wheel", lo_open=True, default=None)
     inertia: Positive3 | None = Field(None, description="kg m^2, one wheel: Ixx, Iyy, Izz; each in (0, 1e7]")
 
 
 class MultibodyKnuckle(_MultibodyPart):
-    mass: Real | None = _num(0.0, 2000.0, "kg, one knuckle", lo_open=True, default=None)
+    mass: Real | None = bounded(0.0, 2000.0, "kg, one knuckle", lo_open=True, default=None)
 
 
 class MultibodySuspension(_MultibodyPart):
     chassis_points: tuple[tuple[Annotated[Real, Field(ge=-30, le=30)], ...], ...] | None = Field(
         None, description="m, four [x, y, z] points in the chassis frame, each coordinate in [-30, 30]")
-    stiffness: Real | None = _num(0.0, 1e8, "N/m per corner", lo_open=True, default=None)
-    damping: Real | None = _num(0.0, 1e7, "N s/m per corner", default=None)
-    free_length: Real | None = _num(0.0, 5.0, "m, unloaded strut length", lo_open=True, default=None)
+    stiffness: Real | None = bounded(0.0, 1e8, "N/m per corner", lo_open=True, default=None)
+    damping: Real | None = bounded(0.0, 1e7, "N s/m per corner", default=None)
+    free_length: Real | None = bounded(0.0, 5.0, "m, unloaded strut length", lo_open=True, default=None)
 
     @model_validator(mode="after")
     def _four_points(self):
@@ -87,16 +80,16 @@ class MultibodySuspension(_MultibodyPart):
 
 
 class MultibodyTyre(_MultibodyPart):
-    torus_radius_1: Real | None = _num(0.0, 1.5, "m, major radius of the tyre torus", lo_open=True, default=None)
-    torus_radius_2: Real | None = _num(0.0, 1.5, "m, minor radius of the tyre torus", lo_open=True, default=None)
-    radial_stiffness: Real | None = _num(0.0, 1e9, "N/m, radial tyre stiffness", lo_open=True, default=None)
-    longitudinal_slip_stiffness: Real | None = _num(0.0, 1e9, "N, longitudinal slip stiffness (force per unit slip)",
+    torus_radius_1: Real | None = bounded(0.0, 1.5, "m, major radius of the tyre torus", lo_open=True, default=None)
+    torus_radius_2: Real | None = bounded(0.0, 1.5, "m, minor radius of the tyre torus", lo_open=True, default=None)
+    radial_stiffness: Real | None = bounded(0.0, 1e9, "N/m, radial tyre stiffness", lo_open=True, default=None)
+    longitudinal_slip_stiffness: Real | None = bounded(0.0, 1e9, "N, longitudinal slip stiffness (force per unit slip)",
                                                        lo_open=True, default=None)
-    cornering_stiffness: Real | None = _num(0.0, 1e7, "N/rad, cornering stiffness of one tyre", lo_open=True,
+    cornering_stiffness: Real | None = bounded(0.0, 1e7, "N/rad, cornering stiffness of one tyre", lo_open=True,
                                                default=None)
-    camber_stiffness: Real | None = _num(0.0, 1e7, "N/rad, camber stiffness of one tyre", default=None)
-    rolling_resistance: Real | None = _num(0.0, 1.0, "-, rolling resistance coefficient", default=None)
-    radial_damping: Real | None = _num(0.0, 1e8, "N s/m, radial tyre damping", default=None)
+    camber_stiffness: Real | None = bounded(0.0, 1e7, "N/rad, camber stiffness of one tyre", default=None)
+    rolling_resistance: Real | None = bounded(0.0, 1.0, "-, rolling resistance coefficient", default=None)
+    radial_damping: Real | None = bounded(0.0, 1e8, "N s/m, radial tyre damping", default=None)
 
 
 class MultibodySection(_MultibodyPart):
@@ -110,77 +103,6 @@ class MultibodySection(_MultibodyPart):
 
 VEHICLE_CLASSES = ("small", "compact", "mid-size", "large", "SUV", "pickup", "van", "heavy")
 
-# ---------------------------------------------------------------- structure (CRASH3 stiffness, docs/physics.md §28)
-STRUCTURE_SIDES = ("front", "rear", "side")
-A_RANGE = (0.0, 2e6)   # N/m: cars 20-80e3 (front), a bus or truck front some 1e5-5e5
-B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
-
-
-class StructureSideFile(BaseModel):
-    """[structure.front], [structure.rear] or [structure.side]: the CRASH3 stiffness of that side."""
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-
-    A: Real = _num(*A_RANGE, "N/m, CRASH3 stiffness coefficient A: force per unit width at the onset of residual "
-                   "crush (F/w = A + B C)", lo_open=True)
-    B: Real = _num(*B_RANGE, "N/m^2, CRASH3 stiffness coefficient B: force per unit width per metre of residual "
-                   "crush; G = A^2 / 2B is the energy per unit width absorbed without residual crush", lo_open=True)
-    width: Real | None = _num(0.1, 30.0, "m, the width over which A and B hold (the widest damage they apply to); "
-                              "default the vehicle's width for front and rear, its length for a side; at most that",
-                              default=None)
-    source: str = Field("", description="where A and B come from; an estimated pair's source starts with "
-                        "'estimate:'", pattern=r"^[^\x00-\x1f\x7f]*$")
-
-
-# The class defaults and the library's estimates (docs/physics.md §28): Campbell's crash plot through the
-# no-damage speed b0, EBS = b0 + b1 C (C the residual crush), gives per unit of damaged width L
-#     A = m b0 b1 / L,   B = m b1^2 / L,   G = m b0^2 / (2 L)
-# (Campbell SAE 740565; CRASH3 Technical Manual, NHTSA DOT HS 805 732). One reference point per side:
-# side -> (b0 [m/s], reference EBS [m/s], residual crush C at that EBS [m], damaged width L of the test [m] or
-# None for the vehicle's width).
-CRUSH_REFERENCE = {
-    "front": (2.2, 15.6, 0.50, None),   # 5 mph no-damage; US NCAP 56 km/h full-width rigid barrier
-    "rear": (2.2, 9.9, 0.40, None),     # FMVSS 301 30 mph 1814 kg rigid moving barrier into a 1500 kg car, e = 0
-    "side": (0.9, 7.0, 0.30, 1.68),     # 2 mph; FMVSS 214-like moving deformable barrier, 1.68 m face
-}
-# class -> (mass [kg], width [m]): the means of the library's vehicles of each class
-CLASS_REFERENCE = {"small": (971.0, 1.630), "compact": (1171.0, 1.702), "mid-size": (1544.0, 1.837),
-                   "large": (1638.0, 1.850), "SUV": (1742.0, 1.796), "pickup": (1764.0, 1.842),
-                   "van": (2045.0, 1.962), "heavy": (18000.0, 2.550)}
-DEFAULT_CLASS = "mid-size"  # for a vehicle file without a class
-
-
-def crash_plot_coefficients(side: str, mass: float, width: float) -> tuple[float, float]:
-    """(A [N/m], B [N/m^2]) of the reference crash plot of `side` (CRUSH_REFERENCE) for a vehicle of `mass`
-    [kg] and `width` [m] (the damaged width of a front or rear test; a side test uses its barrier's)."""
-    b0, ebs, crush, test_width = CRUSH_REFERENCE[side]
-    b1 = (ebs - b0) / crush
-    w = test_width or width
-    return mass * b0 * b1 / w, mass * b1 * b1 / w
-
-
-def class_structure(vehicle_class: str | None) -> dict:
-    """side -> (A, B, source) of a class's default structure (docs/physics.md §28)."""
-    cls = vehicle_class if vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
-    mass, width = CLASS_REFERENCE[cls]
-    out = {}
-    for side in STRUCTURE_SIDES:
-        a, b = crash_plot_coefficients(side, mass, width)
-        b0, ebs, crush, test_width = CRUSH_REFERENCE[side]
-        out[side] = (a, b, f"estimate: class default of {cls!r}{'' if cls == vehicle_class else ' (no class given)'}"
-                     f": A = m b0 b1 / L, B = m b1^2 / L with m = {mass:g} kg, L = {test_width or width:g} m, "
-                     f"b0 = {b0:g} m/s, b1 = ({ebs:g} - {b0:g}) / {crush:g} m (docs/physics.md §28)")
-    return out
-
-
-class StructureSection(BaseModel):
-    """[structure] of a vehicle file: the sides that can be struck. A side not given takes the class default
-    (CLASS_STRUCTURE, docs/physics.md §28)."""
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-
-    front: StructureSideFile | None = Field(None, description="[structure.front]: the front (bumper to the "
-                                            "front axle and beyond)")
-    rear: StructureSideFile | None = Field(None, description="[structure.rear]: the rear")
-    side: StructureSideFile | None = Field(None, description="[structure.side]: either side (left and right alike)")
 # keys of a vehicle file that describe it (for people and `crashlab vehicles`) and reach no model
 METADATA_KEYS = ("class", "sources")
 
@@ -197,16 +119,16 @@ class VehicleFile(BaseModel):
     sources: dict[str, str] | None = Field(
         None, description="[sources] table: for each key of the file (a table such as multibody by its "
         "name) where its number comes from; an estimated number's entry starts with 'estimate:'")
-    mass: Real = _num(*MASS_RANGE, "kg, total")
+    mass: Real = bounded(*MASS_RANGE, "kg, total")
     yaw_inertia: Real = Field(gt=0, description="kg m^2 about the vertical axis through the CG; radius of "
                               "gyration sqrt(I/m) in 0.1-1 x the diagonal of length and width")
     roll_inertia: Real = Field(gt=0, description="kg m^2 about the longitudinal axis; radius of gyration "
                                "0.1-1 x the diagonal of width and height")
     pitch_inertia: Real = Field(gt=0, description="kg m^2 about the lateral axis; radius of gyration "
                                 "0.1-1 x the diagonal of length and height")
-    length: Real = _num(0.2, 30.0, "m, bumper to bumper")
-    width: Real = _num(0.2, 5.0, "m, overall width")
-    height: Real = _num(0.2, 6.0, "m, overall height")
+    length: Real = bounded(0.2, 30.0, "m, bumper to bumper")
+    width: Real = bounded(0.2, 5.0, "m, overall width")
+    height: Real = bounded(0.2, 6.0, "m, overall height")
     wheelbase: Real = Field(gt=0, description="m, front to rear axle; the axles lie inside the outline")
     track: Real = Field(gt=0, description="m, centre to centre of the wheels of an axle; at most the width")
     cg_to_front_axle: Real = Field(gt=0, description="m, CG to front axle (horizontal); shorter than the wheelbase and "
@@ -214,11 +136,11 @@ class VehicleFile(BaseModel):
     cg_to_front: Real | None = Field(default=None, gt=0, description="m, CG to front bumper; default "
                                      "length / 2; shorter than the length")
     cg_height: Real = Field(ge=0, description="m, CG above the road; below the height")
-    rolling_resistance: Real = _num(0.0, 1.0, "coefficient f_r (tyres on asphalt 0.01-0.015, sand 0.3)",
+    rolling_resistance: Real = bounded(0.0, 1.0, "coefficient f_r (tyres on asphalt 0.01-0.015, sand 0.3)",
                                     default=0.0)
-    cornering_stiffness: Real = _num(0.0, 1e6, "N/rad per tyre (cars 40-150e3, truck tyres to 5e5)",
+    cornering_stiffness: Real = bounded(0.0, 1e6, "N/rad per tyre (cars 40-150e3, truck tyres to 5e5)",
                                      lo_open=True, default=60e3)
-    wheel_radius: Real = _num(0.1, 1.5, "m, rolling radius of the wheels", default=0.3)
+    wheel_radius: Real = bounded(0.1, 1.5, "m, rolling radius of the wheels", default=0.3)
     multibody: MultibodySection | None = Field(None, description="[multibody]: data of the 3D multibody models "
                                                "(models/common/vehicle_3d.py; defaults there)")
     structure: StructureSection | None = Field(None, description="[structure]: CRASH3 stiffness A, B of the front, "
@@ -274,23 +196,6 @@ def _non_finite(data, path=()):
         if hit is not None:
             return hit
     return None
-
-
-@dataclasses.dataclass(frozen=True)
-class Structure:
-    """One side's CRASH3 stiffness (docs/physics.md §28): force per unit width F/w = A + B C for a residual
-    crush C, over `width` [m]; `default` when the vehicle file gave none and the class default is used."""
-
-    A: float       # N/m
-    B: float       # N/m^2
-    width: float   # m
-    source: str
-    default: bool = False
-
-    @property
-    def G(self) -> float:
-        """J/m, the energy per unit width absorbed without residual crush: A^2 / 2B."""
-        return self.A * self.A / (2.0 * self.B)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -430,65 +335,3 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
     if core["cg_to_front"] is None:
         core["cg_to_front"] = spec.length / 2
     return VehicleSpec(**core, sections=sections, structure=structure_of(spec))
-
-
-def structure_of(v: VehicleFile) -> dict:
-    """side -> Structure of a checked vehicle file: the file's [structure.<side>], else the class default."""
-    defaults = class_structure(v.vehicle_class)
-    out = {}
-    for side in STRUCTURE_SIDES:
-        given = getattr(v.structure, side) if v.structure is not None else None
-        extent = v.length if side == "side" else v.width
-        if given is None:
-            a, b, src = defaults[side]
-            out[side] = Structure(a, b, extent, src, default=True)
-        else:
-            out[side] = Structure(given.A, given.B, extent if given.width is None else given.width,
-                                  given.source or "not given")
-    return out
-
-
-def library_table() -> list[dict]:
-    """The library's vehicles with their key numbers (SI), one dict each, sorted by class then mass:
-    file (library name), name, class, mass, length, width, wheelbase, yaw_inertia, yaw_inertia_source
-    ('measured', 'estimate' or 'published', by the start of the file's [sources] entry), source (the yaw
-    inertia's entry), front_A [N/m], front_B [N/m^2] and structure_source ('class default' when the file has no
-    [structure.front], else 'estimate' or 'published' by the start of its source)."""
-    order = {c: i for i, c in enumerate(VEHICLE_CLASSES)}
-    rows = []
-    for ref in library():
-        spec = load_vehicle(ref)
-        path = Path(str(resources.files("crashlab").joinpath("vehicles", ref + ".toml")))
-        data = read_toml(path, "vehicle")
-        src = (data.get("sources") or {}).get("yaw_inertia", "")
-        rows.append(dict(file=ref, name=spec.name, vehicle_class=data.get("class", ""), mass=spec.mass,
-                         length=spec.length, width=spec.width, wheelbase=spec.wheelbase,
-                         yaw_inertia=spec.yaw_inertia,
-                         yaw_inertia_source=next((w for w in ("estimate", "measured")
-                                                  if src.lower().startswith(w)), "published" if src else ""),
-                         source=src, front_A=spec.structure["front"].A, front_B=spec.structure["front"].B,
-                         structure_source=_structure_kind(spec.structure["front"])))
-    rows.sort(key=lambda r: (order.get(r["vehicle_class"], len(order)), r["mass"], r["file"]))
-    return rows
-
-
-def _structure_kind(s: Structure) -> str:
-    if s.default:
-        return "class default"
-    return "estimate" if s.source.lower().startswith("estimate") else "published"
-
-
-def format_library_table(rows: list[dict] | None = None) -> str:
-    """`crashlab vehicles`: one line per library vehicle, units in the header; the front's CRASH3 stiffness
-    and whether it is the file's (estimate or published) or the class default (docs/physics.md §28)."""
-    rows = library_table() if rows is None else rows
-    head = (f"{'vehicle':<16} {'class':<9} {'mass [kg]':>9} {'length [m]':>10} {'width [m]':>9} "
-            f"{'wheelbase [m]':>13} {'yaw inertia [kg m^2]':>20}  yaw inertia is  "
-            f"{'front A [kN/m]':>14} {'B [kN/m^2]':>10}  front A, B are  name")
-    lines = [head]
-    for r in rows:
-        lines.append(f"{r['file']:<16} {r['vehicle_class']:<9} {r['mass']:>9.1f} {r['length']:>10.3f} "
-                     f"{r['width']:>9.3f} {r['wheelbase']:>13.3f} {r['yaw_inertia']:>20.1f}  "
-                     f"{r['yaw_inertia_source']:<14}  {r['front_A'] / 1e3:>14.1f} {r['front_B'] / 1e3:>10.0f}  "
-                     f"{r['structure_source']:<14}  {r['name']}")
-    return "\n".join(lines)

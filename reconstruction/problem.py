@@ -43,15 +43,11 @@ from crashlab import fields
 from crashlab.execution import Executor
 from crashlab.geometry import penetration, rect_corners
 from crashlab.scene import Scene
-from crashlab.units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg, wrap_deg
+from crashlab.units import ms_to_kmh, wrap_deg
 
 from .schema import VEHICLE_FIELDS
 
 FAILED_OBJECTIVE = 1e3  # m: objective value of a failed or infeasible evaluation
-# the one conversion of a free variable between file units (m, deg, km/h) and SI; x, y, restitution and
-# friction are the same in both
-TO_SI = {"heading": deg_to_rad, "speed": kmh_to_ms, "steer": deg_to_rad}
-FROM_SI = {"heading": rad_to_deg, "speed": ms_to_kmh, "steer": rad_to_deg}
 NORMAL_SPAN_SD = 3.0  # a normal uncertain parameter is searched on mean +- 3 sd (within its truncation)
 
 
@@ -161,9 +157,8 @@ class ReconstructionProblem(Problem):
         first columns only (the study's free variables without the uncertain parameters)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         S = X.copy()
-        for c, f in enumerate(self.scene_fields[:X.shape[1]]):
-            if f.quantity in TO_SI:
-                S[:, c] = TO_SI[f.quantity](X[:, c])
+        for c, f in enumerate(self.scene_fields[:X.shape[1]]):  # crashlab.fields: the one unit table
+            S[:, c] = f.to_si_array(X[:, c])
         return S
 
     def scenes_for(self, X) -> list[Scene]:

@@ -28,7 +28,8 @@ from scipy.integrate import quad
 from crashlab import damage
 from crashlab.cli import damage as damage_command
 from crashlab.errors import InputError
-from crashlab.vehicle import STRUCTURE_SIDES, library, load_vehicle
+from crashlab.structure import STRUCTURE_SIDES
+from crashlab.vehicle import library, load_vehicle
 
 
 def _reference_energy(profile, width, A, B):
@@ -76,7 +77,7 @@ def test_campbell_crash_plot_returns_the_barrier_energy(n, crush):
 def test_the_library_estimates_are_the_crash_plot_of_their_reference_test():
     """Each side's class default reproduces its reference test: the reference crush over the reference width
     absorbs the kinetic energy at the reference EBS (docs/physics.md §28)."""
-    from crashlab.vehicle import CLASS_REFERENCE, CRUSH_REFERENCE, class_structure
+    from crashlab.structure import CLASS_REFERENCE, CRUSH_REFERENCE, class_structure
     for cls, (m, w) in CLASS_REFERENCE.items():
         for side, (A, B, src) in class_structure(cls).items():
             b0, ebs, crush, test_width = CRUSH_REFERENCE[side]

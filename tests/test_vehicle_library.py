@@ -36,10 +36,11 @@ from importlib import resources
 import pytest
 
 import crashlab
+from crashlab.cli.vehicles import format_library_table, library_table
 from crashlab.errors import InputError
 from crashlab.scene_file import scene_from_dict
 from crashlab.units import KMH, G
-from crashlab.vehicle import METADATA_KEYS, VEHICLE_CLASSES, format_library_table, library, library_table, load_vehicle
+from crashlab.vehicle import METADATA_KEYS, VEHICLE_CLASSES, library, load_vehicle
 
 
 def _text(ref):

@@ -81,7 +81,7 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
 
 
 def cmd_vehicles(args):
-    from ..vehicle import format_library_table
+    from .vehicles import format_library_table
     print(format_library_table())
     return 0
 
