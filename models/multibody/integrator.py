@@ -53,6 +53,8 @@ from .equations import (
     C_TEND,
     C_V_REST,
     C_VMIN,
+    C_LAW,
+    C_REST,
     C_W_REST,
     MAX_ROWS,
     N_AUX,
@@ -102,7 +104,8 @@ def eval_all(Y, K, s, te, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
     KR, RSG = RD
     if PP.shape[0] > 0:
         contacts_awake(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, cfg[C_NEXP],
-                       cfg[C_CHI], cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN], awake)
+                       cfg[C_CHI], cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN],
+                       cfg[C_LAW], cfg[C_REST], awake)
     else:
         FX[:, :] = 0.0
     # chassis-road contact (regularised Coulomb with the road's friction)
