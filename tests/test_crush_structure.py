@@ -45,12 +45,14 @@ def test_unloading_gives_the_restitution(e, other):
         return [cd, -w * CS.structure_force(c, max(cm[0], c), e, A, B, a2, b2) / m]
 
     # loading up to the turning point, then unloading from that largest crush
-    turn = lambda t, y: y[1]
+    def turn(t, y):
+        return y[1]
     turn.terminal, turn.direction = True, -1
     s1 = solve_ivp(rhs, (0, 1), [1e-12, v], events=turn, rtol=1e-11, atol=1e-13, max_step=1e-3)
     cm[0] = s1.y[0, -1]
     cp = CS.permanent_crush(cm[0], e, A, B, a2, b2)
-    free = lambda t, y: y[0] - cp - 1e-12
+    def free(t, y):
+        return y[0] - cp - 1e-12
     free.terminal, free.direction = True, -1
     s2 = solve_ivp(rhs, (0, 1), [cm[0], 0.0], events=free, rtol=1e-11, atol=1e-13, max_step=1e-4)
     assert -s2.y[1, -1] / v == pytest.approx(e, rel=1e-4)

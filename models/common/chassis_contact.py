@@ -1,6 +1,9 @@
 """Vehicle contact of the 3D models (multibody's numba time loop, exudyn's loads): chassis superellipsoids
-against each other and against rigid box barriers; continuous Hertz-type normal force with hysteresis
-damping and friction. Also the packing of the contact arrays both models hand to `contacts`
+against each other and against rigid box barriers; continuous normal force, by default from the vehicles'
+crush structures (docs/physics.md §13a, crush_structure.py: CRASH3 A + B C per unit of engaged width, the
+struck sides in series, unloading to the restitution, crush memory per pair), else the generic Hertz-type
+force with hysteresis damping (LAW_GENERIC, below); friction.
+Also the packing of the contact arrays both models hand to `contacts`
 (`pair_table`, `barrier_rows`, `contact_arrays`) and the end-state overlap check (`end_overlap`).
 
 Geometry. Each vehicle's chassis is one superellipsoid (shape row CSH[v] = [a, b, c, eps1, eps2, x_off,
@@ -20,7 +23,7 @@ Contact point: the midpoint of the two support points sigma1(d), sigma2(-d) (for
 its projection on the box face). No Newton / SLSQP is needed in the loop (narrow_phase.py stays the
 general 3D tool and its tests).
 
-Force on vehicle i (the body 1 of the pair, d points from i to j), penetration delta = -g > 0,
+Generic law. Force on vehicle i (the body 1 of the pair, d points from i to j), penetration delta = -g > 0,
 delta_dot = (v_i(M) - v_j(M)).d (> 0 approaching):
     F_N = K delta^n (1 + chi delta_dot / delta_dot0),  F_N >= 0   (contact_force.normal_force_chi)
     F_T = -mu c(|v_T|) F_N v_T/|v_T|                               (contact_force.friction_ratio_code)
@@ -180,7 +183,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             BPC[B_OBB] += 1
             continue
         BPC[B_NARROW] += 1
-        warm = PST[p, S_THOK] > 0.0 and PST[p, S_ACT] > 0.0
+        # warm start while in contact, and while a crushed pair (structure law) may still overlap after it
+        warm = PST[p, S_THOK] > 0.0 and (PST[p, S_ACT] > 0.0 or PST[p, S_CMAX] > 0.0)
         th, g = horizontal_gap(PST[p, S_TH], warm, k2, sh1, rc1, A1, sh2, rc2, A2)
         PST[p, S_TH] = th
         PST[p, S_THOK] = 1.0
@@ -226,7 +230,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 continue
             # engaged width: overlap of the two plan shadows across the normal, within each structure's width
             tx, ty = -d1, d0
-            w = (min(support_value_body(0, tx, ty, 0.0, sh1, rc1, A1), support_value_body(k2, tx, ty, 0.0, sh2, rc2, A2))
+            w = (min(support_value_body(0, tx, ty, 0.0, sh1, rc1, A1),
+                     support_value_body(k2, tx, ty, 0.0, sh2, rc2, A2))
                  + min(support_value_body(0, -tx, -ty, 0.0, sh1, rc1, A1),
                        support_value_body(k2, -tx, -ty, 0.0, sh2, rc2, A2)))
             w = min(w, PP[p, ci + 2])
