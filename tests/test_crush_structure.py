@@ -98,18 +98,19 @@ def test_reloading_follows_the_unloading_line():
     assert CS.structure_force(cm + 0.1, cm, e, A, B, 0.0, 0.0) == pytest.approx(A + B * (cm + 0.1), rel=1e-12)
 
 
-def test_structure_row_reads_the_vehicle_file_else_the_class_default():
-    class Side:
-        def __init__(self, a, b, w):
-            self.A, self.B, self.width, self.source = a, b, w, "test"
+def test_structure_row_reads_the_vehicles_structure_and_names_class_defaults():
+    from crashlab.structure import Structure, class_structure
+    defaults = class_structure("mid-size")
 
     class Spec:
         width, length = 1.8, 4.6
-        structure = {"front": Side(70e3, 900e3, 1.4)}
+        structure = {"front": Structure(70e3, 900e3, 1.4, "test"),
+                     "rear": Structure(*defaults["rear"][:2], 1.8, defaults["rear"][2], default=True),
+                     "side": Structure(*defaults["side"][:2], 4.6, defaults["side"][2], default=True)}
     row, notes = CS.structure_row(Spec())
     assert list(row[:3]) == [70e3, 900e3, 1.4]
-    assert list(row[3:6]) == [*CS.CLASS_DEFAULT["rear"], 1.8]
-    assert list(row[6:9]) == [*CS.CLASS_DEFAULT["side"], 4.6]
+    assert list(row[3:6]) == [*defaults["rear"][:2], 1.8]
+    assert list(row[6:9]) == [*defaults["side"][:2], 4.6]
     assert len(notes) == 2 and all("class default" in n for n in notes)
 
 

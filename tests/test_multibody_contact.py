@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 import crashlab
-from crashlab.models.common.crush_structure import CLASS_DEFAULT
 from crashlab.models.multibody import MultibodyModel
 from crashlab.scene_file import scene_from_dict
 from crashlab.units import kmh_to_ms
@@ -52,10 +51,10 @@ def test_rigid_wall_64_effective_restitution(model):
     assert r["energy"] == pytest.approx(ke_lost, rel=0.03)
     assert 0.1 < r["max_penetration"] < 0.8
     # the crush structure (docs/physics.md §13a): the largest crush from the energy balance against a rigid
-    # barrier, 1/2 m v^2 = w (A C + B C^2/2), w the car's width (the class default front A, B); the 3D car
+    # barrier, 1/2 m v^2 = w (A C + B C^2/2), w the car's width (its front A, B: crashlab.structure); the 3D car
     # crushes ~1 % deeper (its wheels' spin energy and pitch are not in the closed form)
-    a, b = CLASS_DEFAULT["front"]
-    w = sc.vehicles[0].spec.width
+    front = sc.vehicles[0].spec.structure["front"]
+    a, b, w = front.A, front.B, front.width
     c_ref = (-a + np.sqrt(a * a + b * m * v0 ** 2 / w)) / b
     assert r["max_penetration"] == pytest.approx(c_ref, rel=0.03)
     assert 0.05 < r["duration"] < 0.4

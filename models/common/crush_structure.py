@@ -12,8 +12,8 @@ the energy given back f_m^2/(2k) is e^2 e_m (e^2 = E_rebound / E_absorbed, the i
 follows the same line up to Cm, then the loading law. The line reaches f = 0 at the permanent crush
 Cp = Cm - f_m / k = Cm - 2 e^2 e_m / f_m (>= Cm (1 - 2 e^2) >= 0 for e <= 1/sqrt 2).
 
-The vehicle's coefficients come from its file ([structure.front|rear|side] A, B, width) when it has them, else
-from the class default CLASS_DEFAULT below (the one home of those numbers).
+The vehicle's coefficients come from crashlab.structure: its file's [structure.front|rear|side] A, B, width, else
+the class default there (the one home of those numbers, docs/physics.md §28).
 """
 from __future__ import annotations
 
@@ -23,38 +23,19 @@ from numba import njit
 SIDES = ("front", "rear", "side")
 # per-vehicle structure row: A [N/m], B [N/m^2], width [m] of front, rear, side
 N_STR = 9
-# Class default of a passenger car [A N/m, B N/m^2], used when the vehicle file has no [structure.<side>]:
-# estimates, the middle of the ranges quoted for mid-size cars from the CRASH3 class tables (front A 35-60 kN/m,
-# B 300-600 kN/m^2; issue 24); rear and side lower, as those tables rank them. Not fitted to any test
-# (docs/physics.md §13a; the original tables, NHTSA DOT HS 805 732 and Siddall & Day SAE 960897, were not
-# re-read for these numbers).
-CLASS_DEFAULT = {"front": (45e3, 450e3), "rear": (35e3, 300e3), "side": (25e3, 250e3)}
-CLASS_SOURCE = "class default (estimate, docs/physics.md §13a)"
 # restitution range of the linear unloading (Cp >= 0 needs e <= 1/sqrt 2)
 E_LO, E_HI = 0.01, 0.7
 
 
-def _entry(spec, side):
-    s = getattr(spec, "structure", None) or {}
-    entry = s.get(side) if isinstance(s, dict) else getattr(s, side, None)
-    return entry
-
-
 def structure_row(spec):
-    """The vehicle's structure row [A, B, width] x (front, rear, side) and notes naming what is a class default.
-    Width defaults: front and rear the vehicle's width, side its length."""
+    """The vehicle's structure row [A, B, width] x (front, rear, side) from its crashlab.structure (the file's
+    [structure.<side>] or the class default of crashlab.structure) and notes naming what is a class default."""
     row, notes = np.zeros(N_STR), []
     for k, side in enumerate(SIDES):
-        entry = _entry(spec, side)
-        w_default = spec.length if side == "side" else spec.width
-        if entry is None:
-            a, b = CLASS_DEFAULT[side]
-            w = w_default
-            notes.append(f"structure.{side}: A = {a:g} N/m, B = {b:g} N/m^2 ({CLASS_SOURCE})")
-        else:
-            a, b = float(entry.A), float(entry.B)
-            w = float(getattr(entry, "width", None) or w_default)
-        row[3 * k:3 * k + 3] = (a, b, w)
+        entry = spec.structure[side]
+        row[3 * k:3 * k + 3] = (entry.A, entry.B, entry.width)
+        if entry.default:
+            notes.append(f"structure.{side}: A = {entry.A:g} N/m, B = {entry.B:g} N/m^2 ({entry.source})")
     return row, notes
 
 
