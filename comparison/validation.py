@@ -293,8 +293,8 @@ def side_by_side(rows: list[dict]) -> list[str]:
                     vals.append("fail")
                 else:
                     vals.append(_fmt(r["error_pct"], 1) + ("*" if r.get("slip_reversed") else ""))
-            pub = cells.get((*key, cols[0]), next(r for r in mine if (r["test"], r["quantity"], r["vehicle"]) == key))
-            lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {_fmt(pub['published'])} | " + " | ".join(vals) + " |")
+            pub = next(r["published"] for r in mine if (r["test"], r["quantity"], r["vehicle"]) == key)
+            lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {_fmt(pub)} | " + " | ".join(vals) + " |")
     return lines
 
 

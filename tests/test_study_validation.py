@@ -224,3 +224,17 @@ def test_every_law_and_the_engagement_point_are_run():
     assert {(r["law"], r["contact"]) for r in runs} == {(law, c) for law in ("kudlich-slibar", "brach", "routh")
                                                         for c in ("given", "found", "engagement")}
     assert {(r["law"], r["contact"]) for r in validation.runs("pymunk", t)} == {("-", "found")}
+
+
+def test_side_by_side_marks_a_flagged_run():
+    """validation.md's per-law table: a column per (law, contact), "*" after an error whose run had an impact
+    flagged slip_reversed, "fail" for a failed run."""
+    base = {"model": "impulse", "test": "t", "quantity": "delta_v", "vehicle": "V1", "published": 10.0,
+            "restitution": 0.1}
+    rows = [{**base, "law": "brach", "contact": "found", "ok": True, "error_pct": -35.0, "slip_reversed": True},
+            {**base, "law": "routh", "contact": "found", "ok": True, "error_pct": 2.0, "slip_reversed": False},
+            {**base, "law": "routh", "contact": "engagement", "ok": False, "error_pct": math.nan,
+             "slip_reversed": False}]
+    lines = validation.side_by_side(rows)
+    assert "| t | delta_v | V1 | 10.000 | -35.0* | 2.0 | fail |" in lines
+    assert validation.side_by_side(rows[1:2]) == []  # one variant: no side-by-side table
