@@ -45,8 +45,15 @@ def _validation(df: pd.DataFrame) -> pd.DataFrame:
     return df[["model", "test", "quantity", "published", "simulated", "error"]]
 
 
+def _pc_crash(df: pd.DataFrame) -> pd.DataFrame:
+    """Rest-pose distance to PC-Crash [m] per case and variant, both vehicles."""
+    df = df.assign(engagement_depth=df.engagement_depth.fillna(0.0))
+    return df.pivot_table(index=["model", "law", "contact", "engagement_depth"], columns=["case", "vehicle"],
+                          values="d_pc_crash_m")
+
+
 SUMMARIES = {"workprecision": _workprecision, "stability": _stability, "scaling": _scaling,
-             "validation": _validation}
+             "validation": _validation, "pc_crash": _pc_crash}
 
 
 def _text(name: str) -> str:

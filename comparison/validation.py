@@ -10,7 +10,9 @@ nothing is fitted per test. Variants, each one constant to extend:
   contact               "given": the scene's own [impact] point and plane_angle (PC-Crash style, the
                         published collision position), for the models in GIVEN_POINT_MODELS; "found": the
                         model finds its own contact, from the scene as written or, for a scene with a given
-                        point, from approach_scene (the cars moved back along their velocities until apart)
+                        point, from approach_scene (the cars moved back along their velocities until apart);
+                        "engagement": as "found" with [impact] point = "engagement" at the default
+                        engagement_depth (docs/physics.md §4), for the models in ENGAGEMENT_MODELS
 
 Quantities (simulated side):
   delta_v        |sum of the vehicle's impact-row velocity changes| [km/h] (Outcome.impact_rows, SI)
@@ -22,6 +24,8 @@ Quantities (simulated side):
   pdof           principal direction of force of the vehicle's largest impact row [deg]
   crush_dynamic, crush_residual   deepest contact overlap of the run [m] (Diagnostics.max_penetration;
                  0 for an impulse model, which has no contact depth)
+Per run also: impacts (impact rows' distinct times) and slip_reversed (any impact row flagged: the slip
+stops and reverses, where kudlich-slibar and brach are outside their assumptions, docs/physics.md §3).
 
 Writes DIR/validation.csv (model, test, quantity, published, simulated, error, error_pct, then unit,
 source, ok, kind, vehicle, law, restitution, contact, impacts), DIR/validation.md and DIR/validation_dv.png
@@ -43,7 +47,7 @@ from .base import STUDIES_DIR
 VALIDATION_DIR = STUDIES_DIR / "validation"
 TESTS_FILE = VALIDATION_DIR / "published" / "tests.toml"
 COLUMNS = ["model", "test", "quantity", "published", "simulated", "error", "error_pct", "unit", "source", "ok",
-           "kind", "vehicle", "law", "restitution", "contact", "impacts"]
+           "kind", "vehicle", "law", "restitution", "contact", "impacts", "slip_reversed"]
 FULL_MODELS = ("impulse", "pymunk")  # --quick runs every test for these, QUICK_TESTS for the others
 QUICK_TESTS = ("nhtsa10146",)
 
@@ -56,6 +60,7 @@ def _schema_laws() -> tuple[str, ...]:
 IMPACT_LAWS = _schema_laws()   # every impulse law of the scene schema's [impact] law (a new one joins itself)
 LAW_MODELS = ("impulse",)      # the models that read [impact] law (docs/physics.md §3)
 GIVEN_POINT_MODELS = ("impulse",)  # the models that apply a given [impact] point (pymunk ignores it)
+ENGAGEMENT_MODELS = ("impulse",)  # the models that read [impact] point = "engagement" (docs/physics.md §4)
 # [impact] restitution of every run (the documented parameter set: 0.1); issue 24 item 4 adds "speed"
 RESTITUTION_VARIANTS: tuple = (0.1,)
 APPROACH_GAP = 0.1  # m of closing travel between the cars at the start of an approach_scene
@@ -74,9 +79,10 @@ def load_tests(path: Path = TESTS_FILE) -> list[dict]:
     return tests
 
 
-def variant_scene(path: Path, law: str | None = None, restitution=None):
-    """The scene of `path` with [impact] law and restitution set as in the file's units (None: the file's
-    own); set on the file's data, so any value the schema takes (a number, or a law's name) works."""
+def variant_scene(path: Path, law: str | None = None, restitution=None, **impact):
+    """The scene of `path` with [impact] law and restitution (and any other [impact] keys in `impact`) set
+    as in the file's units (None: the file's own); set on the file's data, so any value the schema takes (a
+    number, or a law's name) works."""
     from crashlab.scene_file import scene_from_dict
     with open(path, "rb") as fh:
         data = tomllib.load(fh)
@@ -85,6 +91,7 @@ def variant_scene(path: Path, law: str | None = None, restitution=None):
         imp["law"] = law
     if restitution is not None:
         imp["restitution"] = restitution
+    imp.update(impact)
     return scene_from_dict(data, source=path, base_dir=path.parent)
 
 
@@ -188,6 +195,7 @@ def runs(model: str, test: dict) -> list[dict]:
     with open(test["scene"], "rb") as fh:
         has_point = "point" in tomllib.load(fh).get("impact", {})
     contacts = ("given", "found") if has_point and model in GIVEN_POINT_MODELS else ("found",)
+    contacts += ("engagement",) if model in ENGAGEMENT_MODELS else ()
     return [{"law": law, "restitution": e, "contact": c}
             for law in laws for e in RESTITUTION_VARIANTS for c in contacts]
 
@@ -202,10 +210,13 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                 continue
             for run_ in runs(model, t):
                 scene = variant_scene(t["scene"], None if run_["law"] == "-" else run_["law"], run_["restitution"])
-                if run_["contact"] == "found":
+                if run_["contact"] in ("found", "engagement"):
                     scene = approach_scene(scene)
+                if run_["contact"] == "engagement":
+                    scene = scene.replace(impact=dataclasses.replace(scene.impact, engagement=True))
                 outcome, reason = _simulate(model, scene)
                 impacts = 0 if outcome is None else len({r["t"] for r in outcome.impact_rows})
+                reversed_ = outcome is not None and any(r.get("slip_reversed", False) for r in outcome.impact_rows)
                 for q in t["quantity"]:
                     sim = math.nan
                     if outcome is not None:
@@ -221,7 +232,7 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                                  "error_pct": 100.0 * err / abs(pub) if ok and pub != 0 else math.nan,
                                  "unit": q.get("unit", ""), "source": t["source"], "ok": ok, "kind": t["kind"],
                                  "vehicle": q["vehicle"], "law": run_["law"], "restitution": run_["restitution"],
-                                 "contact": run_["contact"], "impacts": impacts,
+                                 "contact": run_["contact"], "impacts": impacts, "slip_reversed": reversed_,
                                  "car_to_car": len(scene.vehicles) > 1, "_reason": reason})
     return rows
 
@@ -257,21 +268,54 @@ def goal_rows(rows: list[dict]) -> list[dict]:
     return list(out.values())
 
 
+def side_by_side(rows: list[dict]) -> list[str]:
+    """Markdown lines: per model that runs more than one (law, contact) variant, the error % of every
+    (test, quantity, vehicle) in one column per variant ("*": an impact flagged slip_reversed; "fail": the
+    run failed); nothing for a model with one variant."""
+    lines = []
+    for model in dict.fromkeys(r["model"] for r in rows):
+        mine = [r for r in rows if r["model"] == model]
+        cols = list(dict.fromkeys((r["law"], r["contact"], r["restitution"]) for r in mine))
+        if len(cols) < 2:
+            continue
+        cells = {(r["test"], r["quantity"], r["vehicle"], (r["law"], r["contact"], r["restitution"])): r
+                 for r in mine}
+        lines += ["", f"## {model}: every law and contact side by side (error %)", "",
+                  "| test | quantity | vehicle | published | " + " | ".join(f"{c[0]} {c[1]}" for c in cols) + " |",
+                  "|---|---|---|---:|" + "---:|" * len(cols)]
+        for key in dict.fromkeys((r["test"], r["quantity"], r["vehicle"]) for r in mine):
+            vals = []
+            for c in cols:
+                r = cells.get((*key, c))
+                if r is None:
+                    vals.append("")
+                elif not r["ok"]:
+                    vals.append("fail")
+                else:
+                    vals.append(_fmt(r["error_pct"], 1) + ("*" if r.get("slip_reversed") else ""))
+            pub = next(r["published"] for r in mine if (r["test"], r["quantity"], r["vehicle"]) == key)
+            lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {_fmt(pub)} | " + " | ".join(vals) + " |")
+    return lines
+
+
 def write_markdown(rows: list[dict], path: Path, wall_time_s: float | None = None) -> Path:
     lines = ["# Validation against published tests", "",
              "One parameter set for all tests (each scene's [impact]: friction 0.3, exact-restitution force law; "
              "road 0.8; restitution as the column says); error = simulated - published. Sources: "
              "studies/validation/README.md. law: the impulse law (\"-\": the model does not read it); contact: "
              "\"given\" = at the published point of impact, \"found\" = the model finds its own contact; "
-             "impacts: impact rows (contact episodes) of the run.", "",
+             "\"engagement\" = [impact] point = \"engagement\" (default depth); impacts: impact rows (contact "
+             "episodes) of the run; rev: an impact flagged slip_reversed.", "",
              "| model | law | e | contact | test | quantity | vehicle | unit | published | simulated | error | "
-             "error % | impacts | ok |",
-             "|---|---|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|"]
+             "error % | impacts | rev | ok |",
+             "|---|---|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|---|"]
     for r in rows:
         sim = _fmt(r["simulated"]) if r["ok"] else f"NaN ({r['_reason']})"
         lines.append(f"| {r['model']} | {r['law']} | {r['restitution']} | {r['contact']} | {r['test']} | "
                      f"{r['quantity']} | {r['vehicle']} | {r['unit']} | {_fmt(r['published'])} | {sim} | "
-                     f"{_fmt(r['error'])} | {_fmt(r['error_pct'], 1)} | {r['impacts']} | {r['ok']} |")
+                     f"{_fmt(r['error'])} | {_fmt(r['error_pct'], 1)} | {r['impacts']} | "
+                     f"{'yes' if r.get('slip_reversed') else ''} | {r['ok']} |")
+    lines += side_by_side(rows)
     goals = goal_rows(rows)
     if goals:
         lines += ["", "## Car-to-car delta-V against the goal (largest |error %| over the tests run)", "",

@@ -6,6 +6,7 @@ their sum is (1 + e) x the closing speed."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 
 from crashlab.comparison import validation
@@ -37,11 +38,16 @@ def test_validation_car_to_car_momentum(tmp_path):
     rows = list(csv.DictReader(open(path, newline="")))
     assert {(r["quantity"], r["vehicle"]) for r in rows} == {("delta_v", "V1"), ("delta_v", "V2")}
     assert all(r["ok"] == "True" and r["kind"] == "crash test" for r in rows)
-    dv = {r["vehicle"]: float(r["simulated"]) for r in rows}
     scene = load_scene(tests[0]["scene"])
     m1, m2 = (v.spec.mass for v in scene.vehicles)
     assert (m1, m2) == (950.0, 770.0)  # the published masses
-    assert math.isclose(dv["V1"] / dv["V2"], m2 / m1, rel_tol=1e-6)
+    by_run = {}
+    for r in rows:  # every law and contact (found, engagement)
+        by_run.setdefault((r["law"], r["contact"]), {})[r["vehicle"]] = float(r["simulated"])
+    for dv in by_run.values():
+        assert math.isclose(dv["V1"] / dv["V2"], m2 / m1, rel_tol=1e-6)
+    rows = [r for r in rows if r["law"] == "kudlich-slibar" and r["contact"] == "found"]
+    dv = {r["vehicle"]: float(r["simulated"]) for r in rows}
     # collinear, free cars: dv1 + dv2 = (1 + e) x closing speed; the bullet rolls 0.1 m to contact
     # (rolling resistance 0.01: under 0.2 % of speed lost), so within 0.5 %
     assert math.isclose(dv["V1"] + dv["V2"], (1 + scene.impact.restitution) * 8.851, rel_tol=0.005)
@@ -154,9 +160,8 @@ def test_car_to_car_impulse_conserves_momentum_and_errors_are_recorded(tmp_path,
     rows = list(csv.DictReader(open(path, newline="")))
     runs = {(r["test"], r["law"], r["contact"], r["restitution"]) for r in rows}
     assert {law for _, law, _, _ in runs} == set(validation.IMPACT_LAWS)
-    assert {(t, c) for t, _, c, _ in runs} == {("nhtsa4363", "given"), ("nhtsa4363", "found"),
-                                               ("nhtsa4438", "given"), ("nhtsa4438", "found"),
-                                               ("ricsac2", "found"), ("ricsac3", "found")}
+    assert {(t, c) for t, _, c, _ in runs} == {(t, c) for t in CAR_TO_CAR for c in ("found", "engagement")} | {
+        ("nhtsa4363", "given"), ("nhtsa4438", "given")}
     assert all(r["ok"] == "True" for r in rows)
     for r in rows:
         pub, sim = float(r["published"]), float(r["simulated"])
@@ -167,8 +172,9 @@ def test_car_to_car_impulse_conserves_momentum_and_errors_are_recorded(tmp_path,
     assert (tmp_path / validation.FIGURE).is_file()
     for t in tests:
         for law in validation.IMPACT_LAWS:
-            for scene in (validation.variant_scene(t["scene"], law),
-                          validation.approach_scene(validation.variant_scene(t["scene"], law))):
+            found = validation.approach_scene(validation.variant_scene(t["scene"], law))
+            engaged = found.replace(impact=dataclasses.replace(found.impact, engagement=True))
+            for scene in (validation.variant_scene(t["scene"], law), found, engaged):
                 out = validation._simulate("impulse", scene)[0]
                 first = sorted(out.impact_rows, key=lambda r: r["t"])[:2]
                 assert {r["vehicle"] for r in first} == {"V1", "V2"}
@@ -206,5 +212,29 @@ def test_impact_laws_are_the_schemas():
     assert validation.IMPACT_LAWS == typing.get_args(ImpactFile.model_fields["law"].annotation)
     assert {"kudlich-slibar", "brach"} <= set(validation.IMPACT_LAWS)
     t = _tests("ricsac3")[0]
-    assert len(validation.runs("impulse", t)) == len(validation.IMPACT_LAWS) * len(validation.RESTITUTION_VARIANTS)
+    assert len(validation.runs("impulse", t)) == 2 * len(validation.IMPACT_LAWS) * len(validation.RESTITUTION_VARIANTS)
     assert [r["law"] for r in validation.runs("multibody", t)] == ["-"] * len(validation.RESTITUTION_VARIANTS)
+
+
+def test_every_law_and_the_engagement_point_are_run():
+    """Issue 23 item 5: the impulse model runs every law (routh included) in every placement (given,
+    found, engagement) on a test with a published point; the other models once, law "-"."""
+    t = _tests("nhtsa4363")[0]
+    runs = validation.runs("impulse", t)
+    assert {(r["law"], r["contact"]) for r in runs} == {(law, c) for law in ("kudlich-slibar", "brach", "routh")
+                                                        for c in ("given", "found", "engagement")}
+    assert {(r["law"], r["contact"]) for r in validation.runs("pymunk", t)} == {("-", "found")}
+
+
+def test_side_by_side_marks_a_flagged_run():
+    """validation.md's per-law table: a column per (law, contact), "*" after an error whose run had an impact
+    flagged slip_reversed, "fail" for a failed run."""
+    base = {"model": "impulse", "test": "t", "quantity": "delta_v", "vehicle": "V1", "published": 10.0,
+            "restitution": 0.1}
+    rows = [{**base, "law": "brach", "contact": "found", "ok": True, "error_pct": -35.0, "slip_reversed": True},
+            {**base, "law": "routh", "contact": "found", "ok": True, "error_pct": 2.0, "slip_reversed": False},
+            {**base, "law": "routh", "contact": "engagement", "ok": False, "error_pct": math.nan,
+             "slip_reversed": False}]
+    lines = validation.side_by_side(rows)
+    assert "| t | delta_v | V1 | 10.000 | -35.0* | 2.0 | fail |" in lines
+    assert validation.side_by_side(rows[1:2]) == []  # one variant: no side-by-side table
