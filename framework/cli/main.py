@@ -468,8 +468,8 @@ def build_parser():
     r.add_argument("--no-progress", action="store_true", help="no progress line")
     r.set_defaults(fn=cmd_reconstruct)
     sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
-                 "validation")
-    sd.add_argument("name", help="workprecision | stability | scaling | validation | all")
+                 "validation, the PC-Crash cases with every impulse law")
+    sd.add_argument("name", help="workprecision | stability | scaling | validation | pc_crash | all")
     sd.add_argument("--models", default=None, help="comma-separated model names (default: every registered model)")
     sd.add_argument("--quick", action="store_true", help="a small configuration (minutes, not hours)")
     sd.add_argument("--out", required=True, metavar="DIR", help="folder for the CSV files and figures; required")
