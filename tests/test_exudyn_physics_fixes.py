@@ -27,10 +27,11 @@ def test_elastic_impact_makes_no_energy_and_does_not_depend_on_the_step():
     the step, while exudyn's generalized-alpha satisfies the equations of motion at the step end; the load lags
     the penetration by a step, which adds energy in proportion to the step (elastic 50 km/h wall: rebound
     restitution 1.051 at 1 ms, 1.025 at 0.5 ms; 200 km/h head-on +7.5 % kinetic energy). Now the load is
-    iterated to its value at the step end: restitution 0.998 at any step, never above 1."""
+    iterated to its value at the step end: restitution 0.998 at any step, never above 1. The elastic law is the
+    generic one (the crush-structure law, §13a, unloads to e <= 0.7; its restitution is checked below)."""
     e = {}
     for h in (1e-3, 2.5e-4):
-        out = ExudynModel(step=h).simulate(_wall(50.0))
+        out = ExudynModel(step=h, contact_law="generic").simulate(_wall(50.0))
         assert out.outcome_ok, out.warnings
         (row,) = out.impact_rows
         e[h] = row["restitution"]
@@ -38,6 +39,19 @@ def test_elastic_impact_makes_no_energy_and_does_not_depend_on_the_step():
         assert v_after <= 50 / 3.6 * (1 + 1e-3), f"rebound {v_after * 3.6:.2f} km/h from 50 km/h (step {h})"
         assert 0.99 <= e[h] <= 1.0 + 1e-3, (h, e[h])
         assert out.contact_intervals == [pytest.approx((row["t"], row["t"] + row["duration"]))]
+    assert abs(e[1e-3] - e[2.5e-4]) <= 2e-3, e
+
+
+def test_structure_law_restitution_does_not_depend_on_the_step():
+    """The crush-structure law (§13a) with the largest restitution its linear unloading allows (0.7; the scene's
+    1.0 is clamped with a warning): the wall rebound gives 0.7 at both steps."""
+    e = {}
+    for h in (1e-3, 2.5e-4):
+        out = ExudynModel(step=h).simulate(_wall(50.0))
+        assert out.outcome_ok and any("above 0.7" in w for w in out.warnings), out.warnings
+        (row,) = out.impact_rows
+        e[h] = row["restitution"]
+        assert e[h] == pytest.approx(0.7, abs=0.01), (h, e[h])
     assert abs(e[1e-3] - e[2.5e-4]) <= 2e-3, e
 
 
@@ -50,7 +64,7 @@ def test_violent_elastic_head_on_makes_no_energy():
                                         "overrides": {"rolling_resistance": 0.0}},
                                        {"name": "B", "vehicle": "clio", "x": 2.5, "heading": 180.0, "speed": 200.0,
                                         "overrides": {"rolling_resistance": 0.0}}]})
-    out = ExudynModel().simulate(sc)
+    out = ExudynModel(contact_law="generic").simulate(sc)
     assert out.outcome_ok, out.warnings
     ke0 = 2 * (200 / 3.6) ** 2
     ke1 = float((out.final_si[:, :2] ** 2).sum())

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import crashlab
+from crashlab.models.common.crush_structure import CLASS_DEFAULT
 from crashlab.models.multibody import MultibodyModel
 from crashlab.scene_file import scene_from_dict
 from crashlab.units import kmh_to_ms
@@ -50,6 +51,13 @@ def test_rigid_wall_64_effective_restitution(model):
     ke_lost = 0.5 * m * (v0 ** 2 - (v0 + r["dvx"]) ** 2)
     assert r["energy"] == pytest.approx(ke_lost, rel=0.03)
     assert 0.1 < r["max_penetration"] < 0.8
+    # the crush structure (docs/physics.md §13a): the largest crush from the energy balance against a rigid
+    # barrier, 1/2 m v^2 = w (A C + B C^2/2), w the car's width (the class default front A, B); the 3D car
+    # crushes ~1 % deeper (its wheels' spin energy and pitch are not in the closed form)
+    a, b = CLASS_DEFAULT["front"]
+    w = sc.vehicles[0].spec.width
+    c_ref = (-a + np.sqrt(a * a + b * m * v0 ** 2 / w)) / b
+    assert r["max_penetration"] == pytest.approx(c_ref, rel=0.03)
     assert 0.05 < r["duration"] < 0.4
     assert r["peak_force"] > r["impulse"] / r["duration"]
     assert r["kind"] == "continuous" and r["other"] == "barrier0"

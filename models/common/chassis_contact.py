@@ -1,6 +1,9 @@
 """Vehicle contact of the 3D models (multibody's numba time loop, exudyn's loads): chassis superellipsoids
-against each other and against rigid box barriers; continuous Hertz-type normal force with hysteresis
-damping and friction. Also the packing of the contact arrays both models hand to `contacts`
+against each other and against rigid box barriers; continuous normal force, by default from the vehicles'
+crush structures (docs/physics.md §13a, crush_structure.py: CRASH3 A + B C per unit of engaged width, the
+struck sides in series, unloading to the restitution, crush memory per pair), else the generic Hertz-type
+force with hysteresis damping (LAW_GENERIC, below); friction.
+Also the packing of the contact arrays both models hand to `contacts`
 (`pair_table`, `barrier_rows`, `contact_arrays`) and the end-state overlap check (`end_overlap`).
 
 Geometry. Each vehicle's chassis is one superellipsoid (shape row CSH[v] = [a, b, c, eps1, eps2, x_off,
@@ -20,7 +23,7 @@ Contact point: the midpoint of the two support points sigma1(d), sigma2(-d) (for
 its projection on the box face). No Newton / SLSQP is needed in the loop (narrow_phase.py stays the
 general 3D tool and its tests).
 
-Force on vehicle i (the body 1 of the pair, d points from i to j), penetration delta = -g > 0,
+Generic law. Force on vehicle i (the body 1 of the pair, d points from i to j), penetration delta = -g > 0,
 delta_dot = (v_i(M) - v_j(M)).d (> 0 approaching):
     F_N = K delta^n (1 + chi delta_dot / delta_dot0),  F_N >= 0   (contact_force.normal_force_chi)
     F_T = -mu c(|v_T|) F_N v_T/|v_T|                               (contact_force.friction_ratio_code)
@@ -36,22 +39,33 @@ from numba import njit
 
 from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi
+from .crush_structure import N_STR, permanent_crush, side_code, structure_force
 from .narrow_phase import horizontal_gap, support_value_body
 from .rotations import rot_z, rotation_matrix_into
 from .superellipsoid import support_global
 
-# pair parameters PP[p]: i, j (j >= nv: barrier j - nv), K
-P_I, P_J, P_K = 0, 1, 2
-N_PP = 3
+# pair parameters PP[p]: i, j (j >= nv: barrier j - nv), K of the generic law, the structure rows
+# (crush_structure.structure_row: A, B, width of front, rear, side) of i and of j (zeros for a barrier: rigid)
+P_I, P_J, P_K, P_STR_I, P_STR_J = 0, 1, 2, 3, 3 + N_STR
+N_PP = 3 + 2 * N_STR
+# chassis contact laws (the model option contact_law): the vehicles' crush structure (§13a), the generic
+# Hertz-type stiffness K with the scene's force_law (§13)
+LAW_STRUCTURE, LAW_GENERIC = 0, 1
+CONTACT_LAWS = ("structure", "generic")
 # pair state PST[p]: warm angle and its validity, active flag, approach velocity stored at onset; the open
 # episode's bookkeeping (contact_episodes.py): onset time, impulse (3), peak normal force, max penetration,
 # work, point and normal angle at the peak force, velocities (vx, vy, yaw rate) of i and j at onset
 (S_TH, S_THOK, S_ACT, S_DD0, S_T0, S_JX, S_JY, S_JZ, S_PEAK, S_MAXPEN, S_WORK, S_PX, S_PY, S_PTH,
  S_VI, S_VJ) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17
-N_PST = 20
-# per-stage outputs PSG[stage, p]
-(G_FN, G_DEL, G_FX, G_FY, G_FZ, G_POW, G_PX, G_PY, G_TH, G_DDOT) = range(10)
-N_PSG = 10
+# the pair's crush memory (structure law, kept across its episodes): largest crush, struck sides of i and j
+# (crush_structure.side_code) latched while the pair is not in contact; a new contact on other sides forgets it
+S_CMAX, S_SIDE_I, S_SIDE_J = 20, 21, 22
+N_PST = 23
+# per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
+# overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
+# (total crush), G_WIDTH the engaged width
+(G_FN, G_DEL, G_FX, G_FY, G_FZ, G_POW, G_PX, G_PY, G_TH, G_DDOT, G_CRUSH, G_WIDTH) = range(12)
+N_PSG = 12
 # broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
 # by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
 B_PAIRS, B_CIRCLE, B_HEIGHT, B_OBB, B_NARROW = range(5)
@@ -77,15 +91,15 @@ def _zrange(kind, sh, r, A):
 
 @njit(cache=True)
 def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
-             cfg_v1, cfg_vs, cfg_vmin):
+             cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e):
     """`contacts_awake` with every vehicle awake (every pair is evaluated)."""
     contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
-                   cfg_v1, cfg_vs, cfg_vmin, np.ones(0, np.bool_))
+                   cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, np.ones(0, np.bool_))
 
 
 @njit(cache=True)
 def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
-                   cfg_v1, cfg_vs, cfg_vmin, awake):
+                   cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, awake):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
     CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
     awake (nv flags, or empty: all awake): a pair not in contact whose vehicles both sleep (a barrier
@@ -94,7 +108,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
     Broad phase (§11), cheapest first: plan bounding circles (first a looser test on the chassis CGs with
     the radii grown by the shapes' offsets, before any rotation is built), height ranges, oriented boxes (a
     superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
-    also measures its separation speed); BPC counts what each stage removed."""
+    also measures its separation speed); BPC counts what each stage removed.
+    cfg_law: LAW_STRUCTURE (the crush structures of PP, unloading to the restitution cfg_e, §13a) or
+    LAW_GENERIC (K delta^n with the hysteresis cfg_chi, §13)."""
     nv = Y.shape[0]
     use_awake = awake.shape[0] > 0
     FX[:, :] = 0.0
@@ -167,12 +183,14 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             BPC[B_OBB] += 1
             continue
         BPC[B_NARROW] += 1
-        warm = PST[p, S_THOK] > 0.0 and PST[p, S_ACT] > 0.0
+        # warm start while in contact, and while a crushed pair (structure law) may still overlap after it
+        warm = PST[p, S_THOK] > 0.0 and (PST[p, S_ACT] > 0.0 or PST[p, S_CMAX] > 0.0)
         th, g = horizontal_gap(PST[p, S_TH], warm, k2, sh1, rc1, A1, sh2, rc2, A2)
         PST[p, S_TH] = th
         PST[p, S_THOK] = 1.0
         psg[p, G_TH] = th
         psg[p, G_DEL] = -g
+        psg[p, G_CRUSH] = -g
         d0, d1 = math.cos(th), math.sin(th)
         P1 = support_global(d0, d1, 0.0, sh1, rc1, A1)
         if k2 == 0:
@@ -189,10 +207,44 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
         vr = (u1[0] - u2[0], u1[1] - u2[1], u1[2] - u2[2])
         dd = vr[0] * d0 + vr[1] * d1
         psg[p, G_DDOT] = dd
-        if g >= 0.0:
-            continue
-        dd0 = PST[p, S_DD0] if PST[p, S_ACT] > 0.0 else max(dd, cfg_vmin)
-        fn = normal_force_chi(-g, dd, dd0, PP[p, P_K], cfg_chi, cfg_n, cfg_vmin)
+        if cfg_law == LAW_STRUCTURE:
+            # §13a: struck sides latched until the contact opens (a contact on other sides forgets the crush)
+            if PST[p, S_ACT] == 0.0:
+                xl = A1[0, 0] * (M[0] - rc1[0]) + A1[1, 0] * (M[1] - rc1[1]) + A1[2, 0] * (M[2] - rc1[2])
+                yl = A1[0, 1] * (M[0] - rc1[0]) + A1[1, 1] * (M[1] - rc1[1]) + A1[2, 1] * (M[2] - rc1[2])
+                si = side_code(xl, yl, sh1[0], sh1[1])
+                sj = 0
+                if k2 == 0:
+                    xl = A2[0, 0] * (M[0] - rc2[0]) + A2[1, 0] * (M[1] - rc2[1]) + A2[2, 0] * (M[2] - rc2[2])
+                    yl = A2[0, 1] * (M[0] - rc2[0]) + A2[1, 1] * (M[1] - rc2[1]) + A2[2, 1] * (M[2] - rc2[2])
+                    sj = side_code(xl, yl, sh2[0], sh2[1])
+                if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J]:
+                    PST[p, S_CMAX] = 0.0
+                    PST[p, S_SIDE_I], PST[p, S_SIDE_J] = si, sj
+            ci = P_STR_I + 3 * int(PST[p, S_SIDE_I])
+            cj = P_STR_J + 3 * int(PST[p, S_SIDE_J])
+            a1s, b1s, a2s, b2s = PP[p, ci], PP[p, ci + 1], PP[p, cj], PP[p, cj + 1]
+            cm = PST[p, S_CMAX]
+            psg[p, G_DEL] = -g - permanent_crush(cm, cfg_e, a1s, b1s, a2s, b2s)
+            if psg[p, G_DEL] <= 0.0:
+                continue
+            # engaged width: overlap of the two plan shadows across the normal, within each structure's width
+            tx, ty = -d1, d0
+            w = (min(support_value_body(0, tx, ty, 0.0, sh1, rc1, A1),
+                     support_value_body(k2, tx, ty, 0.0, sh2, rc2, A2))
+                 + min(support_value_body(0, -tx, -ty, 0.0, sh1, rc1, A1),
+                       support_value_body(k2, -tx, -ty, 0.0, sh2, rc2, A2)))
+            w = min(w, PP[p, ci + 2])
+            if k2 == 0:
+                w = min(w, PP[p, cj + 2])
+            w = max(w, 0.0)
+            psg[p, G_WIDTH] = w
+            fn = w * structure_force(-g, cm, cfg_e, a1s, b1s, a2s, b2s)
+        else:
+            if g >= 0.0:
+                continue
+            dd0 = PST[p, S_DD0] if PST[p, S_ACT] > 0.0 else max(dd, cfg_vmin)
+            fn = normal_force_chi(-g, dd, dd0, PP[p, P_K], cfg_chi, cfg_n, cfg_vmin)
         vt = (vr[0] - dd * d0, vr[1] - dd * d1, vr[2])
         st = math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2)
         c = 0.0
@@ -224,11 +276,15 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
 # ----------------------------------------------------------------------------------------------------
 # packing (Python, once per run)
 # ----------------------------------------------------------------------------------------------------
-def pair_table(nv, nbar, K, n):
+def pair_table(nv, nbar, K, n, STR=None):
     """PP: every vehicle pair with K_eff = (K^(-1/n) + K^(-1/n))^(-n) (two equal Hertz springs in series,
-    §13) and every vehicle-barrier pair with K (one vehicle against a rigid barrier)."""
-    pairs = [(i, j, (K ** (-1 / n) + K ** (-1 / n)) ** (-n)) for i in range(nv) for j in range(i + 1, nv)]
-    pairs += [(i, nv + k, K) for i in range(nv) for k in range(nbar)]
+    §13) and every vehicle-barrier pair with K (one vehicle against a rigid barrier), each with the structure
+    rows STR[v] (nv, N_STR; crush_structure.structure_row) of its vehicles, zeros for a barrier (rigid)."""
+    STR = np.zeros((nv, N_STR)) if STR is None else np.asarray(STR, dtype=float)
+    rigid = np.zeros(N_STR)
+    pairs = [(i, j, (K ** (-1 / n) + K ** (-1 / n)) ** (-n), *STR[i], *STR[j]) for i in range(nv)
+             for j in range(i + 1, nv)]
+    pairs += [(i, nv + k, K, *STR[i], *rigid) for i in range(nv) for k in range(nbar)]
     return np.array(pairs, dtype=float).reshape(-1, N_PP)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from .chassis_contact import (
+    G_CRUSH,
     G_DEL,
     G_FN,
     G_FX,
@@ -28,6 +29,7 @@ from .chassis_contact import (
     P_I,
     P_J,
     S_ACT,
+    S_CMAX,
     S_DD0,
     S_JX,
     S_MAXPEN,
@@ -73,12 +75,17 @@ def accumulate(PST, p, w, out):
 
 @njit(cache=True)
 def track_peak(PST, p, out):
-    """Keep the peak normal force (with the point and normal angle there) and the largest penetration."""
+    """Keep the peak normal force (with the point and normal angle there) and the largest penetration (the
+    overlap of the undeformed shapes, the total crush); in contact, the pair's largest crush S_CMAX (the
+    structure law's memory, §13a: updated only here, at accepted evaluations)."""
     if out[G_FN] > PST[p, S_PEAK]:
         PST[p, S_PEAK] = out[G_FN]
         PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH] = out[G_PX], out[G_PY], out[G_TH]
-    if out[G_DEL] > PST[p, S_MAXPEN]:
-        PST[p, S_MAXPEN] = out[G_DEL]
+    if out[G_DEL] > 0.0:
+        if out[G_CRUSH] > PST[p, S_MAXPEN]:
+            PST[p, S_MAXPEN] = out[G_CRUSH]
+        if out[G_CRUSH] > PST[p, S_CMAX]:
+            PST[p, S_CMAX] = out[G_CRUSH]
 
 
 @njit(cache=True)

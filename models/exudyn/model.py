@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Literal
 
 import numpy as np
 from pydantic import model_validator
@@ -19,6 +20,7 @@ from crashlab.models.common import contact_episodes as EP
 from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
+from crashlab.models.common.crush_structure import clamp_restitution, structure_row
 from crashlab.models.common.rotations import from_matrix
 from crashlab.models.common.tyre_moments import OMEGA_BRAKE, brake_moment, rolling_resistance_moment
 from crashlab.models.common.vehicle_3d import CORNERS, NW, T_ETA, T_R1, T_R2, build_scene_vehicles, steer_angles
@@ -63,9 +65,12 @@ class ExudynModel(CollisionModel):
       v_rest = 0.01 m/s, w_rest = 0.01 rad/s, t_sleep = 0.2 s   every chassis slower than this (horizontal
                                  speed, yaw rate) for t_sleep, no contact open: the run stops (the multibody
                                  model's thresholds)
-      contact_stiffness = 1.35e6 N/m^1.5   K of one vehicle against a rigid barrier; car-to-car pairs use
-                                 K/2^1.5 for equal K (series Hertz springs), the multibody model's default
-      contact_exponent = 1.5     n of F_N = K delta^n (1 + chi delta_dot / delta_dot0)
+      contact_law = "structure"  the vehicles' CRASH3 crush structures in series, unloading to the scene's
+                                 restitution (docs/physics.md §13a); "generic": K delta^n with the scene's
+                                 force_law (§13) and the two options below (the multibody model's defaults)
+      contact_stiffness = 1.35e6 N/m^1.5   generic law: K of one vehicle against a rigid barrier; car-to-car
+                                 pairs use K/2^1.5 for equal K (series Hertz springs)
+      contact_exponent = 1.5     generic law: n of F_N = K delta^n (1 + chi delta_dot / delta_dot0)
       v_min = 0.001 m/s          smallest approach velocity delta_dot0 stored at onset (multibody default)
 
     Tyre: exudyn's `CreateRollingDiscPenalty` (an infinitely thin disc of radius r1 + r2 on the plane z = 0)
@@ -127,9 +132,14 @@ class ExudynModel(CollisionModel):
         v_rest: float = option(0.01, "chassis horizontal speed below which a vehicle counts as still", "m/s", gt=0)
         w_rest: float = option(0.01, "chassis yaw rate below which a vehicle counts as still", "rad/s", gt=0)
         t_sleep: float = option(0.2, "every chassis still this long, no contact open: the run stops", "s", ge=0)
-        contact_stiffness: float = option(1.35e6, "K of one vehicle against a rigid barrier; car-to-car pairs use "
-                                          "K/2^1.5 for equal K (series Hertz springs)", "N/m^1.5", gt=0)
-        contact_exponent: float = option(1.5, "n of F_N = K delta^n (1 + chi delta_dot / delta_dot0)", "", ge=1)
+        contact_law: Literal["structure", "generic"] = option(
+            "structure", "chassis contact force: 'structure' = the vehicles' CRASH3 crush stiffness A + B C per "
+            "unit of engaged width, the two structures in series, unloading to the scene's restitution "
+            "(docs/physics.md §13a); 'generic' = K delta^n with the scene's force_law (§13)")
+        contact_stiffness: float = option(1.35e6, "generic law: K of one vehicle against a rigid barrier; car-to-car "
+                                          "pairs use K/2^1.5 for equal K (series Hertz springs)", "N/m^1.5", gt=0)
+        contact_exponent: float = option(1.5, "generic law: n of F_N = K delta^n (1 + chi delta_dot / "
+                                         "delta_dot0)", "", ge=1)
         v_min: float = option(1e-3, "smallest approach velocity delta_dot0 stored at onset", "m/s", gt=0)
         min_step: float = option(1e-6, "shortest step exudyn may take (below it the run fails with a reason)", "s",
                                  accuracy="smaller", gt=0)
@@ -205,7 +215,16 @@ class _Run:
         self.cchi, self.mu_c = chi(imp.force_law, imp.restitution), imp.friction
         self.fcode = friction_code(imp.friction_law)
         self.CSH = CSH = np.array([v.chassis_shape for v in self.vehs])
-        self.PP = C.pair_table(nv, len(scene.barriers), opts["contact_stiffness"], opts["contact_exponent"])
+        self.claw = float(C.CONTACT_LAWS.index(opts["contact_law"]))
+        self.rest, why = clamp_restitution(imp.restitution)
+        self.law_warnings = [why] if why and opts["contact_law"] == "structure" else []
+        STR = []
+        for veh, vs in zip(self.vehs, scene.vehicles):
+            row, notes = structure_row(vs.spec)
+            STR.append(row)
+            veh.notes.extend(n for n in notes if n not in veh.notes)
+        self.PP = C.pair_table(nv, len(scene.barriers), opts["contact_stiffness"], opts["contact_exponent"],
+                               np.array(STR))
         self.CT = C.contact_arrays(CSH, self.PP, C.barrier_rows(scene.barriers), nv)
         # chassis-road contact (common/road_contact.py, as the multibody model): stiffness from each vehicle's
         # total mass, regularised Coulomb friction
@@ -283,7 +302,8 @@ class _Run:
         psg = PSG[0]
         if PP.shape[0]:
             C.contacts(self.Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, self.o["contact_exponent"],
-                       self.cchi, self.mu_c, self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, self.o["v_min"])
+                       self.cchi, self.mu_c, self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, self.o["v_min"],
+                       self.claw, self.rest)
         else:
             FX[:, :] = 0.0
         mu = self.scene.road.friction
@@ -580,7 +600,7 @@ class _Run:
         self.o = dict(o, step=scene.duration / ti.numberOfSteps)
         mbs.SetPreStepUserFunction(self.prestep)
         mbs.SetPostNewtonUserFunction(self.postnewton)
-        warnings, ok = [], True
+        warnings, ok = list(self.law_warnings), True
         import exudyn.solver
         # the pre-step function allocates (numpy) every step by design: exudyn's allocation-count warning
         # would be printed on every run (exudyn 1.13 checks only the threshold, not the flag)

@@ -33,7 +33,9 @@ from .tyre import deflection, tyre
 (C_NEXP, C_CHI, C_MU_C, C_FCODE, C_FV0, C_FV1, C_FVS, C_VMIN) = range(17, 25)
 # chassis-road contact (common/road_contact.py): hysteresis chi and exponent n of the road law
 (C_ROAD_CHI, C_ROAD_N) = range(25, 27)
-N_CFG = 27
+# chassis contact law (chassis_contact.LAW_*) and the restitution of the structure law's unloading (§13a)
+(C_LAW, C_REST) = range(27, 29)
+N_CFG = 29
 # aux outputs of one evaluation (per vehicle)
 AUX_FZ, AUX_DRIFT_POS, AUX_DRIFT_ANG = 0, 4, 5
 N_AUX = 6

@@ -40,11 +40,13 @@ from .equations import (
     C_G,
     C_H0,
     C_HMAX,
+    C_LAW,
     C_MU,
     C_MU_C,
     C_NEXP,
     C_ONSET_TOL,
     C_REC_DT,
+    C_REST,
     C_ROAD_CHI,
     C_ROAD_N,
     C_RTOL,
@@ -102,7 +104,8 @@ def eval_all(Y, K, s, te, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
     KR, RSG = RD
     if PP.shape[0] > 0:
         contacts_awake(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, cfg[C_NEXP],
-                       cfg[C_CHI], cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN], awake)
+                       cfg[C_CHI], cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN],
+                       cfg[C_LAW], cfg[C_REST], awake)
     else:
         FX[:, :] = 0.0
     # chassis-road contact (regularised Coulomb with the road's friction)

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Literal
 
 import numpy as np
 
 from crashlab.model import CollisionModel
 from crashlab.models.common import road_contact as RC
 from crashlab.models.common.chassis_contact import (
+    CONTACT_LAWS,
     N_PP,
     barrier_rows,
     contact_arrays,
@@ -27,6 +29,7 @@ from crashlab.models.common.contact_episodes import (
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
+from crashlab.models.common.crush_structure import clamp_restitution, structure_row
 from crashlab.models.common.driver_inputs import (
     A_MODE,
     A_STEER_FROM,
@@ -92,10 +95,15 @@ class MultibodyModel(CollisionModel):
                                     "per vehicle)", "s", ge=0)
         damping: bool = option(True, "test switch: False removes every damper (suspension, tyre radial and tread)")
         friction: bool = option(True, "test switch: False removes the tyre's in-plane forces and moments")
-        contact_stiffness: float = option(1.35e6, "K of one vehicle against a rigid barrier; car-to-car pairs use "
-                                          "K_eff = (K1^(-1/n) + K2^(-1/n))^(-n) (README: crush-energy "
+        contact_law: Literal["structure", "generic"] = option(
+            "structure", "chassis contact force: 'structure' = the vehicles' CRASH3 crush stiffness A + B C per "
+            "unit of engaged width, the two structures in series, unloading to the scene's restitution "
+            "(docs/physics.md §13a); 'generic' = K delta^n with the scene's force_law (§13)")
+        contact_stiffness: float = option(1.35e6, "generic law: K of one vehicle against a rigid barrier; car-to-car "
+                                          "pairs use K_eff = (K1^(-1/n) + K2^(-1/n))^(-n) (README: crush-energy "
                                           "derivation)", "N/m^1.5", gt=0)
-        contact_exponent: float = option(1.5, "n of F_N = K delta^n (1 + chi delta_dot / delta_dot0)", "", ge=1)
+        contact_exponent: float = option(1.5, "generic law: n of F_N = K delta^n (1 + chi delta_dot / "
+                                         "delta_dot0)", "", ge=1)
         v_min: float = option(1e-3, "smallest approach velocity delta_dot0 stored at onset", "m/s", gt=0)
 
     def __init__(self, **options):
@@ -212,8 +220,16 @@ class MultibodyModel(CollisionModel):
         imp = scene.impact
         cfg[E.C_CHI] = chi(imp.force_law, imp.restitution)
         cfg[E.C_MU_C], cfg[E.C_FCODE] = imp.friction, friction_code(imp.friction_law)
+        cfg[E.C_LAW] = CONTACT_LAWS.index(self.options.contact_law)
+        cfg[E.C_REST], why = clamp_restitution(imp.restitution)
+        STR = []
+        for veh, vs in zip(vehs, scene.vehicles):
+            row, notes = structure_row(vs.spec)
+            STR.append(row)
+            veh.notes.extend(n for n in notes if n not in veh.notes)
         CSH = np.array([v.chassis_shape for v in vehs])
-        PP = pair_table(len(vehs), len(scene.barriers), self.options.contact_stiffness, self.options.contact_exponent)
+        PP = pair_table(len(vehs), len(scene.barriers), self.options.contact_stiffness, self.options.contact_exponent,
+                        np.array(STR))
         DV = (ACT, NACT, GEO) + pack_zones(scene.road)
         # a vehicle at rest in the scene starts asleep in its settled state (unless sleeping cannot happen in
         # this run: t_sleep >= duration, e.g. the scaling study's sleeping off)
@@ -221,7 +237,8 @@ class MultibodyModel(CollisionModel):
         ASLEEP = np.array([can_sleep and vs.speed == 0 and vs.yaw_rate == 0 for vs in scene.vehicles],
                           dtype=np.bool_)
         return {"Y": Y, "BODY": BODY, "SPR": SPR, "JNT": JNT, "TYR": TYR, "BAR": BAR, "cfg": cfg,
-                "vehicles": vehs, "CSH": CSH, "PP": PP, "DV": DV, "ASLEEP": ASLEEP}
+                "vehicles": vehs, "CSH": CSH, "PP": PP, "DV": DV, "ASLEEP": ASLEEP,
+                "warnings": [why] if why and self.options.contact_law == "structure" else []}
 
     def run(self, scene, prep, t0=None) -> Outcome:
         t0 = time.perf_counter() if t0 is None else t0
@@ -244,7 +261,7 @@ class MultibodyModel(CollisionModel):
                    CONT, _road_arrays([v.mass for v in vehs]), prep["ASLEEP"])
         nr = int(diag[I.D_NREC])
         status = int(diag[I.D_STATUS])
-        warnings, ok = [], True
+        warnings, ok = list(prep.get("warnings", [])), True
         if status == I.STATUS_NAN:
             ok, warnings = False, ["the state became NaN"]
         elif status == I.STATUS_STEP:

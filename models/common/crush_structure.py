@@ -1,0 +1,139 @@
+"""Crush structure of the chassis contact (docs/physics.md §13a): the CRASH3 force per unit of engaged width of
+the struck side of each vehicle, the two structures in series, and the unloading that gives the impact's
+restitution. Used by common/chassis_contact.py (multibody's time loop, exudyn's loads).
+
+Loading, one structure (Campbell 1974; CRASH3): f = F/w = A + B C, C >= 0 its crush.
+Two structures in series (force equilibrium: the same f on both): with A1 <= A2, only the weaker one crushes up
+to C* = (A2 - A1)/B1; beyond it both do, f = A2 + Bs (C - C*), Bs = B1 B2/(B1 + B2). A rigid barrier is
+B2 = A2 = inf (rows with B <= 0 are rigid): f = A1 + B1 C. Crush share of a structure: (f - A)/B (>= 0).
+Energy per unit width e(C) = integral of f: A1 C + B1 C^2/2 below C*, e(C*) + A2 (C - C*) + Bs (C - C*)^2/2.
+Unloading from the largest crush Cm (f_m = f(Cm), e_m = e(Cm)): linear, slope k = f_m^2 / (2 e^2 e_m), so that
+the energy given back f_m^2/(2k) is e^2 e_m (e^2 = E_rebound / E_absorbed, the impact's restitution); reloading
+follows the same line up to Cm, then the loading law. The line reaches f = 0 at the permanent crush
+Cp = Cm - f_m / k = Cm - 2 e^2 e_m / f_m (>= Cm (1 - 2 e^2) >= 0 for e <= 1/sqrt 2).
+
+The vehicle's coefficients come from its file ([structure.front|rear|side] A, B, width) when it has them, else
+from the class default CLASS_DEFAULT below (the one home of those numbers).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+SIDES = ("front", "rear", "side")
+# per-vehicle structure row: A [N/m], B [N/m^2], width [m] of front, rear, side
+N_STR = 9
+# Class default of a passenger car [A N/m, B N/m^2], used when the vehicle file has no [structure.<side>]:
+# estimates, the middle of the ranges quoted for mid-size cars from the CRASH3 class tables (front A 35-60 kN/m,
+# B 300-600 kN/m^2; issue 24); rear and side lower, as those tables rank them. Not fitted to any test
+# (docs/physics.md §13a; the original tables, NHTSA DOT HS 805 732 and Siddall & Day SAE 960897, were not
+# re-read for these numbers).
+CLASS_DEFAULT = {"front": (45e3, 450e3), "rear": (35e3, 300e3), "side": (25e3, 250e3)}
+CLASS_SOURCE = "class default (estimate, docs/physics.md §13a)"
+# restitution range of the linear unloading (Cp >= 0 needs e <= 1/sqrt 2)
+E_LO, E_HI = 0.01, 0.7
+
+
+def _entry(spec, side):
+    s = getattr(spec, "structure", None) or {}
+    entry = s.get(side) if isinstance(s, dict) else getattr(s, side, None)
+    return entry
+
+
+def structure_row(spec):
+    """The vehicle's structure row [A, B, width] x (front, rear, side) and notes naming what is a class default.
+    Width defaults: front and rear the vehicle's width, side its length."""
+    row, notes = np.zeros(N_STR), []
+    for k, side in enumerate(SIDES):
+        entry = _entry(spec, side)
+        w_default = spec.length if side == "side" else spec.width
+        if entry is None:
+            a, b = CLASS_DEFAULT[side]
+            w = w_default
+            notes.append(f"structure.{side}: A = {a:g} N/m, B = {b:g} N/m^2 ({CLASS_SOURCE})")
+        else:
+            a, b = float(entry.A), float(entry.B)
+            w = float(getattr(entry, "width", None) or w_default)
+        row[3 * k:3 * k + 3] = (a, b, w)
+    return row, notes
+
+
+def clamp_restitution(e):
+    """e within [E_LO, E_HI] and a reason when it had to move (the caller warns)."""
+    if e < E_LO:
+        return E_LO, f"restitution {e:g} below {E_LO:g}: the crush unloading uses {E_LO:g}"
+    if e > E_HI:
+        return E_HI, (f"restitution {e:g} above {E_HI:g}: the linear crush unloading would end with a negative "
+                      f"permanent crush; it uses {E_HI:g} (docs/physics.md §13a)")
+    return e, None
+
+
+@njit(cache=True)
+def side_code(x, y, a, b):
+    """Struck side of a point (x, y) in the chassis frame relative to the shape centre, a and b the half length
+    and half width: 0 front, 1 rear, 2 side (the bounding box face it is nearest in proportion)."""
+    if abs(x) * b >= abs(y) * a:
+        return 0 if x >= 0.0 else 1
+    return 2
+
+
+@njit(cache=True)
+def series_force(C, A1, B1, A2, B2):
+    """Force per unit width f(C) of two structures in series at total crush C >= 0 (B2 <= 0: rigid)."""
+    if C <= 0.0:
+        return 0.0
+    if B2 <= 0.0:
+        return A1 + B1 * C
+    if A2 < A1:
+        A1, B1, A2, B2 = A2, B2, A1, B1
+    cs = (A2 - A1) / B1
+    if C <= cs:
+        return A1 + B1 * C
+    return A2 + B1 * B2 / (B1 + B2) * (C - cs)
+
+
+@njit(cache=True)
+def series_energy(C, A1, B1, A2, B2):
+    """Energy per unit width e(C) = integral of series_force from 0 to C."""
+    if C <= 0.0:
+        return 0.0
+    if B2 <= 0.0:
+        return A1 * C + 0.5 * B1 * C * C
+    if A2 < A1:
+        A1, B1, A2, B2 = A2, B2, A1, B1
+    cs = (A2 - A1) / B1
+    if C <= cs:
+        return A1 * C + 0.5 * B1 * C * C
+    d = C - cs
+    return A1 * cs + 0.5 * B1 * cs * cs + A2 * d + 0.5 * B1 * B2 / (B1 + B2) * d * d
+
+
+@njit(cache=True)
+def crush_share(f, A, B):
+    """Crush of one structure (A, B) carrying the force per unit width f (0 for a rigid one, B <= 0)."""
+    if B <= 0.0 or f <= A:
+        return 0.0
+    return (f - A) / B
+
+
+@njit(cache=True)
+def permanent_crush(Cm, e, A1, B1, A2, B2):
+    """Cp: where the unloading line from the largest crush Cm reaches f = 0 (0 before any crush)."""
+    if Cm <= 0.0:
+        return 0.0
+    fm = series_force(Cm, A1, B1, A2, B2)
+    return Cm - 2.0 * e * e * series_energy(Cm, A1, B1, A2, B2) / fm
+
+
+@njit(cache=True)
+def structure_force(C, Cm, e, A1, B1, A2, B2):
+    """Force per unit width at total crush C with the largest crush so far Cm: the loading law at C >= Cm, else
+    the unloading line of slope f_m^2 / (2 e^2 e_m) through (Cm, f_m), clamped at 0."""
+    if C <= 0.0:
+        return 0.0
+    if C >= Cm:
+        return series_force(C, A1, B1, A2, B2)
+    fm = series_force(Cm, A1, B1, A2, B2)
+    k = fm * fm / (2.0 * e * e * series_energy(Cm, A1, B1, A2, B2))
+    f = fm - k * (Cm - C)
+    return f if f > 0.0 else 0.0
