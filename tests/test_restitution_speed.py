@@ -1,0 +1,70 @@
+"""Restitution as a law of the closing speed, `[impact] restitution = "speed"` (docs/physics.md §13b):
+the law against the published regression written here independently, each model's outcome following it,
+and the bad input."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from crashlab.restitution import restitution_at, speed_restitution
+from crashlab.scene import Impact
+
+KMH = 1 / 3.6
+
+
+def cipriani_mph(closing_mph):
+    """Cipriani et al. 2002 (SAE 2002-01-0540) in the form it is usually quoted: closing speed in mph, the
+    log of the speed in m/s (1 mph = 0.44704 m/s)."""
+    lg = math.log10(closing_mph * 0.44704)
+    return 0.47477 - 0.26139 * lg + 0.03382 * lg ** 2 - 0.11639 * lg ** 3
+
+
+@pytest.mark.parametrize("mph", [2.5, 5.0, 8.0, 12.0, 17.0])
+def test_law_is_the_published_regression(mph):
+    assert speed_restitution(mph * 0.44704) == pytest.approx(cipriani_mph(mph), abs=1e-12)
+
+
+def test_law_held_at_its_ends_with_a_warning():
+    """Outside 1..8 m/s the end value, with the reason; within, no warning; a constant is itself."""
+    imp = Impact(restitution_law="speed")
+    e_hi, why = restitution_at(57 * KMH, imp)  # NHTSA 10146's barrier speed
+    assert e_hi == pytest.approx(cipriani_mph(8.0 / 0.44704), abs=1e-12) and "outside" in why
+    e_lo, why = restitution_at(0.5, imp)
+    assert e_lo == pytest.approx(cipriani_mph(1.0 / 0.44704), abs=1e-12) and "outside" in why
+    assert restitution_at(4.0, imp)[1] is None
+    assert restitution_at(4.0, Impact(restitution=0.25)) == (0.25, None)
+
+
+def _barrier_scene(make_scene, kmh, restitution="speed"):
+    return make_scene([{"speed": kmh, "overrides": {"rolling_resistance": 0.0}}],
+                      impact={"restitution": restitution, "friction": 0.3},
+                      barriers=[{"x": 5.0, "y": 0.0, "heading": 0.0, "length": 1.0, "width": 4.0}],
+                      duration=1.5)
+
+
+@pytest.mark.parametrize("kmh", [10.0, 25.0])
+def test_impulse_barrier_rebound_follows_the_law(impulse_model, make_scene, kmh):
+    """Central impact into a rigid barrier: rebound / approach speed = e(closing speed) within 1e-6
+    (the impact is one instantaneous impulse; the row's delta-V is -(1 + e) v)."""
+    out = impulse_model.simulate(_barrier_scene(make_scene, kmh))
+    assert out.outcome_ok and not out.warnings, out.warnings
+    row = out.impacts.iloc[0]
+    e = -row.dvx / kmh - 1.0
+    assert e == pytest.approx(cipriani_mph(kmh / 3.6 / 0.44704), abs=1e-6)
+
+
+def test_impulse_warns_outside_the_law(impulse_model, make_scene):
+    out = impulse_model.simulate(_barrier_scene(make_scene, 57.0))
+    assert any("outside the data of the law" in w for w in out.warnings), out.warnings
+    row = out.impacts.iloc[0]
+    assert -row.dvx / 57.0 - 1.0 == pytest.approx(cipriani_mph(8.0 / 0.44704), abs=1e-6)
+
+
+def test_bad_restitution_word(tmp_path, make_scene):
+    """restitution = "fast": one line naming impact.restitution, InputError (exit 2)."""
+    from crashlab.errors import InputError
+    with pytest.raises(InputError) as err:
+        _barrier_scene(make_scene, 20.0, restitution="fast")
+    assert "impact.restitution" in str(err.value) and "speed" in str(err.value)
+    assert "\n" not in str(err.value)
