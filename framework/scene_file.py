@@ -78,8 +78,8 @@ def _number_or_speed(value, handler):
 
 class ImpactFile(_Strict):
     restitution: Annotated[Real, WrapValidator(_number_or_speed)] = Field(
-        default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]; or \"speed\": a law of the "
-        "closing speed at the impact (Cipriani et al. 2002, held at its ends 3.6-28.8 km/h; docs/physics.md §13b)")
+        default=0.1, ge=0, le=1, description="coefficient of restitution; or \"speed\": a law of the closing speed "
+        "at each impact (Cipriani et al. 2002, held at its ends 3.6-28.8 km/h with a warning; docs/physics.md §13b)")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
                            description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
     law: Literal["kudlich-slibar", "brach", "routh"] = Field(

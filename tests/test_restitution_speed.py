@@ -4,8 +4,10 @@ and the bad input."""
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import pytest
+from conftest import PC_CRASH, assert_one_error_line
 
 from crashlab.restitution import restitution_at, speed_restitution
 from crashlab.scene import Impact
@@ -61,10 +63,23 @@ def test_impulse_warns_outside_the_law(impulse_model, make_scene):
     assert -row.dvx / 57.0 - 1.0 == pytest.approx(cipriani_mph(8.0 / 0.44704), abs=1e-6)
 
 
-def test_bad_restitution_word(tmp_path, make_scene):
-    """restitution = "fast": one line naming impact.restitution, InputError (exit 2)."""
-    from crashlab.errors import InputError
-    with pytest.raises(InputError) as err:
-        _barrier_scene(make_scene, 20.0, restitution="fast")
-    assert "impact.restitution" in str(err.value) and "speed" in str(err.value)
-    assert "\n" not in str(err.value)
+def test_bad_restitution_word(tmp_path, capsys):
+    """restitution = "fast": `crashlab simulate` exits 2 with one line naming the file and impact.restitution."""
+    from crashlab.cli import main
+    src = (PC_CRASH / "head_on.toml").read_text()
+    path = tmp_path / "fast.toml"
+    path.write_text(src.replace("restitution = 0.1", 'restitution = "fast"'))
+    assert 'restitution = "fast"' in path.read_text()
+    code = main(["simulate", str(path)])
+    captured = capsys.readouterr()
+    assert_one_error_line(SimpleNamespace(returncode=code, stdout=captured.out, stderr=captured.err), path,
+                          "impact.restitution", words=('"speed"',))
+
+
+def test_a_number_set_on_the_field_replaces_the_law(make_scene):
+    """A restitution drawn or searched as a field (crashlab.fields) is a constant: the law is off."""
+    from crashlab.fields import set_field
+    scene = _barrier_scene(make_scene, 20.0)
+    assert scene.impact.restitution_law == "speed"
+    changed = set_field(scene, "impact.restitution", 0.3)
+    assert (changed.impact.restitution, changed.impact.restitution_law) == (0.3, "constant")
