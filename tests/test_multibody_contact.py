@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import crashlab
-from crashlab.models.common.crush_structure import CLASS_DEFAULT
+from crashlab.models.common.crush_structure import structure_row
 from crashlab.models.multibody import MultibodyModel
 from crashlab.scene_file import scene_from_dict
 from crashlab.units import kmh_to_ms
@@ -52,10 +52,9 @@ def test_rigid_wall_64_effective_restitution(model):
     assert r["energy"] == pytest.approx(ke_lost, rel=0.03)
     assert 0.1 < r["max_penetration"] < 0.8
     # the crush structure (docs/physics.md §13a): the largest crush from the energy balance against a rigid
-    # barrier, 1/2 m v^2 = w (A C + B C^2/2), w the car's width (the class default front A, B); the 3D car
+    # barrier, 1/2 m v^2 = w (A C + B C^2/2) with the car's front A, B, width (its file's); the 3D car
     # crushes ~1 % deeper (its wheels' spin energy and pitch are not in the closed form)
-    a, b = CLASS_DEFAULT["front"]
-    w = sc.vehicles[0].spec.width
+    a, b, w = structure_row(sc.vehicles[0].spec)[0][:3]  # the vehicle file's [structure.front] (or the class default)
     c_ref = (-a + np.sqrt(a * a + b * m * v0 ** 2 / w)) / b
     assert r["max_penetration"] == pytest.approx(c_ref, rel=0.03)
     assert 0.05 < r["duration"] < 0.4
