@@ -83,3 +83,12 @@ def test_a_number_set_on_the_field_replaces_the_law(make_scene):
     assert scene.impact.restitution_law == "speed"
     changed = set_field(scene, "impact.restitution", 0.3)
     assert (changed.impact.restitution, changed.impact.restitution_law) == (0.3, "constant")
+
+
+def test_the_generic_3d_contact_law_warns_that_it_keeps_a_constant():
+    """multibody / exudyn with contact_law = "generic" cannot follow the law (its damping is set once): it says so."""
+    from crashlab.models.common.crush_structure import speed_law_setting
+    assert speed_law_setting(Impact(restitution_law="speed"), "structure", None) is None
+    assert 'contact_law = "structure"' in speed_law_setting(Impact(restitution_law="speed"), "generic", None)
+    assert speed_law_setting(Impact(restitution=0.9), "structure", "clamped") == "clamped"
+    assert speed_law_setting(Impact(restitution=0.9), "generic", "clamped") is None
