@@ -61,8 +61,9 @@ IMPACT_LAWS = _schema_laws()   # every impulse law of the scene schema's [impact
 LAW_MODELS = ("impulse",)      # the models that read [impact] law (docs/physics.md §3)
 GIVEN_POINT_MODELS = ("impulse",)  # the models that apply a given [impact] point (pymunk ignores it)
 ENGAGEMENT_MODELS = ("impulse",)  # the models that read [impact] point = "engagement" (docs/physics.md §4)
-# [impact] restitution of every run (the documented parameter set: 0.1); issue 24 item 4 adds "speed"
-RESTITUTION_VARIANTS: tuple = (0.1,)
+# [impact] restitution of every run: the documented constant 0.1 and the law of the closing speed "speed"
+# (docs/physics.md §13b); each test is run with both
+RESTITUTION_VARIANTS: tuple = (0.1, "speed")
 APPROACH_GAP = 0.1  # m of closing travel between the cars at the start of an approach_scene
 DV_QUANTITIES = ("delta_v", "impact_delta_v")  # the delta-V quantities (figure, goal check)
 GOAL_PCT = {"impulse": 10.0, "multibody": 15.0, "exudyn": 15.0}  # issue 24's goal on car-to-car delta-V
@@ -343,7 +344,8 @@ def write_figure(rows: list[dict], path: Path) -> Path | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     tests = sorted({r["test"] for r in pts})
-    variants = sorted({(r["model"], r["law"], r["contact"], str(r["restitution"])) for r in pts})
+    # a marker per model, law and contact; the restitution by the fill: open 0.1, filled "speed" (§13b)
+    variants = sorted({(r["model"], r["law"], r["contact"]) for r in pts})
     markers = "osD^v<>PXh*"
     colours = plt.get_cmap("tab10")
     top = 1.1 * max(max(r["published"], r["simulated"]) for r in pts)
@@ -351,13 +353,17 @@ def write_figure(rows: list[dict], path: Path) -> Path | None:
     ax.fill_between([0, top], [0, 0.9 * top], [0, 1.1 * top], color="0.85", label="+-10 %")
     ax.plot([0, top], [0, top], color="k", lw=1, label="1:1")
     for k, var in enumerate(variants):
-        model, law, contact, e = var
-        sel = [r for r in pts if (r["model"], r["law"], r["contact"], str(r["restitution"])) == var]
+        model, law, contact = var
         marker = markers[k % len(markers)]
-        ax.scatter([r["published"] for r in sel], [r["simulated"] for r in sel], marker=marker, s=45,
-                   facecolors="none", edgecolors=[colours(tests.index(r["test"]) % 10) for r in sel])
+        for e in sorted({str(r["restitution"]) for r in pts}):
+            sel = [r for r in pts if (r["model"], r["law"], r["contact"], str(r["restitution"])) == (*var, e)]
+            edge = [colours(tests.index(r["test"]) % 10) for r in sel]
+            ax.scatter([r["published"] for r in sel], [r["simulated"] for r in sel], marker=marker, s=45,
+                       facecolors=edge if e == "speed" else "none", edgecolors=edge, alpha=0.6 if e == "speed" else 1)
         ax.scatter([], [], marker=marker, facecolors="none", edgecolors="k",  # legend: the variant's marker
-                   label=f"{model}" + ("" if law == "-" else f" {law}") + f", {contact}, e={e}")
+                   label=f"{model}" + ("" if law == "-" else f" {law}") + f", {contact}")
+    ax.scatter([], [], marker="o", facecolors="none", edgecolors="k", label="open: restitution 0.1")
+    ax.scatter([], [], marker="o", color="k", alpha=0.6, label='filled: restitution "speed"')
     for j, t in enumerate(tests):  # legend: the tests' colours
         ax.scatter([], [], color=colours(j % 10), marker="s", label=t)
     ax.set_xlim(0, top)

@@ -303,7 +303,10 @@ def setter(scene: Scene, paths: Sequence[str | Field], check: bool = True) -> Ca
                 road["zones"] = tuple(zones)
             changes["road"] = _copy(scene.road, **road)
         if impact_i:
-            changes["impact"] = _copy(scene.impact, **{q: si[i] for i, q in impact_i})
+            imp = {q: si[i] for i, q in impact_i}
+            if "restitution" in imp:  # a number given replaces restitution = "speed" (docs/physics.md §13b)
+                imp["restitution_law"] = "constant"
+            changes["impact"] = _copy(scene.impact, **imp)
         if by_vehicle:
             vehicles = list(scene.vehicles)
             for name, items in by_vehicle.items():

@@ -60,7 +60,8 @@ class Action:
 
 @dataclasses.dataclass(frozen=True)
 class Impact:
-    restitution: float = 0.1
+    restitution: float = 0.1  # the constant; with restitution_law "speed" the law's (crashlab.restitution)
+    restitution_law: str = "constant"  # or "speed": e of the closing speed at each impact (docs/physics.md §13b)
     friction: float = 0.3
     law: str = "kudlich-slibar"
     force_law: str = "flores"

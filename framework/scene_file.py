@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, Validatio
 
 from . import uncertainty
 from .errors import InputError
+from .restitution import SPEED
 from .scene import (
     ANGLE_MAX,
     BARRIER_SIZE,
@@ -68,8 +69,17 @@ def _point_or_engagement(value, handler):
     return value if value == "engagement" else handler(value)
 
 
+def _number_or_speed(value, handler):
+    """[impact] restitution: a number in [0, 1], or the word "speed" (docs/physics.md §13b)."""
+    if isinstance(value, str) and value != SPEED:
+        raise ValueError(f'a number in [0, 1] or "{SPEED}", got {value!r}')
+    return value if value == SPEED else handler(value)
+
+
 class ImpactFile(_Strict):
-    restitution: Real = Field(default=0.1, ge=0, le=1, description="coefficient of restitution; [0, 1]")
+    restitution: Annotated[Real, WrapValidator(_number_or_speed)] = Field(
+        default=0.1, ge=0, le=1, description="coefficient of restitution; or \"speed\": a law of the closing speed "
+        "at each impact (Cipriani et al. 2002, held at its ends 3.6-28.8 km/h with a warning; docs/physics.md §13b)")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
                            description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
     law: Literal["kudlich-slibar", "brach", "routh"] = Field(
@@ -237,7 +247,9 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
         name=f.name,
         vehicles=vehicles,
         road=Road(friction=f.road.friction, zones=zones),
-        impact=Impact(restitution=imp.restitution, friction=imp.friction, law=imp.law,
+        impact=Impact(**({"restitution_law": SPEED} if imp.restitution == SPEED else
+                         {"restitution": imp.restitution}),
+                      friction=imp.friction, law=imp.law,
                       force_law=imp.force_law, friction_law=imp.friction_law,
                       point=None if imp.point is None else tuple(imp.point),
                       plane_angle=None if imp.plane_angle is None else deg_to_rad(imp.plane_angle),

@@ -277,6 +277,35 @@ def test_restitution_against_a_barrier(model, e):
     assert -after / before == pytest.approx(e, abs=tol)
 
 
+SPEED_LAW_KMH = (15.0, 25.0)  # km/h into the rigid wall: both within the speed law's data (1-8 m/s)
+
+
+def cipriani(v):
+    """Cipriani et al. 2002 (SAE 2002-01-0540), v in m/s (docs/physics.md §13b), written out here."""
+    lg = math.log10(v)
+    return 0.47477 - 0.26139 * lg + 0.03382 * lg * lg - 0.11639 * lg ** 3
+
+
+@pytest.mark.parametrize("kmh", SPEED_LAW_KMH)
+@pytest.mark.parametrize("model", MODELS)
+def test_speed_restitution_against_a_barrier(model, kmh):
+    """restitution = "speed" (§13b): head-on into the rigid wall, the rebound / approach speed is the law's e at
+    the closing speed (two speeds: two different restitutions), to the model's BARRIER_E tolerance."""
+    tol = tolerance(BARRIER_E, model).value
+
+    def scene():
+        s = crashlab.load_scene(RIGID_WALL)
+        v = s.vehicles[0]
+        return s.replace(impact=dataclasses.replace(s.impact, restitution_law="speed"),
+                         vehicles=(dataclasses.replace(v, speed=kmh_to_ms(kmh)),))
+    _, out = run(model, ("wall-speed", kmh), scene)
+    assert out.outcome_ok and not [w for w in out.warnings if "restitution" in w], out.warnings
+    (row,) = rows_of(out, "V1")
+    before = out.contact_si[0, CONTACT_SPEED] * math.cos(out.contact_si[0, CONTACT_HEADING])
+    after = before + row["dvx"]
+    assert -after / before == pytest.approx(cipriani(before), abs=tol)
+
+
 # ---------------------------------------------------------------- PC-Crash case 1
 @pytest.mark.parametrize("model", MODELS)
 def test_case1_post_impact_speeds_match_pc_crash(model):

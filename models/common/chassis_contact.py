@@ -37,9 +37,11 @@ import math
 import numpy as np
 from numba import njit
 
+from crashlab.restitution import range_warning, speed_restitution
+
 from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi
-from .crush_structure import N_STR, permanent_crush, side_code, structure_force
+from .crush_structure import E_HI, E_LO, N_STR, permanent_crush, side_code, structure_force
 from .narrow_phase import horizontal_gap, support_value_body
 from .rotations import rot_z, rotation_matrix_into
 from .superellipsoid import support_global
@@ -60,7 +62,10 @@ CONTACT_LAWS = ("structure", "generic")
 # the pair's crush memory (structure law, kept across its episodes): largest crush, struck sides of i and j
 # (crush_structure.side_code) latched while the pair is not in contact; a new contact on other sides forgets it
 S_CMAX, S_SIDE_I, S_SIDE_J = 20, 21, 22
-N_PST = 23
+# restitution = "speed" (cfg_e = crashlab.restitution.E_SPEED_LAW): the unloading's e, set from the law at the
+# normal closing speed S_VCLOSE of the pair's first crush (while S_CMAX is 0) and kept for it (docs/physics.md §13b)
+S_E, S_VCLOSE = 23, 24
+N_PST = 25
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -109,7 +114,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
     the radii grown by the shapes' offsets, before any rotation is built), height ranges, oriented boxes (a
     superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
     also measures its separation speed); BPC counts what each stage removed.
-    cfg_law: LAW_STRUCTURE (the crush structures of PP, unloading to the restitution cfg_e, §13a) or
+    cfg_law: LAW_STRUCTURE (the crush structures of PP, unloading to the restitution cfg_e, §13a; cfg_e < 0:
+    restitution = "speed", e from the closing speed where the pair's crush began, §13b) or
     LAW_GENERIC (K delta^n with the hysteresis cfg_chi, §13)."""
     nv = Y.shape[0]
     use_awake = awake.shape[0] > 0
@@ -225,7 +231,13 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             cj = P_STR_J + 3 * int(PST[p, S_SIDE_J])
             a1s, b1s, a2s, b2s = PP[p, ci], PP[p, ci + 1], PP[p, cj], PP[p, cj + 1]
             cm = PST[p, S_CMAX]
-            psg[p, G_DEL] = -g - permanent_crush(cm, cfg_e, a1s, b1s, a2s, b2s)
+            e = cfg_e
+            if cfg_e < 0.0:  # the law at the closing speed where this crush began (§13b)
+                if cm == 0.0:
+                    PST[p, S_VCLOSE] = max(dd, 0.0)
+                    PST[p, S_E] = min(max(speed_restitution(dd), E_LO), E_HI)
+                e = PST[p, S_E]
+            psg[p, G_DEL] = -g - permanent_crush(cm, e, a1s, b1s, a2s, b2s)
             if psg[p, G_DEL] <= 0.0:
                 continue
             # engaged width: overlap of the two plan shadows across the normal, within each structure's width
@@ -239,7 +251,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 w = min(w, PP[p, cj + 2])
             w = max(w, 0.0)
             psg[p, G_WIDTH] = w
-            fn = w * structure_force(-g, cm, cfg_e, a1s, b1s, a2s, b2s)
+            fn = w * structure_force(-g, cm, e, a1s, b1s, a2s, b2s)
         else:
             if g >= 0.0:
                 continue
@@ -321,3 +333,15 @@ def end_overlap(names, PP, psg):
             other = names[j] if j < nv else f"barrier {j - nv}"
             return f"{names[i]} and {other} end penetrating by {d:.2f} m (contact bodies)"
     return None
+
+
+def speed_law_warnings(PST) -> list:
+    """restitution = "speed": the reason for each pair whose (last) crush began at a closing speed outside the
+    law's data (crashlab.restitution.range_warning); pairs that never touched have no closing speed."""
+    out = []
+    for p in range(PST.shape[0]):
+        if PST[p, S_CMAX] > 0.0:
+            why = range_warning(PST[p, S_VCLOSE])
+            if why and why not in out:
+                out.append(why)
+    return out

@@ -49,6 +49,18 @@ def clamp_restitution(e):
     return e, None
 
 
+def speed_law_setting(impact, contact_law, why):
+    """The warning of a scene's restitution for the 3D chassis contact: restitution = "speed" needs the structure
+    law (its unloading takes e per pair from the closing speed, §13b; the generic law's damping is set once from
+    the constant); a constant keeps clamp_restitution's reason `why` (structure law only)."""
+    if impact.restitution_law != "speed":
+        return why if contact_law == "structure" else None
+    if contact_law == "structure":
+        return None
+    return (f'restitution = "speed" needs contact_law = "structure": the generic contact law uses the constant '
+            f"restitution {impact.restitution:g} (docs/physics.md §13b)")
+
+
 @njit(cache=True)
 def side_code(x, y, a, b):
     """Struck side of a point (x, y) in the chassis frame relative to the shape centre, a and b the half length

@@ -20,13 +20,14 @@ from crashlab.models.common import contact_episodes as EP
 from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
-from crashlab.models.common.crush_structure import clamp_restitution, structure_row
+from crashlab.models.common.crush_structure import clamp_restitution, speed_law_setting, structure_row
 from crashlab.models.common.rotations import from_matrix
 from crashlab.models.common.tyre_moments import OMEGA_BRAKE, brake_moment, rolling_resistance_moment
 from crashlab.models.common.vehicle_3d import CORNERS, NW, T_ETA, T_R1, T_R2, build_scene_vehicles, steer_angles
 from crashlab.models.common.wheel_states import BRAKED, LOCKED
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
+from crashlab.restitution import E_SPEED_LAW, SPEED
 from crashlab.units import G
 
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
@@ -217,7 +218,10 @@ class _Run:
         self.CSH = CSH = np.array([v.chassis_shape for v in self.vehs])
         self.claw = float(C.CONTACT_LAWS.index(opts["contact_law"]))
         self.rest, why = clamp_restitution(imp.restitution)
-        self.law_warnings = [why] if why and opts["contact_law"] == "structure" else []
+        why = speed_law_setting(imp, opts["contact_law"], why)
+        if imp.restitution_law == SPEED:  # the law at each pair's closing speed (chassis_contact, §13b)
+            self.rest = E_SPEED_LAW
+        self.law_warnings = [why] if why else []
         STR = []
         for veh, vs in zip(self.vehs, scene.vehicles):
             row, notes = structure_row(vs.spec)
@@ -620,6 +624,8 @@ class _Run:
         for p in range(self.PP.shape[0]):
             if PST[p, C.S_ACT] > 0.0:
                 self._close(p, t_end, 1.0, psg)
+        if self.rest == E_SPEED_LAW:
+            warnings += C.speed_law_warnings(PST)
         for v in range(nv):
             if self.road_on[v]:
                 self.intervals.append((self.road_t0[v], t_end))

@@ -58,6 +58,7 @@ from crashlab.models.common.planar_vehicle import (
     vehicle_forces_trig,
 )
 from crashlab.models.common.wheel_states import BRAKED, ROLLING
+from crashlab.restitution import kernel_restitution
 from crashlab.units import G
 
 from .laws import checked_impulse, collision_impulse, impact_matrix
@@ -75,8 +76,8 @@ N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engage
 # that does not follow the reversal (model._slip_warnings)
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
- I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J) = range(29)
-N_IMP = 29
+ I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING) = range(30)
+N_IMP = 30  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
  D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
@@ -301,12 +302,14 @@ def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law, alt):
     gn, gt = gx * nx + gy * ny, gx * tx + gy * ty
     if gn >= 0.0:
         return 0.0, 0.0, -1, 0.0, gn
+    e = kernel_restitution(e, -gn)  # the constant, or the law of the closing speed (docs/physics.md §13b)
     knn, ktt, knt = impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny)
     if alt.shape[0] > 0:
         pn, pt, kind, rev, apn, apt = checked_impulse(knn, ktt, knt, gn, gt, e, mu, law)
         a1, b1 = r1x * ny - r1y * nx, r1x * ty - r1y * tx  # r x n, r x t: yaw-rate change per impulse
         a2, b2 = r2x * ny - r2y * nx, r2x * ty - r2y * tx
         alt[I_REVERSED] = 1.0 if rev else 0.0
+        alt[I_CLOSING] = -gn
         alt[I_OWN_PN], alt[I_OWN_PT], alt[I_ALT_PN], alt[I_ALT_PT] = pn, pt, apn, apt
         alt[I_OWN_DR_I], alt[I_OWN_DR_J] = -(a1 * pn + b1 * pt) * iI1, (a2 * pn + b2 * pt) * iI2
         alt[I_ALT_DR_I], alt[I_ALT_DR_J] = -(a1 * apn + b1 * apt) * iI1, (a2 * apn + b2 * apt) * iI2

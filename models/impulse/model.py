@@ -15,6 +15,7 @@ from crashlab.models.common.impact_rows import barrier_name, pair_rows
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
+from crashlab.restitution import SPEED, kernel_value, range_warning
 from crashlab.scene import given_pair
 from crashlab.units import ms_to_kmh
 
@@ -148,7 +149,7 @@ class ImpulseModel(CollisionModel):
         B = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
         cfg = np.zeros(K.N_CFG)
         imp = scene.impact
-        cfg[K.C_MU_ROAD], cfg[K.C_E], cfg[K.C_MU_IMP] = scene.road.friction, imp.restitution, imp.friction
+        cfg[K.C_MU_ROAD], cfg[K.C_E], cfg[K.C_MU_IMP] = scene.road.friction, kernel_value(imp), imp.friction
         cfg[K.C_LAW], cfg[K.C_DURATION], cfg[K.C_STOP_AT_REST] = LAWS[imp.law], scene.duration, scene.stop_at_rest
         if imp.point is not None:
             cfg[K.C_GIVEN], cfg[K.C_PX], cfg[K.C_PY], cfg[K.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
@@ -226,6 +227,8 @@ class ImpulseModel(CollisionModel):
             warnings.append("no contact between the vehicles")
         if scene.impact.law != "routh":
             warnings += _slip_warnings(names, P[:, P_MASS], imp, scene.impact.law)
+        if scene.impact.restitution_law == SPEED:
+            warnings += [w for w in map(range_warning, imp[:, K.I_CLOSING].tolist()) if w]
         return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[K.D_CONTACT_T], None, rows,
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
                        impact_energy=imp[:, K.I_ENERGY].copy())

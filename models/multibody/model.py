@@ -18,6 +18,7 @@ from crashlab.models.common.chassis_contact import (
     contact_arrays,
     end_overlap,
     pair_table,
+    speed_law_warnings,
 )
 from crashlab.models.common.contact_episodes import (
     I_MAXPEN,
@@ -29,7 +30,7 @@ from crashlab.models.common.contact_episodes import (
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
-from crashlab.models.common.crush_structure import clamp_restitution, structure_row
+from crashlab.models.common.crush_structure import clamp_restitution, speed_law_setting, structure_row
 from crashlab.models.common.driver_inputs import (
     A_MODE,
     A_STEER_FROM,
@@ -55,6 +56,7 @@ from crashlab.models.common.vehicle_3d import (
 from crashlab.models.common.wheel_states import LOCKED
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
+from crashlab.restitution import E_SPEED_LAW, SPEED
 from crashlab.units import G
 
 from . import equations as E
@@ -222,6 +224,9 @@ class MultibodyModel(CollisionModel):
         cfg[E.C_MU_C], cfg[E.C_FCODE] = imp.friction, friction_code(imp.friction_law)
         cfg[E.C_LAW] = CONTACT_LAWS.index(self.options.contact_law)
         cfg[E.C_REST], why = clamp_restitution(imp.restitution)
+        why = speed_law_setting(imp, self.options.contact_law, why)
+        if imp.restitution_law == SPEED:  # the law at each pair's closing speed (chassis_contact, §13b)
+            cfg[E.C_REST] = E_SPEED_LAW
         STR = []
         for veh, vs in zip(vehs, scene.vehicles):
             row, notes = structure_row(vs.spec)
@@ -238,7 +243,7 @@ class MultibodyModel(CollisionModel):
                           dtype=np.bool_)
         return {"Y": Y, "BODY": BODY, "SPR": SPR, "JNT": JNT, "TYR": TYR, "BAR": BAR, "cfg": cfg,
                 "vehicles": vehs, "CSH": CSH, "PP": PP, "DV": DV, "ASLEEP": ASLEEP,
-                "warnings": [why] if why and self.options.contact_law == "structure" else []}
+                "warnings": [why] if why else []}
 
     def run(self, scene, prep, t0=None) -> Outcome:
         t0 = time.perf_counter() if t0 is None else t0
@@ -266,6 +271,8 @@ class MultibodyModel(CollisionModel):
             ok, warnings = False, ["the state became NaN"]
         elif status == I.STATUS_STEP:
             ok, warnings = False, ["step size underflow"]
+        if cfg[E.C_REST] == E_SPEED_LAW:
+            warnings += speed_law_warnings(CT[5])
         rest = np.zeros((nv, 3))
         final = np.zeros((nv, 3))
         contact = CONT

@@ -17,6 +17,7 @@ from crashlab.models.common.impact_rows import pair_rows
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_IZ, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
+from crashlab.restitution import restitution_at
 from crashlab.scene import barrier_outline
 
 
@@ -115,10 +116,11 @@ class PymunkModel(CollisionModel):
 class _Episode:
     """One contact episode of a pair (vehicle i, vehicle or barrier k)."""
 
-    __slots__ = ("dv", "energy", "i", "j", "k", "plane", "px", "py", "t", "t_end", "weight")
+    __slots__ = ("dv", "e", "energy", "i", "j", "k", "plane", "px", "py", "t", "t_end", "weight")
 
-    def __init__(self, t, i, k, px, py, plane):
+    def __init__(self, t, i, k, px, py, plane, e):
         self.t, self.i, self.k, self.px, self.py, self.plane = t, i, k, px, py, plane
+        self.e = e  # the episode's restitution (the scene's, or its law at the first contact's closing speed)
         self.t_end = t  # end of the last step with a contact impulse
         self.dv = np.zeros((2, 3))  # contact velocity jump of i and (if a vehicle) k: vx, vy, r
         self.energy = 0.0  # kinetic energy removed by the contact impulses [J]
@@ -173,6 +175,7 @@ class _Run:
         self.contact_t = math.nan
         self.t = 0.0
         self.max_depth = 0.0
+        self.law_warnings = []  # restitution = "speed" outside its data (crashlab.restitution.range_warning)
 
     # ------------------------------------------------------------------ collision callbacks
     def _pair(self, arb):
@@ -192,7 +195,14 @@ class _Run:
         px = sum(0.5 * (p.point_a.x + p.point_b.x) for p in pts) / max(len(pts), 1)
         py = sum(0.5 * (p.point_a.y + p.point_b.y) for p in pts) / max(len(pts), 1)
         nx, ny = sgn * cps.normal.x, sgn * cps.normal.y  # from i to k
-        ep = _Episode(self.t + self.m.dt, i, k, px, py, math.atan2(nx, -ny))
+        # restitution of the episode: the scene's, or its law at the normal closing speed of the first
+        # contact (docs/physics.md §13b), kept for the whole episode (Chipmunk re-reads it every step)
+        vi = self.bodies[i].velocity_at_world_point((px, py))
+        vk = tuple(self.bodies[k].velocity_at_world_point((px, py))) if k < self.nv else (0.0, 0.0)
+        e, why = restitution_at(max(-((vk[0] - vi.x) * nx + (vk[1] - vi.y) * ny), 0.0), self.scene.impact)
+        if why:
+            self.law_warnings.append(why)
+        ep = _Episode(self.t + self.m.dt, i, k, px, py, math.atan2(nx, -ny), e)
         self.open[(i, k)] = ep
         self.episodes.append(ep)
         for q in (i, k):
@@ -201,9 +211,11 @@ class _Run:
 
     def _pre_solve(self, arb, space, data):
         imp = self.scene.impact
-        arb.restitution = imp.restitution  # exactly the pair's values, not a product of per-shape ones
-        arb.friction = imp.friction
         i, k, _ = self._pair(arb)
+        ep = self.open.get((i, k))
+        # exactly the pair's values, not a product of per-shape ones
+        arb.restitution = imp.restitution if ep is None else ep.e
+        arb.friction = imp.friction
         for q in (i, k):
             if q < self.nv:
                 self.touching[q] = True
@@ -315,6 +327,7 @@ class _Run:
         if rec_dt > 0 and nr < n_rec:
             traj[nr, :, 0], traj[nr, :, 1:7] = self.t, S
             nr += 1
+        warnings += self.law_warnings
         return self._outcome(S, traj[:nr], steps, ke0, e_contact, warnings, ok, time.perf_counter() - t_start)
 
     @staticmethod

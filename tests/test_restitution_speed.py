@@ -1,0 +1,94 @@
+"""Restitution as a law of the closing speed, `[impact] restitution = "speed"` (docs/physics.md §13b):
+the law against the published regression written here independently, each model's outcome following it,
+and the bad input."""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import pytest
+from conftest import PC_CRASH, assert_one_error_line
+
+from crashlab.restitution import restitution_at, speed_restitution
+from crashlab.scene import Impact
+
+KMH = 1 / 3.6
+
+
+def cipriani_mph(closing_mph):
+    """Cipriani et al. 2002 (SAE 2002-01-0540) in the form it is usually quoted: closing speed in mph, the
+    log of the speed in m/s (1 mph = 0.44704 m/s)."""
+    lg = math.log10(closing_mph * 0.44704)
+    return 0.47477 - 0.26139 * lg + 0.03382 * lg ** 2 - 0.11639 * lg ** 3
+
+
+@pytest.mark.parametrize("mph", [2.5, 5.0, 8.0, 12.0, 17.0])
+def test_law_is_the_published_regression(mph):
+    assert speed_restitution(mph * 0.44704) == pytest.approx(cipriani_mph(mph), abs=1e-12)
+
+
+def test_law_held_at_its_ends_with_a_warning():
+    """Outside 1..8 m/s the end value, with the reason; within, no warning; a constant is itself."""
+    imp = Impact(restitution_law="speed")
+    e_hi, why = restitution_at(57 * KMH, imp)  # NHTSA 10146's barrier speed
+    assert e_hi == pytest.approx(cipriani_mph(8.0 / 0.44704), abs=1e-12) and "outside" in why
+    e_lo, why = restitution_at(0.5, imp)
+    assert e_lo == pytest.approx(cipriani_mph(1.0 / 0.44704), abs=1e-12) and "outside" in why
+    assert restitution_at(4.0, imp)[1] is None
+    assert restitution_at(4.0, Impact(restitution=0.25)) == (0.25, None)
+
+
+def _barrier_scene(make_scene, kmh, restitution="speed"):
+    return make_scene([{"speed": kmh, "overrides": {"rolling_resistance": 0.0}}],
+                      impact={"restitution": restitution, "friction": 0.3},
+                      barriers=[{"x": 5.0, "y": 0.0, "heading": 0.0, "length": 1.0, "width": 4.0}],
+                      duration=1.5)
+
+
+@pytest.mark.parametrize("kmh", [10.0, 25.0])
+def test_impulse_barrier_rebound_follows_the_law(impulse_model, make_scene, kmh):
+    """Central impact into a rigid barrier: rebound / approach speed = e(closing speed) within 1e-6
+    (the impact is one instantaneous impulse; the row's delta-V is -(1 + e) v)."""
+    out = impulse_model.simulate(_barrier_scene(make_scene, kmh))
+    assert out.outcome_ok and not out.warnings, out.warnings
+    row = out.impacts.iloc[0]
+    e = -row.dvx / kmh - 1.0
+    assert e == pytest.approx(cipriani_mph(kmh / 3.6 / 0.44704), abs=1e-6)
+
+
+def test_impulse_warns_outside_the_law(impulse_model, make_scene):
+    out = impulse_model.simulate(_barrier_scene(make_scene, 57.0))
+    assert any("outside the data of the law" in w for w in out.warnings), out.warnings
+    row = out.impacts.iloc[0]
+    assert -row.dvx / 57.0 - 1.0 == pytest.approx(cipriani_mph(8.0 / 0.44704), abs=1e-6)
+
+
+def test_bad_restitution_word(tmp_path, capsys):
+    """restitution = "fast": `crashlab simulate` exits 2 with one line naming the file and impact.restitution."""
+    from crashlab.cli import main
+    src = (PC_CRASH / "head_on.toml").read_text()
+    path = tmp_path / "fast.toml"
+    path.write_text(src.replace("restitution = 0.1", 'restitution = "fast"'))
+    assert 'restitution = "fast"' in path.read_text()
+    code = main(["simulate", str(path)])
+    captured = capsys.readouterr()
+    assert_one_error_line(SimpleNamespace(returncode=code, stdout=captured.out, stderr=captured.err), path,
+                          "impact.restitution", words=('"speed"',))
+
+
+def test_a_number_set_on_the_field_replaces_the_law(make_scene):
+    """A restitution drawn or searched as a field (crashlab.fields) is a constant: the law is off."""
+    from crashlab.fields import set_field
+    scene = _barrier_scene(make_scene, 20.0)
+    assert scene.impact.restitution_law == "speed"
+    changed = set_field(scene, "impact.restitution", 0.3)
+    assert (changed.impact.restitution, changed.impact.restitution_law) == (0.3, "constant")
+
+
+def test_the_generic_3d_contact_law_warns_that_it_keeps_a_constant():
+    """multibody / exudyn with contact_law = "generic" cannot follow the law (its damping is set once): it says so."""
+    from crashlab.models.common.crush_structure import speed_law_setting
+    assert speed_law_setting(Impact(restitution_law="speed"), "structure", None) is None
+    assert 'contact_law = "structure"' in speed_law_setting(Impact(restitution_law="speed"), "generic", None)
+    assert speed_law_setting(Impact(restitution=0.9), "structure", "clamped") == "clamped"
+    assert speed_law_setting(Impact(restitution=0.9), "generic", "clamped") is None
