@@ -139,7 +139,8 @@ def _scene_section(study) -> str:
     extra = (f"road friction {scene.road.friction:g}" + (f", {len(scene.road.zones)} friction zone(s)"
                                                           if scene.road.zones else "")
              + (f", {len(scene.barriers)} barrier(s)" if scene.barriers else "")
-             + f"; impact restitution {imp.restitution:g}, friction {imp.friction:g}"
+             + "; impact restitution " + ("of the closing speed (\"speed\")" if imp.restitution_law == "speed"
+                                           else f"{imp.restitution:g}") + f", friction {imp.friction:g}"
              + ("" if imp.point is None else f", point of impact given at ({imp.point[0]:.2f}, {imp.point[1]:.2f}) m")
              + f"; duration {scene.duration:g} s")
     return (f"<h3>Scene: {esc(scene.name)}</h3>\n<p>File <code>{esc(scene.source)}</code>; {esc(extra)}. "
