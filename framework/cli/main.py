@@ -7,14 +7,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
 from ..errors import InputError
 from ..registry import UnknownPluginError
-from ..units import wrap_deg
 from ..version import package_version
+from .simulate import _get_model, cmd_compare, cmd_simulate
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -27,57 +26,6 @@ class HelpFormatter(argparse.HelpFormatter):
                 or action.default is argparse.SUPPRESS):
             return text
         return text + " (default: %(default)s)"
-
-
-def _num(v):
-    """A JSON number: None for NaN or inf (JSON has neither)."""
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        return None
-    return round(v, 6) if math.isfinite(v) else None
-
-
-# units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
-JSON_UNITS = {"x": "m", "y": "m", "heading": "deg, wrapped to (-180, 180]",
-              "heading_continuous": "deg, continuous: the start heading plus every turn",
-              "yaw_turned": "deg, continuous: rest heading minus start heading (two spins add 720)",
-              "speed": "km/h", "vx": "km/h, global", "vy": "km/h, global", "yaw_rate": "deg/s", "wall_time_s": "s",
-              "d_<source>_m": "m, distance of a model's rest position to the reference's",
-              "d_<source>_deg": "deg, wrapped to (-180, 180], model heading minus reference heading"}
-
-
-def result_json(scene, out) -> dict:
-    """One entry of "results": Outcome.to_json_dict() (model, ok, vehicles, impacts, warnings, violations,
-    rolled_over, wall_time_s) with each rest pose's heading wrapped to (-180, 180] and, beside it,
-    heading_continuous and yaw_turned (JSON_UNITS)."""
-    d = out.to_json_dict()
-    start = {v.name: math.degrees(v.heading) for v in scene.vehicles}
-    for name, veh in d["vehicles"].items():
-        rest = veh["rest"]
-        h = rest["heading"]
-        rest["heading"] = None if h is None else _num(wrap_deg(h))
-        rest["heading_continuous"] = h
-        rest["yaw_turned"] = None if h is None else _num(h - start[name])
-    return d
-
-
-def results_json(scene_file, scene, outcomes: dict) -> dict:
-    """The one JSON shape of `simulate --json` (one result) and `compare --json` (one per model):
-    {"scene": {"name", "file"}, "results": [result_json ...], "references": {source: {vehicle: {x, y,
-    heading, ...}}}, "comparison": [a row of crashlab.tools.compare.comparison_table per source and vehicle],
-    "units": JSON_UNITS | the impact table's units}."""
-    from ..outcome import IMPACT_UNITS
-    from ..tools.compare import comparison_table
-    table = comparison_table(scene, outcomes)
-    comparison = [{k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()}
-                  for row in table.astype(object).to_dict(orient="records")]
-    references = {src: {n: {k: _num(v) for k, v in ref.items()} for n, ref in per.items()}
-                  for src, per in scene.references.items()}
-    return {"scene": {"name": scene.name, "file": str(scene_file)},
-            "results": [result_json(scene, out) for out in outcomes.values()],
-            "references": references, "comparison": comparison,
-            "units": {**JSON_UNITS, **{f"impacts.{k}": u for k, u in IMPACT_UNITS.items()}}}
 
 
 def cmd_vehicles(args):
@@ -109,177 +57,6 @@ def cmd_models(args):
     print("models:     " + ", ".join(available_models()))
     print("optimizers: " + ", ".join(available_optimizers()))
     return 0
-
-
-def _get_model(name, where):
-    from ..registry import get_model
-    try:
-        return get_model(name)
-    except (UnknownPluginError, TypeError) as err:
-        raise InputError(where, "--model", str(err)) from None
-
-
-def cmd_monte_carlo(args, scene, model):
-    """`simulate SCENE --monte-carlo N`: the scene's [[uncertain]] parameters drawn N times
-    (crashlab.reconstruction.montecarlo)."""
-    from crashlab.reconstruction import montecarlo
-    if args.monte_carlo < 1:
-        raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {args.monte_carlo}")
-    if args.seed is not None and not 0 <= args.seed < 2**32:
-        raise InputError("command line", "--seed", f"in [0, 2^32), got {args.seed}")
-    if args.plot:
-        raise InputError("command line", "--plot", "with --monte-carlo the figure goes to --out DIR")
-    if args.csv:
-        raise InputError("command line", "--csv", "with --monte-carlo the tables go to --out DIR")
-    if args.animate:
-        raise InputError("command line", "--animate", "animates a single run, not --monte-carlo")
-    if not scene.uncertain:
-        raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
-                         "(field, distribution and its parameters); this scene has none")
-    result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed)
-    written = montecarlo.write(result, args.out) if args.out else []
-    if args.json:
-        print(json.dumps(result.to_json_dict(), indent=2))
-    else:
-        montecarlo.print_summary(result)
-        if written:
-            print("wrote " + ", ".join(str(p) for p in written))
-        else:
-            print("(--out DIR writes the table of draws and the figure)")
-    return 0
-
-
-def _write_csv(out, folder: Path) -> None:
-    """DIR/trajectories.csv (vehicle, t [s], x, y [m], heading [deg, continuous], vx, vy [km/h], yaw_rate
-    [deg/s], and z [m], roll, pitch [deg] where the model records them) and DIR/impacts.csv (Outcome.impacts:
-    units in its docstring); written for a failed run too (it shows where it went wrong)."""
-    import pandas as pd
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        frames = [out.trajectory(n).assign(vehicle=n) for n in out.names if n in (out.trajectories or {})]
-        traj = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=["vehicle", "t"])
-        traj[["vehicle"] + [c for c in traj.columns if c != "vehicle"]].to_csv(folder / "trajectories.csv",
-                                                                             index=False)
-        out.impacts.to_csv(folder / "impacts.csv", index=False)
-    except OSError as err:
-        raise InputError(str(folder), "--csv", f"cannot write there ({err.strerror or err})") from None
-
-
-def _rest_table(scene, out):
-    """The end poses for printing: x, y [m], heading wrapped to (-180, 180] [deg], yaw turned since the
-    start (continuous) [deg], speed [km/h], at_rest."""
-    rest = out.rest
-    start = [math.degrees(v.heading) for v in scene.vehicles]
-    table = rest[["x", "y"]].copy()
-    table["heading [deg, -180..180]"] = wrap_deg(rest["heading"].to_numpy())
-    table["yaw turned [deg]"] = rest["heading"].to_numpy() - start
-    table["speed [km/h]"] = rest["speed"]
-    table["at_rest"] = rest["at_rest"]
-    return table.rename(columns={"x": "x [m]", "y": "y [m]"})
-
-
-def cmd_simulate(args):
-    from ..scene_file import load_scene
-    animate = None
-    if args.animate:
-        from ..tools.animation import check_animation_path
-        animate = check_animation_path(args.animate, "--animate")  # before the run: refused at once
-        if not args.fps > 0 or not args.slow_motion > 0:
-            raise InputError("command line", "--fps" if not args.fps > 0 else "--slow-motion",
-                             f"must be positive, got {args.fps if not args.fps > 0 else args.slow_motion}")
-    scene = load_scene(args.scene)
-    model = _get_model(args.model, args.scene)
-    if args.monte_carlo is not None:
-        return cmd_monte_carlo(args, scene, model)
-    if args.seed is not None or args.out is not None:
-        raise InputError("command line", "--seed" if args.seed is not None else "--out",
-                         "only with --monte-carlo N")
-    out = model.simulate(scene)
-    if args.csv:
-        _write_csv(out, Path(args.csv))
-    if args.plot:
-        from ..tools.plotting import top_view
-        try:
-            top_view(scene, out, args.plot)
-        except (OSError, ValueError) as err:
-            raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
-    if animate and not out.trajectories and out.outcome_ok:
-        raise InputError(str(animate), "--animate", f"model {out.model or args.model} records no trajectories to "
-                         "animate")
-    if animate and out.trajectories:
-        from ..tools.animation import write_animation
-        try:
-            write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion)
-        except (OSError, ValueError) as err:
-            raise InputError(str(animate), "--animate", str(err).splitlines()[0]) from None
-    if args.json:
-        print(json.dumps(results_json(args.scene, scene, {out.model or args.model: out}), indent=2))
-    if not out.outcome_ok:
-        print(f"crashlab: simulation failed: {args.scene}: model {out.model}: {'; '.join(out.warnings)}",
-              file=sys.stderr)
-        return 3
-    if args.json:
-        return 0
-    import pandas as pd
-    with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 160):
-        print(f"{scene.name} — model {out.model}, {out.wall_time_s * 1e3:.1f} ms")
-        print("end pose:")
-        print(_rest_table(scene, out).to_string())
-        for i, n in enumerate(out.names):
-            if not out.at_rest_mask[i]:
-                print(f"{n}: {out.pose_label(i)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
-                      "not a rest pose")
-        print("final velocity:")
-        print(out.final.rename(columns={"vx": "vx [km/h]", "vy": "vy [km/h]", "yaw_rate": "yaw_rate [deg/s]"})
-              .to_string())
-        if len(out.impacts):
-            print("impacts:")
-            from ..outcome import IMPACT_UNITS
-            table = out.impacts.drop(columns=["plane_angle"])
-            print(table.rename(columns={c: f"{c} [{IMPACT_UNITS[c]}]" for c in table if c in IMPACT_UNITS})
-                  .to_string(index=False))
-    for w in out.warnings:
-        print("warning:", w)
-    return 0
-
-
-def cmd_compare(args):
-    import pandas as pd
-
-    from ..scene_file import load_scene
-    from ..tools.compare import comparison_table, with_unit_headers
-    scene = load_scene(args.scene)
-    models = [m.strip() for m in args.models.split(",") if m.strip()]
-    if not models:
-        raise InputError("command line", "--models", "give at least one model name")
-    resolved = {m: _get_model(m, args.scene) for m in models}
-    outcomes = {m: model.simulate(scene) for m, model in resolved.items()}
-    failed = [m for m, out in outcomes.items() if not out.outcome_ok]
-    if args.plot:
-        from ..tools.plotting import compare_view
-        try:
-            compare_view(scene, outcomes, args.plot)
-        except (OSError, ValueError) as err:
-            raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
-    if args.json:
-        print(json.dumps(results_json(args.scene, scene, outcomes), indent=2))
-        for m in failed:
-            print(f"crashlab: simulation failed: {args.scene}: model {m}: {'; '.join(outcomes[m].warnings)}",
-                  file=sys.stderr)
-        return 3 if failed else 0
-    df = comparison_table(scene, outcomes)
-    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 250,
-                           "display.max_columns", 30):
-        print(f"{scene.name}: end pose, final velocity; d_<source>: difference to a published result "
-              "(heading wrapped; yaw turned: continuous, since the start)")
-        print(with_unit_headers(df).to_string(index=False))
-    for m, out in outcomes.items():
-        for w in out.warnings:
-            print(f"warning ({m}):", w)
-    for m in failed:
-        print(f"crashlab: simulation failed: {args.scene}: model {m}: {'; '.join(outcomes[m].warnings)}",
-              file=sys.stderr)
-    return 3 if failed else 0
 
 
 def cmd_bench(args):
