@@ -10,14 +10,13 @@ Outside V_MIN..V_MAX the end value is held and `restitution_at` says so (never s
 cubic falls below zero above about 16 m/s).
 
     SPEED                   the word of the scene file ("speed")
-    speed_restitution(v)    e at closing speed v [m/s], held at the ends; also callable from numba code
+    speed_restitution(v)    e at closing speed v [m/s], held at the ends (plain Python and numba-compilable;
+                            models/common/restitution_law.py registers it for compiled kernels)
     restitution_at(v, imp)  (e, warning or None) for an Impact: its constant, or the law at v
     E_SPEED_LAW             the sentinel a numba kernel receives for e when the law applies (negative)
 """
 
 import math
-
-from numba.extending import register_jitable
 
 SPEED = "speed"
 CONSTANT = "constant"
@@ -29,19 +28,12 @@ V_MIN, V_MAX = 1.0, 8.0
 E_SPEED_LAW = -1.0
 
 
-@register_jitable
 def speed_restitution(v):
     """Restitution at the closing speed v [m/s] (Cipriani et al. 2002), v held within [V_MIN, V_MAX]."""
     v = min(max(abs(v), V_MIN), V_MAX)
     lg = math.log10(v)
     a0, a1, a2, a3 = CIPRIANI
     return a0 + lg * (a1 + lg * (a2 + lg * a3))
-
-
-@register_jitable
-def kernel_restitution(e, closing_speed):
-    """For numba kernels: e itself, or the law at closing_speed when e is the sentinel E_SPEED_LAW."""
-    return speed_restitution(closing_speed) if e < 0.0 else e
 
 
 def kernel_value(impact) -> float:

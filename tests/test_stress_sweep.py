@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import crashlab
+import crashlab.vehicle
 from crashlab.tools import stress
 
 
@@ -17,7 +18,7 @@ def test_random_scenes_are_seeded_and_collide():
     assert [s.vehicles for s in a] == [s.vehicles for s in b], "the same seed draws the same scenes"
     masses = np.array([v.spec.mass for s in a for v in s.vehicles])
     assert masses.min() >= 700 and masses.max() <= 3000
-    clio = crashlab.scene.load_vehicle("clio")
+    clio = crashlab.vehicle.load_vehicle("clio")
     for v in (v for s in a for v in s.vehicles if v.spec.name == clio.name):  # inertias scale with the mass
         assert v.spec.yaw_inertia / v.spec.mass == pytest.approx(clio.yaw_inertia / clio.mass, rel=1e-12)
     df = stress.sweep(crashlab.get_model("impulse"), a + stress.extreme_scenes())

@@ -37,7 +37,8 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.restitution import range_warning, speed_restitution
+from crashlab.models.common.restitution_law import speed_restitution
+from crashlab.restitution import range_warning
 
 from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi

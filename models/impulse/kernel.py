@@ -57,8 +57,8 @@ from crashlab.models.common.planar_vehicle import (
     stiffest_rate,
     vehicle_forces_trig,
 )
+from crashlab.models.common.restitution_law import kernel_restitution
 from crashlab.models.common.wheel_states import BRAKED, ROLLING
-from crashlab.restitution import kernel_restitution
 from crashlab.units import G
 
 from .laws import checked_impulse, collision_impulse, impact_matrix
