@@ -539,19 +539,21 @@ def _workspace(P, S0, B):
 def _start(P, B, W, cfg, contact, diag):
     """The state at t = 0: outlines that overlap are in contact (a collision position: the overlap is
     `allowed`), vehicles below v_rest at rest, the diagnostics cleared and the start's kinetic energy."""
-    S, nv, nk = W.S, P.shape[0], P.shape[0] + B.shape[0]
+    S, radius, oa, ob, in_contact, allowed = W.S, W.radius, W.oa, W.ob, W.in_contact, W.allowed
+    asleep = W.asleep
+    nv, nk = P.shape[0], P.shape[0] + B.shape[0]
     for i in range(nv):
         for k in range(i + 1, nk):
-            if cfg.broad_phase and _circles_apart(S, B, W.radius, i, k, nv):
+            if cfg.broad_phase and _circles_apart(S, B, radius, i, k, nv):
                 continue
-            d0 = penetration(_outline(P, S, B, i, nv, W.oa), _outline(P, S, B, k, nv, W.ob))[0]
+            d0 = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
             if d0 > 0.0:
-                W.in_contact[i, k] = True
-                W.allowed[i, k] = d0
+                in_contact[i, k] = True
+                allowed[i, k] = d0
     for i in range(nv):
         if math.hypot(S[i, 3], S[i, 4]) < cfg.v_rest and abs(S[i, 5]) < cfg.v_rest:
             S[i, 3:6] = 0.0
-            W.asleep[i] = cfg.sleeping
+            asleep[i] = cfg.sleeping
     diag[:] = 0.0
     diag[D_CONTACT_T] = math.nan
     contact[:] = math.nan
@@ -565,7 +567,8 @@ def _start(P, B, W, cfg, contact, diag):
 def _given_impact(P, B, W, cfg, contact, imp, diag):
     """The impact at t = 0 at a given point of impact and contact plane (PC-Crash style), in row 0.
     Returns (impacts booked, status)."""
-    S, nv = W.S, P.shape[0]
+    S, S_before, hit, asleep, in_contact = W.S, W.S_before, W.hit, W.asleep, W.in_contact
+    nv = P.shape[0]
     i0, j = cfg.given_i, cfg.given_j  # the pair touching at the point
     px, py, th = cfg.given_x, cfg.given_y, cfg.given_plane
     nx, ny = math.sin(th), -math.cos(th)
@@ -576,17 +579,17 @@ def _given_impact(P, B, W, cfg, contact, imp, diag):
         contact[i, 0], contact[i, 1], contact[i, 2] = S[i, 0], S[i, 1], S[i, 2]
         contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
     diag[D_CONTACT_T] = 0.0
-    W.S_before[:] = S
+    S_before[:] = S
     pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, cfg.restitution, cfg.mu_impact,
                                               cfg.law, imp[0])
     if kind < 0:
         return 0, STATUS_NOT_APPROACHING
-    _record_impact(imp, 0, 0.0, i0, j, nv, W.S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+    _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
     # the given impulse keeps its own row (the collision position's impulse as given); contact after it,
     # where the pair's overlap deepens, opens an episode of its own
     diag[D_E_IMPACT] += energy
-    _struck(i0, j, nv, W.hit, W.asleep)
-    W.in_contact[i0, j] = True
+    _struck(i0, j, nv, hit, asleep)
+    in_contact[i0, j] = True
     return 1, STATUS_OK
 
 
@@ -601,39 +604,41 @@ def _record_state(traj, n, t, S):
 def _read_inputs(P, A, NA, W, t, na, mu_max, zoned, zones, dt, coarse_dt):
     """Free motion, the step's inputs: each awake vehicle's driver inputs at t (read again where the law
     read last no longer holds) into W.inp, and the fine step bound: the tyre forces' stability limit
-    1 / stiffest_rate per wheel state. Returns (the fine step: dt within that bound, the next change of a law, quiet: every moving
-    vehicle runs straight, off the zones, far from stopping: a coarse step may follow)."""
-    S, inp = W.S, W.inp
+    1 / stiffest_rate per wheel state. Returns (the fine step: dt within that bound, the next change of a law,
+    quiet: every moving vehicle runs straight, off the zones, far from stopping: a coarse step may follow)."""
+    S, inp, awake, held, law_mode, law_brake = W.S, W.inp, W.awake, W.held, W.law_mode, W.law_brake
+    law_change, law_ramp, hit, rate_mode = W.law_change, W.law_ramp, W.hit, W.rate_mode
+    rate_h, radius = W.rate_h, W.radius
     h, t_change, quiet = dt, math.inf, True
     for a in range(na):
-        i = W.awake[a]
-        if not ahead(t, W.held[i]):  # the inputs' law changed (or changes continuously): read it again
-            W.law_mode[i], W.law_brake[i], steer = driver_inputs(A[i], NA[i], t)
-            W.law_change[i] = next_change(A[i], NA[i], t)
-            W.law_ramp[i] = ramping(A[i], NA[i], t)
-            W.held[i] = steady_next(A[i], NA[i], t)
+        i = awake[a]
+        if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
+            law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
+            law_change[i] = next_change(A[i], NA[i], t)
+            law_ramp[i] = ramping(A[i], NA[i], t)
+            held[i] = steady_next(A[i], NA[i], t)
             if steer != inp[i, IN_STEER]:
                 inp[i, IN_STEER] = steer
                 inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
                                                               else (1.0, 0.0))
-        t_change = min(t_change, W.law_change[i])
-        if W.law_ramp[i]:
+        t_change = min(t_change, law_change[i])
+        if law_ramp[i]:
             quiet = False
-        mode, brake, steer = effective_mode(W.law_mode[i], W.hit[i]), W.law_brake[i], inp[i, IN_STEER]
+        mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
         inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
         if mode == ROLLING and brake > 0.0:
             mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
-        if mode != W.rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
+        if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
             rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
-            W.rate_mode[i], W.rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
-        h = min(h, W.rate_h[i])
+            rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
+        h = min(h, rate_h[i])
         c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
         inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
         lat = -sn * S[i, 3] + c * S[i, 4]
         speed = math.hypot(S[i, 3], S[i, 4])
         if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
             quiet = False
-        elif zoned and _near_zone(S, i, W.radius[i] + speed * coarse_dt + PATCH, zones[3]):
+        elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
             quiet = False
         # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
         # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
@@ -646,12 +651,13 @@ def _read_inputs(P, A, NA, W, t, na, mu_max, zoned, zones, dt, coarse_dt):
 def _coarse_step(B, W, n_pairs, coarse_dt):
     """Free motion, the coarse step: at most coarse_dt, and half the time any listed pair needs to close
     the gap between its bounding circles. (A sleeping vehicle and a barrier: not listed, closing 0.)"""
-    S, nv = W.S, W.S.shape[0]
+    S, pair_i, pair_k, radius = W.S, W.pair_i, W.pair_k, W.radius
+    nv = S.shape[0]
     h_gap = coarse_dt
     for p in range(n_pairs):
-        i, k = W.pair_i[p], W.pair_k[p]
+        i, k = pair_i[p], pair_k[p]
         ckx, cky = _centre(S, B, k, nv)
-        gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - W.radius[i] - W.radius[k]
+        gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
         closing = math.hypot(S[i, 3], S[i, 4])
         if k < nv:
             closing += math.hypot(S[k, 3], S[k, 4])
@@ -663,8 +669,10 @@ def _coarse_step(B, W, n_pairs, coarse_dt):
 @njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
 def _heun_w(P, A, NA, W, t, na, mu, zones, h):
     """_heun of the workspace's states from t over h into W.Snew."""
-    _heun(P, W.S, t, A, NA, W.hit, zones, W.wheel_reach, W.zcache, W.awake, na, mu, W.acc, h, W.Snew, W.k1, W.k2,
-          W.tmp, W.inp, W.held)
+    S, hit, wheel_reach, zcache, awake, acc = W.S, W.hit, W.wheel_reach, W.zcache, W.awake, W.acc
+    Snew, k1, k2, tmp, inp, held = W.Snew, W.k1, W.k2, W.tmp, W.inp, W.held
+    _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2,
+          tmp, inp, held)
 
 
 @njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
@@ -672,16 +680,20 @@ def _listed_pairs(B, W, na, n_pairs, broad, n_near, near_stale):
     """The pairs tested this step: with the broad phase, pairs with a static partner far away are left out
     (_near_pairs, rebuilt once an awake vehicle has moved REACH); a step longer than REACH tests every listed
     pair. Returns (pair arrays, count, n_near, near_stale)."""
-    S, nv, nb = W.S, W.S.shape[0], B.shape[0]
+    S, Snew, awake, ref, radius, asleep = W.S, W.Snew, W.awake, W.ref, W.radius, W.asleep
+    pair_i, pair_k, near_i, near_k = W.pair_i, W.pair_k, W.near_i, W.near_k
+    in_contact, episode = W.in_contact, W.episode
+    allowed = W.allowed
+    nv, nb = S.shape[0], B.shape[0]
     if broad and (na < nv or nb > 0):
-        if near_stale or _moved(S, W.Snew, W.awake, na, W.ref, REACH):
-            near_stale = _moved(S, W.Snew, W.awake, na, S[:, 0:2], REACH)  # the step itself longer
+        if near_stale or _moved(S, Snew, awake, na, ref, REACH):
+            near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
             if not near_stale:
-                n_near = _near_pairs(S, B, W.radius, W.asleep, W.awake, na, W.pair_i, W.pair_k, n_pairs, W.ref,
-                                     REACH, W.near_i, W.near_k, W.in_contact, W.episode, W.allowed)
+                n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref,
+                                     REACH, near_i, near_k, in_contact, episode, allowed)
         if not near_stale:
-            return W.near_i, W.near_k, n_near, n_near, near_stale
-    return W.pair_i, W.pair_k, n_pairs, n_near, near_stale
+            return near_i, near_k, n_near, n_near, near_stale
+    return pair_i, pair_k, n_pairs, n_near, near_stale
 
 
 @njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
@@ -690,21 +702,23 @@ def _onset(P, B, A, NA, W, t, h, na, mu, zones, li, lk, nl, broad, tol, diag):
     overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a rotating car's far
     corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN. Each listed pair's test of
     the step's end goes to W.pen. Returns (the step, bisected: the step's end moved since its test)."""
-    nv, Snew, oa, ob = P.shape[0], W.Snew, W.oa, W.ob
+    Snew, oa, ob, radius, pen, in_contact = W.Snew, W.oa, W.ob, W.radius, W.pen, W.in_contact
+    allowed, episode = W.allowed, W.episode
+    nv = P.shape[0]
     bisected = False
     for p in range(nl):
         i, k = li[p], lk[p]
-        if broad and _circles_apart(Snew, B, W.radius, i, k, nv):
+        if broad and _circles_apart(Snew, B, radius, i, k, nv):
             continue
         diag[D_NARROW] += 1
         depth, nx, ny, _ = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))
-        W.pen[p, 0], W.pen[p, 1], W.pen[p, 2] = depth, nx, ny
-        if W.in_contact[i, k]:
-            if W.allowed[i, k] > 0.0 or depth <= DEEPEN:
+        pen[p, 0], pen[p, 1], pen[p, 2] = depth, nx, ny
+        if in_contact[i, k]:
+            if allowed[i, k] > 0.0 or depth <= DEEPEN:
                 continue
             lo_d, hi_d = CONTACT_SLOP, DEEPEN
         else:
-            if depth <= tol or (W.episode[i, k] >= 0 and depth <= CONTACT_SLOP):
+            if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
                 continue
             lo_d, hi_d = 0.0, tol
         lo, hi = 0.0, h
@@ -730,30 +744,33 @@ def _collect_contacts(P, B, W, li, lk, nl, broad, bisected, diag):
     more than SEPARATION apart); an overlapping pair is in contact, and unless it only keeps a collision
     position's start overlap, one of the step's contacts (W.cl_*: pair, depth, normal, overlap centroid and
     polygon). Returns their count."""
-    S, nv, oa, ob = W.S, P.shape[0], W.oa, W.ob
+    S, oa, ob, radius, in_contact, episode = W.S, W.oa, W.ob, W.radius, W.in_contact, W.episode
+    allowed, pen, cl_m, cl_v, cl_i, cl_k = W.allowed, W.pen, W.cl_m, W.cl_v, W.cl_i, W.cl_k
+    cl_d, cl_n, cl_p = W.cl_d, W.cl_n, W.cl_p
+    nv = P.shape[0]
     nc = 0
     for p in range(nl):
         i, k = li[p], lk[p]
-        if broad and _circles_apart(S, B, W.radius, i, k, nv):
-            W.in_contact[i, k] = False
-            W.episode[i, k] = -1
-            W.allowed[i, k] = 0.0
+        if broad and _circles_apart(S, B, radius, i, k, nv):
+            in_contact[i, k] = False
+            episode[i, k] = -1
+            allowed[i, k] = 0.0
             continue
         if bisected:  # the step's end moved since the onset test
             diag[D_NARROW] += 1
             depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
         else:
-            depth, nx, ny = W.pen[p, 0], W.pen[p, 1], W.pen[p, 2]
+            depth, nx, ny = pen[p, 0], pen[p, 1], pen[p, 2]
         if depth <= 0.0:
-            W.in_contact[i, k] = False
-            W.allowed[i, k] = 0.0
+            in_contact[i, k] = False
+            allowed[i, k] = 0.0
             if -depth > SEPARATION:
-                W.episode[i, k] = -1
+                episode[i, k] = -1
             continue
-        W.in_contact[i, k] = True
-        if depth <= W.allowed[i, k] + CONTACT_SLOP and W.allowed[i, k] > 0.0:
+        in_contact[i, k] = True
+        if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
             # a collision position's start overlap, not deepening: the given impulse resolved it
-            W.allowed[i, k] = min(W.allowed[i, k], depth)
+            allowed[i, k] = min(allowed[i, k], depth)
             continue
         diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
         ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
@@ -761,10 +778,10 @@ def _collect_contacts(P, B, W, li, lk, nl, broad, bisected, diag):
         if math.isnan(px):
             continue
         poly, npoly = clip_convex(ci, ck)
-        W.cl_m[nc] = min(npoly, W.cl_v.shape[1])
-        W.cl_v[nc, :W.cl_m[nc]] = poly[:W.cl_m[nc]]
-        W.cl_i[nc], W.cl_k[nc], W.cl_d[nc] = i, k, depth
-        W.cl_n[nc, 0], W.cl_n[nc, 1], W.cl_p[nc, 0], W.cl_p[nc, 1] = nx, ny, px, py
+        cl_m[nc] = min(npoly, cl_v.shape[1])
+        cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
+        cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
+        cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
         nc += 1
     return nc
 
@@ -774,9 +791,10 @@ def _fastest_vertex(W, c, nv, nx, ny, px, py, approach):
     """Sustained contact: the overlap's vertex that approaches fastest, if faster than the centroid (rigid
     bodies: the normal velocity is linear over the overlap, so its extremes are at vertices). Returns
     (approach speed, point)."""
-    S, i, k = W.S, W.cl_i[c], W.cl_k[c]
-    for q in range(W.cl_m[c]):
-        qx, qy = W.cl_v[c, q, 0], W.cl_v[c, q, 1]
+    S, cl_i, cl_k, cl_m, cl_v = W.S, W.cl_i, W.cl_k, W.cl_m, W.cl_v
+    i, k = cl_i[c], cl_k[c]
+    for q in range(cl_m[c]):
+        qx, qy = cl_v[c, q, 0], cl_v[c, q, 1]
         v1x, v1y = _point_velocity(S, i, nv, qx, qy)
         v2x, v2y = _point_velocity(S, k, nv, qx, qy)
         aq = -((v2x - v1x) * nx + (v2y - v1y) * ny)
@@ -790,14 +808,15 @@ def _impact_point(P, B, W, cfg, i, k, nx, ny, px, py, approach):
     """The impact's point and normal (docs/physics.md §4): the middle of the contact zone the approach will
     crush (contact_zone_centroid), or (point = "engagement") the overlap's centroid at engagement with its
     contact plane (_engagement); the overlap's centroid (px, py) and the onset normal where neither exists."""
-    S, nv = W.S, P.shape[0]
+    S, oa, ob = W.S, W.oa, W.ob
+    nv = P.shape[0]
     zx = math.nan
     if cfg.engagement:
-        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx, ny, W.oa, W.ob)
+        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx, ny, oa, ob)
         if not math.isnan(zx):
             nx, ny = ex, ey
     if math.isnan(zx):
-        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, W.oa), _outline(P, S, B, k, nv, W.ob),
+        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob),
                                           nx, ny, cfg.crush_time * approach)
     if not math.isnan(zx):
         px, py = zx, zy
@@ -813,17 +832,19 @@ def _resolve_contacts(P, B, W, cfg, t, nc, n_imp, max_imp, contact, imp, diag):
     sweep a pair is approaching again only through its neighbours' impulses of this instant, so its further
     impulses are plastic and booked into its row. Returns (impacts booked, stopped at max_impacts, woke a
     sleeping vehicle)."""
-    S, nv = W.S, P.shape[0]
+    S, cl_i, cl_k, cl_n, cl_p, episode = W.S, W.cl_i, W.cl_k, W.cl_n, W.cl_p, W.episode
+    S_before, no_alt, asleep, hit = W.S_before, W.no_alt, W.asleep, W.hit
+    nv = P.shape[0]
     woke = False
     for _ in range(MAX_SWEEPS if nc > 1 else 1):
         active = False
         for c in range(nc):
-            i, k = W.cl_i[c], W.cl_k[c]
-            nx, ny, px, py = W.cl_n[c, 0], W.cl_n[c, 1], W.cl_p[c, 0], W.cl_p[c, 1]
+            i, k = cl_i[c], cl_k[c]
+            nx, ny, px, py = cl_n[c, 0], cl_n[c, 1], cl_p[c, 0], cl_p[c, 1]
             v1x, v1y = _point_velocity(S, i, nv, px, py)
             v2x, v2y = _point_velocity(S, k, nv, px, py)
             approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
-            row = W.episode[i, k]
+            row = episode[i, k]
             if row >= 0 and imp[row, I_T] != t:
                 approach, px, py = _fastest_vertex(W, c, nv, nx, ny, px, py, approach)
             if approach <= V_EPS:
@@ -834,8 +855,8 @@ def _resolve_contacts(P, B, W, cfg, t, nc, n_imp, max_imp, contact, imp, diag):
                     return n_imp, True, woke
                 px, py, nx, ny = _impact_point(P, B, W, cfg, i, k, nx, ny, px, py, approach)
             e_k = cfg.restitution if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
-            W.S_before[:] = S
-            alt = imp[n_imp] if is_impact else W.no_alt  # (the impact's row: its slip-reversal check)
+            S_before[:] = S
+            alt = imp[n_imp] if is_impact else no_alt  # (the impact's row: its slip-reversal check)
             pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, cfg.mu_impact, cfg.law,
                                                       alt)
             if kind < 0:
@@ -845,18 +866,18 @@ def _resolve_contacts(P, B, W, cfg, t, nc, n_imp, max_imp, contact, imp, diag):
                 if n_imp == 0:
                     diag[D_CONTACT_T] = t
                     for q in range(nv):
-                        contact[q, 0], contact[q, 1] = W.S_before[q, 0], W.S_before[q, 1]
-                        contact[q, 2] = W.S_before[q, 2]
-                        contact[q, 3] = math.hypot(W.S_before[q, 3], W.S_before[q, 4])
-                _record_impact(imp, n_imp, t, i, k, nv, W.S_before, S, pn, pt, kind, energy, px, py, nx, ny)
-                W.episode[i, k] = n_imp
+                        contact[q, 0], contact[q, 1] = S_before[q, 0], S_before[q, 1]
+                        contact[q, 2] = S_before[q, 2]
+                        contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
+                _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                episode[i, k] = n_imp
                 n_imp += 1
             else:
-                _merge_impact(imp, row, t, i, k, nv, W.S_before, S, pn, pt, energy, nx, ny)
+                _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
                 diag[D_FOLLOW] += 1
             diag[D_E_IMPACT] += energy
-            woke = woke or W.asleep[i] or (k < nv and W.asleep[k])
-            _struck(i, k, nv, W.hit, W.asleep)
+            woke = woke or asleep[i] or (k < nv and asleep[k])
+            _struck(i, k, nv, hit, asleep)
         if not active:
             break
     return n_imp, False, woke
@@ -867,19 +888,21 @@ def _project_contacts(P, W, nc, near_stale, diag):
     """Non-penetration at the position level: the velocity-level contact impulse stops the approach at the
     end of a step but not the overlap gained within it (~ a h^2 / 2); each contact's overlap is projected
     down to CONTACT_SLOP (or the start overlap it is allowed). Returns near_stale (a static partner moved)."""
-    S, nv = W.S, P.shape[0]
+    S, cl_i, cl_k, cl_d, allowed, cl_n = W.S, W.cl_i, W.cl_k, W.cl_d, W.allowed, W.cl_n
+    Snew, asleep = W.Snew, W.asleep
+    nv = P.shape[0]
     for c in range(nc):
-        i, k, depth = W.cl_i[c], W.cl_k[c], W.cl_d[c]
-        target = max(W.allowed[i, k], CONTACT_SLOP)
+        i, k, depth = cl_i[c], cl_k[c], cl_d[c]
+        target = max(allowed[i, k], CONTACT_SLOP)
         if depth > target:
-            _project_apart(P, S, i, k, nv, W.cl_n[c, 0], W.cl_n[c, 1], depth - target)
+            _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
             diag[D_PROJECTED] += depth - target
-            W.Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
+            Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
             if k < nv:
-                W.Snew[k] = S[k]
-                near_stale = near_stale or W.asleep[k]  # a static partner moved
-            near_stale = near_stale or W.asleep[i]
-        W.allowed[i, k] = min(W.allowed[i, k], depth)
+                Snew[k] = S[k]
+                near_stale = near_stale or asleep[k]  # a static partner moved
+            near_stale = near_stale or asleep[i]
+        allowed[i, k] = min(allowed[i, k], depth)
     return near_stale
 
 
@@ -888,17 +911,18 @@ def _settle(W, na, v_rest, sleeping):
     """Rest: an awake vehicle that has (almost) stopped stops (and, sleeping, goes to sleep until an impulse
     wakes it). (A sleeping vehicle's state is only moved by the projection, finite: NaN can arise in awake
     ones.) Returns (every vehicle asleep, one fell asleep, a state is NaN)."""
-    S = W.S
+    S, awake, asleep, Snew = W.S, W.awake, W.asleep, W.Snew
+    S = S
     all_asleep, slept, nan = True, False, False
     for a in range(na):
-        i = W.awake[a]
+        i = awake[a]
         if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
             S[i, 3:6] = 0.0
-            W.asleep[i] = sleeping
+            asleep[i] = sleeping
             if sleeping:
-                W.Snew[i] = S[i]
+                Snew[i] = S[i]
                 slept = True
-        if not W.asleep[i]:
+        if not asleep[i]:
             all_asleep = False
         if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
             nan = True
@@ -913,7 +937,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     are written into the arrays passed in. Each step: free motion (_read_inputs, _coarse_step, _heun), the
     onset of contact (_listed_pairs, _onset), the contact episodes (_collect_contacts, _resolve_contacts,
     _project_contacts), rest (_settle), recording (_record_state)."""
-    nv, nk = P.shape[0], P.shape[0] + B.shape[0]
+    nk = P.shape[0] + B.shape[0]
     mu, dt, coarse_dt, rec_dt, duration = cfg.mu_road, cfg.dt, cfg.coarse_dt, cfg.record_dt, cfg.duration
     max_imp, broad = min(cfg.max_impacts, imp.shape[0]), cfg.broad_phase
     W = _workspace(P, S0, B)
