@@ -20,16 +20,8 @@ SEPARATION is an impact (restitution e, a row of the impact table); until the pa
 again, every step in which the outlines overlap and approach gets plastic (e = 0) Coulomb-limited
 contact impulses, booked into that impact's row, and a position projection keeps the overlap below
 CONTACT_SLOP. Reaching max_impacts or MAX_STEPS stops and fails the run.
-
-Structure: simulate_one is the loop over steps; its stages are named functions, each compiled on its own:
-free motion (_read_inputs, _coarse_step, _heun), the onset of contact (_listed_pairs, _onset), the contact
-episodes (_collect_contacts, _resolve_contacts with _impact_point and _fastest_vertex, _project_contacts),
-rest (_settle) and recording (_record_state, _record_impact, _merge_impact); the impact at a given point
-(_given_impact). The run's settings are one record of typed fields (SETTINGS), its scratch arrays one
-Workspace (made by _workspace, allocated once per run).
 """
 import math
-from collections import namedtuple
 
 import numpy as np
 from numba import njit, prange
@@ -70,32 +62,12 @@ from crashlab.units import G
 
 from .laws import checked_impulse, collision_impulse, impact_matrix
 
-# the run's settings: one record (numba Record) of typed fields, filled by model.ImpulseModel.pack
-SETTINGS = np.dtype([
-    ("mu_road", np.float64),          # road friction outside the zones
-    ("restitution", np.float64),      # [impact] restitution e of an impact (follow-up contact impulses: 0)
-    ("mu_impact", np.float64),        # [impact] friction between the vehicles
-    ("law", np.int64),                # [impact] law (laws.py codes)
-    ("duration", np.float64),
-    ("stop_at_rest", np.bool_),       # end the run once every vehicle sleeps
-    ("given", np.bool_),              # an impact at t = 0 at a given point and contact plane (_given_impact)
-    ("given_x", np.float64),
-    ("given_y", np.float64),
-    ("given_plane", np.float64),      # the contact plane's angle
-    ("given_i", np.int64),            # the pair touching at the point (model.given_pair)
-    ("given_j", np.int64),
-    ("dt", np.float64),               # the fine step
-    ("coarse_dt", np.float64),        # the longest step while running straight
-    ("record_dt", np.float64),        # trajectory sampling (0: none)
-    ("onset_tol", np.float64),        # the overlap the onset bisection stops at
-    ("v_rest", np.float64),           # below this speed (and yaw rate) a vehicle is at rest
-    ("max_impacts", np.int64),
-    ("crush_time", np.float64),       # the contact zone's depth = crush_time x approach speed
-    ("engagement", np.bool_),         # [impact] point = "engagement" (_engagement)
-    ("engagement_depth", np.float64),
-    ("broad_phase", np.bool_),        # study switches (comparison scaling): bounding circles and _near_pairs,
-    ("sleeping", np.bool_),           # vehicles at rest skipped
-], align=True)
+# configuration vector
+(C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
+ C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME,
+ C_BROAD_PHASE, C_SLEEPING, C_ENGAGE, C_ENGAGE_DEPTH) = range(23)
+N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engagement_depth (_engagement)
+# impact record
 # impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
 # summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
 # I_REVERSED: the slip stops and reverses on Routh's path (laws.checked_impulse); the impact's own impulse
@@ -477,83 +449,79 @@ def _project_apart(P, S, i, k, nv, nx, ny, shift):
         S[k, 1] += shift * f2 * ny
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# the scratch arrays of one run, made once by _workspace (the step's stages allocate none). The stages that take
-# the Workspace are inlined into simulate_one (inline="always", numba IR): as calls, each passing the ~40 arrays
-# flattened, simulate_many's optimised parallel build crashed LLVM (segfault in finalize_object; numba 0.68,
-# fine at NUMBA_OPT=0), and inlined they compile to the one loop the kernel was before the split.
-Workspace = namedtuple("Workspace", [
-    # vehicle states: now, at the step's end, before an impulse; Heun's stages and the tyre forces' memory
-    "S", "Snew", "S_before", "k1", "k2", "tmp", "acc",
-    "asleep", "hit",  # at rest (skipped); struck by an impulse (driver_inputs.effective_mode)
-    "radius",  # each vehicle's and barrier's bounding circle (_circles_apart)
-    # per pair (vehicle i, vehicle or barrier k): touching; the impact row of its open contact episode (-1:
-    # none); the overlap the projection leaves (a collision position's start overlap)
-    "in_contact", "episode", "allowed",
-    # the contacts of a step (_collect_contacts): pair, depth, normal, overlap centroid, overlap polygon
-    "cl_i", "cl_k", "cl_d", "cl_n", "cl_p", "cl_v", "cl_m",
-    "oa", "ob",  # the outlines of the pair under test (_outline)
-    "pen",  # each listed pair's overlap test at the step's end: depth, normal (_onset)
-    # the awake vehicles and the pairs with an awake member (_awake_sets); the listed pairs that can touch soon
-    # and the positions they were listed at (_near_pairs)
-    "awake", "pair_i", "pair_k", "near_i", "near_k", "ref",
-    "wheel_reach", "zcache",  # the circle holding every wheel; the last wheel frictions (_wheel_frictions)
-    # the driver's inputs at the step's start (IN_*, _heun), until when they hold (steady_next), the law read
-    # last (driver_inputs, next_change, ramping), the wheel state of the step bound rate_h (stiffest_rate)
-    "inp", "held", "law_mode", "law_brake", "law_change", "law_ramp", "rate_mode", "rate_h",
-    "no_alt",  # an empty row: a contact impulse books no slip-reversal check (_apply_impulse)
-])
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _workspace(P, S0, B):
-    """The workspace of a run: S = S0, steer 0 and no law read yet, no contact, no wheel friction looked up."""
-    nv, nk = P.shape[0], P.shape[0] + B.shape[0]
-    n_pairs = nv * nk
+@njit(cache=True)
+def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag):
+    """Simulate one scene. P (nv, N_PARAMS), S0 (nv, 6) start states, B (nb, 5) barriers
+    (x, y, heading, half length, half width), A, NA the driver's action tables, zones the friction zones
+    (common/driver_inputs.pack_action_tables, pack_zones). Outputs are written into the arrays passed in."""
+    nv, nb = P.shape[0], B.shape[0]
+    nk = nv + nb
+    mu, e, mu_imp, law = cfg[C_MU_ROAD], cfg[C_E], cfg[C_MU_IMP], int(cfg[C_LAW])
+    duration, dt, coarse_dt, rec_dt = cfg[C_DURATION], cfg[C_DT], cfg[C_COARSE_DT], cfg[C_REC_DT]
+    tol, v_rest, max_imp = cfg[C_ONSET_TOL], cfg[C_V_REST], min(int(cfg[C_MAX_IMPACTS]), imp.shape[0])
+    broad, sleeping = cfg[C_BROAD_PHASE] > 0.5, cfg[C_SLEEPING] > 0.5  # study switches (comparison scaling)
     S = S0.copy()
+    no_alt = np.empty(0)
+    Snew = np.empty_like(S)
+    S_before = np.empty_like(S)
+    k1 = np.empty_like(S)
+    k2 = np.empty_like(S)
+    tmp = np.empty_like(S)
+    acc = np.zeros((nv, 2))
+    asleep = np.zeros(nv, np.bool_)
+    hit = np.zeros(nv, np.bool_)
     radius = np.empty(nk)
     for k in range(nk):
         radius[k] = _radius(P, B, k, nv)
-    wheel_reach = np.empty(nv)
-    for i in range(nv):
-        wheel_reach[i] = math.sqrt(max(P[i, P_A], P[i, P_B]) ** 2 + (0.5 * P[i, P_TRACK]) ** 2)
-    zcache = np.zeros((nv, 12))
-    zcache[:, 3:8] = -1.0  # no margin: every wheel looked up at the first step
-    inp = np.zeros((nv, N_IN))
-    inp[:, IN_COS_STEER] = 1.0
-    return Workspace(
-        S, np.empty_like(S), np.empty_like(S), np.empty_like(S), np.empty_like(S), np.empty_like(S),
-        np.zeros((nv, 2)), np.zeros(nv, np.bool_), np.zeros(nv, np.bool_), radius,
-        np.zeros((nv, nk), np.bool_), np.full((nv, nk), -1, np.int64), np.zeros((nv, nk)),
-        np.empty(n_pairs, np.int64), np.empty(n_pairs, np.int64), np.empty(n_pairs), np.empty((n_pairs, 2)),
-        np.empty((n_pairs, 2)), np.empty((n_pairs, 8, 2)), np.zeros(n_pairs, np.int64),
-        np.empty((4, 2)), np.empty((4, 2)), np.empty((n_pairs, 3)),
-        np.empty(nv, np.int64), np.empty(n_pairs, np.int64), np.empty(n_pairs, np.int64),
-        np.empty(n_pairs, np.int64), np.empty(n_pairs, np.int64), np.zeros((nv, 2)),
-        wheel_reach, zcache, inp, np.full(nv, -math.inf), np.zeros(nv, np.int64), np.zeros(nv), np.zeros(nv),
-        np.zeros(nv, np.bool_), np.full(nv, -1, np.int64), np.full(nv, math.inf),
-        np.empty(0))
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _start(P, B, W, cfg, contact, diag):
-    """The state at t = 0: outlines that overlap are in contact (a collision position: the overlap is
-    `allowed`), vehicles below v_rest at rest, the diagnostics cleared and the start's kinetic energy."""
-    S, radius, oa, ob, in_contact, allowed = W.S, W.radius, W.oa, W.ob, W.in_contact, W.allowed
-    asleep = W.asleep
-    nv, nk = P.shape[0], P.shape[0] + B.shape[0]
-    for i in range(nv):
+    in_contact = np.zeros((nv, nk), np.bool_)
+    episode = np.full((nv, nk), -1, np.int64)  # impact row of the pair's open contact episode
+    allowed = np.zeros((nv, nk))  # overlap the projection leaves (a collision position's start overlap)
+    cl_i = np.empty(nv * nk, np.int64)  # the contacts of a step: pair, depth, normal, overlap centroid
+    cl_k = np.empty(nv * nk, np.int64)
+    cl_d = np.empty(nv * nk)
+    cl_n = np.empty((nv * nk, 2))
+    cl_p = np.empty((nv * nk, 2))
+    cl_v = np.empty((nv * nk, 8, 2))  # and the overlap polygon's vertices
+    cl_m = np.zeros(nv * nk, np.int64)
+    oa, ob = np.empty((4, 2)), np.empty((4, 2))  # the outlines of the pair under test (_outline)
+    pen = np.empty((nv * nk, 3))  # each listed pair's overlap test at the step's end: depth, normal
+    awake = np.empty(nv, np.int64)  # the awake vehicles and the pairs with an awake member (_awake_sets)
+    pair_i = np.empty(nv * nk, np.int64)
+    pair_k = np.empty(nv * nk, np.int64)
+    near_i = np.empty(nv * nk, np.int64)  # the listed pairs that can touch soon (_near_pairs)
+    near_k = np.empty(nv * nk, np.int64)
+    ref = np.zeros((nv, 2))
+    n_near, near_stale = 0, True
+    for i in range(nv):  # outlines that overlap at the start are in contact (a collision position)
         for k in range(i + 1, nk):
-            if cfg.broad_phase and _circles_apart(S, B, radius, i, k, nv):
+            if broad and _circles_apart(S, B, radius, i, k, nv):
                 continue
             d0 = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
             if d0 > 0.0:
                 in_contact[i, k] = True
                 allowed[i, k] = d0
+    mu_max = mu  # the largest road friction anywhere (zones): bounds the step and the stopping speed
+    for z in range(zones[2].shape[0]):
+        mu_max = max(mu_max, zones[2][z])
+    zoned = zones[2].shape[0] > 0
+    wheel_reach = np.empty(nv)  # the CG-centred circle holding every wheel (_wheel_frictions)
+    zcache = np.zeros((nv, 12))  # each vehicle's last wheel frictions and their margins (_wheel_frictions): none
+    zcache[:, 3:8] = -1.0
+    inp = np.zeros((nv, N_IN))  # each vehicle's driver inputs at the step's start (_heun): steer 0 so far
+    inp[:, IN_COS_STEER] = 1.0
+    held = np.full(nv, -math.inf)  # until when the inputs of the law read last hold (steady_next): none yet
+    law_mode = np.zeros(nv, np.int64)  # the law read last: driver_inputs, next_change, ramping
+    law_brake = np.zeros(nv)
+    law_change = np.zeros(nv)
+    law_ramp = np.zeros(nv, np.bool_)
+    rate_mode = np.full(nv, -1, np.int64)  # the wheel state of the vehicle's step bound rate_h (stiffest_rate)
+    rate_h = np.full(nv, math.inf)
     for i in range(nv):
-        if math.hypot(S[i, 3], S[i, 4]) < cfg.v_rest and abs(S[i, 5]) < cfg.v_rest:
+        wheel_reach[i] = math.sqrt(max(P[i, P_A], P[i, P_B]) ** 2 + (0.5 * P[i, P_TRACK]) ** 2)
+    for i in range(nv):
+        if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
             S[i, 3:6] = 0.0
-            asleep[i] = cfg.sleeping
+            asleep[i] = sleeping
     diag[:] = 0.0
     diag[D_CONTACT_T] = math.nan
     contact[:] = math.nan
@@ -561,448 +529,308 @@ def _start(P, B, W, cfg, contact, diag):
     for i in range(nv):
         ke0 += _kinetic(P, S, i, nv)
     diag[D_KE0] = ke0
+    n_imp, n_rec, t = 0, 0, 0.0
+    next_rec = 0.0
+    status = STATUS_OK
 
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _given_impact(P, B, W, cfg, contact, imp, diag):
-    """The impact at t = 0 at a given point of impact and contact plane (PC-Crash style), in row 0.
-    Returns (impacts booked, status)."""
-    S, S_before, hit, asleep, in_contact = W.S, W.S_before, W.hit, W.asleep, W.in_contact
-    nv = P.shape[0]
-    i0, j = cfg.given_i, cfg.given_j  # the pair touching at the point
-    px, py, th = cfg.given_x, cfg.given_y, cfg.given_plane
-    nx, ny = math.sin(th), -math.cos(th)
-    cjx, cjy = _centre(S, B, j, nv)
-    if nx * (cjx - S[i0, 0]) + ny * (cjy - S[i0, 1]) < 0.0:
-        nx, ny = -nx, -ny
-    for i in range(nv):
-        contact[i, 0], contact[i, 1], contact[i, 2] = S[i, 0], S[i, 1], S[i, 2]
-        contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
-    diag[D_CONTACT_T] = 0.0
-    S_before[:] = S
-    pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, cfg.restitution, cfg.mu_impact,
-                                              cfg.law, imp[0])
-    if kind < 0:
-        return 0, STATUS_NOT_APPROACHING
-    _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
-    # the given impulse keeps its own row (the collision position's impulse as given); contact after it,
-    # where the pair's overlap deepens, opens an episode of its own
-    diag[D_E_IMPACT] += energy
-    _struck(i0, j, nv, hit, asleep)
-    in_contact[i0, j] = True
-    return 1, STATUS_OK
-
-
-@njit(cache=True)
-def _record_state(traj, n, t, S):
-    """Row n of the trajectory: t and every vehicle's state."""
-    traj[n, :, 0] = t
-    traj[n, :, 1:7] = S
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _read_inputs(P, A, NA, W, t, na, mu_max, zoned, zones, dt, coarse_dt):
-    """Free motion, the step's inputs: each awake vehicle's driver inputs at t (read again where the law
-    read last no longer holds) into W.inp, and the fine step bound: the tyre forces' stability limit
-    1 / stiffest_rate per wheel state. Returns (the fine step: dt within that bound, the next change of a law,
-    quiet: every moving vehicle runs straight, off the zones, far from stopping: a coarse step may follow)."""
-    S, inp, awake, held, law_mode, law_brake = W.S, W.inp, W.awake, W.held, W.law_mode, W.law_brake
-    law_change, law_ramp, hit, rate_mode = W.law_change, W.law_ramp, W.hit, W.rate_mode
-    rate_h, radius = W.rate_h, W.radius
-    h, t_change, quiet = dt, math.inf, True
-    for a in range(na):
-        i = awake[a]
-        if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
-            law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
-            law_change[i] = next_change(A[i], NA[i], t)
-            law_ramp[i] = ramping(A[i], NA[i], t)
-            held[i] = steady_next(A[i], NA[i], t)
-            if steer != inp[i, IN_STEER]:
-                inp[i, IN_STEER] = steer
-                inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
-                                                              else (1.0, 0.0))
-        t_change = min(t_change, law_change[i])
-        if law_ramp[i]:
-            quiet = False
-        mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
-        inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
-        if mode == ROLLING and brake > 0.0:
-            mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
-        if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
-            rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
-            rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
-        h = min(h, rate_h[i])
-        c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
-        inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
-        lat = -sn * S[i, 3] + c * S[i, 4]
-        speed = math.hypot(S[i, 3], S[i, 4])
-        if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
-            quiet = False
-        elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
-            quiet = False
-        # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
-        # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
-        if speed < 2.0 * mu_max * G * coarse_dt + STOP_MARGIN:
-            quiet = False
-    return h, t_change, quiet
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _coarse_step(B, W, n_pairs, coarse_dt):
-    """Free motion, the coarse step: at most coarse_dt, and half the time any listed pair needs to close
-    the gap between its bounding circles. (A sleeping vehicle and a barrier: not listed, closing 0.)"""
-    S, pair_i, pair_k, radius = W.S, W.pair_i, W.pair_k, W.radius
-    nv = S.shape[0]
-    h_gap = coarse_dt
-    for p in range(n_pairs):
-        i, k = pair_i[p], pair_k[p]
-        ckx, cky = _centre(S, B, k, nv)
-        gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
-        closing = math.hypot(S[i, 3], S[i, 4])
-        if k < nv:
-            closing += math.hypot(S[k, 3], S[k, 4])
-        if closing > 0.0:
-            h_gap = min(h_gap, 0.5 * gap / closing)
-    return h_gap
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _heun_w(P, A, NA, W, t, na, mu, zones, h):
-    """_heun of the workspace's states from t over h into W.Snew."""
-    S, hit, wheel_reach, zcache, awake, acc = W.S, W.hit, W.wheel_reach, W.zcache, W.awake, W.acc
-    Snew, k1, k2, tmp, inp, held = W.Snew, W.k1, W.k2, W.tmp, W.inp, W.held
-    _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2,
-          tmp, inp, held)
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _listed_pairs(B, W, na, n_pairs, broad, n_near, near_stale):
-    """The pairs tested this step: with the broad phase, pairs with a static partner far away are left out
-    (_near_pairs, rebuilt once an awake vehicle has moved REACH); a step longer than REACH tests every listed
-    pair. Returns (pair arrays, count, n_near, near_stale)."""
-    S, Snew, awake, ref, radius, asleep = W.S, W.Snew, W.awake, W.ref, W.radius, W.asleep
-    pair_i, pair_k, near_i, near_k = W.pair_i, W.pair_k, W.near_i, W.near_k
-    in_contact, episode = W.in_contact, W.episode
-    allowed = W.allowed
-    nv, nb = S.shape[0], B.shape[0]
-    if broad and (na < nv or nb > 0):
-        if near_stale or _moved(S, Snew, awake, na, ref, REACH):
-            near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
-            if not near_stale:
-                n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref,
-                                     REACH, near_i, near_k, in_contact, episode, allowed)
-        if not near_stale:
-            return near_i, near_k, n_near, n_near, near_stale
-    return pair_i, pair_k, n_pairs, n_near, near_stale
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _onset(P, B, A, NA, W, t, h, na, mu, zones, li, lk, nl, broad, tol, diag):
-    """Onset of a new contact: bisect the step until the overlap is at most tol; a touching pair whose
-    overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a rotating car's far
-    corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN. Each listed pair's test of
-    the step's end goes to W.pen. Returns (the step, bisected: the step's end moved since its test)."""
-    Snew, oa, ob, radius, pen, in_contact = W.Snew, W.oa, W.ob, W.radius, W.pen, W.in_contact
-    allowed, episode = W.allowed, W.episode
-    nv = P.shape[0]
-    bisected = False
-    for p in range(nl):
-        i, k = li[p], lk[p]
-        if broad and _circles_apart(Snew, B, radius, i, k, nv):
-            continue
-        diag[D_NARROW] += 1
-        depth, nx, ny, _ = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))
-        pen[p, 0], pen[p, 1], pen[p, 2] = depth, nx, ny
-        if in_contact[i, k]:
-            if allowed[i, k] > 0.0 or depth <= DEEPEN:
-                continue
-            lo_d, hi_d = CONTACT_SLOP, DEEPEN
+    # impact at t = 0 at a given point of impact and contact plane (PC-Crash style)
+    if cfg[C_GIVEN] > 0.5 and nk >= 2:
+        i0, j = int(cfg[C_GIVEN_I]), int(cfg[C_GIVEN_J])  # the pair touching at the point
+        px, py, th = cfg[C_PX], cfg[C_PY], cfg[C_PLANE]
+        nx, ny = math.sin(th), -math.cos(th)
+        cjx, cjy = _centre(S, B, j, nv)
+        if nx * (cjx - S[i0, 0]) + ny * (cjy - S[i0, 1]) < 0.0:
+            nx, ny = -nx, -ny
+        for i in range(nv):
+            contact[i, 0], contact[i, 1], contact[i, 2] = S[i, 0], S[i, 1], S[i, 2]
+            contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
+        diag[D_CONTACT_T] = 0.0
+        S_before[:] = S
+        pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, e, mu_imp, law, imp[0])
+        if kind < 0:
+            status = STATUS_NOT_APPROACHING
         else:
-            if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
-                continue
-            lo_d, hi_d = 0.0, tol
-        lo, hi = 0.0, h
-        bisected = True
-        for _ in range(60):
-            hm = 0.5 * (lo + hi)
-            _heun_w(P, A, NA, W, t, na, mu, zones, hm)
-            diag[D_BISECT] += 1
-            depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
-            if depth > hi_d:
-                hi = hm
-            elif depth <= lo_d:
-                lo = hm
-            else:
-                break
-        h = hm
-    return h, bisected
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _collect_contacts(P, B, W, li, lk, nl, broad, bisected, diag):
-    """The contact episodes' bookkeeping at the step's end: a pair apart leaves contact (and its episode once
-    more than SEPARATION apart); an overlapping pair is in contact, and unless it only keeps a collision
-    position's start overlap, one of the step's contacts (W.cl_*: pair, depth, normal, overlap centroid and
-    polygon). Returns their count."""
-    S, oa, ob, radius, in_contact, episode = W.S, W.oa, W.ob, W.radius, W.in_contact, W.episode
-    allowed, pen, cl_m, cl_v, cl_i, cl_k = W.allowed, W.pen, W.cl_m, W.cl_v, W.cl_i, W.cl_k
-    cl_d, cl_n, cl_p = W.cl_d, W.cl_n, W.cl_p
-    nv = P.shape[0]
-    nc = 0
-    for p in range(nl):
-        i, k = li[p], lk[p]
-        if broad and _circles_apart(S, B, radius, i, k, nv):
-            in_contact[i, k] = False
-            episode[i, k] = -1
-            allowed[i, k] = 0.0
-            continue
-        if bisected:  # the step's end moved since the onset test
-            diag[D_NARROW] += 1
-            depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
-        else:
-            depth, nx, ny = pen[p, 0], pen[p, 1], pen[p, 2]
-        if depth <= 0.0:
-            in_contact[i, k] = False
-            allowed[i, k] = 0.0
-            if -depth > SEPARATION:
-                episode[i, k] = -1
-            continue
-        in_contact[i, k] = True
-        if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
-            # a collision position's start overlap, not deepening: the given impulse resolved it
-            allowed[i, k] = min(allowed[i, k], depth)
-            continue
-        diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
-        ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
-        px, py, area = overlap_centroid(ci, ck)
-        if math.isnan(px):
-            continue
-        poly, npoly = clip_convex(ci, ck)
-        cl_m[nc] = min(npoly, cl_v.shape[1])
-        cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
-        cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
-        cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
-        nc += 1
-    return nc
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _fastest_vertex(W, c, nv, nx, ny, px, py, approach):
-    """Sustained contact: the overlap's vertex that approaches fastest, if faster than the centroid (rigid
-    bodies: the normal velocity is linear over the overlap, so its extremes are at vertices). Returns
-    (approach speed, point)."""
-    S, cl_i, cl_k, cl_m, cl_v = W.S, W.cl_i, W.cl_k, W.cl_m, W.cl_v
-    i, k = cl_i[c], cl_k[c]
-    for q in range(cl_m[c]):
-        qx, qy = cl_v[c, q, 0], cl_v[c, q, 1]
-        v1x, v1y = _point_velocity(S, i, nv, qx, qy)
-        v2x, v2y = _point_velocity(S, k, nv, qx, qy)
-        aq = -((v2x - v1x) * nx + (v2y - v1y) * ny)
-        if aq > approach:
-            approach, px, py = aq, qx, qy
-    return approach, px, py
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _impact_point(P, B, W, cfg, i, k, nx, ny, px, py, approach):
-    """The impact's point and normal (docs/physics.md §4): the middle of the contact zone the approach will
-    crush (contact_zone_centroid), or (point = "engagement") the overlap's centroid at engagement with its
-    contact plane (_engagement); the overlap's centroid (px, py) and the onset normal where neither exists."""
-    S, oa, ob = W.S, W.oa, W.ob
-    nv = P.shape[0]
-    zx = math.nan
-    if cfg.engagement:
-        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx, ny, oa, ob)
-        if not math.isnan(zx):
-            nx, ny = ex, ey
-    if math.isnan(zx):
-        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob),
-                                          nx, ny, cfg.crush_time * approach)
-    if not math.isnan(zx):
-        px, py = zx, zy
-    return px, py, nx, ny
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _resolve_contacts(P, B, W, cfg, t, nc, n_imp, max_imp, contact, imp, diag):
-    """The step's contacts resolved (the model docstring): an impact (the first touch of an episode) gets
-    its own row of `imp`; a pair in an open episode that overlaps and approaches gets a plastic contact
-    impulse booked into the episode's row. Several contacts at once (a car squeezed between a car and a
-    wall) are resolved together by sweeps of sequential impulses (projected Gauss-Seidel): after the first
-    sweep a pair is approaching again only through its neighbours' impulses of this instant, so its further
-    impulses are plastic and booked into its row. Returns (impacts booked, stopped at max_impacts, woke a
-    sleeping vehicle)."""
-    S, cl_i, cl_k, cl_n, cl_p, episode = W.S, W.cl_i, W.cl_k, W.cl_n, W.cl_p, W.episode
-    S_before, no_alt, asleep, hit = W.S_before, W.no_alt, W.asleep, W.hit
-    nv = P.shape[0]
-    woke = False
-    for _ in range(MAX_SWEEPS if nc > 1 else 1):
-        active = False
-        for c in range(nc):
-            i, k = cl_i[c], cl_k[c]
-            nx, ny, px, py = cl_n[c, 0], cl_n[c, 1], cl_p[c, 0], cl_p[c, 1]
-            v1x, v1y = _point_velocity(S, i, nv, px, py)
-            v2x, v2y = _point_velocity(S, k, nv, px, py)
-            approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
-            row = episode[i, k]
-            if row >= 0 and imp[row, I_T] != t:
-                approach, px, py = _fastest_vertex(W, c, nv, nx, ny, px, py, approach)
-            if approach <= V_EPS:
-                continue
-            is_impact = row < 0
-            if is_impact:
-                if n_imp >= max_imp:
-                    return n_imp, True, woke
-                px, py, nx, ny = _impact_point(P, B, W, cfg, i, k, nx, ny, px, py, approach)
-            e_k = cfg.restitution if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
-            S_before[:] = S
-            alt = imp[n_imp] if is_impact else no_alt  # (the impact's row: its slip-reversal check)
-            pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, cfg.mu_impact, cfg.law,
-                                                      alt)
-            if kind < 0:
-                continue
-            active = True
-            if is_impact:
-                if n_imp == 0:
-                    diag[D_CONTACT_T] = t
-                    for q in range(nv):
-                        contact[q, 0], contact[q, 1] = S_before[q, 0], S_before[q, 1]
-                        contact[q, 2] = S_before[q, 2]
-                        contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
-                _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
-                episode[i, k] = n_imp
-                n_imp += 1
-            else:
-                _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
-                diag[D_FOLLOW] += 1
+            _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+            n_imp = 1
+            # the given impulse keeps its own row (the collision position's impulse as given); contact
+            # after it, where the pair's overlap deepens, opens an episode of its own
             diag[D_E_IMPACT] += energy
-            woke = woke or asleep[i] or (k < nv and asleep[k])
-            _struck(i, k, nv, hit, asleep)
-        if not active:
-            break
-    return n_imp, False, woke
+            _struck(i0, j, nv, hit, asleep)
+            in_contact[i0, j] = True
 
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _project_contacts(P, W, nc, near_stale, diag):
-    """Non-penetration at the position level: the velocity-level contact impulse stops the approach at the
-    end of a step but not the overlap gained within it (~ a h^2 / 2); each contact's overlap is projected
-    down to CONTACT_SLOP (or the start overlap it is allowed). Returns near_stale (a static partner moved)."""
-    S, cl_i, cl_k, cl_d, allowed, cl_n = W.S, W.cl_i, W.cl_k, W.cl_d, W.allowed, W.cl_n
-    Snew, asleep = W.Snew, W.asleep
-    nv = P.shape[0]
-    for c in range(nc):
-        i, k, depth = cl_i[c], cl_k[c], cl_d[c]
-        target = max(allowed[i, k], CONTACT_SLOP)
-        if depth > target:
-            _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
-            diag[D_PROJECTED] += depth - target
-            Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
-            if k < nv:
-                Snew[k] = S[k]
-                near_stale = near_stale or asleep[k]  # a static partner moved
-            near_stale = near_stale or asleep[i]
-        allowed[i, k] = min(allowed[i, k], depth)
-    return near_stale
-
-
-@njit(cache=True, inline="always")  # (a stage: inlined, see Workspace)
-def _settle(W, na, v_rest, sleeping):
-    """Rest: an awake vehicle that has (almost) stopped stops (and, sleeping, goes to sleep until an impulse
-    wakes it). (A sleeping vehicle's state is only moved by the projection, finite: NaN can arise in awake
-    ones.) Returns (every vehicle asleep, one fell asleep, a state is NaN)."""
-    S, awake, asleep, Snew = W.S, W.awake, W.asleep, W.Snew
-    S = S
-    all_asleep, slept, nan = True, False, False
-    for a in range(na):
-        i = awake[a]
-        if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
-            S[i, 3:6] = 0.0
-            asleep[i] = sleeping
-            if sleeping:
-                Snew[i] = S[i]
-                slept = True
-        if not asleep[i]:
-            all_asleep = False
-        if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
-            nan = True
-    return all_asleep, slept, nan
-
-
-@njit(cache=True)
-def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag):
-    """Simulate one scene. P (nv, N_PARAMS), S0 (nv, 6) start states, B (nb, 5) barriers
-    (x, y, heading, half length, half width), cfg the settings (a record of SETTINGS), A, NA the driver's
-    action tables, zones the friction zones (common/driver_inputs.pack_action_tables, pack_zones). Outputs
-    are written into the arrays passed in. Each step: free motion (_read_inputs, _coarse_step, _heun), the
-    onset of contact (_listed_pairs, _onset), the contact episodes (_collect_contacts, _resolve_contacts,
-    _project_contacts), rest (_settle), recording (_record_state)."""
-    nk = P.shape[0] + B.shape[0]
-    mu, dt, coarse_dt, rec_dt, duration = cfg.mu_road, cfg.dt, cfg.coarse_dt, cfg.record_dt, cfg.duration
-    max_imp, broad = min(cfg.max_impacts, imp.shape[0]), cfg.broad_phase
-    W = _workspace(P, S0, B)
-    S = W.S
-    _start(P, B, W, cfg, contact, diag)
-    mu_max = mu  # the largest road friction anywhere (zones): bounds the step and the stopping speed
-    for z in range(zones[2].shape[0]):
-        mu_max = max(mu_max, zones[2][z])
-    zoned = zones[2].shape[0] > 0
-    n_imp, n_rec, t, next_rec, status = 0, 0, 0.0, 0.0, STATUS_OK
-    if cfg.given and nk >= 2:
-        n_imp, status = _given_impact(P, B, W, cfg, contact, imp, diag)
-    na, n_pairs = _awake_sets(W.asleep, nk, W.awake, W.pair_i, W.pair_k)
-    W.Snew[:] = S  # a sleeping vehicle's row of Snew stays equal to its row of S (_heun leaves it)
-    steps, n_near, near_stale = 0, 0, True
+    na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
+    Snew[:] = S  # a sleeping vehicle's row of Snew stays equal to its row of S (_heun leaves it)
+    steps = 0
     while t < duration - 1e-12:
         if rec_dt > 0.0 and t >= next_rec - 1e-12 and n_rec < traj.shape[0] - 1:
-            _record_state(traj, n_rec, t, S)
+            traj[n_rec, :, 0] = t
+            traj[n_rec, :, 1:7] = S
             n_rec += 1
             next_rec += rec_dt
-        # ---- free motion: the fine step within the tyre forces' stability limit, coarse while every moving
-        # vehicle runs straight and nothing can touch (a step ends where a driver's input changes its law: an
-        # action's start or its ramp's end; it is fine within a ramp and near a friction zone)
-        h, t_change, quiet = _read_inputs(P, A, NA, W, t, na, mu_max, zoned, zones, dt, coarse_dt)
+        # ---- step size: the fine step within the tyre forces' stability limit, coarse while every
+        # moving vehicle runs straight and nothing can touch
+        # (a step ends where a driver's input changes its law: an action's start or its ramp's end; it is
+        # fine within a ramp and near a friction zone)
+        h = dt
+        t_change = math.inf
+        quiet = True
+        for a in range(na):
+            i = awake[a]
+            if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
+                law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
+                law_change[i] = next_change(A[i], NA[i], t)
+                law_ramp[i] = ramping(A[i], NA[i], t)
+                held[i] = steady_next(A[i], NA[i], t)
+                if steer != inp[i, IN_STEER]:
+                    inp[i, IN_STEER] = steer
+                    inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
+                                                                  else (1.0, 0.0))
+            t_change = min(t_change, law_change[i])
+            if law_ramp[i]:
+                quiet = False
+            mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
+            inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
+            if mode == ROLLING and brake > 0.0:
+                mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
+            if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
+                rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
+                rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
+            h = min(h, rate_h[i])
+            c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
+            inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
+            lat = -sn * S[i, 3] + c * S[i, 4]
+            speed = math.hypot(S[i, 3], S[i, 4])
+            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
+                quiet = False
+            elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
+                quiet = False
+            # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
+            # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
+            if speed < 2.0 * mu_max * G * coarse_dt + STOP_MARGIN:
+                quiet = False
         if quiet and coarse_dt > dt:
-            h_gap = _coarse_step(B, W, n_pairs, coarse_dt)
+            h_gap = coarse_dt
+            for p in range(n_pairs):  # (a sleeping vehicle and a barrier: not listed, closing 0)
+                i, k = pair_i[p], pair_k[p]
+                ckx, cky = _centre(S, B, k, nv)
+                gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
+                closing = math.hypot(S[i, 3], S[i, 4])
+                if k < nv:
+                    closing += math.hypot(S[k, 3], S[k, 4])
+                if closing > 0.0:
+                    h_gap = min(h_gap, 0.5 * gap / closing)
             if h_gap > h:
                 h = h_gap
                 diag[D_COARSE] += 1
         h = min(h, duration - t, t_change - t)
-        _heun_w(P, A, NA, W, t, na, mu, zones, h)
+        _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, inp, held)
         steps += 1
         diag[D_VEHICLE_STEPS] += na
         if steps > MAX_STEPS:
             status = STATUS_STEP_LIMIT
             break
-        # ---- onset of contact within the step
-        li, lk, nl, n_near, near_stale = _listed_pairs(B, W, na, n_pairs, broad, n_near, near_stale)
-        h, bisected = _onset(P, B, A, NA, W, t, h, na, mu, zones, li, lk, nl, broad, cfg.onset_tol, diag)
+        # ---- the pairs tested this step: with the broad phase, pairs with a static partner far away
+        # are left out (_near_pairs, rebuilt once an awake vehicle has moved REACH); a step longer
+        # than REACH tests every listed pair
+        li, lk, nl = pair_i, pair_k, n_pairs
+        if broad and (na < nv or nb > 0):
+            if near_stale or _moved(S, Snew, awake, na, ref, REACH):
+                near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
+                if not near_stale:
+                    n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, REACH,
+                                         near_i, near_k, in_contact, episode, allowed)
+            if not near_stale:
+                li, lk, nl = near_i, near_k, n_near
+        # ---- onset of a new contact: bisect the step until the overlap is at most tol; a touching pair
+        # whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
+        # rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN
+        bisected = False  # (else the contacts below reuse each pair's test of the step's end: pen)
+        for p in range(nl):
+            i, k = li[p], lk[p]
+            if broad and _circles_apart(Snew, B, radius, i, k, nv):
+                continue
+            diag[D_NARROW] += 1
+            depth, nx, ny, _ = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))
+            pen[p, 0], pen[p, 1], pen[p, 2] = depth, nx, ny
+            if in_contact[i, k]:
+                if allowed[i, k] > 0.0 or depth <= DEEPEN:
+                    continue
+                lo_d, hi_d = CONTACT_SLOP, DEEPEN
+            else:
+                if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
+                    continue
+                lo_d, hi_d = 0.0, tol
+            lo, hi = 0.0, h
+            bisected = True
+            for _ in range(60):
+                hm = 0.5 * (lo + hi)
+                _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp, inp,
+                      held)
+                diag[D_BISECT] += 1
+                depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
+                if depth > hi_d:
+                    hi = hm
+                elif depth <= lo_d:
+                    lo = hm
+                else:
+                    break
+            h = hm
         t += h
         for a in range(na):
-            i = W.awake[a]
+            i = awake[a]
             for q in range(6):
-                S[i, q] = W.Snew[i, q]
-        # ---- contact episodes: impacts, contact impulses, projection
-        nc = _collect_contacts(P, B, W, li, lk, nl, broad, bisected, diag)
-        n_imp, capped, woke = _resolve_contacts(P, B, W, cfg, t, nc, n_imp, max_imp, contact, imp, diag)
-        if capped:
-            status = STATUS_IMPACT_CAP
+                S[i, q] = Snew[i, q]
+        # ---- contacts: an impact (the first touch of an episode) gets its own row; a pair in an open
+        # episode that overlaps and approaches gets a plastic contact impulse booked into the episode's
+        # row. Several contacts at once (a car squeezed between a car and a wall) are
+        # resolved together by sweeps of sequential impulses (projected Gauss-Seidel) over the step's
+        # contacts: after the first sweep a pair is approaching again only through its neighbours'
+        # impulses of this instant, so its further impulses are plastic and booked into its row. Then a
+        # projection keeps each overlap below CONTACT_SLOP.
+        nc = 0
+        for p in range(nl):
+            i, k = li[p], lk[p]
+            if broad and _circles_apart(S, B, radius, i, k, nv):
+                in_contact[i, k] = False
+                episode[i, k] = -1
+                allowed[i, k] = 0.0
+                continue
+            if bisected:  # the step's end moved since the onset test
+                diag[D_NARROW] += 1
+                depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
+            else:
+                depth, nx, ny = pen[p, 0], pen[p, 1], pen[p, 2]
+            if depth <= 0.0:
+                in_contact[i, k] = False
+                allowed[i, k] = 0.0
+                if -depth > SEPARATION:
+                    episode[i, k] = -1
+                continue
+            in_contact[i, k] = True
+            if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
+                # a collision position's start overlap, not deepening: the given impulse resolved it
+                allowed[i, k] = min(allowed[i, k], depth)
+                continue
+            diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
+            ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
+            px, py, area = overlap_centroid(ci, ck)
+            if math.isnan(px):
+                continue
+            poly, npoly = clip_convex(ci, ck)
+            cl_m[nc] = min(npoly, cl_v.shape[1])
+            cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
+            cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
+            cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
+            nc += 1
+        stop = False
+        woke = False
+        for _ in range(MAX_SWEEPS if nc > 1 else 1):
+            active = False
+            for c in range(nc):
+                i, k = cl_i[c], cl_k[c]
+                nx, ny, px, py = cl_n[c, 0], cl_n[c, 1], cl_p[c, 0], cl_p[c, 1]
+                v1x, v1y = _point_velocity(S, i, nv, px, py)
+                v2x, v2y = _point_velocity(S, k, nv, px, py)
+                approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
+                row = episode[i, k]
+                if row >= 0 and imp[row, I_T] != t:
+                    # sustained contact: the overlap's vertex that approaches fastest (rigid bodies: the
+                    # normal velocity is linear over the overlap, so its extremes are at vertices)
+                    for q in range(cl_m[c]):
+                        qx, qy = cl_v[c, q, 0], cl_v[c, q, 1]
+                        v1x, v1y = _point_velocity(S, i, nv, qx, qy)
+                        v2x, v2y = _point_velocity(S, k, nv, qx, qy)
+                        aq = -((v2x - v1x) * nx + (v2y - v1y) * ny)
+                        if aq > approach:
+                            approach, px, py = aq, qx, qy
+                if approach <= V_EPS:
+                    continue
+                is_impact = row < 0
+                if is_impact:
+                    if n_imp >= max_imp:
+                        status = STATUS_IMPACT_CAP
+                        stop = True
+                        break
+                    # the point: the middle of the contact zone the approach will crush, or (point =
+                    # "engagement") the overlap's centroid at engagement with its contact plane
+                    zx = math.nan
+                    if cfg[C_ENGAGE] > 0.5:
+                        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx, ny, oa, ob)
+                        if not math.isnan(zx):
+                            nx, ny = ex, ey
+                    if math.isnan(zx):
+                        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
+                                                          _outline(P, S, B, k, nv, ob),
+                                                          nx, ny, cfg[C_CRUSH_TIME] * approach)
+                    if not math.isnan(zx):
+                        px, py = zx, zy
+                e_k = e if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
+                S_before[:] = S
+                alt = imp[n_imp] if is_impact else no_alt  # (the impact's row: its slip-reversal check)
+                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, mu_imp, law, alt)
+                if kind < 0:
+                    continue
+                active = True
+                if is_impact:
+                    if n_imp == 0:
+                        diag[D_CONTACT_T] = t
+                        for q in range(nv):
+                            contact[q, 0], contact[q, 1] = S_before[q, 0], S_before[q, 1]
+                            contact[q, 2] = S_before[q, 2]
+                            contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
+                    _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                    episode[i, k] = n_imp
+                    n_imp += 1
+                else:
+                    _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
+                    diag[D_FOLLOW] += 1
+                diag[D_E_IMPACT] += energy
+                woke = woke or asleep[i] or (k < nv and asleep[k])
+                _struck(i, k, nv, hit, asleep)
+            if stop or not active:
+                break
+        if stop:
             break
         if woke:
-            na, n_pairs = _awake_sets(W.asleep, nk, W.awake, W.pair_i, W.pair_k)
+            na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
             near_stale = True
-        near_stale = _project_contacts(P, W, nc, near_stale, diag)
-        # ---- rest
-        all_asleep, slept, nan = _settle(W, na, cfg.v_rest, cfg.sleeping)
-        if nan:
-            status = STATUS_NAN
+        # non-penetration at the position level: the velocity-level contact impulse stops the approach at
+        # the end of a step but not the overlap gained within it (~ a h^2 / 2)
+        for c in range(nc):
+            i, k, depth = cl_i[c], cl_k[c], cl_d[c]
+            target = max(allowed[i, k], CONTACT_SLOP)
+            if depth > target:
+                _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
+                diag[D_PROJECTED] += depth - target
+                Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
+                if k < nv:
+                    Snew[k] = S[k]
+                    near_stale = near_stale or asleep[k]  # a static partner moved
+                near_stale = near_stale or asleep[i]
+            allowed[i, k] = min(allowed[i, k], depth)
+        # ---- rest: a vehicle that has (almost) stopped goes to sleep; an impulse wakes it
+        # (a sleeping vehicle's state is only moved by the projection, finite: NaN can arise in awake ones)
+        all_asleep, slept = True, False
+        for a in range(na):
+            i = awake[a]
+            if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
+                S[i, 3:6] = 0.0
+                asleep[i] = sleeping
+                if sleeping:
+                    Snew[i] = S[i]
+                    slept = True
+            if not asleep[i]:
+                all_asleep = False
+            if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
+                status = STATUS_NAN
         if slept:
-            na, n_pairs = _awake_sets(W.asleep, nk, W.awake, W.pair_i, W.pair_k)
+            na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
             near_stale = True
-        if status == STATUS_NAN or (all_asleep and cfg.stop_at_rest):
+        if status == STATUS_NAN or (all_asleep and cfg[C_STOP_AT_REST] > 0.5):
             break
     if rec_dt > 0.0 and n_rec < traj.shape[0]:
-        _record_state(traj, n_rec, t, S)
+        traj[n_rec, :, 0] = t
+        traj[n_rec, :, 1:7] = S
         n_rec += 1
     rest[:, :] = S[:, 0:3]
     final[:, :] = S[:, 3:6]
@@ -1013,7 +841,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
 @njit(cache=True, parallel=True)
 def simulate_many(P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX, rest, final, contact, imp, diag):
     """A batch of scenes of the same composition (vehicles, barriers, action rows, zone corners), in
-    parallel, without trajectories; cfg an array of SETTINGS records."""
+    parallel, without trajectories."""
     no_traj = np.empty((0, P.shape[1], 7))
     for s in prange(P.shape[0]):
         simulate_one(P[s], S0[s], B[s], cfg[s], A[s], NA[s], (ZC[s], ZS[s], ZMU[s], ZBOX[s]), rest[s], final[s],

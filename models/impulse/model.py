@@ -140,25 +140,24 @@ class ImpulseModel(CollisionModel):
 
     # ------------------------------------------------------------------ packing
     def pack(self, scene):
-        """Arrays (P, S0, B, cfg, A, NA, zones) of one scene for the kernel (cfg: the settings, a record of
-        kernel.SETTINGS; A, NA: the driver's action tables, zones: the friction zones; common/driver_inputs)."""
+        """Arrays (P, S0, B, cfg, A, NA, zones) of one scene for the kernel (A, NA: the driver's action
+        tables, zones: the friction zones; common/driver_inputs)."""
         P = np.array([pack_vehicle(v.spec, v.wheels, v.steer) for v in scene.vehicles]).reshape(-1, N_PARAMS)
         S0 = np.array([[v.x, v.y, v.heading, v.speed * math.cos(v.heading), v.speed * math.sin(v.heading),
                         v.yaw_rate] for v in scene.vehicles])
         B = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
+        cfg = np.zeros(K.N_CFG)
         imp = scene.impact
-        cfg = np.zeros(1, K.SETTINGS)[0]  # one record; unset fields: 0 / False
-        cfg["mu_road"], cfg["restitution"], cfg["mu_impact"] = scene.road.friction, imp.restitution, imp.friction
-        cfg["law"], cfg["duration"], cfg["stop_at_rest"] = LAWS[imp.law], scene.duration, scene.stop_at_rest
+        cfg[K.C_MU_ROAD], cfg[K.C_E], cfg[K.C_MU_IMP] = scene.road.friction, imp.restitution, imp.friction
+        cfg[K.C_LAW], cfg[K.C_DURATION], cfg[K.C_STOP_AT_REST] = LAWS[imp.law], scene.duration, scene.stop_at_rest
         if imp.point is not None:
-            cfg["given"], cfg["given_x"], cfg["given_y"] = True, imp.point[0], imp.point[1]
-            cfg["given_plane"] = imp.plane_angle
-            cfg["given_i"], cfg["given_j"] = given_pair(scene)
-        cfg["dt"], cfg["coarse_dt"], cfg["record_dt"] = self.dt, self.coarse_dt, self.record_dt
-        cfg["onset_tol"], cfg["v_rest"], cfg["max_impacts"] = self.onset_tol, self.v_rest, self.max_impacts
-        cfg["crush_time"] = self.crush_time
-        cfg["engagement"], cfg["engagement_depth"] = imp.engagement, imp.engagement_depth
-        cfg["broad_phase"], cfg["sleeping"] = self.options.broad_phase, self.options.sleeping
+            cfg[K.C_GIVEN], cfg[K.C_PX], cfg[K.C_PY], cfg[K.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
+            cfg[K.C_GIVEN_I], cfg[K.C_GIVEN_J] = given_pair(scene)
+        cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
+        cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
+        cfg[K.C_CRUSH_TIME] = self.crush_time
+        cfg[K.C_ENGAGE], cfg[K.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
+        cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
         A, NA = pack_action_tables(scene.vehicles)
         return P, S0, B, cfg, A, NA, pack_zones(scene.road)
 
