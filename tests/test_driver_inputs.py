@@ -282,11 +282,11 @@ def test_wheel_points_are_the_axle_and_track_corners():
     assert math.cos(math.pi / 6) * y - math.sin(math.pi / 6) * x == pytest.approx(half, abs=1e-12)
 
 
-def test_remembered_action_tables_are_the_tables_of_the_vehicles_given():
-    """pack_action_tables remembers its result by the identity of each vehicle's actions tuple and its
-    wheels and steer: the same vehicles give equal tables; other actions (equal or not), other start
-    wheels or steer give their own; many short-lived actions tuples (ids that CPython would reuse if the
-    memo did not hold them) each give their own; after _TABLES.clear() the results are as before."""
+def test_action_tables_are_the_tables_of_the_vehicles_given():
+    """pack_action_tables gives the tables of the vehicles given: the same vehicles equal tables; other
+    actions (equal or not), other start wheels or steer their own; many short-lived actions tuples (ids
+    that CPython reuses: an id-keyed memo would go stale) each their own; and fresh arrays: a caller
+    writing into a result changes no later one."""
     import dataclasses
 
     from crashlab.models.common import driver_inputs as di
@@ -325,7 +325,25 @@ def test_remembered_action_tables_are_the_tables_of_the_vehicles_given():
     v = sc.vehicles[1]
     for _ in range(300):  # the previous tuple is dropped at once: its id is free for the next one
         check([dataclasses.replace(v, actions=(Action(t=float(rng.uniform(0, 4)), brake=float(rng.uniform())),))])
-    check(sc.vehicles)
-    di._TABLES.clear()
+    A, NA = di.pack_action_tables(sc.vehicles)
+    A[:] = -1.0
+    NA[:] = 0
     after = check(sc.vehicles)
     assert all(np.array_equal(a, b) for a, b in zip(first, after))
+
+
+def test_zone_arrays_are_fresh_copies():
+    """pack_zones gives equal arrays for equal roads (remembered by the road's value), and fresh copies: a
+    caller writing into a result changes no later one."""
+    from crashlab.models.common import driver_inputs as di
+    from crashlab.scene import Road, Zone
+
+    def road():  # a new, equal Road each time
+        return Road(0.8, (Zone(0.2, ((0.0, 0.0), (4.0, 0.0), (4.0, 3.0), (0.0, 3.0))),
+                          Zone(0.5, ((1.0, 1.0), (6.0, 1.0), (3.0, 5.0)))))
+
+    first = [a.copy() for a in di.pack_zones(road())]
+    for a in di.pack_zones(road()):
+        assert a.flags.writeable
+        a[...] = 7
+    assert all(np.array_equal(a, b) for a, b in zip(first, di.pack_zones(road())))

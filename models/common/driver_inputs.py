@@ -50,25 +50,13 @@ def pack_actions(vs) -> np.ndarray:
     return np.array(_rows(vs), dtype=np.float64)
 
 
-_TABLES: dict = {}  # pack_action_tables' recent results by the identity of the vehicles' actions
-
-
 def pack_action_tables(vehicles) -> tuple[np.ndarray, np.ndarray]:
     """All vehicles' tables in one array (vehicles x rows x columns, padded with the last row) and the
-    number of rows of each. (Remembered by the identity of each vehicle's actions tuple, its wheels and
-    steer: a batch's scenes share their actions objects, and hashing the actions costs more than packing
-    them; the entry holds the tuples, so an identity is not reused while remembered. Not to be written.)"""
-    key = tuple((id(v.actions), v.wheels, v.steer) for v in vehicles)
-    hit = _TABLES.get(key)
-    if hit is not None:
-        return hit[1], hit[2]
+    number of rows of each: fresh arrays on every call (a few microseconds; nothing remembered)."""
     tables = [_rows(v) for v in vehicles]
     k = max(len(t) for t in tables)
     A = np.array([t + t[-1:] * (k - len(t)) for t in tables], dtype=np.float64)
     NA = np.array([len(t) for t in tables], dtype=np.int64)
-    if len(_TABLES) >= 256:
-        _TABLES.clear()
-    _TABLES[key] = ([v.actions for v in vehicles], A, NA)
     return A, NA
 
 
@@ -154,13 +142,18 @@ def effective_mode(mode, struck):
     return mode
 
 
-@functools.lru_cache(maxsize=64)
 def pack_zones(road) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(Cached per road: a batch's scenes share theirs; the arrays are not to be written.) The road's zones
-    as arrays: edges of all zones (a_x, a_y, e_x, e_y, 1/|e|^2, n_x, n_y: start corner, edge vector to the
-    next corner, its inverse squared length, unit normal into the zone), start index of each zone's edges
-    (zones + 1), friction per zone, and per zone its bounding box widened by PATCH / 2 and whether it is
-    convex (x_min, x_max, y_min, y_max, convex 1/0)."""
+    """The road's zones as arrays: edges of all zones (a_x, a_y, e_x, e_y, 1/|e|^2, n_x, n_y: start corner,
+    edge vector to the next corner, its inverse squared length, unit normal into the zone), start index of
+    each zone's edges (zones + 1), friction per zone, and per zone its bounding box widened by PATCH / 2 and
+    whether it is convex (x_min, x_max, y_min, y_max, convex 1/0). Fresh copies of _zone_arrays(road)."""
+    return tuple(a.copy() for a in _zone_arrays(road))
+
+
+@functools.lru_cache(maxsize=64)
+def _zone_arrays(road) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """pack_zones' arrays, remembered by the road's value (Road is a frozen dataclass: equal roads, equal
+    arrays; a batch's scenes share theirs), read-only: pack_zones hands out copies."""
     zones = road.zones
     edges = np.zeros((sum(len(z.polygon) for z in zones), 7))
     start = np.zeros(len(zones) + 1, dtype=np.int64)
@@ -177,7 +170,10 @@ def pack_zones(road) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         convex = bool(np.all(turn >= 0) or np.all(turn <= 0))
         box[k] = (pts[:, 0].min() - PATCH / 2, pts[:, 0].max() + PATCH / 2,
                   pts[:, 1].min() - PATCH / 2, pts[:, 1].max() + PATCH / 2, float(convex))
-    return edges, start, np.array([z.friction for z in zones], dtype=np.float64), box
+    arrays = (edges, start, np.array([z.friction for z in zones], dtype=np.float64), box)
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 @register_jitable
