@@ -140,3 +140,12 @@ def test_a_planted_circle_fails(tmp_path):
     f = repo / "framework" / "units.py"
     f.write_text(f.read_text() + "\n\ndef _planted():\n    from .scene_file import load_scene  # noqa\n")
     assert any("crashlab.units" in c for c in circles(repo))
+
+
+def test_every_package_is_in_the_wheel():
+    """pyproject.toml lists every package (a package missing there is missing from the installed wheel)."""
+    import tomllib
+    cfg = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(cfg["packages"])
+    packages = {name for name, f in modules().items() if f.name == "__init__.py"}
+    assert packages <= listed, sorted(packages - listed)
