@@ -81,7 +81,7 @@ def test_failed_model_is_recorded(tmp_path, monkeypatch):
 
 
 # ---------------------------------------------------------------- the published car-to-car tests
-# An independent transcription of the source tables (/work/shared README: Rose et al. SAE 2006-01-0908 as quoted
+# An independent transcription of the source tables (Rose et al. SAE 2006-01-0908 as quoted
 # in pycrash test_inputs_rose.py; RICSAC as tabulated by Day SAE 2004-01-1207), in the published units.
 MPH, LB, SLUG_FT2, INCH, FOOT = 1.609344, 0.45359237, 1.3558179, 0.0254, 0.3048
 # vehicle: weight [lb], yaw inertia [slug ft^2], length, width, wheelbase, CG to front axle [in]
