@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict
 
 from .errors import InputError
 from .structure import STRUCTURE_SIDES, Structure
-from .units import wrap_deg
+from .units import kmh_to_ms, ms_to_kmh, wrap_deg
 from .vehicle import VehicleSpec
 
 PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
@@ -210,7 +210,7 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
         "offset": offset, "pdof": pdof_used, "pdof_angle": alpha, "pdof_factor": factor,
         "A": structure.A, "B": structure.B, "G": structure.G, "structure_width": structure.width,
         "structure_source": structure.source, "structure_default": structure.default,
-        "energy_uncorrected": e0, "energy": energy, "ees": speed, "ees_kmh": speed * 3.6,
+        "energy_uncorrected": e0, "energy": energy, "ees": speed, "ees_kmh": ms_to_kmh(speed),
         "centroid_lateral": lateral, "centroid_depth": depth, "moment_arm": arm,
         "radius_of_gyration": math.sqrt(spec.yaw_inertia / spec.mass), "gamma": gamma,
         "warnings": [warning] if warning else [],
@@ -223,7 +223,7 @@ def pair_report(r1: dict, r2: dict, restitution: float = 0.0) -> dict:
     total = r1["energy"] + r2["energy"]
     dv1, dv2 = pair_delta_v(total, r1["mass"], r2["mass"], r1["gamma"], r2["gamma"], restitution)
     return {"vehicles": [r1, r2], "energy_total": total, "restitution": restitution,
-            "delta_v": [dv1, dv2], "delta_v_kmh": [dv1 * 3.6, dv2 * 3.6]}
+            "delta_v": [dv1, dv2], "delta_v_kmh": [ms_to_kmh(dv1), ms_to_kmh(dv2)]}
 
 
 def format_report(rep: dict) -> str:
@@ -334,6 +334,6 @@ def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, 
     C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros."""
     s = spec.structure[_side(side, "damage")]
     factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof))
-    per_width = 0.5 * spec.mass * (ees_kmh / 3.6) ** 2 / (factor * width) - s.G
+    per_width = 0.5 * spec.mass * kmh_to_ms(ees_kmh) ** 2 / (factor * width) - s.G
     c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B
     return [c] * n

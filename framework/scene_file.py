@@ -8,10 +8,11 @@ import dataclasses
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, ValidationError, WrapValidator
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, WrapValidator
 
 from . import uncertainty
 from .errors import InputError
+from .file_numbers import Real
 from .restitution import SPEED
 from .scene import (
     ANGLE_MAX,
@@ -39,7 +40,6 @@ from .scene import (
 from .units import deg_to_rad, kmh_to_ms
 from .vehicle import load_vehicle, pydantic_error, read_toml
 
-Real = Annotated[float, Strict()]  # int or float; never a bool or a string (NaN/inf: allow_inf_nan=False)
 Position = Annotated[Real, Field(ge=-POSITION_MAX, le=POSITION_MAX,
                                  description=f"m; |value| <= {POSITION_MAX:g}")]
 Angle = Annotated[Real, Field(ge=-ANGLE_MAX, le=ANGLE_MAX, description=f"deg; |value| <= {ANGLE_MAX:g}")]

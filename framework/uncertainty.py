@@ -28,19 +28,19 @@ import dataclasses
 import functools
 import math
 from pathlib import Path
-from typing import Annotated, Literal, Sequence
+from typing import Literal, Sequence
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from . import fields
 from .errors import InputError
+from .file_numbers import Real
 from .scene import Scene
 from .vehicle import pydantic_error
 
 DISTRIBUTIONS = {"uniform": ("lower", "upper"), "normal": ("mean", "sd"), "triangular": ("lower", "mode", "upper")}
 OPTIONAL = {"normal": ("lower", "upper")}  # truncation of a normal
-Real = Annotated[float, Strict()]  # int or float; never a bool or a string; NaN and inf refused
 
 
 class UncertainFile(BaseModel):

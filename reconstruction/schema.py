@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, field_val
 from crashlab.damage import DamageEvidence
 from crashlab.execution import DEFAULT_TIMEOUT_S
 from crashlab.fields import study_path
+from crashlab.file_numbers import Real
 
 VEHICLE_FIELDS = ("x", "y", "heading", "speed")
 IMPACT_FIELDS = ("restitution", "friction", "engagement_depth")
@@ -66,7 +67,6 @@ GENERATIONS_MAX = 100_000
 SEED_MAX = 2**32 - 1  # numpy's seed range
 WORKERS_MAX = 1024
 
-Real = Annotated[float, Strict()]  # int or float, never a bool or a string; NaN and inf refused
 Int = Annotated[int, Strict()]  # an integer: 1e9 (a float) and true are refused
 
 

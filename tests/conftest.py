@@ -148,3 +148,16 @@ def assert_one_error_line(res, path, key, words=()):
     assert f"{path}: {key}: " in lines[0], lines[0]
     for w in words:
         assert w in lines[0], lines[0]
+
+
+def assert_refused_with_one_line(load, path, key, words=()):
+    """load(path) raises InputError whose text is one line starting with the file and the key, naming words."""
+    import pytest
+
+    from crashlab.errors import InputError
+    with pytest.raises(InputError) as err:
+        load(path)
+    line = str(err.value)
+    assert line.startswith(f"{path}: {key}: ") and "\n" not in line, line
+    for w in words:
+        assert w in line, line

@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-SIDES = ("front", "rear", "side")
+from crashlab.structure import STRUCTURE_SIDES as SIDES
+
 # per-vehicle structure row: A [N/m], B [N/m^2], width [m] of front, rear, side
 N_STR = 9
 # restitution range of the linear unloading (Cp >= 0 needs e <= 1/sqrt 2)
