@@ -2,11 +2,12 @@
 from .errors import InputError
 from .model import CollisionModel
 from .outcome import Outcome
+from .population import Population, Variants
 from .registry import available_models, available_optimizers, get_model, get_optimizer
 from .scene import Scene
 from .scene_file import load_scene
 
-__all__ = ["InputError", "Outcome", "Scene", "CollisionModel", "load_scene", "simulate",
+__all__ = ["InputError", "Outcome", "Population", "Variants", "Scene", "CollisionModel", "load_scene", "simulate",
            "available_models", "available_optimizers", "get_model", "get_optimizer"]
 
 

@@ -347,6 +347,44 @@ def with_spec(spec, **changes):
     return new
 
 
+def row_problems(scene: Scene, fs: Sequence[Field], values: np.ndarray) -> np.ndarray:
+    """(N,) why each row of values (N, k; file units, in the order of `fs`) is no valid scene ("" where it
+    is one): the checks `setter` makes with `check`, on whole columns (a population of variants). A mass or
+    yaw inertia is checked row by row (the vehicle's consistency checks, crashlab.vehicle)."""
+    values = np.asarray(values, dtype=float)
+    why = np.full(len(values), "", dtype=object)
+    for c, f in enumerate(fs):
+        lo, hi = field_range(scene, f)
+        for k in np.flatnonzero(~((values[:, c] >= lo) & (values[:, c] <= hi)) & (why == "")):  # NaN fails
+            why[k] = f"{f.path} = {values[k, c]:g} is outside [{lo:g}, {hi:g}] {f.unit}"
+    acts = {f.vehicle for f in fs if f.kind == "action"}
+    specs = {f.vehicle for f in fs if f.kind == "spec"}
+    if acts or specs:  # the rarer fields: the setter's own checks on the rows that passed the ranges
+        build = setter(scene, fs, check=True)
+        for k in np.flatnonzero(why == ""):
+            try:
+                build(values[k])
+            except ValueError as err:
+                why[k] = str(err)
+    return why
+
+
+def vehicle_columns(scene: Scene, fs: Sequence[Field], values: np.ndarray, quantities: Sequence[str]) -> dict:
+    """quantity -> (N, nv) array in SI of each vehicle's start state or spec quantity (x, y, heading, speed,
+    yaw_rate, mass, yaw_inertia) in every row: the scene's value, or the row's where a field sets it."""
+    values = np.asarray(values, dtype=float)
+    names = scene.vehicle_names
+    out = {}
+    for q in quantities:
+        base = [getattr(v.spec if q in VEHICLE_SPEC else v, q) for v in scene.vehicles]
+        col = np.tile(np.asarray(base, dtype=float), (len(values), 1))
+        for c, f in enumerate(fs):
+            if f.vehicle is not None and f.quantity == q and f.kind in ("vehicle", "spec"):
+                col[:, names.index(f.vehicle)] = f.to_si_array(values[:, c])
+        out[q] = col
+    return out
+
+
 def set_fields(scene: Scene, paths: Sequence[str | Field], values: Sequence[float]) -> Scene:
     """The scene with several fields set at once (file units); see `setter`."""
     return setter(scene, paths)(values)

@@ -60,17 +60,29 @@ def check_batch(scenes, outs, skip=frozenset()) -> None:
         _check_group(group, skip)
 
 
+def _kinetic(mass, iz, v2, yaw_rate) -> np.ndarray:
+    """Planar kinetic energy [J] summed over the vehicles (last axis): 1/2 m v^2 + 1/2 Iz r^2."""
+    return (0.5 * mass * v2 + 0.5 * iz * np.square(yaw_rate)).sum(-1)
+
+
+def _tolerance(e0):
+    return ENERGY_TOL_J + ENERGY_TOL_REL * e0
+
+
 def _check_group(group, skip) -> None:
     mass = np.array([[v.spec.mass for v in s.vehicles] for s, _ in group])
     iz = np.array([[v.spec.yaw_inertia for v in s.vehicles] for s, _ in group])
     start = np.array([[(v.speed, v.yaw_rate) for v in s.vehicles] for s, _ in group])
     final = np.stack([o.final_si for _, o in group])
     rest = np.stack([o.rest_si for _, o in group])
-    e0 = (0.5 * mass * start[..., 0] ** 2 + 0.5 * iz * start[..., 1] ** 2).sum(1)
-    e1 = (0.5 * mass * (final[..., 0] ** 2 + final[..., 1] ** 2) + 0.5 * iz * final[..., 2] ** 2).sum(1)
-    tol = ENERGY_TOL_J + ENERGY_TOL_REL * e0
+    e0 = _kinetic(mass, iz, start[..., 0] ** 2, start[..., 1])
+    e1 = _kinetic(mass, iz, final[..., 0] ** 2 + final[..., 1] ** 2, final[..., 2])
+    tol = _tolerance(e0)
     finite = np.isfinite(rest).all(axis=(1, 2)) & np.isfinite(final).all(axis=(1, 2))
-    near = _near_pairs(group, rest)
+    scene = group[0][0]
+    same = all(len(s.barriers) == len(scene.barriers) for s, _ in group)
+    near = _near_pairs(np.array([_radii(s) for s, _ in group]), np.array([_barrier_centres(s) for s, _ in group]),
+                       rest) if same else np.ones(len(group), dtype=bool)
     for k, (scene, out) in enumerate(group):
         out.diagnostics.energy_start, out.diagnostics.energy_end = float(e0[k]), float(e1[k])
         if not out.outcome_ok:
@@ -79,20 +91,32 @@ def _check_group(group, skip) -> None:
             out.fail("non_finite", "the end state is not finite")
             continue
         if "energy_overall" not in skip and not e1[k] - e0[k] <= tol[k]:
-            out.fail("energy_overall", f"kinetic energy {e1[k] / 1e3:.1f} kJ at the end, {e0[k] / 1e3:.1f} kJ "
-                     f"at the start (+{(e1[k] - e0[k]) / 1e3:.1f} kJ, tolerance {tol[k] / 1e3:.1f} kJ)")
+            out.fail("energy_overall", _energy_reason(e0[k], e1[k], tol[k]))
         _check_one(scene, out, skip, float(tol[k]), near[k])
 
 
-def _near_pairs(group, rest) -> np.ndarray:
-    """Per outcome: whether any two outlines' bounding circles meet at the end (vehicles and barriers)."""
-    scene = group[0][0]
-    radius = np.array([[math.hypot(max(v.spec.cg_to_front, v.spec.cg_to_rear), v.spec.width / 2)
-                        for v in s.vehicles] + [math.hypot(b.length, b.width) / 2 for b in s.barriers]
-                       for s, _ in group]) if all(len(s.barriers) == len(scene.barriers) for s, _ in group) else None
-    if radius is None:
-        return np.ones(len(group), dtype=bool)
-    bar = np.array([[(b.x, b.y) for b in s.barriers] for s, _ in group]).reshape(len(group), -1, 2)
+def _energy_reason(e0, e1, tol) -> str:
+    return (f"kinetic energy {e1 / 1e3:.1f} kJ at the end, {e0 / 1e3:.1f} kJ at the start (+{(e1 - e0) / 1e3:.1f} kJ, "
+            f"tolerance {tol / 1e3:.1f} kJ)")
+
+
+def _impact_reason(k, e, tol) -> str:
+    return f"impact {k + 1} creates {-e / 1e3:.1f} kJ (tolerance {tol / 1e3:.1f} kJ)"
+
+
+def _radii(scene) -> list[float]:
+    """Bounding-circle radius of each vehicle's and barrier's outline [m]."""
+    return [math.hypot(max(v.spec.cg_to_front, v.spec.cg_to_rear), v.spec.width / 2) for v in scene.vehicles] \
+        + [math.hypot(b.length, b.width) / 2 for b in scene.barriers]
+
+
+def _barrier_centres(scene) -> np.ndarray:
+    return np.array([(b.x, b.y) for b in scene.barriers], dtype=float).reshape(-1, 2)
+
+
+def _near_pairs(radius, bar, rest) -> np.ndarray:
+    """Per row: whether any two outlines' bounding circles meet at the end (vehicles and barriers).
+    radius (n, nv + nb), bar (n, nb, 2) barrier centres, rest (n, nv, 3)."""
     centres = np.concatenate([rest[..., :2], bar], axis=1)
     nv = rest.shape[1]
     d = np.linalg.norm(centres[:, :nv, None, :] - centres[:, None, :, :], axis=-1)
@@ -102,14 +126,50 @@ def _near_pairs(group, rest) -> np.ndarray:
     return close.any(axis=(1, 2))
 
 
+def check_population(scene, fs, values, pop, skip=frozenset()) -> None:
+    """The guard on a population (crashlab.population) of variants of `scene` with the fields `fs`
+    (crashlab.fields.Field) set to the rows of `values` (file units), vectorised, in place: a violation fails
+    the row with the reason "physics guard: <kind>: ...". The energy at the start is computed here from the
+    scene and the rows (never taken from the model); energy_start and energy_end are written. The checks of
+    recorded trajectories (energy_outside_contact, below_road) need an Outcome's trajectories: a population
+    has none (a batch of the impulse model records none either)."""
+    from .fields import vehicle_columns
+    cols = vehicle_columns(scene, fs, values, ("speed", "yaw_rate", "mass", "yaw_inertia"))
+    mass, iz = cols["mass"], cols["yaw_inertia"]
+    final, rest = pop.final, pop.rest
+    e0 = _kinetic(mass, iz, cols["speed"] ** 2, cols["yaw_rate"])
+    e1 = _kinetic(mass, iz, final[..., 0] ** 2 + final[..., 1] ** 2, final[..., 2])
+    pop.energy_start[:], pop.energy_end[:] = e0, e1
+    tol = _tolerance(e0)
+
+    def fail(mask, kind, reason):
+        for k in np.flatnonzero(mask & pop.ok):
+            pop.fail(k, f"physics guard: {kind}: {reason(k)}")
+
+    fail(~(np.isfinite(rest).all(axis=(1, 2)) & np.isfinite(final).all(axis=(1, 2))), "non_finite",
+         lambda k: "the end state is not finite")
+    if "energy_overall" not in skip:
+        fail(~(e1 - e0 <= tol), "energy_overall", lambda k: _energy_reason(e0[k], e1[k], tol[k]))
+    if "impact_energy" not in skip:
+        low = pop.lowest_impact_energy
+        fail((pop.n_impacts > 0) & ~(low >= -tol), "impact_energy",
+             lambda k: f"an impact creates {-low[k] / 1e3:.1f} kJ (tolerance {tol[k] / 1e3:.1f} kJ)")
+    if "interpenetration" not in skip:
+        n = len(pop)
+        near = _near_pairs(np.tile(_radii(scene), (n, 1)), np.tile(_barrier_centres(scene), (n, 1, 1)), rest)
+        for k in np.flatnonzero(near & pop.ok):
+            why = end_overlap(scene, rest[k])
+            if why:
+                pop.fail(k, f"physics guard: interpenetration: {why}")
+
+
 def _check_one(scene, out, skip, tol, near) -> None:
     if "impact_energy" not in skip and (out._impact_energy is not None or out.impact_rows):
         e_imp = out.impact_energy.tolist()  # (a few impacts: Python beats numpy's reductions here)
         out.diagnostics.energy_impacts = math.fsum(e_imp)
         if not all(e >= -tol for e in e_imp):  # (a NaN fails too)
             k = int(np.argmin(e_imp))
-            out.fail("impact_energy", f"impact {k + 1} creates {-e_imp[k] / 1e3:.1f} kJ "
-                     f"(tolerance {tol / 1e3:.1f} kJ)")
+            out.fail("impact_energy", _impact_reason(k, e_imp[k], tol))
     trajectories = out.trajectories
     if trajectories:
         if "energy_outside_contact" not in skip:
@@ -212,10 +272,17 @@ def _report_rollover(scene, out) -> None:
 
 
 def _check_overlap(scene, out) -> None:
-    """Outlines at the end overlapping by more than PENETRATION_TOL (bounding circles first)."""
+    why = end_overlap(scene, out.rest_si)
+    if why:
+        out.fail("interpenetration", why)
+
+
+def end_overlap(scene, rest) -> str | None:
+    """Why the outlines at the end pose rest (nv, 3: x, y, heading) overlap by more than PENETRATION_TOL
+    (bounding circles first), or None."""
     from .geometry import penetration  # numba's import only when outlines meet
     shapes = []
-    for v, (x, y, h) in zip(scene.vehicles, out.rest_si):
+    for v, (x, y, h) in zip(scene.vehicles, rest):
         s = v.spec
         shapes.append((v.name, x, y, math.hypot(max(s.cg_to_front, s.cg_to_rear), s.width / 2),
                        lambda v=v, x=x, y=y, h=h: vehicle_outline(v, x, y, h)))
@@ -227,5 +294,5 @@ def _check_overlap(scene, out) -> None:
                 continue
             depth = penetration(oi(), oj())[0]
             if depth > PENETRATION_TOL:
-                out.fail("interpenetration", f"{ni} and {nj} end overlapping by {depth:.2f} m")
-                return
+                return f"{ni} and {nj} end overlapping by {depth:.2f} m"
+    return None

@@ -4,11 +4,17 @@ from __future__ import annotations
 import abc
 import functools
 
+import numpy as np
+
+from . import fields as scene_fields
 from . import guard
 from .errors import InputError
 from .options import ModelOptions, parse
 from .outcome import Outcome
+from .population import ARRAYS, Population, Variants
 from .scene import Scene, driver_input_key
+
+INVALID = ("raise", "fail", "unchecked")  # what simulate_population does with a row that is no valid scene
 
 
 def _refuse_unhonoured_inputs(model, scenes) -> None:
@@ -34,6 +40,70 @@ def _guarded(method, check):
     return wrapper
 
 
+def _guarded_population(method):
+    """`simulate_population` around a model's own: the fields resolved and the rows checked (crashlab.fields:
+    ranges, NaN, action order, mass), the model run on the valid rows, the physics guard on the arrays
+    (crashlab.guard.check_population), the source kept for Population.outcome."""
+    @functools.wraps(method)
+    def wrapper(self, scene, fields, values, invalid: str = "raise"):
+        if invalid not in INVALID:
+            raise ValueError(f"invalid = {invalid!r}: one of {', '.join(INVALID)}")
+        if not self.driver_inputs:
+            _refuse_unhonoured_inputs(self, scene)
+        fs = []
+        for path in fields:
+            try:
+                fs.append(scene_fields.resolve(scene, path))
+            except ValueError as err:
+                raise ValueError(f"field {path!r}: {err}") from None
+        values = np.asarray(values, dtype=float)
+        values = values.reshape(-1, len(fs)) if values.size or len(fs) else values.reshape(0, 0)
+        why = scene_fields.row_problems(scene, fs, values) if invalid != "unchecked" \
+            else np.full(len(values), "", dtype=object)
+        bad = np.flatnonzero(why != "")
+        if invalid == "raise" and len(bad):
+            raise ValueError(f"row {bad[0]}: {why[bad[0]]}")
+        good = np.flatnonzero(why == "")
+        pop = Population.empty(len(values), scene.vehicle_names)
+        pop.mass[:] = scene_fields.vehicle_columns(scene, fs, values, ("mass",))["mass"]
+        if len(good):
+            part = method(self, scene, fs, values[good])
+            _put_rows(pop, good, part)
+        for k in bad:
+            pop.fail(k, f"no valid scene: {why[k]}")
+        guard.check_population(scene, fs, values, pop, self.guard_skip)
+        pop.variants, pop.model = Variants(scene, tuple(fs), values, invalid), self
+        return pop
+    wrapper.__guarded__ = True
+    return wrapper
+
+
+def _put_rows(pop: Population, rows, part: Population) -> None:
+    for name in ARRAYS:
+        getattr(pop, name)[rows] = getattr(part, name)
+
+
+def simulate_each(model, scenes, batch: bool = True) -> list:
+    """The Outcome of every scene, an exception in place of the outcome of a scene whose simulation raised:
+    model.simulate_batch (batch=True), or, when it raises or returns another count, model.simulate scene by
+    scene, so that a bad scene fails alone."""
+    scenes = list(scenes)
+    if batch:
+        try:
+            outs = list(model.simulate_batch(scenes))
+            if len(outs) == len(scenes):
+                return outs
+        except Exception:  # noqa: BLE001 - one by one, so one bad scene fails alone
+            pass
+    outs = []
+    for s in scenes:
+        try:
+            outs.append(model.simulate(s))
+        except Exception as err:  # noqa: BLE001
+            outs.append(err)
+    return outs
+
+
 class CollisionModel(abc.ABC):
     """A collision model knows physics only: it takes a Scene and returns an Outcome.
 
@@ -57,11 +127,13 @@ class CollisionModel(abc.ABC):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        for attr, check in (("simulate", guard.check), ("simulate_batch", guard.check_batch)):
+        for attr, wrap in (("simulate", lambda fn: _guarded(fn, guard.check)),
+                           ("simulate_batch", lambda fn: _guarded(fn, guard.check_batch)),
+                           ("simulate_population", _guarded_population)):
             fn = getattr(cls, attr, None)  # also a method a mixin brings along
             if fn is not None and not getattr(fn, "__guarded__", False) \
                     and not getattr(fn, "__isabstractmethod__", False):
-                setattr(cls, attr, _guarded(fn, check))
+                setattr(cls, attr, wrap(fn))
         unknown = set(cls.guard_skip) - set(guard.CHECKS)
         if unknown:
             raise TypeError(f"model {cls.name!r}: unknown guard checks in guard_skip: {sorted(unknown)}")
@@ -80,6 +152,24 @@ class CollisionModel(abc.ABC):
         return [self.simulate(s) for s in scenes]
 
     simulate_batch = _guarded(simulate_batch, guard.check_batch)
+
+    def simulate_population(self, scene: Scene, fields, values, invalid: str = "raise") -> Population:
+        """N variants of `scene` with `fields` (dotted paths, crashlab.fields) set to the rows of `values`
+        ((N, k), file units) -> a Population (crashlab.population: arrays, one row per variant).
+
+        invalid: a row that is no valid scene (outside a field's range, NaN, actions out of order, a mass the
+        vehicle's checks refuse): "raise" ValueError naming the row and the field, "fail" the row fails with
+        the reason, "unchecked" no check (the caller's values lie within the ranges). A field the scene does
+        not have: ValueError naming it. Every row passes the physics guard (crashlab.guard.check_population).
+
+        A model overrides it with (scene, fields as resolved Fields, the valid rows) and returns the rows'
+        Population; the base class's wrapper does the checks, the guard and the rest. This base
+        implementation builds a scene per row and runs `simulate_batch` (a plugin works unchanged)."""
+        scenes = Variants(scene, tuple(fields), values).scenes()
+        masses = scene_fields.vehicle_columns(scene, fields, values, ("mass",))["mass"]
+        return Population.of_outcomes(simulate_each(self, scenes), scene.vehicle_names, masses)
+
+    simulate_population = _guarded_population(simulate_population)
 
     def get_options(self) -> dict:
         return {} if self.options is None else self.options.model_dump()

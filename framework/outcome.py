@@ -24,6 +24,12 @@ IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_ya
                 "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
 
 
+def at_rest(final: np.ndarray) -> np.ndarray:
+    """(..., nv) at rest at the end from the final velocities (..., nv, 3: vx, vy, yaw rate): speed <=
+    REST_SPEED and |yaw rate| <= REST_YAW_RATE."""
+    return (np.hypot(final[..., 0], final[..., 1]) <= REST_SPEED) & (np.abs(final[..., 2]) <= REST_YAW_RATE)
+
+
 def pdof_clock(pdof_deg: float) -> float:
     """The PDOF as the SAE J224 clock direction, 1-12 hours: 12 = force from straight ahead, 3 = from the
     right, 9 = from the left (clockwise; crashlab's pdof counts counter-clockwise, docs/physics.md §21)."""
@@ -127,7 +133,7 @@ class Outcome:
     @property
     def at_rest_mask(self) -> np.ndarray:
         """Per vehicle: at rest at the end (speed <= REST_SPEED and |yaw rate| <= REST_YAW_RATE)."""
-        return (self.end_speed_si <= REST_SPEED) & (np.abs(self.final_si[:, 2]) <= REST_YAW_RATE)
+        return at_rest(self.final_si)
 
     def pose_label(self, i: int) -> str:
         """'rest' or 'end pose (moving N km/h)' for vehicle i."""

@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from crashlab.damage import combined_ees, ees
+from crashlab.population import Population
 from crashlab.units import ms_to_kmh, wrap_deg
 
 # units of the residual components (file units), for the tables that list the evidence
@@ -85,29 +85,27 @@ def polyline_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     return np.min(np.hypot(*(points[:, None, :] - near).transpose(2, 0, 1)), axis=1)
 
 
+def _one(outcome) -> Population:
+    return Population.of_outcomes([outcome], outcome.names, np.full((1, len(outcome.names)), np.nan))
+
+
 def first_impact_point(outcome) -> tuple[float, float]:
     """(x, y) [m] of the first impact row (smallest t), NaN without one."""
-    rows = outcome.impact_rows
-    if not rows:
-        return math.nan, math.nan
-    r = min(rows, key=lambda row: row["t"])
-    return float(r["point_x"]), float(r["point_y"])
+    pop = _one(outcome)
+    t = np.where(np.isfinite(pop.first_impact_t[0]), pop.first_impact_t[0], np.inf)
+    return tuple(float(c) for c in pop.first_impact_point[0, t.argmin()])
 
 
 def delta_v(outcome, name: str) -> float:
     """|sum of the vehicle's impact-row velocity changes| [m/s]; 0 when it is in no row."""
-    dvx = sum(r["dvx"] for r in outcome.impact_rows if r["vehicle"] == name)
-    dvy = sum(r["dvy"] for r in outcome.impact_rows if r["vehicle"] == name)
-    return float(math.hypot(dvx, dvy))
+    return float(_one(outcome).delta_v[0, outcome.names.index(name)])
 
 
 def crush_ees(outcome, name: str, mass: float) -> float:
-    """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows
-    (crashlab.damage.combined_ees of each row's sqrt(2 E_k / m): energies add); NaN when it is in no row."""
-    energies = [r["crush_energy"] for r in outcome.impact_rows if r["vehicle"] == name]
-    if not energies:
-        return math.nan
-    return combined_ees([ees(max(e, 0.0), mass) for e in energies])
+    """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows (energies add,
+    crashlab.damage.combined_ees); NaN when it is in no row."""
+    pop, i = _one(outcome), outcome.names.index(name)
+    return math.sqrt(2.0 * pop.crush_energy[0, i] / mass) if math.isfinite(pop.first_impact_t[0, i]) else math.nan
 
 
 def cg_path(outcome, name: str) -> np.ndarray:
@@ -137,43 +135,56 @@ class EvidenceSet:
         return len(self.labels)
 
     # ---------------------------------------------------------------- residuals
-    def _simulated(self, it: EvidenceItem, o) -> list[float]:
-        """The simulated counterparts of an item's components (file units), NaN where undefined."""
-        if it.kind == "rest":
-            i = self.names.index(it.vehicles[0])
-            x, y, h = o.rest_si[i]
-            return [x, y, math.degrees(h)][:len(it.components)]
+    def _simulated(self, it: EvidenceItem, pop) -> np.ndarray:
+        """(n, components) the simulated counterparts of an item's components (file units) from a Population
+        (crashlab.population), NaN where undefined; marks are read from Outcomes (`_mark_distances`)."""
         if it.kind == "impact":
-            return list(first_impact_point(o))
-        if it.kind == "marks":
-            return list(polyline_distance(it.points, cg_path(o, it.vehicles[0])))
-        if it.kind == "damage":
-            return [ms_to_kmh(crush_ees(o, it.vehicles[0], it.mass))]
+            t = np.where(np.isfinite(pop.first_impact_t), pop.first_impact_t, np.inf)
+            first = t.argmin(1)  # the vehicle in the earliest impact row: its point is the impact's
+            return pop.first_impact_point[np.arange(len(pop)), first]
         i = self.names.index(it.vehicles[0])
-        sim = {"speed_at_impact": lambda: ms_to_kmh(float(o.contact_si[i, 3])),  # NaN without contact
-               "delta_v": lambda: ms_to_kmh(delta_v(o, it.vehicles[0]))}
-        return [sim[c]() for c in it.components]
+        if it.kind == "rest":
+            return np.column_stack([pop.rest[:, i, 0], pop.rest[:, i, 1], np.degrees(pop.rest[:, i, 2])])[
+                :, :len(it.components)]
+        if it.kind == "damage":  # the crush energy as an EES at the study's mass; NaN in no impact row
+            e = np.where(np.isfinite(pop.first_impact_t[:, i]), pop.crush_energy[:, i], np.nan)
+            return ms_to_kmh(np.sqrt(2.0 * e / it.mass))[:, None]
+        sim = {"speed_at_impact": lambda: ms_to_kmh(pop.contact[:, i, 3]),  # NaN without contact
+               "delta_v": lambda: ms_to_kmh(pop.delta_v[:, i])}
+        return np.column_stack([sim[c]() for c in it.components])
+
+    @staticmethod
+    def _mark_distances(it: EvidenceItem, outcomes, ok) -> np.ndarray:
+        out = np.full((len(outcomes), len(it.points)), np.nan)
+        for k in np.flatnonzero(ok):
+            out[k] = polyline_distance(it.points, cg_path(outcomes[k], it.vehicles[0]))
+        return out
 
     def residuals(self, outcomes) -> np.ndarray:
         """(n, m) normalised residuals (simulated - measured) / sigma of a batch of Outcomes, columns as
         `labels`; a row of NaN for a candidate that cannot be scored (module docstring)."""
-        R = np.full((len(outcomes), self.n_residuals), np.nan)
-        for k, o in enumerate(outcomes):
-            if o is None or isinstance(o, BaseException) or not getattr(o, "outcome_ok", False):
+        pop = Population.of_outcomes(outcomes, self.names, np.full((len(outcomes), len(self.names)), np.nan))
+        return self._residuals(pop, outcomes)
+
+    def population_residuals(self, pop) -> np.ndarray:
+        """`residuals` of a Population (crashlab.population: the arrays of many variants); marks need the CG
+        paths of Outcomes, so a study with marks is scored by `residuals`."""
+        return self._residuals(pop, None)
+
+    def _residuals(self, pop, outcomes) -> np.ndarray:
+        parts = []
+        for it in self.items:
+            if it.kind == "marks":  # the residual is the distance itself
+                sim = self._mark_distances(it, outcomes, pop.ok) if outcomes is not None \
+                    else np.full((len(pop), len(it.points)), np.nan)
+                parts.append(sim / np.asarray(it.sigmas))
                 continue
-            row = []
-            for it in self.items:
-                sim = np.asarray(self._simulated(it, o), float)
-                if it.kind == "marks":  # the residual is the distance itself
-                    row.append(sim / np.asarray(it.sigmas))
-                    continue
-                diff = sim - np.asarray(it.values)
-                if it.kind == "rest" and len(it.components) == 3:
-                    diff[2] = wrap_deg(diff[2])
-                row.append(diff / np.asarray(it.sigmas))
-            r = np.concatenate(row)
-            if np.all(np.isfinite(r)):
-                R[k] = r
+            diff = self._simulated(it, pop) - np.asarray(it.values)
+            if it.kind == "rest" and len(it.components) == 3:
+                diff[:, 2] = wrap_deg(diff[:, 2])
+            parts.append(diff / np.asarray(it.sigmas))
+        R = np.concatenate(parts, axis=1) if parts else np.empty((len(pop), 0))
+        R[~pop.ok | ~np.all(np.isfinite(R), axis=1)] = np.nan
         return R
 
     def log_likelihood(self, outcomes) -> np.ndarray:

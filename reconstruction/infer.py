@@ -134,15 +134,14 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         backend, nworkers = ("processes" if workers > 1 else "serial"), workers
     stream = sys.stderr if progress else None
     t0 = time.time()
-    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor:
-        post.problem.executor = executor
+    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor, \
+            post.problem.running_on(executor):
         try:
             if s.sampler == "zeus":
                 res = _run_zeus(post, nw, total, s, stream, t0)
             else:
                 res = _run_emcee(post, nw, total, s, ckpt, fingerprint, resume, stream, t0, stop_after)
         finally:
-            post.problem.executor = None
             if stream is not None:
                 stream.write("\n")
     if res is None:

@@ -1,10 +1,10 @@
 """Forward Monte Carlo: the scene's uncertain parameters drawn N times, every draw simulated, and where the
 vehicles come to rest (and their delta-V) as distributions (docs/physics.md, uncertain parameters).
 
-The draws are made at once (crashlab.uncertainty.sample, a seeded numpy Generator), the scenes by cheap
-copies (crashlab.fields.setter) and simulated in batches through the model's `simulate_batch` (the impulse
-model's runs in parallel). A draw fails, and is counted and named, never dropped silently, when its
-scene cannot be built, the model's run fails (the physics guard's verdict included), or a vehicle is
+The draws are made at once (crashlab.uncertainty.sample, a seeded numpy Generator) and simulated as a
+population of variants of the scene, in blocks (the model's `simulate_population`, crashlab.population: the
+impulse model writes the draws into its compiled kernel's arrays and runs them in parallel). A draw fails,
+and is counted and named, never dropped silently, when its scene cannot be built, the model's run fails (the physics guard's verdict included), or a vehicle is
 still moving at the end of the run (its end pose is no rest pose: lengthen the duration). Statistics are
 over the draws that did not fail; a draw whose vehicles do not touch is no failure (delta-V 0).
 
@@ -23,11 +23,13 @@ import numpy as np
 
 from crashlab import uncertainty
 from crashlab.errors import InputError
+from crashlab.execution import evaluate_variants
 from crashlab.outcome import Outcome
+from crashlab.population import Population, Variants
 from crashlab.scene import Scene
 from crashlab.units import ms_to_kmh
 
-BATCH = 5000  # draws per simulate_batch call (bounds the memory of the outcomes held at once)
+BATCH = 5000  # draws per simulate_population call (a block of the progress bar)
 QUANTILES = (0.05, 0.5, 0.95)
 PER_VEHICLE = ("x", "y", "heading", "delta_v", "ok")
 
@@ -90,27 +92,10 @@ class MonteCarloResult:
                 "wall_time_s": round(self.wall_time_s, 3), "simulation_time_s": round(self.sim_time_s, 3)}
 
 
-def _first_delta_v(outcome, names) -> list[float]:
-    """Each vehicle's delta-V in its first impact [km/h]; 0 for a vehicle that touched nothing."""
-    dv = dict.fromkeys(names, 0.0)
-    seen = set()
-    for r in outcome.impact_rows:
-        if r["vehicle"] in dv and r["vehicle"] not in seen:
-            seen.add(r["vehicle"])
-            dv[r["vehicle"]] = ms_to_kmh(math.hypot(r["dvx"], r["dvy"]))
-    return [dv[n] for n in names]
-
-
-def _reason(outcome, names) -> str:
-    if not outcome.outcome_ok:
-        return "; ".join(outcome.warnings) or "the model's run failed"
-    moving = [n for i, n in enumerate(names) if not outcome.at_rest_mask[i]]
-    return f"{', '.join(moving)} still moving at the end of the run" if moving else ""
-
-
-def run(scene: Scene, model, n: int, seed: int | None = None, progress=None) -> MonteCarloResult:
-    """N draws of the scene's uncertain parameters simulated with `model` (a CollisionModel).
-    InputError when the scene has no [[uncertain]] entries."""
+def run(scene: Scene, model, n: int, seed: int | None = None, progress: bool = False) -> MonteCarloResult:
+    """N draws of the scene's uncertain parameters simulated with `model` (a CollisionModel) as a population
+    (model.simulate_population: one scene, the draws as rows). InputError when the scene has no [[uncertain]]
+    entries. progress: a tqdm bar on stderr over the blocks of draws."""
     import pandas as pd
     entries = scene.uncertain
     if not entries:
@@ -119,82 +104,62 @@ def run(scene: Scene, model, n: int, seed: int | None = None, progress=None) -> 
     if n < 1:
         raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {n}")
     t0 = time.perf_counter()
-    nominal = None
     X = uncertainty.sample(entries, n, np.random.default_rng(seed))
-    build = uncertainty.setter(scene, entries)
+    paths = [e.field for e in entries]
     names = scene.vehicle_names
-    nv = len(names)
-    rest = np.full((n, nv, 3), np.nan)
-    dv = np.full((n, nv), np.nan)
-    vok = np.zeros((n, nv), dtype=bool)
-    ok = np.zeros(n, dtype=bool)
-    no_contact = np.zeros(n, dtype=bool)
-    reasons = [""] * n
-    sim = 0.0
+    nominal = _nominal(model, scene)
+    parts, sim = [], 0.0
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=n, unit="draw", desc=f"Monte Carlo ({model.name})", dynamic_ncols=True)
     for start in range(0, n, BATCH):
-        idx, scenes = [], []
-        if nominal is None:  # the scene as written, in the first batch (one compiled path, not two)
-            idx.append(-1)
-            scenes.append(scene)
-        for k in range(start, min(start + BATCH, n)):
-            try:
-                scenes.append(build(X[k]))
-                idx.append(k)
-            except ValueError as err:  # a draw that is no valid scene (e.g. actions put out of order)
-                reasons[k] = f"no valid scene: {err}"
         t1 = time.perf_counter()
-        outs = _simulate(model, scenes)
+        parts.append(_simulate(model, Variants(scene, tuple(paths), X[start:start + BATCH])))
         sim += time.perf_counter() - t1
-        for k, out in zip(idx, outs):
-            if k < 0:
-                nominal = out if not isinstance(out, str) else Outcome.failed(names, out, model.name)
-                continue
-            if isinstance(out, str):
-                reasons[k] = out
-                continue
-            rest[k] = out.rest_si
-            at_rest = out.at_rest_mask
-            vok[k] = at_rest & out.outcome_ok
-            reasons[k] = _reason(out, names)
-            ok[k] = not reasons[k]
-            if out.outcome_ok:
-                dv[k] = _first_delta_v(out, names)
-                no_contact[k] = not out.impact_rows
-        if progress:
-            progress(min(start + BATCH, n), n)
+        if bar is not None:
+            bar.update(len(parts[-1]))
+    if bar is not None:
+        bar.close()
+    pop = Population.concat(parts)
+    moving = pop.ok[:, None] & ~pop.at_rest
+    reasons = pop.reason.copy()
+    for k in np.flatnonzero(moving.any(axis=1)):
+        reasons[k] = f"{', '.join(n for i, n in enumerate(names) if moving[k, i])} still moving at the end of the run"
     cols = {"draw": np.arange(n)}
-    for j, e in enumerate(entries):
-        cols[e.field] = X[:, j]
+    for j, path in enumerate(paths):
+        cols[path] = X[:, j]
     for i, name in enumerate(names):
-        cols[f"{name}.x"] = rest[:, i, 0]
-        cols[f"{name}.y"] = rest[:, i, 1]
-        cols[f"{name}.heading"] = np.degrees(rest[:, i, 2])
-        cols[f"{name}.delta_v"] = dv[:, i]
-        cols[f"{name}.ok"] = vok[:, i]
-    cols["ok"] = ok
-    cols["no_contact"] = no_contact
+        cols[f"{name}.x"], cols[f"{name}.y"] = pop.rest[:, i, 0], pop.rest[:, i, 1]  # NaN where a run failed
+        cols[f"{name}.heading"] = np.degrees(pop.rest[:, i, 2])
+        cols[f"{name}.delta_v"] = ms_to_kmh(pop.first_delta_v[:, i])
+        cols[f"{name}.ok"] = pop.ok & pop.at_rest[:, i]
+    cols["ok"] = reasons == ""
+    cols["no_contact"] = pop.ok & (pop.n_impacts == 0)
     cols["reason"] = reasons
     return MonteCarloResult(scene, model.name, seed, pd.DataFrame(cols), nominal,
                             time.perf_counter() - t0, sim)
 
 
-def _simulate(model, scenes) -> list:
-    """Outcomes of the scenes, by batch; a batch that raises (not bad input) is run one by one, and a run
-    that raises becomes its reason (a string)."""
+def _nominal(model, scene) -> Outcome:
+    """The Outcome of the scene as written; a run that raises (not bad input) as a failed Outcome."""
     try:
-        return model.simulate_batch(scenes)
+        return model.simulate(scene)
     except InputError:
         raise
-    except Exception:  # noqa: BLE001 - fall back to single runs to name the draw that breaks
-        outs = []
-        for s in scenes:
-            try:
-                outs.append(model.simulate(s))
-            except InputError:
-                raise
-            except Exception as err:  # noqa: BLE001
-                outs.append(f"model raised {type(err).__name__}: {err}")
-        return outs
+    except Exception as err:  # noqa: BLE001
+        return Outcome.failed(scene.vehicle_names, f"model raised {type(err).__name__}: {err}", model.name)
+
+
+def _simulate(model, draws: Variants) -> Population:
+    """The population of a block of draws (a draw that is no valid scene fails with the reason); a block that
+    raises (not bad input) is run draw by draw, and a draw that raises fails with the exception."""
+    try:
+        return draws.simulate(model)
+    except InputError:
+        raise
+    except Exception:  # noqa: BLE001 - draw by draw, to name the draw that breaks
+        return evaluate_variants(model, draws)
 
 
 # ---------------------------------------------------------------- output

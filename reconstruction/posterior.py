@@ -118,7 +118,7 @@ class Posterior:
             self.variables.append(Variable(variable_label(p), p, u.lower, u.upper, u.unit, u, free=False))
         self.labels = [v.label for v in self.variables]
         self.n_free = len(study.spec.free)
-        self.setter = fields.setter(scene, [v.path for v in self.variables])
+        self.fields = [fields.resolve(scene, v.path) for v in self.variables]
         self.problem = study.make_problem()
         self.truth = self._truth()
         qs = extras.get("questions", [])
@@ -176,23 +176,24 @@ class Posterior:
                 X[:, j] = v.prior.ppf(rng.uniform(lo, hi, n))
         return X
 
+    @property
+    def setter(self):
+        """row -> Scene with the posterior's variables set (crashlab.fields.setter, checked): the scene of a draw
+        for the reports."""
+        return fields.setter(self.study.scene, self.fields)
+
     def log_likelihood(self, X) -> np.ndarray:
         """(n,) Gaussian log-likelihood of rows X (file units); -inf where a candidate cannot be scored or
         is no valid collision (module docstring)."""
         X = np.atleast_2d(np.asarray(X, float))
         out = np.full(len(X), -np.inf)
-        scenes, idx = [], []
-        for k, row in enumerate(X):
-            try:
-                scenes.append(self.setter(row))
-                idx.append(k)
-            except ValueError:  # outside a field's range or a mass the vehicle's checks refuse
-                pass
-        if not scenes:
+        # outside a field's range or a mass the vehicle's checks refuse: no valid scene, not simulated
+        idx = np.flatnonzero(fields.row_problems(self.study.scene, self.fields, X) == "")
+        if not len(idx):
             return out
-        idx = np.asarray(idx)
-        self.evaluations += len(scenes)
-        ev, R = self.problem._simulate(scenes)  # the search's own evaluation path (executor, evidence scored there)
+        self.evaluations += len(idx)
+        # the search's own evaluation path (executor, evidence scored there)
+        ev, R = self.problem.simulate(X[idx], self.fields)
         L = log_likelihood_of(R)
         bad = ~ev.ok | (ev.n_impacts <= 0)
         for name in self.study.evidence_set.objective_names:

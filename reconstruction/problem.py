@@ -6,13 +6,13 @@ Objectives, one per vehicle with evidence. The thesis's (thesis eqs 4.13-4.14, 5
 that concern vehicle k (rest pose, point of impact, marks, EDR); the polish then minimises the sum of
 squares of all normalised residuals, each item once: the negative Gaussian log-likelihood.
 
-Where the evidence needs more than rest poses and contact speeds (the point of impact, a delta-V, a mark)
-the candidates are simulated in this process (EvidenceSet.simulate: crashlab.execution.Evaluations carries
-neither impact rows nor paths), without the executor's parallel backends and timeout; every other study
-runs on the executor as before. Constraints: g1 = overlap depth of the
-outlines at the start <= 0 (crashlab.geometry), g2 = 0 when the vehicles collide, 1 when they miss
-(added to the objectives as a penalty for an optimizer without constraint handling). A population is
-evaluated at a time through the model's `simulate_batch` (crashlab.execution).
+A population of candidates is evaluated at a time as variants of the study's scene (the model's
+`simulate_population`, crashlab.population: no Scene or Outcome per candidate; the evidence is scored on the
+arrays), on the executor bound with `running_on` (crashlab.execution) or in this process. Evidence with
+marks needs each candidate's CG path: then a scene per candidate is simulated and scored where it ran.
+Constraints: g1 = overlap depth of the outlines at the start <= 0 (crashlab.geometry), g2 = 0 when the
+vehicles collide, 1 when they miss (added to the objectives as a penalty for an optimizer without
+constraint handling).
 
 Failed evaluations. A candidate fails (objectives FAILED_OBJECTIVE, both constraints violated, so every
 optimizer is pushed away from it as from an infeasible one) when the model raises, times out, its worker
@@ -33,6 +33,7 @@ a field that is a free variable already changes nothing (the free variable's bou
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 
 import numpy as np
@@ -231,17 +232,38 @@ class ReconstructionProblem(Problem):
         R[np.any(G > 0, axis=1) | ~np.isfinite(R).all(axis=1)] = FAILED_OBJECTIVE
         return R
 
-    def _simulate(self, scenes):
-        """(Evaluations, residuals R) on the executor (or in this process without one): the evidence is
-        scored where each scene was simulated (crashlab.execution, scorer), the thesis objective from the
-        rest poses."""
+    @contextlib.contextmanager
+    def running_on(self, executor):
+        """Evaluations inside the block run on `executor` (a live crashlab.execution.Executor), outside it in
+        this process. A scoped binding, not a constructor argument: pymoo's algorithm owns the problem, and a
+        checkpoint restores it without the live pool (exclude_from_serialization)."""
+        self.executor = executor
+        try:
+            yield self
+        finally:
+            self.executor = None
+
+    def simulate(self, X, paths=None):
+        """(Population, residuals R) of the rows X (file units) of `paths` (crashlab.fields; default the
+        problem's free variables), unchecked (the rows lie within the fields' ranges), on the executor:
+        the variants as one scene and blocks of rows (the model's simulate_population), the evidence scored
+        on the arrays; evidence with marks needs CG paths, so then a scene per row, scored where simulated
+        (crashlab.execution, scorer). R: the thesis objective's residuals from the rest poses, or the
+        evidence's normalised ones."""
         es = self.evidence_set
-        ev = (self.executor or Executor()).evaluate(self.model, self.model_options, scenes, scorer=es)
-        return ev, (self.residuals(ev.rest) if es is None else ev.scores)
+        fs = self.scene_fields if paths is None else [fields.resolve(self.scene, p) for p in paths]
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        ex = self.executor or Executor()
+        if es is not None and es.needs_trajectory:
+            build = fields.setter(self.scene, fs, check=False)
+            pop = ex.evaluate(self.model, self.model_options, [build(row) for row in X], scorer=es)
+        else:
+            pop = ex.evaluate_population(self.model, self.model_options, self.scene, fs, X, scorer=es,
+                                         invalid="unchecked")
+        return pop, (self.residuals(pop.rest) if es is None else pop.scores)
 
     def _evaluate(self, X, out, *args, **kwargs):
-        scenes = self.scenes_for(X)
-        ev, R = self._simulate(scenes)
+        ev, R = self.simulate(X)
         ok, reason = ev.ok.copy(), ev.reason.copy()
         hit = ev.n_impacts > 0
         moving = np.zeros(len(X), bool)
@@ -250,7 +272,7 @@ class ReconstructionProblem(Problem):
             moving |= ev.ok & ~ev.at_rest[:, i]
             for k in np.flatnonzero(ev.ok & hit & ~ev.at_rest[:, i]):
                 reason[k] = (reason[k] + "; " if reason[k] else "") + (
-                    f"{name} still moving at {ms_to_kmh(ev.end_speed[k, i]):.0f} km/h at the end "
+                    f"{name} still moving at {ms_to_kmh(ev.rest_speed[k, i]):.0f} km/h at the end "
                     "(scene duration too short?)")
         ok &= ~(moving & hit)  # a miss that drives on is no failure: it is infeasible (g2) and not scored
         if self.evidence_set is None:

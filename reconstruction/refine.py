@@ -153,8 +153,8 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
     # first call in a worker has the compile grace (crashlab.execution)
     rows = []
     with contextlib.nullcontext(executor) if executor is not None else \
-            Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as live:
-        search.executor = ref.executor = live
+            Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as live, \
+            search.running_on(live), ref.running_on(live):
         s0 = _evaluate(search, X) if n else None
         r0 = _evaluate(ref, X) if n else None
         used = n
@@ -193,7 +193,6 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
             status.append("polished")
         r1 = _scored(r1) if n else None
         s1 = _evaluate(search, best_X) if n else None
-        search.executor = ref.executor = None
     if bar is not None:
         bar.close()
     span = search.xu - search.xl

@@ -195,21 +195,19 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
     algorithm.callback = GenerationEnd(out_dir / "checkpoint.pkl" if out_dir else None, fingerprint, name, bar,
                                        spec.objective.hv_reference, done, stop_after)
     with Executor(backend, workers or ex.workers, scheduler or ex.scheduler, ex.timeout_s) as executor:
-        problem.executor = executor
-        try:
-            algorithm.run()
-        except _Stopped:
-            problem.executor = None
-            if bar is not None:
-                bar.close()
-            return None
-        n_search = sum(len(x) for x in problem.archive["X"])
-        budget = study.polish_budget()
-        if budget:
-            polish_archive(problem, spec.polish, study.make_repair(), budget)
-            if bar is not None:
-                bar.set_postfix_str("polished: " + status(problem, spec.objective.hv_reference))
-        problem.executor = None
+        with problem.running_on(executor):
+            try:
+                algorithm.run()
+            except _Stopped:
+                if bar is not None:
+                    bar.close()
+                return None
+            n_search = sum(len(x) for x in problem.archive["X"])
+            budget = study.polish_budget()
+            if budget:
+                polish_archive(problem, spec.polish, study.make_repair(), budget)
+                if bar is not None:
+                    bar.set_postfix_str("polished: " + status(problem, spec.objective.hv_reference))
         if bar is not None:
             bar.close()
         result = _result(study, problem, algorithm, name, n_search, budget, t0)

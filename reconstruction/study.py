@@ -26,7 +26,7 @@ from pydantic import ValidationError
 
 from crashlab import uncertainty
 from crashlab.errors import InputError
-from crashlab.execution import outcome_reason
+from crashlab.population import outcome_reason
 from crashlab.options import OptionError
 from crashlab.registry import (
     OPTIMIZERS,

@@ -19,7 +19,9 @@ import pytest
 
 import crashlab
 from crashlab import execution
-from crashlab.execution import Evaluations, Executor, evaluate_scenes, evaluations_of, simulate_each
+from crashlab.execution import Executor, evaluate_in_process
+from crashlab.model import simulate_each
+from crashlab.population import Population
 
 REPO = Path(__file__).resolve().parent.parent
 SIDE = REPO / "studies" / "pc_crash" / "side.toml"
@@ -80,6 +82,18 @@ class HangingModel(EchoModel):
         return super().simulate(scene)
 
 
+class LoggingModel(EchoModel):
+    """Appends (pid, start, end, scenes) of every batch to the file named by CRASHLAB_TEST_LOG."""
+
+    def simulate_batch(self, scenes):
+        t0 = time.time()
+        out = [self.simulate(s) for s in scenes]
+        time.sleep(0.2)
+        with open(os.environ["CRASHLAB_TEST_LOG"], "a") as f:
+            f.write(f"{os.getpid()} {t0} {time.time()} {len(scenes)}\n")
+        return out
+
+
 class DyingModel(EchoModel):
     """Kills its own process (SIGKILL, as the out-of-memory killer would) where V1 is faster than 60 km/h."""
 
@@ -109,8 +123,8 @@ def _scenes():
 
 
 @pytest.fixture(scope="module")
-def reference() -> Evaluations:
-    return evaluate_scenes("test_execution:EchoModel", (), _scenes())
+def reference() -> Population:
+    return evaluate_in_process("test_execution:EchoModel", (), _scenes())
 
 
 @pytest.fixture
@@ -121,7 +135,7 @@ def short_grace():
     return 30.0
 
 
-def _check(ev: Evaluations, reference: Evaluations, words: str):
+def _check(ev: Population, reference: Population, words: str):
     bad = np.array([v > 60.0 for v in SPEEDS])
     print("\n" + "\n".join(f"  {v:.0f} km/h: {r or 'ok'}" for v, r in zip(SPEEDS, ev.reason)))
     assert not ev.ok[bad].any() and ev.ok[~bad].all()
@@ -144,8 +158,9 @@ def test_outcome_failed_by_the_guard_carries_the_guards_reason():
             out = [EchoModel().simulate(s) for s in scenes]
             out[1].fail("interpenetration", "V1 and V2 overlap by 0.40 m at the end")
             return out
-    scenes = _scenes()[:3]  # what evaluate_scenes does with the model it builds
-    ev = evaluations_of(simulate_each(Guarded(), scenes), len(scenes[0].vehicles))
+    scenes = _scenes()[:3]  # what evaluate_in_process does with the model it builds
+    masses = np.array([[v.spec.mass for v in s.vehicles] for s in scenes])
+    ev = Population.of_outcomes(simulate_each(Guarded(), scenes), scenes[0].vehicle_names, masses)
     assert list(ev.ok) == [True, False, True]
     assert ev.reason[1] == "physics guard: interpenetration: V1 and V2 overlap by 0.40 m at the end"
 
@@ -169,7 +184,7 @@ def test_a_scorer_that_raises_fails_its_batch_with_the_reason():
     class Raising(ImpactTimeScorer):
         def residuals(self, outcomes):
             raise ValueError("no impact row")
-    ev = evaluate_scenes("test_execution:EchoModel", (), _scenes()[:2], scorer=Raising())
+    ev = evaluate_in_process("test_execution:EchoModel", (), _scenes()[:2], scorer=Raising())
     assert not ev.ok.any() and all("scoring the outcome raised ValueError: no impact row" in r for r in ev.reason)
 
 
@@ -223,6 +238,23 @@ def test_workers_that_die_at_start_stop_the_run():
             ex.evaluate("test_execution:DiesAtStart", {}, _scenes())
 
 
+def test_the_first_evaluation_runs_alone_so_the_model_compiles_once(tmp_path, monkeypatch, reference):
+    """Compile once: the executor's first evaluation of a model runs alone on one worker (which compiles the
+    model and fills the numba cache), the other workers start after it and load the cache."""
+    log = tmp_path / "calls.txt"
+    monkeypatch.setenv("CRASHLAB_TEST_LOG", str(log))
+    with Executor("processes", workers=2, timeout_s=60, first_call_grace_s=30) as ex:
+        ev = ex.evaluate("test_execution:LoggingModel", {}, _scenes())
+    np.testing.assert_array_equal(ev.rest, reference.rest)
+    calls = sorted((float(t0), float(t1), int(n), int(pid)) for pid, t0, t1, n in
+                   (line.split() for line in log.read_text().splitlines()))
+    print("\n" + "\n".join(f"  pid {c[3]}: {c[2]} scenes, {c[0] - calls[0][0]:.2f}-{c[1] - calls[0][0]:.2f} s"
+                            for c in calls))
+    assert calls[0][2] == 1, "the first call is one evaluation"
+    assert all(c[0] >= calls[0][1] for c in calls[1:]), "the others start after it"
+    assert len({c[3] for c in calls}) == 2 and sum(c[2] for c in calls) == len(SPEEDS)
+
+
 def _children(pid):
     import psutil
     try:
@@ -245,7 +277,8 @@ def test_no_worker_outlives_a_run_killed_with_sigkill(tmp_path, backend):
         from crashlab.execution import Executor
         if __name__ == "__main__":
             base = crashlab.load_scene({str(SIDE)!r})
-            scenes = [base.with_vehicle("V1", speed=70 / 3.6)] * 4
+            # the first evaluation runs alone (the executor's compile-once), then both workers hang
+            scenes = [base.with_vehicle("V1", speed=50 / 3.6)] + [base.with_vehicle("V1", speed=70 / 3.6)] * 4
             with Executor({backend!r}, workers=2, timeout_s=3600) as ex:
                 ex.evaluate("test_execution:HangingModel", {{}}, scenes)
     """))

@@ -121,7 +121,7 @@ def test_repair_brings_near_misses_onto_a_collision_course():
     assert np.all((gaps < -0.1) & (gaps > -0.5)), "straight paths miss by 0.1-0.5 m"
 
     def impacts(X):
-        return evaluation.evaluate_scenes("impulse", (), [problem.scene_for(x) for x in X])[3]
+        return evaluation.evaluate_in_process("impulse", (), [problem.scene_for(x) for x in X]).n_impacts
 
     assert np.all(impacts(X) == 0), "no contact before the repair"
     Xr, rep = _repair(problem, X, max_shift=1.0)

@@ -88,7 +88,8 @@ def cmd_monte_carlo(args, scene, model):
     if not scene.uncertain:
         raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
                          "(field, distribution and its parameters); this scene has none")
-    result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed)
+    result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
+                            progress=sys.stderr.isatty())
     written = montecarlo.write(result, args.out) if args.out else []
     if args.json:
         print(json.dumps(result.to_json_dict(), indent=2))

@@ -1,9 +1,14 @@
 """Where simulations of a population run: in this process, in worker processes, or on a Dask cluster.
 
-A population is cut into chunks; each chunk is simulated by `evaluate_scenes` (the model's
-`simulate_batch`). Results are deterministic and placed by index, so every backend gives the same answer.
+A population is cut into chunks; each chunk is simulated by `evaluate_in_process`: Variants (one scene,
+fields and a block of rows; the model's `simulate_population`, so only the scene and the rows travel) or a
+list of Scenes (the model's `simulate_batch`); every chunk comes back as a Population (crashlab.population,
+arrays). Results are deterministic and placed by index, so every backend gives the same answer. Compile once:
+the first evaluation of a model runs alone on one worker, which compiles it and fills the numba cache
+(crashlab.numba_cache); the other workers start after it and load the cache (on a cluster of several machines
+give them one NUMBA_CACHE_DIR on a shared file system, or run a model once on each machine first).
 
-Every evaluation ends with a result or with a reason why it failed (`Evaluations.reason`); nothing is
+Every evaluation ends with a result or with a reason why it failed (`Population.reason`); nothing is
 dropped and nothing stops the run:
   * a model that raises, or returns an Outcome with outcome_ok False (the physics guard's verdict
     included), fails that evaluation with the exception or the Outcome's warnings as the reason;
@@ -31,14 +36,15 @@ A scorer (the reconstruction's evidence: reconstruction.evidence.EvidenceSet) sc
 simulated, so evidence that needs more than rest poses (impact rows, paths) runs on every backend with its
 timeout and only its numbers travel back: an object with `n_residuals`, `needs_trajectory` (simulate one by
 one: a batch records no paths) and `residuals(outcomes) -> (n, n_residuals)`, picklable; the numbers are in
-Evaluations.scores.
+Population.scores. On Variants the scorer has `population_residuals(population)` instead, scored on the arrays.
 """
+from ..population import Population, Variants
 from .constants import DEFAULT_TIMEOUT_S, FIRST_CALL_GRACE_S
-from .evaluate import Evaluations, empty_evaluations, evaluate_scenes, evaluations_of, outcome_reason, simulate_each
+from .evaluate import empty_population, evaluate_in_process, evaluate_variants
 from .executor import Executor
 from .models import model_for, model_instance
 from .pool import WorkerPool, WorkerStartError
 
-__all__ = ["DEFAULT_TIMEOUT_S", "FIRST_CALL_GRACE_S", "Evaluations", "Executor", "WorkerPool", "WorkerStartError",
-           "empty_evaluations", "evaluate_scenes", "evaluations_of", "model_for", "model_instance", "outcome_reason",
-           "simulate_each"]
+__all__ = ["DEFAULT_TIMEOUT_S", "FIRST_CALL_GRACE_S", "Executor", "Population", "Variants", "WorkerPool",
+           "WorkerStartError", "empty_population", "evaluate_in_process", "evaluate_variants", "model_for",
+           "model_instance"]

@@ -1,4 +1,4 @@
-"""Evaluations on a Dask cluster: deadlines in a thread (a Dask task cannot be killed), dying workers
+"""Population on a Dask cluster: deadlines in a thread (a Dask task cannot be killed), dying workers
 retried one scene at a time (crashlab.execution, module docstring)."""
 from __future__ import annotations
 
@@ -6,23 +6,14 @@ import threading
 
 import numpy as np
 
+from ..population import Population, one_line
 from .constants import FIRST_CALL_GRACE_S
-from .evaluate import (
-    Evaluations,
-    _fail,
-    _n_scores,
-    _one_line,
-    _put,
-    _single_thread,
-    _vectorised,
-    empty_evaluations,
-    evaluate_scenes,
-)
+from .evaluate import _single_thread, _vectorised, empty_population, evaluate_in_process
 from .models import model_instance
 
 
 def _append_result(box, model_name, options_items, scenes, scorer):
-    box.append(evaluate_scenes(model_name, options_items, scenes, scorer=scorer))
+    box.append(evaluate_in_process(model_name, options_items, scenes, scorer=scorer))
 
 
 _DASK_CALLS = [0]  # evaluations begun in this (Dask worker) process
@@ -32,14 +23,14 @@ _DASK_RESTART_S = 120.0  # s: a restarted Dask worker is back within this (measu
 def _dask_evaluate(model_name: str, options_items: tuple, scenes: list, timeout_s: float | None,
                    split: bool, grace_s: float = FIRST_CALL_GRACE_S, scorer=None):
     """A Dask task: evaluate scenes with per-evaluation deadlines (in a thread, since a Dask task cannot
-    be killed). Returns (Evaluations, begun, hung_worker): begun (n,) bool marks the scenes evaluated
+    be killed). Returns (Population, begun, hung_worker): begun (n,) bool marks the scenes evaluated
     or failed; the others are to be run again, one at a time; hung_worker is this worker's address when
     an evaluation overran (its thread still runs: the worker is to be restarted)."""
     _single_thread()
-    n, nv = len(scenes), len(scenes[0].vehicles)
+    n = len(scenes)
     if not timeout_s:
-        return evaluate_scenes(model_name, options_items, scenes, scorer=scorer), np.ones(n, bool), None
-    res = empty_evaluations(n, nv, k=_n_scores(scorer))
+        return evaluate_in_process(model_name, options_items, scenes, scorer=scorer), np.ones(n, bool), None
+    res = empty_population(scenes, scorer=scorer)
     begun = np.zeros(n, bool)
     try:
         vectorised = _vectorised(model_instance(model_name, options_items))
@@ -56,21 +47,21 @@ def _dask_evaluate(model_name: str, options_items: tuple, scenes: list, timeout_
         if th.is_alive():
             if m == 1:
                 begun[k0] = True
-                _fail(res, k0, f"timeout: evaluation ran longer than {timeout_s:g} s")
+                res.fail(k0, f"timeout: evaluation ran longer than {timeout_s:g} s")
             from distributed import get_worker
             return res, begun, get_worker().address
-        _put(res, k0, box[0])
+        res.put(k0, box[0])
         begun[k0:k0 + m] = True
     return res, begun, None
 
 
-def evaluate_on_dask(client, model_name, items, scenes, nv, workers, timeout_s, scorer=None,
-                     grace_s: float = FIRST_CALL_GRACE_S) -> Evaluations:
-    """Evaluations of scenes on a Dask client: chunks in parallel; the scenes of a task whose workers died
+def evaluate_on_dask(client, model_name, items, scenes, workers, timeout_s, scorer=None,
+                     grace_s: float = FIRST_CALL_GRACE_S) -> Population:
+    """Population of scenes on a Dask client: chunks in parallel; the scenes of a task whose workers died
     (KilledWorker: Dask retried it on other workers and they died too) are then run one at a time, alone on
     the cluster, so a scene that merely shared a dying worker is evaluated and only the deadly ones fail."""
     from distributed import KilledWorker
-    res = empty_evaluations(len(scenes), nv, k=_n_scores(scorer))
+    res = empty_population(scenes, scorer=scorer)
     tasks = []  # (offset, scenes, split)
     offset = 0
     for c in _chunks(scenes, min(len(scenes), workers * 2)):
@@ -94,16 +85,16 @@ def evaluate_on_dask(client, model_name, items, scenes, nv, workers, timeout_s, 
                 part, begun, hung_worker = fut.result(timeout=bound)
             except KilledWorker:
                 if alone and len(chunk) == 1:
-                    _fail(res, offset, "Dask worker died while evaluating (KilledWorker)")
+                    res.fail(offset, "Dask worker died while evaluating (KilledWorker)")
                 else:
-                    tasks += [(offset + k, [s], True) for k, s in enumerate(chunk)]
+                    tasks += [(offset + k, chunk[k:k + 1], True) for k in range(len(chunk))]
                 continue
             except Exception as err:  # noqa: BLE001 - lost connection, a task that cannot run, no answer
                 fut.cancel()
-                _fail(res, slice(offset, offset + len(chunk)), _one_line(f"Dask task failed: {err!r}"))
+                res.fail(slice(offset, offset + len(chunk)), one_line(f"Dask task failed: {err!r}"))
                 continue
-            _put(res, offset, part)
-            tasks += [(offset + k, [chunk[k]], True) for k in np.flatnonzero(~begun)]
+            res.put(offset, part)
+            tasks += [(offset + k, chunk[k:k + 1], True) for k in np.flatnonzero(~begun)]
             if hung_worker:
                 hung.add(hung_worker)
         if hung:
@@ -115,5 +106,7 @@ def evaluate_on_dask(client, model_name, items, scenes, nv, workers, timeout_s, 
     return res
 
 
-def _chunks(scenes: list, n_chunks: int) -> list[list]:
-    return [list(c) for c in np.array_split(np.array(scenes, dtype=object), n_chunks) if len(c)]
+def _chunks(work, n_chunks: int) -> list:
+    """work (Variants or a list of Scenes) cut into n_chunks consecutive parts of nearly equal size."""
+    bounds = np.linspace(0, len(work), n_chunks + 1).round().astype(int)
+    return [work[a:b] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]

@@ -1,9 +1,12 @@
 """The Executor: runs populations on a backend, owning its workers (crashlab.execution)."""
 from __future__ import annotations
 
+import numpy as np
+
+from ..population import Population, Variants
 from .constants import FIRST_CALL_GRACE_S
 from .dask_cluster import _chunks, evaluate_on_dask
-from .evaluate import Evaluations, evaluate_scenes
+from .evaluate import evaluate_in_process
 from .pool import WorkerPool
 
 
@@ -21,6 +24,7 @@ class Executor:
         self._pool: WorkerPool | None = None
         self._client = None
         self._cluster = None
+        self._compiled: set = set()  # (model, options) whose first evaluation has run on a worker
 
     def __enter__(self):
         if self.backend == "processes" or (self.backend == "serial" and self.timeout_s):
@@ -49,15 +53,32 @@ class Executor:
             self._cluster.close()
         self._pool = self._client = self._cluster = None
 
-    def evaluate(self, model_name: str, options: dict, scenes: list, scorer=None) -> Evaluations:
-        """Simulate scenes with the model; `Evaluations` in input order. scorer: scores each outcome where it
-        was simulated, in Evaluations.scores (module docstring)."""
+    def evaluate(self, model_name: str, options: dict, work, scorer=None) -> Population:
+        """Simulate `work` with the model: Variants (one scene, fields and rows: the model's
+        simulate_population, only the scene and blocks of rows travel to the workers) or a list of Scenes
+        (simulate_batch); a Population in input order. scorer: scores each row where it was simulated, in
+        Population.scores (module docstring)."""
         items = tuple(sorted(options.items()))
         if self._pool is None and self._client is None:
-            return evaluate_scenes(model_name, items, scenes, scorer=scorer)
-        nv = len(scenes[0].vehicles)
+            return evaluate_in_process(model_name, items, work, scorer=scorer)
+        if (model_name, items) not in self._compiled and len(work) > 1 and self.backend != "serial":
+            # compile once: the first row runs alone on one worker, which compiles the model and fills the numba
+            # cache (crashlab.numba_cache); the other workers then load it instead of all compiling at once
+            self._compiled.add((model_name, items))
+            return Population.concat([self._run(model_name, items, work[:1], scorer),
+                                      self._run(model_name, items, work[1:], scorer)])
+        self._compiled.add((model_name, items))
+        return self._run(model_name, items, work, scorer)
+
+    def _run(self, model_name, items, work, scorer) -> Population:
         if self._pool is not None:
-            n_chunks = 1 if self.backend == "serial" else min(len(scenes), self.workers * 2)
-            return self._pool.evaluate(model_name, items, _chunks(scenes, n_chunks), nv, scorer)
-        return evaluate_on_dask(self._client, model_name, items, scenes, nv, self.workers, self.timeout_s, scorer,
+            n_chunks = 1 if self.backend == "serial" else min(len(work), self.workers * 2)
+            return self._pool.evaluate(model_name, items, _chunks(work, n_chunks), scorer)
+        return evaluate_on_dask(self._client, model_name, items, work, self.workers, self.timeout_s, scorer,
                                 self.first_call_grace_s)
+
+    def evaluate_population(self, model_name: str, options: dict, scene, fields, values, scorer=None,
+                            invalid: str = "fail") -> Population:
+        """`evaluate` of Variants(scene, fields, values, invalid)."""
+        return self.evaluate(model_name, options, Variants(scene, tuple(fields), np.asarray(values, float), invalid),
+                             scorer)

@@ -8,17 +8,9 @@ import sys
 import threading
 import time
 
+from ..population import Population
 from .constants import FIRST_CALL_GRACE_S
-from .evaluate import (
-    Evaluations,
-    _fail,
-    _n_scores,
-    _put,
-    _single_thread,
-    _vectorised,
-    empty_evaluations,
-    evaluate_scenes,
-)
+from .evaluate import _n_scores, _single_thread, _vectorised, evaluate_in_process, names_of
 from .models import model_instance
 
 
@@ -51,7 +43,7 @@ def _die_with_parent(parent_pid: int) -> None:
 
 def _worker_main(conn, parent_pid: int, single_thread: bool) -> None:
     """Loop of a worker process: tasks (id, model, options, scenes, split, scorer) in, messages out:
-    ("start", id, k0, m) before evaluating scenes k0..k0+m, ("done", id, k0, Evaluations) after."""
+    ("start", id, k0, m) before evaluating scenes k0..k0+m, ("done", id, k0, Population) after."""
     _die_with_parent(parent_pid)
     if single_thread:
         _single_thread()
@@ -66,11 +58,11 @@ def _worker_main(conn, parent_pid: int, single_thread: bool) -> None:
         try:
             model = model_instance(model_name, items)
             units = [(k, 1) for k in range(len(scenes))] if split or not _vectorised(model) else [(0, len(scenes))]
-        except Exception:  # noqa: BLE001 - evaluate_scenes records why
+        except Exception:  # noqa: BLE001 - evaluate_in_process records why
             units = [(0, len(scenes))]
         for k0, m in units:
             conn.send(("start", tid, k0, m))
-            conn.send(("done", tid, k0, evaluate_scenes(model_name, items, scenes[k0:k0 + m], scorer=scorer)))
+            conn.send(("done", tid, k0, evaluate_in_process(model_name, items, scenes[k0:k0 + m], scorer=scorer)))
 
 
 def _death_reason(exitcode) -> str:
@@ -133,9 +125,10 @@ class WorkerPool:
         grace = self.grace_s if w.model not in w.compiled else 0.0  # each model compiles on its first use
         return time.monotonic() + self.timeout_s * m + grace
 
-    def evaluate(self, model_name: str, items: tuple, chunks: list[list], nv: int, scorer=None) -> Evaluations:
+    def evaluate(self, model_name: str, items: tuple, chunks: list, scorer=None) -> Population:
+        """The Population of the work chunks (Variants blocks or lists of Scenes), in order."""
         n = sum(len(c) for c in chunks)
-        res = empty_evaluations(n, nv, k=_n_scores(scorer))
+        res = Population.empty(n, names_of(chunks[0]), k=_n_scores(scorer))
         pending = collections.deque()
         offset = 0
         for c in chunks:
@@ -178,7 +171,7 @@ class WorkerPool:
                     self._lost(w, res, pending, f"timeout: evaluation ran longer than {self.timeout_s:g} s")
         return res
 
-    def _receive(self, w: _Worker, res: Evaluations, pending) -> None:
+    def _receive(self, w: _Worker, res: Population, pending) -> None:
         while w.task is not None:
             try:
                 if not w.conn.poll():
@@ -199,20 +192,20 @@ class WorkerPool:
                 w.unit = (msg[2], msg[3], self._deadline(w, msg[3]))
             elif msg[0] == "done":
                 k0, part = msg[2], msg[3]
-                _put(res, offset + k0, part)
+                res.put(offset + k0, part)
                 w.calls += 1
                 w.compiled.add(w.model)
-                w.unit = (k0 + len(part.ok), 0, float("inf"))
-                if k0 + len(part.ok) >= len(scenes):
+                w.unit = (k0 + len(part), 0, float("inf"))
+                if k0 + len(part) >= len(scenes):
                     w.task = w.unit = None
 
-    def _lost(self, w: _Worker, res: Evaluations, pending, reason: str) -> None:
+    def _lost(self, w: _Worker, res: Population, pending, reason: str) -> None:
         """Worker w died or was killed: fail its unit (or split a batch), requeue what it had not begun."""
         tid, offset, scenes, split = w.task
         k0, m, _ = w.unit
         self.restarts += 1
         if m == 0 and k0 == 0:  # died before it began: the model could not even be loaded
-            _fail(res, slice(offset, offset + len(scenes)), reason)
+            res.fail(slice(offset, offset + len(scenes)), reason)
             if w.calls == 0:
                 self._start_deaths += 1
                 if self._start_deaths >= START_FAILURES:
@@ -220,7 +213,7 @@ class WorkerPool:
                                            f"evaluation ({reason}); set [execution] timeout_s = 0 and "
                                            "backend = \"serial\" to simulate in this process")
         elif m == 1:
-            _fail(res, offset + k0, reason)
+            res.fail(offset + k0, reason)
             if k0 + 1 < len(scenes):
                 pending.appendleft((offset + k0 + 1, scenes[k0 + 1:], split))
         else:  # a batch (or the rest of the task): again one scene at a time, so only the culprit fails

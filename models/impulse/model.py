@@ -21,11 +21,11 @@ from crashlab.units import ms_to_kmh
 
 from . import kernel as K
 from .laws import BRACH, FULL, KUDLICH_SLIBAR, REVERSED, ROUTH, SLIDING
+from .population import simulate_variants
 
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH, "routh": ROUTH}
 KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed"}
 STATUS_TEXT = {K.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
-               K.STATUS_IMPACT_CAP: "more impacts than max_impacts: the run was stopped there",
                K.STATUS_NAN: "the state became NaN",
                K.STATUS_STEP_LIMIT: "step limit reached (the time step collapsed)"}
 
@@ -200,12 +200,20 @@ class ImpulseModel(CollisionModel):
                 for k, s in enumerate(scenes)]
 
     # ------------------------------------------------------------------ results
+    def simulate_population(self, scene, fields, values):
+        """The base scene packed once, each variant's values written into the kernel's arrays, one parallel
+        call, the results as arrays (population.py; crashlab.model for the contract)."""
+        return simulate_variants(self, scene, fields, values)
+
+    def status_text(self) -> dict:
+        """Why a run with each failed kernel status failed."""
+        return {**STATUS_TEXT, K.STATUS_IMPACT_CAP: f"more impacts than max_impacts = {self.max_impacts}: the run "
+                "was stopped there"}
+
     def _outcome(self, scene, P, rest, final, contact, imp, diag, wall) -> Outcome:
         names = scene.vehicle_names
         status = int(diag[K.D_STATUS])
-        warnings = [STATUS_TEXT[status]] if status != K.STATUS_OK else []
-        if status == K.STATUS_IMPACT_CAP:
-            warnings[0] = f"more impacts than max_impacts = {self.max_impacts}: the run was stopped there"
+        warnings = [self.status_text()[status]] if status != K.STATUS_OK else []
         ok = status == K.STATUS_OK
         n_imp = int(diag[K.D_IMPACTS])
         imp = imp[:n_imp].copy()

@@ -1,0 +1,120 @@
+"""The impulse model's populations: the base scene packed once, each variant's values written into the kernel's
+arrays, one parallel compiled call, the results read back as arrays (crashlab.population). No Scene, no Outcome
+and no Python loop per variant where the fields are start states, masses, yaw inertias, frictions or impact
+numbers; other fields (a start steer, an action's time, brake or steer, which the action tables derive from)
+pack one scene per variant, still without an Outcome.
+
+The arrays are the ones `ImpulseModel.pack` makes of the changed scene, bit for bit
+(tests/test_population.py), so a population gives exactly what simulate_batch gives.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from crashlab.fields import setter, vehicle_columns
+from crashlab.models.common.planar_vehicle import P_IZ, P_MASS
+from crashlab.outcome import at_rest
+from crashlab.population import Population
+
+from . import kernel as K
+
+_STATE = ("x", "y", "heading", "speed", "yaw_rate")
+_CFG = {"restitution": K.C_E, "friction": K.C_MU_IMP, "engagement_depth": K.C_ENGAGE_DEPTH}
+
+
+def _direct(f) -> bool:
+    """Whether the field's value goes straight into the packed arrays (else the variant's scene is packed)."""
+    return (f.kind == "vehicle" and f.quantity in _STATE) or f.kind in ("spec", "road", "zone", "impact")
+
+
+def pack_variants(model, scene, fs, values) -> tuple:
+    """The kernel's stacked arrays (P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX) of every variant."""
+    n = len(values)
+    if not all(_direct(f) for f in fs):
+        build = setter(scene, fs, check=False)
+        packs = [model.pack(build(row)) for row in values]
+        return tuple(np.stack([p[k] for p in packs]) for k in range(6)) + \
+            tuple(np.stack([p[6][k] for p in packs]) for k in range(4))
+    P, S0, B, cfg, A, NA, zones = model.pack(scene)
+    P, S0, B, cfg, A, NA = (np.repeat(a[None], n, axis=0) for a in (P, S0, B, cfg, A, NA))
+    ZC, ZS, ZMU, ZBOX = (np.repeat(a[None], n, axis=0) for a in zones)
+    names = scene.vehicle_names
+    cols = vehicle_columns(scene, fs, values, _STATE + ("mass", "yaw_inertia"))
+    for f_i, f in enumerate(fs):
+        v = f.to_si_array(values[:, f_i])
+        if f.kind == "spec":
+            P[:, names.index(f.vehicle), P_MASS if f.quantity == "mass" else P_IZ] = v
+        elif f.kind == "road":
+            cfg[:, K.C_MU_ROAD] = v
+        elif f.kind == "zone":
+            ZMU[:, f.index] = v
+        elif f.kind == "impact":
+            cfg[:, _CFG[f.quantity]] = v  # a number given replaces restitution = "speed" (fields.setter)
+    for i in {names.index(f.vehicle) for f in fs if f.kind == "vehicle"}:
+        S0[:, i, 0], S0[:, i, 1], S0[:, i, 5] = cols["x"][:, i], cols["y"][:, i], cols["yaw_rate"][:, i]
+        S0[:, i, 2] = cols["heading"][:, i]
+        # the velocity as pack computes it (math.cos, math.sin: the same bits)
+        heading = cols["heading"][:, i].tolist()
+        S0[:, i, 3] = cols["speed"][:, i] * np.fromiter(map(math.cos, heading), float, len(heading))
+        S0[:, i, 4] = cols["speed"][:, i] * np.fromiter(map(math.sin, heading), float, len(heading))
+    return P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX
+
+
+def simulate_variants(model, scene, fs, values) -> Population:
+    """The Population of the variants (CollisionModel.simulate_population's contract)."""
+    arrays = pack_variants(model, scene, fs, values)
+    n, nv = arrays[0].shape[0], arrays[0].shape[1]
+    rest, final, contact = np.empty((n, nv, 3)), np.empty((n, nv, 3)), np.empty((n, nv, 4))
+    # (the impact records beyond each run's count are never read: no zeroing of n x max_impacts rows)
+    imp, diag = np.empty((n, model.max_impacts, K.N_IMP)), np.zeros((n, K.N_DIAG))
+    K.simulate_many(*arrays, rest, final, contact, imp, diag)
+    return population_of(model, scene.vehicle_names, arrays[0][:, :, P_MASS], rest, final, contact, imp, diag)
+
+
+def population_of(model, names, mass, rest, final, contact, imp, diag) -> Population:
+    """The kernel's outputs of n runs as a Population (the columns the Outcome route reads from impact rows,
+    models/common/impact_rows.py: crush energy split in proportion to 1 / mass, a barrier takes none)."""
+    n, nv = rest.shape[0], rest.shape[1]
+    pop = Population.empty(n, names, "")
+    status = diag[:, K.D_STATUS].astype(int)
+    ok = status == K.STATUS_OK
+    texts = model.status_text()
+    pop.reason[~ok] = [texts[s] for s in status[~ok]]
+    n_imp = diag[:, K.D_IMPACTS].astype(int)
+    imp = imp[:, :max(int(n_imp.max(initial=0)), 1)]  # the records in use
+    pop.ok[:], pop.mass[:], pop.n_impacts[:] = ok, mass, n_imp
+    good = np.flatnonzero(ok)
+    pop.rest[good], pop.final[good], pop.contact[good] = rest[good], final[good], contact[good]
+    pop.rest_speed[good] = np.hypot(final[good, :, 0], final[good, :, 1])
+    pop.at_rest[good] = at_rest(final[good])
+    valid = np.arange(imp.shape[1])[None, :] < n_imp[:, None]  # (n, impacts)
+    imp = np.where(valid[..., None], imp, 0.0)  # (unwritten records)
+    energy = imp[..., K.I_ENERGY]
+    pop.energy_impacts[good] = energy.sum(1)[good]
+    low = np.where(valid, imp[..., K.I_ENERGY], np.inf).min(1)
+    pop.lowest_impact_energy[good] = np.where(np.isfinite(low), low, np.nan)[good]
+    i, j = imp[..., K.I_I].astype(int), imp[..., K.I_J].astype(int)
+    inv = 1.0 / mass
+    inv_i = np.take_along_axis(inv, np.clip(i, 0, nv - 1), 1)
+    inv_j = np.where(j < nv, np.take_along_axis(inv, np.clip(j, 0, nv - 1), 1), 0.0)
+    positive, both = np.maximum(energy, 0.0), inv_i + inv_j
+    for v in range(nv):
+        as_i, as_j = valid & (i == v), valid & (j == v)
+        dvx = np.where(as_i, imp[..., K.I_DVX_I], 0.0) + np.where(as_j, imp[..., K.I_DVX_J], 0.0)
+        dvy = np.where(as_i, imp[..., K.I_DVY_I], 0.0) + np.where(as_j, imp[..., K.I_DVY_J], 0.0)
+        crush = np.where(as_i, positive * inv_i / both, 0.0) + np.where(as_j, positive * inv_j / both, 0.0)
+        pop.delta_v[good, v] = np.hypot(dvx.sum(1), dvy.sum(1))[good]
+        pop.crush_energy[good, v] = crush.sum(1)[good]
+        hit = as_i | as_j
+        first = hit.argmax(1)
+        some = hit.any(1)
+        rows = np.arange(n)
+        pick = good[some[good]]
+        pop.first_delta_v[good, v] = 0.0
+        pop.first_delta_v[pick, v] = np.hypot(dvx[rows, first], dvy[rows, first])[pick]
+        pop.first_impact_t[pick, v] = imp[rows, first, K.I_T][pick]
+        pop.first_impact_point[pick, v, 0] = imp[rows, first, K.I_PX][pick]
+        pop.first_impact_point[pick, v, 1] = imp[rows, first, K.I_PY][pick]
+    return pop
