@@ -4,9 +4,10 @@ vehicles come to rest (and their delta-V) as distributions (docs/physics.md, unc
 The draws are made at once (crashlab.uncertainty.sample, a seeded numpy Generator) and simulated as a
 population of variants of the scene, in blocks (the model's `simulate_population`, crashlab.population: the
 impulse model writes the draws into its compiled kernel's arrays and runs them in parallel). A draw fails,
-and is counted and named, never dropped silently, when its scene cannot be built, the model's run fails (the physics guard's verdict included), or a vehicle is
-still moving at the end of the run (its end pose is no rest pose: lengthen the duration). Statistics are
-over the draws that did not fail; a draw whose vehicles do not touch is no failure (delta-V 0).
+and is counted and named, never dropped silently, when its scene cannot be built, the model's run fails
+(the physics guard's verdict included), or a vehicle is still moving at the end of the run (its end pose is
+no rest pose: lengthen the duration). Statistics are over the draws that did not fail; a draw whose vehicles
+do not touch is no failure (delta-V 0).
 
 delta_v of a vehicle is the change of its CG velocity in its first impact [km/h] (what an event data
 recorder reports), 0 without contact. Headings are continuous (turns counted), as the model reports them.

@@ -26,8 +26,8 @@ from pydantic import ValidationError
 
 from crashlab import uncertainty
 from crashlab.errors import InputError
-from crashlab.population import outcome_reason
 from crashlab.options import OptionError
+from crashlab.population import outcome_reason
 from crashlab.registry import (
     OPTIMIZERS,
     UnknownPluginError,
