@@ -6,6 +6,11 @@ def _one_line(text) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
 
 
+# exit status of the command line: 2 bad input (InputError), 3 a simulation failed, 4 a search or posterior
+# that finished without a feasible solution (no candidate explains the evidence)
+EXIT_INPUT, EXIT_FAILED, EXIT_NO_FEASIBLE = 2, 3, 4
+
+
 class InputError(ValueError):
     """Bad user input. `str(err)` is the one line the CLI prints before exiting with status 2."""
 

@@ -121,6 +121,9 @@ class CollisionModel(abc.ABC):
     # True: the model honours driver actions and friction zones (docs/physics.md §2a); a model that does not
     # is refused scenes that have them instead of quietly ignoring them
     driver_inputs: bool = False
+    # the package (folder name) whose numba kernels the model compiles on first use (about 30 s once per install;
+    # the command line says so before a cold compile and keeps the compile out of the simulation's time), or None
+    compiles: str | None = None
     # the model's options as a schema (crashlab.options): meaning, unit, range, default, accuracy knobs;
     # None: the model takes no options
     Options: type[ModelOptions] | None = None

@@ -36,3 +36,14 @@ def configure() -> Path | None:
     path = cache_dir()
     config.CACHE_DIR = str(path)
     return path
+
+
+def is_cached(package: str) -> bool:
+    """Whether numba's cache holds compiled functions of a package of crashlab's models (its folder name, e.g.
+    "impulse"): the cache directory has a folder for it (numba names it <folder>_<hash of its path>) with an
+    index file in it. False when unknown (no cache directory)."""
+    from numba.core import config
+    root = Path(config.CACHE_DIR or "")
+    if not config.CACHE_DIR or not root.is_dir():
+        return False
+    return any(next(d.glob("*.nbi"), None) is not None for d in root.glob(f"{package}_*") if d.is_dir())

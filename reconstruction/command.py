@@ -2,8 +2,9 @@
 from __future__ import annotations
 
 import json
+import sys
 
-from crashlab.errors import InputError
+from crashlab.errors import EXIT_NO_FEASIBLE, InputError
 from crashlab.registry import UnknownPluginError, available_optimizers
 
 from .problem import variable_unit
@@ -24,7 +25,7 @@ def run_cli(args) -> int:
         if refined is not None:
             out["refine"] = refined.to_json_dict()
         print(json.dumps(out, indent=2))
-        return 0
+        return _no_feasible(args, res)
     import pandas as pd
     with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 200, "display.max_columns", 40):
         cols = [f.label for f in study.variables] + [f"f_{n}" for n in study.objective_names]
@@ -38,4 +39,14 @@ def run_cli(args) -> int:
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
     if refined is not None:
         print(refined.summary_line(study.variables, wrote=bool(args.out)))
-    return 0
+    return _no_feasible(args, res)
+
+
+def _no_feasible(args, res) -> int:
+    """EXIT_NO_FEASIBLE with one line on stderr when the run found no feasible solution, else 0."""
+    if len(res.pareto):
+        return 0
+    print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations collided without a "
+          f"start overlap and ended at rest ({res.failed} failed; reasons in pareto.csv's archive and report.html "
+          "with --out)", file=sys.stderr)
+    return EXIT_NO_FEASIBLE

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from crashlab.errors import InputError
+from crashlab.errors import EXIT_NO_FEASIBLE, InputError
 from crashlab.execution import Executor
 
 from .posterior import Posterior, load_posterior
@@ -259,6 +259,13 @@ def cmd_infer(args) -> int:
           f"outputs in {args.out}")
     if res.refine is not None:
         print(res.refine.summary_line(post.study.variables, wrote=True))
+    from .infer_report import chain_warnings
+    for w in chain_warnings(res):  # (summary.md has them too)
+        print("warning: " + w.removeprefix("**Warning**: "), file=sys.stderr)
+    if not np.isfinite(res.log_likelihood).any():
+        print(f"crashlab: no feasible solution: {args.study}: no draw explains the evidence (every log-posterior "
+              "is -inf: no contact, a failed run or a vehicle moving at the end; see summary.md)", file=sys.stderr)
+        return EXIT_NO_FEASIBLE
     return 0
 
 

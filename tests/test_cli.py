@@ -115,11 +115,39 @@ def test_simulate_and_compare_print_units_in_every_header(pc_crash_dir, capsys):
     for h in ("x [m]", "y [m]", "speed [km/h]", "vx [km/h]", "vy [km/h]", "yaw_rate [deg/s]", "delta_v [km/h]",
               "energy [J]"):
         assert h in sim, h
-    cmp = main_out(capsys, "compare", pc_crash_dir / "side.toml")[1]
+    cmp = main_out(capsys, "compare", pc_crash_dir / "side.toml", "--wide")[1]
     header = next(line for line in cmp.splitlines() if line.split()[:2] == ["source", "vehicle"])
     for h in ("x [m]", "heading [deg, -180..180]", "yaw turned [deg]", "vx [km/h]", "d_pc_crash [m]",
               "d_pc_crash [deg]"):
         assert h in header, h
+    narrow = main_out(capsys, "compare", pc_crash_dir / "side.toml", "--models", "impulse,pymunk")[1]
+    lines = narrow.splitlines()
+    assert max(map(len, lines)) <= 100, "the default tables fit 100 columns"
+    poses = next(line for line in lines if line.split()[:2] == ["source", "vehicle"])
+    diffs = next(line for line in lines if line.split()[:2] == ["model", "vehicle"])
+    for h in ("x [m]", "y [m]", "heading [deg]", "turned [deg]", "v [km/h]", "at_rest"):
+        assert h in poses, h
+    for h in ("reference", "distance [m]", "heading [deg]"):
+        assert h in diffs, h
+    assert "nan" not in narrow.lower() and "-0.00" not in narrow and " 1 " not in narrow
+    assert "true" in narrow and "True" not in narrow
+
+
+def test_booleans_print_as_true_false_and_the_wrong_kind_of_file_is_named(pc_crash_dir, capsys):
+    out = main_out(capsys, "models", "--options", "impulse")[1]
+    row = next(line for line in out.splitlines() if line.startswith("broad_phase"))
+    assert row.split()[2] == "true"
+    from crashlab.cli import main
+
+    def status_and_err(*args):
+        code = main([str(a) for a in args])
+        return code, capsys.readouterr().err
+    code, err = status_and_err("simulate", pc_crash_dir.parent / "reconstruction" / "case5.toml")
+    assert code == 2 and "this is a study file" in err and len(err.strip().splitlines()) == 1
+    code, err = status_and_err("reconstruct", pc_crash_dir / "side.toml")
+    assert code == 2 and "this is a scene file" in err
+    code, err = status_and_err("compare", pc_crash_dir / "side.toml", "--models", "impulse,pymnk")
+    assert code == 2 and "--models: unknown model 'pymnk'; did you mean 'pymunk'?" in err
 
 
 def _subparsers(parser):
@@ -172,7 +200,8 @@ def test_compare_shows_references(pc_crash_dir):
     assert any(line.split()[:2] == ["pc_crash", "V1"] for line in lines)
     assert any(line.split()[:2] == ["pc_crash", "V2"] for line in lines)
     assert any(line.split()[:2] == ["impulse", "V1"] for line in lines)
-    assert "d_pc_crash [m]" in res.stdout
+    assert any(line.split()[:3] == ["impulse", "V1", "pc_crash"] for line in lines), "the difference rows"
+    assert "distance [m]" in res.stdout
 
 
 SCENE = """name = "bad"
@@ -213,8 +242,8 @@ def test_bad_input_one_line_status_2(tmp_path, case, command):
     path = tmp_path / "scene.toml"
     if text is not None:
         path.write_text(text)
-    if command == "compare":
-        extra = ["--models", extra[1]] if extra else []
+    if command == "compare":  # the option the user typed is the one named
+        extra, key = (["--models", extra[1]], "--models") if extra else ([], key)
     res = run(command, path, *extra)
     assert res.returncode == 2, (res.stdout, res.stderr)
     assert "Traceback" not in res.stderr and "Traceback" not in res.stdout

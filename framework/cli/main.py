@@ -1,7 +1,9 @@
 """Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress | schema
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
-failed (the model's own failure or a physics-guard violation) exits with status 3 and one line.
+failed (the model's own failure or a physics-guard violation) exits with status 3 and one line; a
+reconstruction or posterior that finished without a feasible solution exits with status 4 and one line
+(crashlab.errors).
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..registry import UnknownPluginError
 from ..version import package_version
-from .simulate import _get_model, cmd_compare, cmd_simulate
+from .simulate import _get_model, cmd_compare, cmd_simulate, refuse_other_kind
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -34,6 +36,11 @@ def cmd_vehicles(args):
     return 0
 
 
+def _shown(value) -> str:
+    """An option's default as a file writes it: true/false for a boolean (not 1/0)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
 def cmd_models(args):
     from ..registry import MODELS, available_models, available_optimizers, load
     if args.options:
@@ -49,10 +56,11 @@ def cmd_models(args):
             print(f"model {args.options!r} takes no options")
             return 0
         print(f"options of model {args.options!r} (accuracy: the direction that makes a knob finer)")
-        print(tabulate([[r["name"], r["type"], r["unit"], r["default"], r["range"], r["accuracy"],
+        print(tabulate([[r["name"], r["type"], r["unit"], _shown(r["default"]), r["range"], r["accuracy"],
                          r["description"]] for r in rows],
                        headers=["option", "type", "unit", "default", "range", "accuracy", "meaning"],
-                       tablefmt="simple", maxcolwidths=[None, None, None, None, None, None, 70]))
+                       tablefmt="simple", maxcolwidths=[None, None, None, None, None, None, 60],
+                       disable_numparse=True))
         return 0
     print("models:     " + ", ".join(available_models()))
     print("optimizers: " + ", ".join(available_optimizers()))
@@ -115,11 +123,13 @@ def cmd_stress(args):
 
 def cmd_reconstruct(args):
     from crashlab.reconstruction import run_cli
+    refuse_other_kind(args.study, "study")
     return run_cli(args)
 
 
 def cmd_infer(args):
     from crashlab.reconstruction.infer import cmd_infer as run
+    refuse_other_kind(args.study, "study")
     return run(args)
 
 
@@ -187,6 +197,8 @@ def build_parser():
                    "model), references, comparison, units}")
     c.add_argument("--plot", metavar="FILE", help="write one top view with every model's paths and end poses and "
                    "the published rest poses (PNG, PDF, SVG)")
+    c.add_argument("--wide", action="store_true", help="print every column in one table (default: end poses, then "
+                   "the differences to each published result, within 100 columns)")
     c.set_defaults(fn=cmd_compare)
     b = command("bench", "simulations per second, single and batched")
     b.add_argument("--model", default="impulse", help="collision model")

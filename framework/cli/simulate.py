@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 from pathlib import Path
 
 from ..errors import InputError
@@ -63,12 +64,48 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
             "units": {**JSON_UNITS, **{f"impacts.{k}": u for k, u in IMPACT_UNITS.items()}}}
 
 
-def _get_model(name, where):
+def _get_model(name, where, option: str = "--model"):
     from ..registry import get_model
     try:
         return get_model(name)
     except (UnknownPluginError, TypeError) as err:
-        raise InputError(where, "--model", str(err)) from None
+        raise InputError(where, option, str(err)) from None
+
+
+def refuse_other_kind(path, expected: str) -> None:
+    """InputError when the file is of the other kind than the command takes: a study (it names its scene and
+    has [[free]] or [evidence]) given where a scene is expected, or a scene (it has [[vehicles]] and names
+    no scene) given where a study is."""
+    from ..vehicle import read_toml
+    data = read_toml(Path(path), "scene" if expected == "scene" else "study")
+    if expected == "scene" and "vehicles" not in data and {"scene", "free", "evidence"} & set(data):
+        raise InputError(path, "(top level)", "this is a study file (it names a scene and what to search): run it "
+                         "with crashlab reconstruct or crashlab infer; simulate and compare take a scene file")
+    if expected == "study" and "vehicles" in data and "scene" not in data:
+        raise InputError(path, "(top level)", "this is a scene file (it has [[vehicles]]): run it with crashlab "
+                         "simulate or compare; reconstruct and infer take a study file that names a scene "
+                         "(docs/tutorial.md)")
+
+
+def loaded(model, scene) -> None:
+    """Run the model once on the scene, untimed, so that the run that follows times the simulation alone: a
+    model with numba kernels (CollisionModel.compiles) loads or compiles them on its first call; a cold
+    compile (the first use after installing or updating crashlab) is announced on stderr before it starts,
+    and its time after."""
+    if model.compiles is None:
+        return
+    from .. import numba_cache
+    cold = not numba_cache.is_cached(model.compiles)
+    if cold:
+        print(f"compiling the {model.name} model once (first use after an install or update: about 30 s; "
+              "later runs load it)", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+    try:
+        model.simulate(scene)
+    except Exception:  # noqa: BLE001 - the timed run that follows meets it and reports it
+        pass
+    if cold:
+        print(f"compiled the {model.name} model in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
 
 
 def cmd_monte_carlo(args, scene, model):
@@ -100,6 +137,37 @@ def cmd_monte_carlo(args, scene, model):
         else:
             print("(--out DIR writes the table of draws and the figure)")
     return 0
+
+
+def ms_to_kmh_hypot(vx, vy):
+    """The speed [km/h] of velocity components given in km/h."""
+    import numpy as np
+    return np.hypot(vx.astype(float), vy.astype(float))
+
+
+def _cell(v) -> str:
+    """A table cell: true/false for a boolean, "-" for a missing number, 2 decimals without -0.00 and with
+    -180.00 read as 180.00 (a heading wrapped to (-180, 180] that rounds to the boundary)."""
+    if v is None or isinstance(v, str):
+        return "-" if v is None else v
+    if isinstance(v, (bool,)) or type(v).__name__ == "bool_":
+        return str(bool(v)).lower()
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    if not math.isfinite(x):
+        return "-"
+    text = f"{x:.2f}"
+    return {"-0.00": "0.00", "-180.00": "180.00"}.get(text, text)
+
+
+def _table_text(df) -> str:
+    """A printed table: cells by _cell, columns right-aligned under their headers, two spaces apart."""
+    cells = [[_cell(v) for v in row] for row in df.astype(object).itertuples(index=False)]
+    heads = [str(c) for c in df.columns]
+    widths = [max([len(h)] + [len(r[k]) for r in cells]) for k, h in enumerate(heads)]
+    return "\n".join("  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in [heads] + cells)
 
 
 def _write_csv(out, folder: Path) -> None:
@@ -140,6 +208,7 @@ def cmd_simulate(args):
         if not args.fps > 0 or not args.slow_motion > 0:
             raise InputError("command line", "--fps" if not args.fps > 0 else "--slow-motion",
                              f"must be positive, got {args.fps if not args.fps > 0 else args.slow_motion}")
+    refuse_other_kind(args.scene, "scene")
     scene = load_scene(args.scene)
     model = _get_model(args.model, args.scene)
     if args.monte_carlo is not None:
@@ -147,15 +216,19 @@ def cmd_simulate(args):
     if args.seed is not None or args.out is not None:
         raise InputError("command line", "--seed" if args.seed is not None else "--out",
                          "only with --monte-carlo N")
+    loaded(model, scene)
     out = model.simulate(scene)
+    written = []
     if args.csv:
         _write_csv(out, Path(args.csv))
+        written += [Path(args.csv) / "trajectories.csv", Path(args.csv) / "impacts.csv"]
     if args.plot:
         from ..tools.plotting import top_view
         try:
             top_view(scene, out, args.plot)
         except (OSError, ValueError) as err:
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
+        written.append(args.plot)
     if animate and not out.trajectories and out.outcome_ok:
         raise InputError(str(animate), "--animate", f"model {out.model or args.model} records no trajectories to "
                          "animate")
@@ -165,6 +238,9 @@ def cmd_simulate(args):
             write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion)
         except (OSError, ValueError) as err:
             raise InputError(str(animate), "--animate", str(err).splitlines()[0]) from None
+        written.append(animate)
+    if written:  # (stderr: --json keeps stdout to the JSON)
+        print("wrote " + ", ".join(str(w) for w in written), file=sys.stderr)
     if args.json:
         print(json.dumps(results_json(args.scene, scene, {out.model or args.model: out}), indent=2))
     if not out.outcome_ok:
@@ -201,11 +277,14 @@ def cmd_compare(args):
 
     from ..scene_file import load_scene
     from ..tools.compare import comparison_table, with_unit_headers
+    refuse_other_kind(args.scene, "scene")
     scene = load_scene(args.scene)
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     if not models:
         raise InputError("command line", "--models", "give at least one model name")
-    resolved = {m: _get_model(m, args.scene) for m in models}
+    resolved = {m: _get_model(m, args.scene, "--models") for m in models}
+    for model in resolved.values():
+        loaded(model, scene)
     outcomes = {m: model.simulate(scene) for m, model in resolved.items()}
     failed = [m for m, out in outcomes.items() if not out.outcome_ok]
     if args.plot:
@@ -214,6 +293,7 @@ def cmd_compare(args):
             compare_view(scene, outcomes, args.plot)
         except (OSError, ValueError) as err:
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
+        print(f"wrote {args.plot}", file=sys.stderr)
     if args.json:
         print(json.dumps(results_json(args.scene, scene, outcomes), indent=2))
         for m in failed:
@@ -221,11 +301,27 @@ def cmd_compare(args):
                   file=sys.stderr)
         return 3 if failed else 0
     df = comparison_table(scene, outcomes)
-    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 250,
-                           "display.max_columns", 30):
+    if args.wide:
         print(f"{scene.name}: end pose, final velocity; d_<source>: difference to a published result "
               "(heading wrapped; yaw turned: continuous, since the start)")
-        print(with_unit_headers(df).to_string(index=False))
+        print(_table_text(with_unit_headers(df)))
+    else:
+        print(f"{scene.name}: end poses (heading wrapped to (-180, 180]; turned: since the start)")
+        poses = df[["source", "vehicle", "x", "y"]].assign(
+            heading=df["heading"], yaw_turned=df["yaw_turned"], speed=ms_to_kmh_hypot(df["vx"], df["vy"]),
+            at_rest=df["at_rest"], ok=df["ok"])
+        print(_table_text(poses.rename(columns={"x": "x [m]", "y": "y [m]", "heading": "heading [deg]",
+                                                "yaw_turned": "turned [deg]", "speed": "v [km/h]"})))
+        refs = [c[2:-2] for c in df.columns if c.startswith("d_") and c.endswith("_m")]
+        if refs:
+            import pandas as pd
+            print("differences to the published results (distance of the rest positions; heading: the model's "
+                  "minus\nthe reference's)")
+            models = df[df["ok"].notna()]
+            rows = pd.concat([models[["source", "vehicle"]].assign(reference=ref, d_m=models[f"d_{ref}_m"],
+                                                                    d_deg=models[f"d_{ref}_deg"]) for ref in refs])
+            print(_table_text(rows.rename(columns={"source": "model", "d_m": "distance [m]",
+                                                   "d_deg": "heading [deg]"})))
     for m, out in outcomes.items():
         for w in out.warnings:
             print(f"warning ({m}):", w)

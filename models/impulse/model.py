@@ -104,6 +104,7 @@ class ImpulseModel(CollisionModel):
     """
 
     name = "impulse"
+    compiles = "impulse"
     driver_inputs = True  # actions and friction zones (docs/physics.md §2a): the kernel's _motion and step policy
 
     class Options(ModelOptions):
