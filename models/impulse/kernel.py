@@ -29,7 +29,7 @@ from numba import njit, prange
 from crashlab.geometry import (
     clip_convex,
     contact_zone_centroid,
-    outline_crossings,
+    crushed_faces_axis,
     overlap_centroid,
     penetration,
     rect_corners_into,
@@ -76,8 +76,12 @@ N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engage
 # that does not follow the reversal (model._slip_warnings)
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
- I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING) = range(30)
-N_IMP = 30  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+ I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO) = range(32)
+N_IMP = 32  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+# I_ENGAGE: how [impact] point = "engagement" placed the impact (ENGAGE_*; 0 for every other placement and for
+# follow-up impulses); I_ENGAGE_RATIO: the crushed faces' smaller principal value over the larger (_engagement)
+ENGAGE_USED, ENGAGE_AMBIGUOUS, ENGAGE_FALLBACK = 1, 2, 3
+AMBIGUOUS_RATIO = 0.9  # principal values within 10 % of each other: the faces give no plane (docs/physics.md §4)
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
  D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
@@ -339,18 +343,22 @@ def _advanced(P, S, B, k, nv, tau, out):
 @njit(cache=True)
 def _engagement(P, S, B, i, k, nv, depth, nx, ny, oa, ob):
     """The point of impact and contact normal at engagement (docs/physics.md §4): the outlines of i and k
-    moved along their CG velocities (no turning) until their overlap (`penetration` depth) reaches `depth` (bisection);
-    the point at the overlap's centroid, moved back by half the pair's mean displacement (between the two
-    crush zones, as contact_zone_centroid), the contact plane along the line through the two points where
-    the outlines' boundaries cross (the two farthest apart if more), the normal oriented as the onset normal
-    (nx, ny), from i to k. NaN where the overlap never reaches `depth` within 128 depth / closing speed, the
-    boundaries cross fewer than twice, or the pair does not approach at that point along that normal: the
-    caller keeps the contact-zone point."""
+    moved along their CG velocities (no turning) until their overlap (`penetration` depth) reaches `depth`
+    (bisection); the point at the overlap's centroid, moved back by half the pair's mean displacement
+    (between the two crush zones, as contact_zone_centroid); the contact plane along the crushed faces
+    (geometry.crushed_faces_axis: the overlap's edges weighted by the area each swept; a barrier's faces
+    only, it does not crush), the normal from i
+    to k (against k's displacement relative to i). Returns (px, py, ex, ey, flag, ratio): flag ENGAGE_USED;
+    ENGAGE_AMBIGUOUS where the faces' principal values lie within 10 % (ratio > AMBIGUOUS_RATIO): the
+    point is kept, the plane is the onset normal (nx, ny) (the struck edge at first touch); ENGAGE_FALLBACK
+    with a NaN point where the overlap never reaches `depth` within 128 depth / closing speed, nothing was
+    swept, or the pair does not approach at that point along that normal: the caller keeps the contact-zone
+    point and the onset normal."""
     vix, viy = S[i, 3], S[i, 4]
     vkx, vky = (S[k, 3], S[k, 4]) if k < nv else (0.0, 0.0)
     closing = math.hypot(vkx - vix, vky - viy)
     if closing <= 0.0 or depth <= 0.0:
-        return math.nan, math.nan, math.nan, math.nan
+        return math.nan, math.nan, nx, ny, ENGAGE_FALLBACK, math.nan
     hi, reached = depth / closing, False
     for _ in range(8):  # bracket: 1, 2, 4, ... 128 x depth / closing speed
         if penetration(_advanced(P, S, B, i, nv, hi, oa), _advanced(P, S, B, k, nv, hi, ob))[0] >= depth:
@@ -358,7 +366,7 @@ def _engagement(P, S, B, i, k, nv, depth, nx, ny, oa, ob):
             break
         hi *= 2.0
     if not reached:
-        return math.nan, math.nan, math.nan, math.nan
+        return math.nan, math.nan, nx, ny, ENGAGE_FALLBACK, math.nan
     lo = 0.0
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -368,26 +376,23 @@ def _engagement(P, S, B, i, k, nv, depth, nx, ny, oa, ob):
             lo = mid
     ca, cb = _advanced(P, S, B, i, nv, hi, oa), _advanced(P, S, B, k, nv, hi, ob)
     cx, cy, _ = overlap_centroid(ca, cb)
-    pts, n = outline_crossings(ca, cb)
-    if n < 2 or math.isnan(cx):
-        return math.nan, math.nan, math.nan, math.nan
-    best, ta, tb = -1.0, 0, 1
-    for a in range(n):
-        for b in range(a + 1, n):
-            d = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
-            if d > best:
-                best, ta, tb = d, a, b
-    if best <= 1e-9:
-        return math.nan, math.nan, math.nan, math.nan
-    ex, ey = (pts[tb, 1] - pts[ta, 1]) / best, -(pts[tb, 0] - pts[ta, 0]) / best  # normal of that line
-    if ex * nx + ey * ny < 0.0:
+    poly, npoly = clip_convex(ca, cb)
+    dx, dy = hi * (vkx - vix), hi * (vky - viy)  # k's displacement relative to i
+    tx, ty, ratio = crushed_faces_axis(poly, npoly, dx, dy, cb if k >= nv else cb[:0])  # a barrier: rigid
+    if math.isnan(cx) or math.isnan(tx):
+        return math.nan, math.nan, nx, ny, ENGAGE_FALLBACK, ratio
+    flag = ENGAGE_USED
+    ex, ey = ty, -tx  # the normal of the faces' plane, from i to k: k moved against it
+    if ex * dx + ey * dy > 0.0:
         ex, ey = -ex, -ey
+    if ratio > AMBIGUOUS_RATIO:
+        flag, ex, ey = ENGAGE_AMBIGUOUS, nx, ny
     px, py = cx - 0.5 * hi * (vix + vkx), cy - 0.5 * hi * (viy + vky)
     v1x, v1y = _point_velocity(S, i, nv, px, py)
     v2x, v2y = _point_velocity(S, k, nv, px, py)
     if (v2x - v1x) * ex + (v2y - v1y) * ey >= 0.0:
-        return math.nan, math.nan, math.nan, math.nan
-    return px, py, ex, ey
+        return math.nan, math.nan, nx, ny, ENGAGE_FALLBACK, ratio
+    return px, py, ex, ey, flag, ratio
 
 
 @njit(cache=True)
@@ -756,11 +761,10 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                         break
                     # the point: the middle of the contact zone the approach will crush, or (point =
                     # "engagement") the overlap's centroid at engagement with its contact plane
-                    zx = math.nan
+                    zx, e_flag, e_ratio = math.nan, 0, math.nan
                     if cfg[C_ENGAGE] > 0.5:
-                        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx, ny, oa, ob)
-                        if not math.isnan(zx):
-                            nx, ny = ex, ey
+                        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx,
+                                                                      ny, oa, ob)
                     if math.isnan(zx):
                         zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
                                                           _outline(P, S, B, k, nv, ob),
@@ -782,6 +786,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                             contact[q, 2] = S_before[q, 2]
                             contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
                     _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                    imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
                     episode[i, k] = n_imp
                     n_imp += 1
                 else:
