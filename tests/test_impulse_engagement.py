@@ -11,12 +11,12 @@ import math
 
 import numpy as np
 import pytest
+from conftest import PC_CRASH
 
 from crashlab.errors import InputError
 from crashlab.fields import parse, setter
 from crashlab.models.impulse import kernel as K
 from crashlab.scene_file import load_scene
-from conftest import PC_CRASH
 
 HALF_W, HALF_L = 0.82, 1.8875  # the Clio's half width and CG-to-front = CG-to-rear (m)
 ONSET = 1e-5  # m: the model's onset_tol (the overlap at first touch, from which the engagement starts)
