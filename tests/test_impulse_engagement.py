@@ -34,11 +34,12 @@ def axis_diff(a, b):
 
 
 def kernel_row(model, scene):
-    """The first impact's kernel row (every column, K.I_*) of the scene run by the impulse model."""
+    """The first impact's kernel row (every column, K.I_*) of the scene run by the impulse model; the impact
+    record starts as garbage (7.0), as an np.empty one may: the kernel writes every column of a row it keeps."""
     P, S0, B, cfg, A, NA, zones = model.pack(scene)
     nv = P.shape[0]
     rest, final, contact = np.empty((nv, 3)), np.empty((nv, 3)), np.empty((nv, 4))
-    imp, diag = np.zeros((model.max_impacts, K.N_IMP)), np.zeros(K.N_DIAG)
+    imp, diag = np.full((model.max_impacts, K.N_IMP), 7.0), np.zeros(K.N_DIAG)
     K.simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, np.zeros((0, nv, 7)), diag)
     assert diag[K.D_IMPACTS] >= 1
     return imp[0]
@@ -224,7 +225,7 @@ def test_ambiguous_plane_is_flagged_and_keeps_the_first_touch_plane(make_scene, 
 def test_engagement_never_reached_is_flagged(make_scene, impulse_model):
     """A 0.2 m lateral overlap (V2 offset 1.44 m) never overlaps by 0.5 m in the separating-axis sense: the
     row says ENGAGE_FALLBACK and the point and plane are the contact-zone ones (as without engagement);
-    without engagement the column is 0."""
+    without engagement (the contact-zone point, a given point) the column is 0."""
     sc = frontal(make_scene, 1.44, 0.5)
     row = kernel_row(impulse_model, sc)
     assert row[K.I_ENGAGE] == K.ENGAGE_FALLBACK
@@ -232,6 +233,9 @@ def test_engagement_never_reached_is_flagged(make_scene, impulse_model):
     assert found[K.I_ENGAGE] == 0
     for c in (K.I_PX, K.I_PY, K.I_PLANE, K.I_DVX_I, K.I_DVY_I):
         assert row[c] == found[c]
+    given = make_scene(vehicles=[{"speed": 50.0}, {"x": 2 * HALF_L, "heading": 180.0}],
+                       impact={"point": [HALF_L, 0.0], "plane_angle": 90.0}, duration=1.0)  # fronts touching
+    assert kernel_row(impulse_model, given)[K.I_ENGAGE] == 0  # the collision position's impact at t = 0
 
 
 def test_engagement_depth_is_a_field_and_plane_angle_is_refused(make_scene):

@@ -23,6 +23,8 @@ from .layout import (
     I_DVY_I,
     I_DVY_J,
     I_ENERGY,
+    I_ENGAGE,
+    I_ENGAGE_RATIO,
     I_HEAD_I,
     I_HEAD_J,
     I_I,
@@ -111,6 +113,7 @@ def _record_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, kind, energy, px, p
     imp[n, I_HEAD_I] = S[i, 2]
     imp[n, I_HEAD_J] = S[j, 2] if j < nv else 0.0
     imp[n, I_T_END], imp[n, I_N_FOLLOW] = t, 0.0
+    imp[n, I_ENGAGE], imp[n, I_ENGAGE_RATIO] = 0.0, math.nan  # not placed at engagement (the caller sets them)
 
 
 @njit(cache=True)
