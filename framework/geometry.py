@@ -136,23 +136,46 @@ def contact_zone_centroid(c1, c2, nx, ny, depth):
 
 
 @register_jitable
-def outline_crossings(c1, c2):
-    """The points where the boundaries of two convex outlines cross (edge-edge intersections). Returns
-    (points (8, 2), n): the first n rows hold them (two for two overlapping outlines in general)."""
-    out = np.empty((8, 2))
-    n = 0
-    for a in range(c1.shape[0]):
-        ax, ay = c1[a, 0], c1[a, 1]
-        bx, by = c1[(a + 1) % c1.shape[0], 0], c1[(a + 1) % c1.shape[0], 1]
-        for b in range(c2.shape[0]):
-            cx, cy = c2[b, 0], c2[b, 1]
-            dx, dy = c2[(b + 1) % c2.shape[0], 0], c2[(b + 1) % c2.shape[0], 1]
-            den = (bx - ax) * (dy - cy) - (by - ay) * (dx - cx)
-            if den == 0.0:
-                continue  # parallel edges
-            s = ((cx - ax) * (dy - cy) - (cy - ay) * (dx - cx)) / den
-            u = ((cx - ax) * (by - ay) - (cy - ay) * (bx - ax)) / den
-            if 0.0 <= s < 1.0 and 0.0 <= u < 1.0 and n < 8:
-                out[n, 0], out[n, 1] = ax + s * (bx - ax), ay + s * (by - ay)
-                n += 1
-    return out, n
+def _on_boundary(outline, x, y, tol):
+    """(x, y) lies within tol of one of the edges' lines of the convex outline (and so on its boundary, for
+    a point of an overlap polygon's edge, which lies inside or on the outline)."""
+    m = outline.shape[0]
+    for e in range(m):
+        ax, ay = outline[e, 0], outline[e, 1]
+        bx, by = outline[(e + 1) % m, 0], outline[(e + 1) % m, 1]
+        length = math.hypot(bx - ax, by - ay)
+        if length > 0.0 and abs((bx - ax) * (y - ay) - (by - ay) * (x - ax)) <= tol * length:
+            return True
+    return False
+
+
+@register_jitable
+def crushed_faces_axis(poly, n, dx, dy, rigid):
+    """The direction along the crushed faces of an overlap polygon (its first n rows, poly (m, 2)) made by
+    moving one outline by (dx, dy) against the other (docs/physics.md §4). Each edge of the polygon is a
+    piece of one outline's face pushed into the other; it is weighted by the area it swept, |edge x d|
+    (its length times its crush depth: a face along d crushes nothing), and the direction is the principal
+    axis of sum w t t^T over the edges' unit directions t (their doubled-angle mean): midway between two
+    faces of equal weight, i.e. the surface where two equally stiff structures meet. rigid: the outline of
+    a partner that does not crush (a barrier), whose faces alone then count (the crushed car ends up along
+    them), or an empty (0, 2) array. Returns (tx, ty, ratio): the unit direction and the smaller principal
+    value over the larger (0: every crushed face along one line, 1: no direction stands out); NaN where
+    nothing was swept."""
+    c2, s2, w_sum = 0.0, 0.0, 0.0
+    for q in range(n):
+        x0, y0 = poly[q, 0], poly[q, 1]
+        ex, ey = poly[(q + 1) % n, 0] - x0, poly[(q + 1) % n, 1] - y0
+        ll = ex * ex + ey * ey
+        w = abs(ex * dy - ey * dx)
+        if ll <= 0.0 or w <= 0.0:
+            continue
+        if rigid.shape[0] > 0 and not _on_boundary(rigid, x0 + 0.5 * ex, y0 + 0.5 * ey, 1e-9):
+            continue
+        c2 += w * (ex * ex - ey * ey) / ll  # w cos 2 theta
+        s2 += w * 2.0 * ex * ey / ll  # w sin 2 theta
+        w_sum += w
+    if w_sum <= 0.0:
+        return math.nan, math.nan, math.nan
+    r = math.hypot(c2, s2)
+    phi = 0.5 * math.atan2(s2, c2)
+    return math.cos(phi), math.sin(phi), (w_sum - r) / (w_sum + r)

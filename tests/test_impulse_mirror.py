@@ -126,3 +126,31 @@ def test_mirrored_random_scenes_give_mirrored_results(impulse_model):
     assert max(worst_sustained.values()) <= SUSTAINED_TOL
     assert max(worst.values()) <= RANDOM_TOL
     assert n_exact >= 0.9 * (3 * len(scenes) - n_sustained)
+
+
+def test_engagement_point_and_plane_are_mirrored(impulse_model):
+    """[impact] point = "engagement" (docs/physics.md §4) on 100 seeded random crashes and 100 axis crashes
+    (engagement_depth 0.1-0.8 m, seeded): the reflected scene gives the reflected outcome (mirror_error, the
+    tolerances above) and the reflected point of impact and contact plane (an axis: plane -> -plane mod 180),
+    to 1e-9 m and 1e-7 deg where no contact is sustained."""
+    rng = np.random.default_rng(5)
+    scenes = [s.replace(impact=dataclasses.replace(s.impact, engagement=True, point=None, plane_angle=None,
+                                                   engagement_depth=float(rng.uniform(0.1, 0.8))))
+              for s in random_scenes(100, seed=11) + axis_scenes(100, seed=5)]
+    outs = impulse_model.simulate_batch(scenes)
+    mirr = impulse_model.simulate_batch([mirrored(s) for s in scenes])
+    worst, worst_sustained, worst_point, worst_plane = 0.0, 0.0, 0.0, 0.0
+    for a, b in zip(outs, mirr):
+        err = mirror_error(a, b)
+        if any(r["contact_impulses"] > 0 for r in a.impact_rows):
+            worst_sustained = max(worst_sustained, err)
+            continue
+        worst = max(worst, err)
+        for x, y in zip(a.impact_rows, b.impact_rows):
+            worst_point = max(worst_point, abs(x["point_x"] - y["point_x"]), abs(x["point_y"] + y["point_y"]))
+            d = math.degrees(x["plane_angle"] + y["plane_angle"]) % 180.0  # (SI rows: radians)
+            worst_plane = max(worst_plane, min(d, 180.0 - d))
+    print(f"engagement mirror: outcome {worst:.2e}, point {worst_point:.2e} m, plane {worst_plane:.2e} deg, "
+          f"sustained {worst_sustained:.2e}")
+    assert worst <= RANDOM_TOL and worst_sustained <= SUSTAINED_TOL
+    assert worst_point <= 1e-9 and worst_plane <= 1e-7

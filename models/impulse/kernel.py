@@ -20,73 +20,128 @@ SEPARATION is an impact (restitution e, a row of the impact table); until the pa
 again, every step in which the outlines overlap and approach gets plastic (e = 0) Coulomb-limited
 contact impulses, booked into that impact's row, and a position projection keeps the overlap below
 CONTACT_SLOP. Reaching max_impacts or MAX_STEPS stops and fails the run.
+
+The time loop and its step policy live here; the stages it calls, one module per reason to change:
+contact.py (outlines, contact geometry, the engagement point, the position projection), impacts.py (the impulse
+at a point and the impact record), motion.py (the Heun step and the wheels' road friction), pairs.py (which
+vehicles and pairs a step visits), layout.py (the arrays' layouts, re-exported here for model.py).
 """
 import math
 
 import numpy as np
 from numba import njit, prange
 
-from crashlab.geometry import (
-    clip_convex,
-    contact_zone_centroid,
-    outline_crossings,
-    overlap_centroid,
-    penetration,
-    rect_corners_into,
-)
+from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration
 from crashlab.models.common.driver_inputs import (
     PATCH,
     ahead,
     driver_inputs,
     effective_mode,
     next_change,
-    point_friction,
     ramping,
     steady_next,
-    wheel_point,
 )
-from crashlab.models.common.planar_vehicle import (
-    P_A,
-    P_B,
-    P_FRONT,
-    P_HALFW,
-    P_IZ,
-    P_MASS,
-    P_REAR,
-    P_TRACK,
-    stiffest_rate,
-    vehicle_forces_trig,
-)
-from crashlab.models.common.restitution_law import kernel_restitution
+from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, stiffest_rate
 from crashlab.models.common.wheel_states import BRAKED, ROLLING
 from crashlab.units import G
 
-from .laws import checked_impulse, collision_impulse, impact_matrix
+from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
+from .impacts import _apply_impulse, _kinetic, _merge_impact, _record_impact, _struck
+from .layout import (  # noqa: F401 (every layout name: model.py reads them as kernel.*)
+    AMBIGUOUS_RATIO,
+    C_BROAD_PHASE,
+    C_COARSE_DT,
+    C_CRUSH_TIME,
+    C_DT,
+    C_DURATION,
+    C_E,
+    C_ENGAGE,
+    C_ENGAGE_DEPTH,
+    C_GIVEN,
+    C_GIVEN_I,
+    C_GIVEN_J,
+    C_LAW,
+    C_MAX_IMPACTS,
+    C_MU_IMP,
+    C_MU_ROAD,
+    C_ONSET_TOL,
+    C_PLANE,
+    C_PX,
+    C_PY,
+    C_REC_DT,
+    C_SLEEPING,
+    C_STOP_AT_REST,
+    C_V_REST,
+    D_BISECT,
+    D_COARSE,
+    D_CONTACT_T,
+    D_E_IMPACT,
+    D_FOLLOW,
+    D_IMPACTS,
+    D_KE0,
+    D_MAX_DEPTH,
+    D_NARROW,
+    D_NREC,
+    D_PROJECTED,
+    D_STATUS,
+    D_STEPS,
+    D_T_END,
+    D_VEHICLE_STEPS,
+    ENGAGE_AMBIGUOUS,
+    ENGAGE_FALLBACK,
+    ENGAGE_USED,
+    I_ALT_DR_I,
+    I_ALT_DR_J,
+    I_ALT_PN,
+    I_ALT_PT,
+    I_CLOSING,
+    I_DR_I,
+    I_DR_J,
+    I_DVX_I,
+    I_DVX_J,
+    I_DVY_I,
+    I_DVY_J,
+    I_ENERGY,
+    I_ENGAGE,
+    I_ENGAGE_RATIO,
+    I_HEAD_I,
+    I_HEAD_J,
+    I_I,
+    I_J,
+    I_KIND,
+    I_N_FOLLOW,
+    I_OWN_DR_I,
+    I_OWN_DR_J,
+    I_OWN_PN,
+    I_OWN_PT,
+    I_PLANE,
+    I_PN,
+    I_PT,
+    I_PX,
+    I_PY,
+    I_REVERSED,
+    I_T,
+    I_T_END,
+    IN_BRAKE,
+    IN_COS_HEADING,
+    IN_COS_STEER,
+    IN_MODE,
+    IN_SIN_HEADING,
+    IN_SIN_STEER,
+    IN_STEER,
+    N_CFG,
+    N_DIAG,
+    N_IMP,
+    N_IN,
+    STATUS_IMPACT_CAP,
+    STATUS_NAN,
+    STATUS_NOT_APPROACHING,
+    STATUS_OK,
+    STATUS_STEP_LIMIT,
+)
+from .motion import _heun, _near_zone
+from .pairs import _awake_sets, _moved, _near_pairs
 
-# configuration vector
-(C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
- C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME,
- C_BROAD_PHASE, C_SLEEPING, C_ENGAGE, C_ENGAGE_DEPTH) = range(23)
-N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engagement_depth (_engagement)
-# impact record
-# impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
-# summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
-# I_REVERSED: the slip stops and reverses on Routh's path (laws.checked_impulse); the impact's own impulse
-# (I_OWN_*: n-t frame, yaw-rate changes of i and j) and Routh's for it (I_ALT_*), for the warning of a law
-# that does not follow the reversal (model._slip_warnings)
-(I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
- I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
- I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING) = range(30)
-N_IMP = 30  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
-# diagnostics
-(D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
- D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
-N_DIAG = 15  # D_VEHICLE_STEPS: awake vehicles integrated, summed over steps; D_NARROW: outline tests
-# a vehicle's driver inputs at the step's start (_heun): wheel state, brake, steer and the cosines and sines of
-# its steer and heading
-IN_MODE, IN_BRAKE, IN_STEER, IN_COS_STEER, IN_SIN_STEER, IN_COS_HEADING, IN_SIN_HEADING = range(7)
-N_IN = 7
-STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
 V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)
 CONTACT_SLOP = 0.002  # m: overlap tolerated in sustained contact (no bisection, no projection below it)
@@ -95,361 +150,6 @@ DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this 
 MAX_SWEEPS = 50  # sequential-impulse sweeps over simultaneous contacts per step
 STOP_MARGIN = 0.5  # m/s: coarse steps end this far above the speed a coarse step could brake away
 REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left out until a vehicle moved REACH
-
-
-@njit(cache=True)
-def _outline(P, S, B, k, nv, out):
-    """The outline of vehicle or barrier k, written into `out` (4, 2): the step's loops allocate none."""
-    if k < nv:
-        return rect_corners_into(out, S[k, 0], S[k, 1], math.cos(S[k, 2]), math.sin(S[k, 2]), P[k, P_FRONT],
-                                 P[k, P_REAR], P[k, P_HALFW])
-    j = k - nv
-    return rect_corners_into(out, B[j, 0], B[j, 1], math.cos(B[j, 2]), math.sin(B[j, 2]), B[j, 3], B[j, 3], B[j, 4])
-
-
-@njit(cache=True)
-def _radius(P, B, k, nv):
-    if k < nv:
-        return math.sqrt(max(P[k, P_FRONT], P[k, P_REAR]) ** 2 + P[k, P_HALFW] ** 2)
-    return math.sqrt(B[k - nv, 3] ** 2 + B[k - nv, 4] ** 2)
-
-
-@njit(cache=True)
-def _centre(S, B, k, nv):
-    if k < nv:
-        return S[k, 0], S[k, 1]
-    return B[k - nv, 0], B[k - nv, 1]
-
-
-@njit(cache=True, inline="always")  # inlined: called for every pair at every step
-def _circles_apart(S, B, radius, i, k, nv):
-    """Vehicle i and vehicle or barrier k cannot touch: their bounding circles do not meet."""
-    if k < nv:
-        ckx, cky = S[k, 0], S[k, 1]
-    else:
-        ckx, cky = B[k - nv, 0], B[k - nv, 1]
-    dx, dy, r = S[i, 0] - ckx, S[i, 1] - cky, radius[i] + radius[k]
-    if abs(dx) > r or abs(dy) > r:  # hypot(dx, dy) >= max(|dx|, |dy|) in floating point too: same answer
-        return True
-    return math.hypot(dx, dy) > r
-
-
-@njit(cache=True)
-def _awake_sets(asleep, nk, awake, pair_i, pair_k):
-    """The awake vehicles (ascending) and the pairs (vehicle i, vehicle or barrier k > i) with an awake
-    member, in the order of the full double loop over i < k. Returns their counts."""
-    nv = asleep.shape[0]
-    na, n_pairs = 0, 0
-    for i in range(nv):
-        if not asleep[i]:
-            awake[na] = i
-            na += 1
-            for k in range(i + 1, nk):
-                pair_i[n_pairs], pair_k[n_pairs] = i, k
-                n_pairs += 1
-        else:
-            for k in range(i + 1, nv):
-                if not asleep[k]:
-                    pair_i[n_pairs], pair_k[n_pairs] = i, k
-                    n_pairs += 1
-    return na, n_pairs
-
-
-@njit(cache=True)
-def _moved(S, Snew, awake, na, ref, reach):
-    """Some awake vehicle is more than `reach` from ref at the start (S) or the end (Snew) of the step."""
-    for a in range(na):
-        i = awake[a]
-        if (math.hypot(S[i, 0] - ref[i, 0], S[i, 1] - ref[i, 1]) > reach
-                or math.hypot(Snew[i, 0] - ref[i, 0], Snew[i, 1] - ref[i, 1]) > reach):
-            return True
-    return False
-
-
-@njit(cache=True)
-def _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, reach, near_i, near_k,
-                in_contact, episode, allowed):
-    """The listed pairs without those of an awake vehicle and a static partner (a sleeping vehicle or a
-    barrier) whose bounding circles are more than 2 reach apart: while no awake vehicle is more than reach
-    (plus the curvature of a step) from ref = its position now, those stay apart, so the broad phase
-    would skip them and reset their contact state, done here once. Returns the count."""
-    nv = S.shape[0]
-    for a in range(na):
-        ref[awake[a], 0], ref[awake[a], 1] = S[awake[a], 0], S[awake[a], 1]
-    n = 0
-    for p in range(n_pairs):
-        i, k = pair_i[p], pair_k[p]
-        if (k >= nv or asleep[k] or asleep[i]) and _gap(S, B, radius, i, k, nv) > 2.0 * reach:
-            in_contact[i, k] = False
-            episode[i, k] = -1
-            allowed[i, k] = 0.0
-            continue
-        near_i[n], near_k[n] = i, k
-        n += 1
-    return n
-
-
-@njit(cache=True)
-def _gap(S, B, radius, i, k, nv):
-    ckx, cky = _centre(S, B, k, nv)
-    return math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
-
-
-@njit(cache=True, inline="always")  # inlined: a call costs more than the cache hit (measured)
-def _wheel_frictions(P, X, i, c, sn, reach, mu, zones, zcache):
-    """The road friction under the four wheels of vehicle i in state X[i], heading (c, sn) = (cos, sin)
-    (driver_inputs.point_friction at each wheel). zcache[i] = (x, y, heading of the last look-up, the least
-    of the four margins, each wheel's margin, each wheel's friction): since that look-up no wheel has moved
-    more than d = |dx| + |dy| + reach |dheading|, so while d is below a wheel's margin its friction holds
-    (_wheel_lookup)."""
-    z = zcache[i]
-    d = abs(X[i, 0] - z[0]) + abs(X[i, 1] - z[1]) + reach * abs(X[i, 2] - z[2])
-    if d < z[3]:
-        return z[8], z[9], z[10], z[11]
-    return _wheel_lookup(P, X, i, c, sn, d, mu, zones[0], zones[1], zones[2], zones[3], z)
-
-
-@njit(cache=True, inline="always")  # (measured: a little faster inlined)
-def _wheel_lookup(P, X, i, c, s, d, mu, E, start, zmu, box, z):
-    """_wheel_frictions for a vehicle with some wheel's margin spent: that wheel is looked up again, the
-    others' margins shrink by d, and the pose of X[i] becomes the reference."""
-    least = math.inf
-    for w in range(4):
-        if d >= z[4 + w]:
-            xw, yw = wheel_point(X[i, 0], X[i, 1], c, s, P[i, P_A], P[i, P_B], 0.5 * P[i, P_TRACK], w)
-            z[8 + w], z[4 + w] = point_friction(xw, yw, mu, E, start, zmu, box)
-        else:
-            z[4 + w] -= d
-        least = min(least, z[4 + w])
-    z[0], z[1], z[2], z[3] = X[i, 0], X[i, 1], X[i, 2], least
-    return z[8], z[9], z[10], z[11]
-
-
-@njit(cache=True)
-def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, out, k1, k2, tmp, inp, held):
-    """Heun step from t of the awake vehicles awake[:na] (inputs at t and just before t + h: a step never
-    straddles an action's time, and one ending there keeps its own law); a sleeping vehicle's row of
-    `out` is left as it is (the caller keeps it equal to its row of S). inp[i]: vehicle i's driver inputs
-    at t and the cosines and sines of its steer and heading (IN_*, set by the step policy); held[i]: how
-    long they hold (driver_inputs.steady_next). The wheels' frictions: _wheel_frictions, then
-    planar_vehicle.vehicle_forces_trig."""
-    zoned = zones[2].shape[0] > 0
-    for a in range(na):
-        i = awake[a]
-        mode, brake = int(inp[i, IN_MODE]), inp[i, IN_BRAKE]
-        cs, ss = inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER]
-        c, sn = inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING]
-        f0 = f1 = f2 = f3 = mu
-        if zoned:
-            f0, f1, f2, f3 = _wheel_frictions(P, S, i, c, sn, wheel_reach[i], mu, zones, zcache)
-        vehicle_forces_trig(P[i], S[i], c, sn, f0, f1, f2, f3, mode, brake, cs, ss, acc[i], k1[i])
-        for q in range(6):
-            tmp[i, q] = S[i, q] + h * k1[i, q]
-        if not (ahead(t, held[i]) and t + h <= held[i]):  # the step's own law at its end (left limit)
-            mode, brake, steer = driver_inputs(A[i], NA[i], t + h, True)
-            mode = effective_mode(mode, hit[i])
-            if steer != inp[i, IN_STEER]:
-                cs, ss = (math.cos(steer), math.sin(steer)) if steer != 0.0 else (1.0, 0.0)
-        c, sn = math.cos(tmp[i, 2]), math.sin(tmp[i, 2])
-        if zoned:
-            f0, f1, f2, f3 = _wheel_frictions(P, tmp, i, c, sn, wheel_reach[i], mu, zones, zcache)
-        vehicle_forces_trig(P[i], tmp[i], c, sn, f0, f1, f2, f3, mode, brake, cs, ss, acc[i], k2[i])
-        for q in range(6):
-            out[i, q] = S[i, q] + 0.5 * h * (k1[i, q] + k2[i, q])
-
-
-@njit(cache=True)
-def _near_zone(S, i, reach, box):
-    """Whether vehicle i's CG lies within `reach` of a zone's bounding box (its friction may change within
-    the step)."""
-    for z in range(box.shape[0]):
-        if box[z, 0] - reach < S[i, 0] < box[z, 1] + reach and box[z, 2] - reach < S[i, 1] < box[z, 3] + reach:
-            return True
-    return False
-
-
-@njit(cache=True)
-def _point_velocity(S, k, nv, px, py):
-    if k >= nv:
-        return 0.0, 0.0
-    return S[k, 3] - S[k, 5] * (py - S[k, 1]), S[k, 4] + S[k, 5] * (px - S[k, 0])
-
-
-@njit(cache=True)
-def _kinetic(P, S, k, nv):
-    if k >= nv:
-        return 0.0
-    return 0.5 * P[k, P_MASS] * (S[k, 3] ** 2 + S[k, 4] ** 2) + 0.5 * P[k, P_IZ] * S[k, 5] ** 2
-
-
-@njit(cache=True)
-def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law, alt):
-    """Exchange the impulse at (px, py) with normal n (from i to j). Returns (pn, pt, kind, energy, gn);
-    for an impact (alt = the impact's row of `imp`, else an empty array) also writes the slip-reversal
-    check and Routh's impulse for the same impact there (laws.checked_impulse; I_REVERSED, I_OWN_*, I_ALT_*)."""
-    w1, iI1 = 1.0 / P[i, P_MASS], 1.0 / P[i, P_IZ]
-    w2, iI2 = 0.0, 0.0
-    if j < nv:
-        w2, iI2 = 1.0 / P[j, P_MASS], 1.0 / P[j, P_IZ]
-    r1x, r1y = px - S[i, 0], py - S[i, 1]
-    r2x, r2y = 0.0, 0.0
-    if j < nv:
-        r2x, r2y = px - S[j, 0], py - S[j, 1]
-    v1x, v1y = _point_velocity(S, i, nv, px, py)
-    v2x, v2y = _point_velocity(S, j, nv, px, py)
-    gx, gy = v2x - v1x, v2y - v1y
-    tx, ty = -ny, nx
-    gn, gt = gx * nx + gy * ny, gx * tx + gy * ty
-    if gn >= 0.0:
-        return 0.0, 0.0, -1, 0.0, gn
-    e = kernel_restitution(e, -gn)  # the constant, or the law of the closing speed (docs/physics.md §13b)
-    knn, ktt, knt = impact_matrix(w1, iI1, w2, iI2, r1x, r1y, r2x, r2y, nx, ny)
-    if alt.shape[0] > 0:
-        pn, pt, kind, rev, apn, apt = checked_impulse(knn, ktt, knt, gn, gt, e, mu, law)
-        a1, b1 = r1x * ny - r1y * nx, r1x * ty - r1y * tx  # r x n, r x t: yaw-rate change per impulse
-        a2, b2 = r2x * ny - r2y * nx, r2x * ty - r2y * tx
-        alt[I_REVERSED] = 1.0 if rev else 0.0
-        alt[I_CLOSING] = -gn
-        alt[I_OWN_PN], alt[I_OWN_PT], alt[I_ALT_PN], alt[I_ALT_PT] = pn, pt, apn, apt
-        alt[I_OWN_DR_I], alt[I_OWN_DR_J] = -(a1 * pn + b1 * pt) * iI1, (a2 * pn + b2 * pt) * iI2
-        alt[I_ALT_DR_I], alt[I_ALT_DR_J] = -(a1 * apn + b1 * apt) * iI1, (a2 * apn + b2 * apt) * iI2
-    else:
-        pn, pt, kind = collision_impulse(knn, ktt, knt, gn, gt, e, mu, law)
-    ix, iy = pn * nx + pt * tx, pn * ny + pt * ty
-    ke0 = _kinetic(P, S, i, nv) + _kinetic(P, S, j, nv)
-    S[i, 3] -= ix * w1
-    S[i, 4] -= iy * w1
-    S[i, 5] -= (r1x * iy - r1y * ix) * iI1
-    if j < nv:
-        S[j, 3] += ix * w2
-        S[j, 4] += iy * w2
-        S[j, 5] += (r2x * iy - r2y * ix) * iI2
-    return pn, pt, kind, ke0 - _kinetic(P, S, i, nv) - _kinetic(P, S, j, nv), gn
-
-
-@njit(cache=True)
-def _advanced(P, S, B, k, nv, tau, out):
-    """The outline of vehicle or barrier k moved tau along its CG velocity (a barrier stays)."""
-    if k >= nv:
-        return _outline(P, S, B, k, nv, out)
-    return rect_corners_into(out, S[k, 0] + tau * S[k, 3], S[k, 1] + tau * S[k, 4], math.cos(S[k, 2]),
-                             math.sin(S[k, 2]), P[k, P_FRONT], P[k, P_REAR], P[k, P_HALFW])
-
-
-@njit(cache=True)
-def _engagement(P, S, B, i, k, nv, depth, nx, ny, oa, ob):
-    """The point of impact and contact normal at engagement (docs/physics.md §4): the outlines of i and k
-    moved along their CG velocities (no turning) until their overlap (`penetration` depth) reaches `depth` (bisection);
-    the point at the overlap's centroid, moved back by half the pair's mean displacement (between the two
-    crush zones, as contact_zone_centroid), the contact plane along the line through the two points where
-    the outlines' boundaries cross (the two farthest apart if more), the normal oriented as the onset normal
-    (nx, ny), from i to k. NaN where the overlap never reaches `depth` within 128 depth / closing speed, the
-    boundaries cross fewer than twice, or the pair does not approach at that point along that normal: the
-    caller keeps the contact-zone point."""
-    vix, viy = S[i, 3], S[i, 4]
-    vkx, vky = (S[k, 3], S[k, 4]) if k < nv else (0.0, 0.0)
-    closing = math.hypot(vkx - vix, vky - viy)
-    if closing <= 0.0 or depth <= 0.0:
-        return math.nan, math.nan, math.nan, math.nan
-    hi, reached = depth / closing, False
-    for _ in range(8):  # bracket: 1, 2, 4, ... 128 x depth / closing speed
-        if penetration(_advanced(P, S, B, i, nv, hi, oa), _advanced(P, S, B, k, nv, hi, ob))[0] >= depth:
-            reached = True
-            break
-        hi *= 2.0
-    if not reached:
-        return math.nan, math.nan, math.nan, math.nan
-    lo = 0.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if penetration(_advanced(P, S, B, i, nv, mid, oa), _advanced(P, S, B, k, nv, mid, ob))[0] >= depth:
-            hi = mid
-        else:
-            lo = mid
-    ca, cb = _advanced(P, S, B, i, nv, hi, oa), _advanced(P, S, B, k, nv, hi, ob)
-    cx, cy, _ = overlap_centroid(ca, cb)
-    pts, n = outline_crossings(ca, cb)
-    if n < 2 or math.isnan(cx):
-        return math.nan, math.nan, math.nan, math.nan
-    best, ta, tb = -1.0, 0, 1
-    for a in range(n):
-        for b in range(a + 1, n):
-            d = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
-            if d > best:
-                best, ta, tb = d, a, b
-    if best <= 1e-9:
-        return math.nan, math.nan, math.nan, math.nan
-    ex, ey = (pts[tb, 1] - pts[ta, 1]) / best, -(pts[tb, 0] - pts[ta, 0]) / best  # normal of that line
-    if ex * nx + ey * ny < 0.0:
-        ex, ey = -ex, -ey
-    px, py = cx - 0.5 * hi * (vix + vkx), cy - 0.5 * hi * (viy + vky)
-    v1x, v1y = _point_velocity(S, i, nv, px, py)
-    v2x, v2y = _point_velocity(S, k, nv, px, py)
-    if (v2x - v1x) * ex + (v2y - v1y) * ey >= 0.0:
-        return math.nan, math.nan, math.nan, math.nan
-    return px, py, ex, ey
-
-
-@njit(cache=True)
-def _record_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny):
-    imp[n, I_T], imp[n, I_I], imp[n, I_J] = t, i, j
-    imp[n, I_DVX_I] = S[i, 3] - S_before[i, 3]
-    imp[n, I_DVY_I] = S[i, 4] - S_before[i, 4]
-    imp[n, I_DR_I] = S[i, 5] - S_before[i, 5]
-    if j < nv:
-        imp[n, I_DVX_J] = S[j, 3] - S_before[j, 3]
-        imp[n, I_DVY_J] = S[j, 4] - S_before[j, 4]
-        imp[n, I_DR_J] = S[j, 5] - S_before[j, 5]
-    imp[n, I_ENERGY], imp[n, I_PN], imp[n, I_PT], imp[n, I_KIND] = energy, pn, pt, kind
-    imp[n, I_PX], imp[n, I_PY], imp[n, I_PLANE] = px, py, math.atan2(nx, -ny)  # tangent t = k x n
-    imp[n, I_HEAD_I] = S[i, 2]
-    imp[n, I_HEAD_J] = S[j, 2] if j < nv else 0.0
-    imp[n, I_T_END], imp[n, I_N_FOLLOW] = t, 0.0
-
-
-@njit(cache=True)
-def _merge_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, energy, nx, ny):
-    """Add a follow-up contact impulse of the same pair to impact row n: velocity changes and energy
-    summed, the impulse expressed in the row's normal/tangent frame."""
-    imp[n, I_DVX_I] += S[i, 3] - S_before[i, 3]
-    imp[n, I_DVY_I] += S[i, 4] - S_before[i, 4]
-    imp[n, I_DR_I] += S[i, 5] - S_before[i, 5]
-    if j < nv:
-        imp[n, I_DVX_J] += S[j, 3] - S_before[j, 3]
-        imp[n, I_DVY_J] += S[j, 4] - S_before[j, 4]
-        imp[n, I_DR_J] += S[j, 5] - S_before[j, 5]
-    imp[n, I_ENERGY] += energy
-    ix, iy = pn * nx - pt * ny, pn * ny + pt * nx
-    mx, my = math.sin(imp[n, I_PLANE]), -math.cos(imp[n, I_PLANE])
-    imp[n, I_PN] += ix * mx + iy * my
-    imp[n, I_PT] += -ix * my + iy * mx
-    imp[n, I_T_END] = t
-    imp[n, I_N_FOLLOW] += 1.0
-
-
-@njit(cache=True)
-def _struck(i, j, nv, hit, asleep):
-    """The vehicles of an impulse between i and j (a vehicle or a barrier): marked hit (wheels locked after
-    the impact lock from here: driver_inputs.effective_mode) and woken."""
-    for q in (i, j):
-        if q < nv:
-            hit[q] = True
-            asleep[q] = False
-
-
-@njit(cache=True)
-def _project_apart(P, S, i, k, nv, nx, ny, shift):
-    """Move the pair apart by `shift` along n (from i to k), split by inverse mass so that their centre
-    of mass stays; positions only, velocities (momentum, energy) untouched (position projection,
-    as the split impulse of Box2D / Chipmunk)."""
-    w1 = 1.0 / P[i, P_MASS]
-    w2 = 1.0 / P[k, P_MASS] if k < nv else 0.0
-    f1, f2 = w1 / (w1 + w2), w2 / (w1 + w2)
-    S[i, 0] -= shift * f1 * nx
-    S[i, 1] -= shift * f1 * ny
-    if k < nv:
-        S[k, 0] += shift * f2 * nx
-        S[k, 1] += shift * f2 * ny
 
 
 @njit(cache=True)
@@ -756,11 +456,10 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                         break
                     # the point: the middle of the contact zone the approach will crush, or (point =
                     # "engagement") the overlap's centroid at engagement with its contact plane
-                    zx = math.nan
+                    zx, e_flag, e_ratio = math.nan, 0, math.nan
                     if cfg[C_ENGAGE] > 0.5:
-                        zx, zy, ex, ey = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx, ny, oa, ob)
-                        if not math.isnan(zx):
-                            nx, ny = ex, ey
+                        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx,
+                                                                      ny, oa, ob)
                     if math.isnan(zx):
                         zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
                                                           _outline(P, S, B, k, nv, ob),
@@ -782,6 +481,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                             contact[q, 2] = S_before[q, 2]
                             contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
                     _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                    imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
                     episode[i, k] = n_imp
                     n_imp += 1
                 else:

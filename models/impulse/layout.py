@@ -1,0 +1,32 @@
+"""The impulse kernel's array layouts (models/impulse/kernel.py): the configuration vector (C_*), the impact
+record (I_*, one row per impact), the diagnostics (D_*), a vehicle's driver inputs at a step's start (IN_*),
+the run's status codes and how an engagement point was placed (ENGAGE_*). model.py packs and reads them
+through the kernel (kernel re-exports every name)."""
+
+# configuration vector
+(C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
+ C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME,
+ C_BROAD_PHASE, C_SLEEPING, C_ENGAGE, C_ENGAGE_DEPTH) = range(23)
+N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engagement_depth (_engagement)
+# impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
+# summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
+# I_REVERSED: the slip stops and reverses on Routh's path (laws.checked_impulse); the impact's own impulse
+# (I_OWN_*: n-t frame, yaw-rate changes of i and j) and Routh's for it (I_ALT_*), for the warning of a law
+# that does not follow the reversal (model._slip_warnings)
+(I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
+ I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
+ I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO) = range(32)
+N_IMP = 32  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+# I_ENGAGE: how [impact] point = "engagement" placed the impact (ENGAGE_*; 0 for every other placement and for
+# follow-up impulses); I_ENGAGE_RATIO: the crushed faces' smaller principal value over the larger (_engagement)
+ENGAGE_USED, ENGAGE_AMBIGUOUS, ENGAGE_FALLBACK = 1, 2, 3
+AMBIGUOUS_RATIO = 0.9  # principal values within 10 % of each other: the faces give no plane (docs/physics.md §4)
+# diagnostics
+(D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,
+ D_E_IMPACT, D_FOLLOW, D_PROJECTED, D_VEHICLE_STEPS, D_NARROW) = range(15)
+N_DIAG = 15  # D_VEHICLE_STEPS: awake vehicles integrated, summed over steps; D_NARROW: outline tests
+# a vehicle's driver inputs at the step's start (_heun): wheel state, brake, steer and the cosines and sines of
+# its steer and heading
+IN_MODE, IN_BRAKE, IN_STEER, IN_COS_STEER, IN_SIN_STEER, IN_COS_HEADING, IN_SIN_HEADING = range(7)
+N_IN = 7
+STATUS_OK, STATUS_NOT_APPROACHING, STATUS_IMPACT_CAP, STATUS_NAN, STATUS_STEP_LIMIT = 0, 1, 2, 3, 4
