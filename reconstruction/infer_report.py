@@ -151,7 +151,8 @@ def corner_plot(res, path: Path, units=None) -> None:
     if np.any(span == 0):
         samples = samples + np.where(span == 0, 1e-9, 0.0) * np.arange(len(samples))[:, None] / len(samples)
     labels = [f"{lab} [{u}]" if u else lab for lab, u in zip(res.labels, units or [""] * len(res.labels))]
-    fig = corner.corner(samples, labels=labels, truths=None if res.truth is None else list(res.truth),
+    fig = corner.corner(samples, labels=labels, titles=list(res.labels),  # axes with units, short titles
+                        truths=None if res.truth is None else list(res.truth),
                         quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".2f")
     fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -33,15 +33,17 @@ _LINESTYLE = {"solid": "-", "dashed": (0, (6, 4)), "dotted": ":"}
 
 def draw_road_lines(ax, road, legend: bool = True):
     """The road's lines (edges, kerbs, lane markings, centre lines: crashlab.scene.RoadLine) under everything
-    else; one legend entry per kind drawn (legend=False: none)."""
+    else, one LineCollection each, added without widening the view (the vehicles set it); one legend entry
+    per kind drawn (legend=False: none)."""
+    from matplotlib.collections import LineCollection
     shown = set()
     for line in getattr(road, "lines", ()):
         colour, width, style = ROAD_LINE_LOOK[line.kind]
-        pts = np.asarray(line.points, dtype=float)
         label = f"road {line.kind}" if legend and line.kind not in shown else None
         shown.add(line.kind)
-        ax.plot(pts[:, 0], pts[:, 1], linestyle=_LINESTYLE[line.style or style], color=colour, lw=width,
-                zorder=0.5, label=label, scalex=False, scaley=False)  # the vehicles set the view
+        ax.add_collection(LineCollection([np.asarray(line.points, dtype=float)], colors=colour, linewidths=width,
+                                         linestyles=_LINESTYLE[line.style or style], zorder=0.5, label=label),
+                          autolim=False)
 
 
 def draw_road(ax, road, legend: bool = True):
