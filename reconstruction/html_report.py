@@ -94,6 +94,7 @@ class Table:
     text_cols: tuple = (0,)
     caption: str | None = None
     css: str | None = None
+    md_cols: tuple = ()  # columns whose cells are summary.md's inline markdown (**bold**, `code`): md_inline
 
 
 @dataclass
@@ -433,15 +434,14 @@ def pareto_table_html(pareto, free=()) -> Markup:
     most PARETO_COLUMNS_MAX of pareto.csv's columns, together every column in its order; at most
     PARETO_ROWS_MAX rows (the page says when there are more)."""
     shown = pareto.head(PARETO_ROWS_MAX)
-    parts = []
+    tables = []
     for j, (title, cols) in enumerate(pareto_column_groups(pareto.columns, free)):
         rows = [[str(k)] + [num(v) for v in r] for k, r in enumerate(shown[cols].itertuples(index=False))]
-        parts.append(table(["row"] + cols, rows, "pareto" if j == 0 else f"pareto-{j + 1}", (), f"Pareto set: {title}"))
-    out = Markup("\n").join(parts)
-    if len(pareto) > len(shown):
-        out += Markup(f'\n<p class="warn">The first {len(shown)} of {len(pareto)} rows are shown; every row is in '
-                      "pareto.csv.</p>")
-    return out
+        tables.append(Table(["row"] + cols, rows, "pareto" if j == 0 else f"pareto-{j + 1}", (),
+                            f"Pareto set: {title}"))
+    cut = (f"The first {len(shown)} of {len(pareto)} rows are shown; every row is in pareto.csv."
+           if len(pareto) > len(shown) else None)
+    return macro("pareto_tables", tables, cut)
 
 
 def evaluations_table(problem, failure_reasons=None, evaluations=None) -> tuple[Table, str]:
@@ -553,10 +553,10 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
         r = [v.label, v.unit, v.describe_prior(), num(v.lower), num(v.upper), num(med[j]), num(lo[j]), num(hi[j]),
              num(res.tau[j], 1), num(res.ess[j], 0)]
         if truth is not None:
-            r += [num(truth[j]), "yes" if lo[j] <= truth[j] <= hi[j] else Markup("<strong>NO</strong>")]
+            r += [num(truth[j]), "yes" if lo[j] <= truth[j] <= hi[j] else "**NO**"]
         rows.append(r)
     qtable = (Table(["question", "probability", "MC standard error"],
-                    [[Markup(f"<code>{escape(q)}</code>"), num(p), num(se)] for q, p, se in questions], "questions")
+                    [[f"`{q}`", num(p), num(se)] for q, p, se in questions], "questions", md_cols=(0,))
               if questions else None)
     corner = figure_of(out_dir / "corner.png", "the posterior's one- and two-variable marginals (each axis in its "
                        "variable's unit); dashed: 5, 50 and 95 % quantiles"
@@ -577,7 +577,8 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
                  study={"path": post.path, "model": study.spec.model,
                         "model_options": _options(study.spec.model_options), "run": run},
                  scene=scene_context(study), evidence=evidence_context(study),
-                 posterior=Table(head, rows, "posterior", (0, 1, 2)), warnings=list(warnings), questions=qtable,
+                 posterior=Table(head, rows, "posterior", (0, 1, 2), md_cols=(len(head) - 1,)),
+                 warnings=list(warnings), questions=qtable,
                  corner=corner, solution=solution, tops=tops,
                  animation=animation_context(best, out_dir, "the posterior draw of largest log-likelihood"),
                  refine=refine_context(out_dir, getattr(res, "refine", None), study.evidence), notes=list(notes))

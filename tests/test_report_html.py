@@ -242,6 +242,7 @@ def test_posterior_report_embeds_its_figures_the_quantiles_and_the_sigmas(infer_
     for n in ("V1", "V2"):
         assert ev[(f"rest.{n}", "x")][4] == ev[(f"rest.{n}", "y")][4] == "0.200"
         assert ev[(f"rest.{n}", "heading")][4] == "5.000"
+    assert "<td class=\"text\"><code>V1.speed &gt; 50</code></td>" in (out / "report.html").read_text()
     assert [r[0] for r in page.tables["questions"][1:]] == ["V1.speed > 50",
                                                           "V1.speed > V2.speed + 15 and V2.speed < 35"]
     assert "emcee" in " ".join(page.text)
