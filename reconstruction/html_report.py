@@ -373,8 +373,8 @@ def refine_context(out_dir: Path, refined=None, evidence=None) -> dict | None:
         ctx["spread_intro"] = (f"Each candidate ({refined.source}, best first) simulated with both models from the "
                                f"same start: `{refined.search_model}` (the search's) and `{refined.model}` (the "
                                f"refine model). The models' rest positions lie at most {worst or '-'} apart over "
-                               f"the {len(t)} candidate(s): that spread is the model's share of the uncertainty, "
-                               "which no evidence sigma contains.")
+                               f"the {len(t)} candidate(s): an uncertainty of the choice of model, which the "
+                               "evidence's sigmas do not contain.")
     if md.is_file():
         ctx["md"] = md.read_text(encoding="utf-8", errors="replace")
     if csv.is_file():
