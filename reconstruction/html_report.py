@@ -49,10 +49,6 @@ _MIME = {".png": "image/png", ".gif": "image/gif", ".jpg": "image/jpeg", ".jpeg"
 
 
 # ---------------------------------------------------------------- small pieces
-def esc(value) -> Markup:
-    return escape(str(value))
-
-
 def md_inline(text: str) -> Markup:
     """A line of summary.md's markdown as HTML: escaped, **bold** and `code` kept (nothing else is used)."""
     s = str(escape(str(text)))
@@ -138,10 +134,6 @@ def render(template: str, **context) -> str:
 def macro(name: str, *args) -> Markup:
     """One macro of templates/macros.html rendered on its own (a section the tests read alone)."""
     return Markup(getattr(environment().get_template("macros.html").module, name)(*args))
-
-
-def table(header, rows, table_id: str | None = None, text_cols=(0,), caption=None) -> Markup:
-    return macro("table", Table(list(header), [list(r) for r in rows], table_id, tuple(text_cols), caption))
 
 
 def data_uri(path: Path) -> str:
@@ -243,10 +235,6 @@ def evidence_context(study) -> dict:
             "sum (residual / sigma)^2 over all items, each once.",
             "table": Table(["item", "vehicles", "component", "value", "sigma", "unit"], rows, "evidence",
                            (0, 1, 2, 3, 5))}
-
-
-def evidence_section(study) -> Markup:
-    return macro("evidence_section", evidence_context(study))
 
 
 # ---------------------------------------------------------------- the chosen solution: impacts, time histories
