@@ -42,10 +42,25 @@ class Zone:
     name: str = ""
 
 
+ROAD_LINE_KINDS = ("edge", "lane", "kerb", "centre")  # what a road line marks (drawn, never simulated)
+ROAD_LINE_STYLES = ("solid", "dashed", "dotted")
+
+
+@dataclasses.dataclass(frozen=True)
+class RoadLine:
+    """A line drawn on the road (SI: m): an edge, a lane marking, a kerb or a centre line, as a polyline.
+    Only drawn (top views, animations): no model reads it, so it changes no result."""
+    points: tuple[tuple[float, float], ...]
+    kind: str = "edge"  # one of ROAD_LINE_KINDS
+    style: str | None = None  # one of ROAD_LINE_STYLES; None: the kind's own (crashlab.tools.plotting)
+
+
 @dataclasses.dataclass(frozen=True)
 class Road:
     friction: float = 0.8
     zones: tuple[Zone, ...] = ()  # later zones win where zones overlap
+    # drawn only: excluded from comparisons, so two scenes that differ in their lines are the same event
+    lines: tuple[RoadLine, ...] = dataclasses.field(default=(), compare=False)
 
 
 @dataclasses.dataclass(frozen=True)

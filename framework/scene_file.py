@@ -22,6 +22,8 @@ from .scene import (
     ENGAGEMENT_DEPTH_MAX,
     FRICTION_MAX,
     POSITION_MAX,
+    ROAD_LINE_KINDS,
+    ROAD_LINE_STYLES,
     SPEED_MAX,
     STEER_MAX,
     YAW_RATE_MAX,
@@ -29,6 +31,7 @@ from .scene import (
     Barrier,
     Impact,
     Road,
+    RoadLine,
     Scene,
     VehicleState,
     WheelState,
@@ -58,10 +61,27 @@ class ZoneFile(_Strict):
                               "'zone K'")
 
 
+ROAD_LINE_POINTS_MAX = 10_000
+
+
+class RoadLineFile(_Strict):
+    """A line on the road, drawn in every top view and animation (never simulated: it changes no result)."""
+    points: list[tuple[Position, Position]] = Field(
+        min_length=2, max_length=ROAD_LINE_POINTS_MAX,
+        description=f"m, the polyline's points [[x, y], ...] in order; 2 to {ROAD_LINE_POINTS_MAX}")
+    kind: Literal[ROAD_LINE_KINDS] = Field(
+        default="edge", description="what the line marks: edge (of the carriageway), lane (a lane marking), "
+        "kerb, centre (the centre line); each drawn in its own way")
+    style: Literal[ROAD_LINE_STYLES] | None = Field(
+        default=None, description="solid, dashed or dotted; absent: the kind's own (lane dashed, the others solid)")
+
+
 class RoadFile(_Strict):
     friction: Real = Field(default=0.8, ge=0, le=FRICTION_MAX,
                            description=f"tyre-road friction coefficient; [0, {FRICTION_MAX:g}], 0 = ice")
     zones: list[ZoneFile] = Field(default_factory=list, description="friction polygons; later zones win")
+    lines: list[RoadLineFile] = Field(default_factory=list, description="[[road.lines]]: edges, lane markings, "
+                                      "kerbs and centre lines, drawn in top views and animations (no physics)")
 
 
 def _point_or_engagement(value, handler):
@@ -246,7 +266,9 @@ def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path |
     scene = Scene(
         name=f.name,
         vehicles=vehicles,
-        road=Road(friction=f.road.friction, zones=zones),
+        road=Road(friction=f.road.friction, zones=zones,
+                  lines=tuple(RoadLine(points=tuple(tuple(p) for p in ln.points), kind=ln.kind, style=ln.style)
+                              for ln in f.road.lines)),
         impact=Impact(**({"restitution_law": SPEED} if imp.restitution == SPEED else
                          {"restitution": imp.restitution}),
                       friction=imp.friction, law=imp.law,

@@ -1,6 +1,7 @@
 """The outputs of `crashlab infer` (crashlab.reconstruction.infer): posterior.csv, summary.md, corner.png,
-posterior_top_view.png (the rest outlines and CG paths of posterior draws over the measured rest poses) and
-report.html (crashlab.reconstruction.html_report)."""
+posterior_top_view.png (the rest outlines and CG paths of posterior draws over the measured rest poses), the
+median draw's top view and time histories (median_draw.png, median_draw_time.png) and report.html
+(crashlab.reconstruction.html_report)."""
 from __future__ import annotations
 
 import math
@@ -95,7 +96,51 @@ def best_draw(post, res):
     return (scene, outcome) if outcome.outcome_ok else None
 
 
-def corner_plot(res, path: Path) -> None:
+def median_draw_index(res) -> int | None:
+    """The posterior draw nearest the median of every variable, the distance measured in units of each
+    variable's 90 % interval (a draw, so a start the posterior holds; a component-wise median of a two-mode
+    posterior may lie between the modes). None without samples."""
+    if not len(res.samples):
+        return None
+    lo, med, hi = res.interval()
+    width = np.where(hi - lo > 0, hi - lo, 1.0)
+    ok = np.isfinite(res.log_likelihood)
+    d = np.sum(((res.samples - med) / width) ** 2, axis=1)
+    d = np.where(ok, d, np.inf) if ok.any() else d
+    return int(np.argmin(d))
+
+
+def median_draw(post, res, out: Path):
+    """(scene, outcome, draw index) of the median draw (median_draw_index) simulated again with the study's
+    model, and the figures drawn of it [(file name, caption)]; (None, notes) when it cannot be run."""
+    from crashlab.execution import model_for
+    from crashlab.tools.plotting import time_histories, top_view
+    k = median_draw_index(res)
+    if k is None:
+        return None, [], []
+    scene = post.setter(res.samples[k])
+    outcome = model_for(post.study.spec.model, post.study.spec.model_options).simulate(scene)
+    figures, notes = [], []
+    import matplotlib.pyplot as plt
+    for name, draw, caption in (
+            ("median_draw_time.png", lambda p: time_histories(scene, outcome, p, title="Median draw: speed, "
+                                                              "distance travelled and heading against time"),
+             "speed, distance travelled along the CG path and heading (continuous) against time; dashed: the "
+             "impacts."),
+            ("median_draw.png", lambda p: top_view(scene, outcome, p, title="Median draw",
+                                                   measured=post.study.evidence),
+             "start dotted, first contact dashed, rest solid, measured rest pose thick and pale.")):
+        try:
+            draw(out / name)
+            figures.append((name, caption))
+        except Exception as err:  # noqa: BLE001 - the tables stand without the figure
+            notes.append(f"{name} could not be drawn ({type(err).__name__} in the plotting library).")
+        finally:
+            plt.close("all")
+    return (scene, outcome, k), figures, notes
+
+
+def corner_plot(res, path: Path, units=None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import corner
@@ -105,7 +150,9 @@ def corner_plot(res, path: Path) -> None:
     span = np.ptp(samples, axis=0)
     if np.any(span == 0):
         samples = samples + np.where(span == 0, 1e-9, 0.0) * np.arange(len(samples))[:, None] / len(samples)
-    fig = corner.corner(samples, labels=res.labels, truths=None if res.truth is None else list(res.truth),
+    labels = [f"{lab} [{u}]" if u else lab for lab, u in zip(res.labels, units or [""] * len(res.labels))]
+    fig = corner.corner(samples, labels=labels, titles=list(res.labels),  # axes with units, short titles
+                        truths=None if res.truth is None else list(res.truth),
                         quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".2f")
     fig.savefig(path, dpi=80)
     plt.close(fig)
@@ -120,12 +167,15 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
 
     from crashlab.execution import model_for
     from crashlab.scene import vehicle_outline
+    from crashlab.tools.plotting import draw_barriers, draw_road, scale_bar
 
     rng = np.random.default_rng(seed)
     pick = rng.choice(len(res.samples), size=min(n, len(res.samples)), replace=False) if len(res.samples) else []
     model = model_for(post.study.spec.model, post.study.spec.model_options)
     fig, ax = plt.subplots(figsize=(8, 6))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    draw_road(ax, post.study.scene.road)
+    draw_barriers(ax, post.study.scene.barriers)
     drawn = 0
     for k in pick:
         try:
@@ -161,6 +211,7 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(f"{drawn} posterior draws: rest outlines and CG paths")
+    scale_bar(ax)
     ax.legend(loc="best", fontsize=8)
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -175,7 +226,7 @@ def write_outputs(post, res, out: Path) -> dict:
     try:
         write_posterior_csv(post, res, out / "posterior.csv")
         (out / "summary.md").write_text("\n".join(summary_lines(post, res)) + "\n")
-        corner_plot(res, out / "corner.png")
+        corner_plot(res, out / "corner.png", [v.unit for v in post.variables])
         if post.settings.draws_plotted:
             top_view_draws(post, res, out / "posterior_top_view.png", post.settings.draws_plotted)
         notes = []
@@ -183,8 +234,14 @@ def write_outputs(post, res, out: Path) -> dict:
             best = best_draw(post, res)
         except Exception as err:  # noqa: BLE001 - the report stands without its animation
             best = None
-            notes.append(f"the draw of largest log-likelihood could not be run: {type(err).__name__}: {err}")
-        return dict(warnings=chain_warnings(res), best=best, notes=notes,
-                    questions=question_rows(post, res) if post.questions else [])
+            notes.append(f"the draw of largest log-likelihood could not be run again ({type(err).__name__}).")
+        try:
+            median, median_figures, more = median_draw(post, res, out)
+            notes += more
+        except Exception as err:  # noqa: BLE001 - the report stands without the median draw's section
+            median, median_figures = None, []
+            notes.append(f"the median draw could not be run again ({type(err).__name__}).")
+        return dict(warnings=chain_warnings(res), best=best, notes=notes, median=median,
+                    median_figures=median_figures, questions=question_rows(post, res) if post.questions else [])
     except OSError as err:
         raise InputError(out, "--out", err.strerror or str(err)) from None

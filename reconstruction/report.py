@@ -135,20 +135,88 @@ def near_optimal_table(problem, arch: dict, tol: float) -> pd.DataFrame:
     return table.iloc[np.argsort(arch["F"][good].max(axis=1), kind="stable")].reset_index(drop=True)
 
 
+def evaluation_counts(problem, arch: dict | None = None) -> dict:
+    """Every evaluation in the problem's archive by what became of it: total, feasible (run ok, no overlap at
+    the start, a collision), overlap (run ok, vehicles overlapping at the start), no_contact (run ok, no
+    impact), failed (the run failed: its reason in the archive). An overlapping start without contact counts
+    as overlap."""
+    arch = problem.archive_arrays() if arch is None else arch
+    n = len(arch["X"])
+    if not n:
+        return {"total": 0, "feasible": 0, "overlap": 0, "no_contact": 0, "failed": 0}
+    ok, G = arch["ok"].astype(bool), np.atleast_2d(arch["G"])
+    overlap = ok & (G[:, 0] > 0)
+    no_contact = ok & ~overlap & (G[:, 1] > 0)
+    return {"total": int(n), "feasible": int((ok & np.all(G <= 0, axis=1)).sum()), "overlap": int(overlap.sum()),
+            "no_contact": int(no_contact.sum()), "failed": int((~ok).sum())}
+
+
+def infeasible_sentence(counts: dict) -> str:
+    """Why evaluations were not feasible, in words (evaluation_counts)."""
+    parts = [f"{counts['overlap']} had the vehicles overlapping at the start" if counts["overlap"] else "",
+             f"{counts['no_contact']} made no contact" if counts["no_contact"] else "",
+             f"{counts['failed']} failed (failures.csv gives each reason)" if counts["failed"] else ""]
+    parts = [p for p in parts if p]
+    return (f"{counts['feasible']} of {counts['total']} evaluations feasible"
+            + (": of the others " + ", ".join(parts) if parts else "") + ".")
+
+
+def objective_unit(problem) -> str:
+    """The objectives' unit: m (thesis objective) or sigma (the normalised misfit: residuals in their sigmas)."""
+    return "m" if problem.evidence_set is None else "sigma"
+
+
+def _objectives_figure(problem, arch, pareto, path, plt) -> str | None:
+    """Every feasible evaluation's first two objectives (grey) and the non-dominated ones (red); log axes where
+    every value shown is positive, else linear (a perfect fit has objective 0, which no log axis shows).
+    Returns why it is not drawn (no feasible evaluation), or None."""
+    names = list(problem.objective_names)
+    feas = np.all(arch["G"] <= 0, axis=1) & arch["ok"] if len(arch["X"]) else np.zeros(0, bool)
+    F = arch["F"][feas] if feas.any() else np.empty((0, len(names)))
+    if not len(F):
+        return "no feasible evaluation to draw: " + infeasible_sentence(evaluation_counts(problem, arch))
+    fig, ax = plt.subplots(figsize=(6, 5))
+    ax.scatter(F[:, 0], F[:, 1], s=6, color="0.6", label="dominated / evaluated")
+    if len(pareto):
+        ax.scatter(pareto[f"f_{names[0]}"], pareto[f"f_{names[1]}"], s=24, color="C3", label="non-dominated")
+    shown = F[:, :2][np.isfinite(F[:, :2]).all(axis=1)]
+    log = len(shown) > 0 and bool(np.all(shown > 0))
+    if log:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+    unit = objective_unit(problem)
+    ax.set_xlabel(f"f_{names[0]} [{unit}]" + ("" if log else " (linear: an objective is 0)"))
+    ax.set_ylabel(f"f_{names[1]} [{unit}]")
+    ax.legend()
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    return None
+
+
 def _near_optimal_figure(problem, near, path, plt) -> str:
-    """The first two free variables of the near-optimal starts, coloured by their largest objective."""
-    a, b = problem.free[0].label, problem.free[1].label
+    """The first two free variables of the near-optimal starts (with their units), coloured by their largest
+    objective (m, or sigma for the normalised misfit)."""
+    from .problem import variable_unit
+    fa, fb = problem.free[0], problem.free[1]
+    a, b = fa.label, fb.label
     worst = near[[c for c in near.columns if c.startswith("f_")]].max(axis=1)
     fig, ax = plt.subplots(figsize=(6, 5))
     sc = ax.scatter(near[a], near[b], c=worst, s=12, cmap="viridis")
-    fig.colorbar(sc, ax=ax, label="largest objective [m]")
-    ax.set_xlabel(a)
-    ax.set_ylabel(b)
+    fig.colorbar(sc, ax=ax, label=f"largest objective [{objective_unit(problem)}]")
+    ax.set_xlabel(f"{a} [{variable_unit(fa)}]")
+    ax.set_ylabel(f"{b} [{variable_unit(fb)}]")
     ax.set_title("starts that explain the evidence equally well")
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     return path.name
+
+
+def drawing_failed(name: str, err: Exception) -> str:
+    """A note for a figure that could not be drawn: what and the kind of error, not the library's message."""
+    return (f"{name} could not be drawn ({type(err).__name__} in the plotting library); the tables and CSV "
+            "files hold the same numbers.")
 
 
 def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path):
@@ -161,7 +229,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     import matplotlib.pyplot as plt
 
     from crashlab.execution import model_for
-    from crashlab.tools.plotting import top_view
+    from crashlab.tools.plotting import time_histories, top_view
     problem = result.problem
     info = result.algorithm_info
     result.pareto.to_csv(out_dir / "pareto.csv", index=False)
@@ -170,24 +238,11 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     notes = []
     if len(names) >= 2:
         try:
-            fig, ax = plt.subplots(figsize=(6, 5))
-            feas = np.all(arch["G"] <= 0, axis=1) & arch["ok"]
-            F = arch["F"][feas]
-            ax.scatter(F[:, 0], F[:, 1], s=6, color="0.6", label="dominated / evaluated")
-            if len(result.pareto):
-                ax.scatter(result.pareto[f"f_{names[0]}"], result.pareto[f"f_{names[1]}"], s=24, color="C3",
-                           label="non-dominated")
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            funit = "[m]" if problem.evidence_set is None else "[normalised misfit]"
-            ax.set_xlabel(f"f_{names[0]} {funit}")
-            ax.set_ylabel(f"f_{names[1]} {funit}")
-            ax.legend()
-            ax.grid(alpha=0.3, which="both")
-            fig.tight_layout()
-            fig.savefig(out_dir / "objectives.png", dpi=120)
+            why = _objectives_figure(problem, arch, result.pareto, out_dir / "objectives.png", plt)
+            if why:
+                notes.append(f"objectives.png not drawn: {why}")
         except Exception as err:  # noqa: BLE001 - the search's result is in the tables already
-            notes.append(f"objectives.png could not be drawn: {type(err).__name__}: {err}")
+            notes.append(drawing_failed("objectives.png", err))
         finally:
             plt.close("all")
     tol = study.spec.objective.near_optimal_tol(study.mode)
@@ -198,7 +253,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             figures_near = _near_optimal_figure(problem, near, out_dir / "near_optimal.png", plt)
         except Exception as err:  # noqa: BLE001
             figures_near = None
-            notes.append(f"near_optimal.png could not be drawn: {type(err).__name__}: {err}")
+            notes.append(drawing_failed("near_optimal.png", err))
         finally:
             plt.close("all")
     else:
@@ -210,18 +265,31 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         for k in sorted({0, *[int(result.pareto[f"f_{n}"].idxmin()) for n in names]}):
             chosen.append((k, result.pareto.loc[k, cols].to_numpy(dtype=float)))
     figures = []
-    best = None  # (scene, outcome) of Pareto row 0, animated in report.html
+    best = None  # (scene, outcome) of Pareto row 0: its impact table, time histories and animation in report.html
+    time_figure = None
     for k, x in chosen[:3]:
         scene = problem.scene_for(x)
         try:
             outcome = model.simulate(scene)
-            if k == 0:
-                best = (scene, outcome)
+        except Exception as err:  # noqa: BLE001 - a model that raises on the chosen start: named, not fatal
+            notes.append(f"Pareto row {k} could not be simulated again ({type(err).__name__}).")
+            continue
+        if k == 0:
+            best = (scene, outcome)
+            try:
+                time_histories(scene, outcome, out_dir / "solution_0_time.png",
+                               title="Pareto row 0: speed, distance travelled and heading against time")
+                time_figure = "solution_0_time.png"
+            except Exception as err:  # noqa: BLE001
+                notes.append(drawing_failed("solution_0_time.png", err))
+            finally:
+                plt.close("all")
+        try:
             top_view(scene, outcome, out_dir / f"solution_{k}.png",
                      title=f"Pareto solution {k}", measured=problem.evidence)
             figures.append(f"solution_{k}.png")
         except Exception as err:  # noqa: BLE001
-            notes.append(f"solution_{k}.png could not be drawn: {type(err).__name__}: {err}")
+            notes.append(drawing_failed(f"solution_{k}.png", err))
         finally:
             plt.close("all")
     hw = problem.heading_weight
@@ -230,6 +298,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
              f"- evaluations {result.evaluations} (search {info['search_evaluations']}, least-squares polish "
              f"{info['polish_evaluations']} of a budget of {info['polish_budget']}), failed {result.failed}, "
              f"feasible fraction {result.feasible_fraction:.1%}, wall time {result.wall_time_s:.1f} s"]
+    lines.append("- " + infeasible_sentence(evaluation_counts(problem, arch)))
     if result.failed:
         counts = failure_counts(arch["reason"][~arch["ok"]])
         lines.append("- failed evaluations by reason (every one in failures.csv): " + "; ".join(
@@ -311,4 +380,5 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             f"the smallest f_{n}" for n in names if int(result.pareto[f"f_{n}"].idxmin()) == k]
         captions.append((f, f"Pareto row {k}: {', '.join(why)}."))
     return dict(figures=captions, near_figure=figures_near, near=near, tol=tol, best=best, warnings=warnings,
-                notes=notes, failure_reasons=failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)
+                notes=notes, time_figure=time_figure,
+                failure_reasons=failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)

@@ -11,7 +11,16 @@ import math
 import re
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, StrictBool, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    StrictBool,
+    field_validator,
+    model_validator,
+)
 
 from crashlab.damage import DamageEvidence
 from crashlab.execution import DEFAULT_TIMEOUT_S
@@ -309,9 +318,37 @@ class RefineSection(_Strict):
                             "first, while the budget lasts); [1, 10000]")
 
 
+CASE_TEXT_MAX = 10_000  # characters of one note, assumption or limitation
+
+
+def _iso_date(value):
+    """[case] date: a TOML date (2026-11-26) or a string, kept as the text the report prints."""
+    import datetime as dt
+    return value.isoformat() if isinstance(value, (dt.date, dt.datetime)) else value
+
+
+CaseText = Annotated[str, Field(max_length=CASE_TEXT_MAX)]
+
+
+class CaseSection(_Strict):
+    """[case]: who reconstructs what, on which assumptions; shown first in report.html (changes no result)."""
+    id: CaseText | None = Field(default=None, description="the case number or file reference, as the client gives "
+                                "it")
+    analyst: CaseText | None = Field(default=None, description="who made the reconstruction")
+    date: Annotated[CaseText, BeforeValidator(_iso_date)] | None = Field(
+        default=None, description="date of the reconstruction: a TOML date (2026-11-26) or text")
+    notes: CaseText | None = Field(default=None, description="free text: the question asked, the material received")
+    assumptions: list[CaseText] = Field(default_factory=list, max_length=1000,
+                                        description="what the reconstruction takes as given, one string each")
+    limitations: list[CaseText] = Field(default_factory=list, max_length=1000,
+                                        description="what it cannot tell, one string each")
+
+
 class StudyFile(_Strict):
     """A study: the base scene, the free variables searched, the evidence, the objective and the budget."""
     name: str = Field(default="", description="title of the study in outputs")
+    case: CaseSection | None = Field(default=None, description="[case]: case id, analyst, date, notes, "
+                                     "assumptions and limitations, shown first in report.html")
     scene: str = Field(description="the base scene file, a path relative to the study file")
     model: str = Field(default="impulse", description="the collision model (crashlab models lists them)")
     model_options: dict = Field(default_factory=dict, description="[model_options]: the model's options "

@@ -120,3 +120,36 @@ def test_mp4_with_ffmpeg(side, tmp_path):
     scene, out = side
     path = write_animation(scene, out, tmp_path / "side.mp4", fps=10.0)
     assert path.read_bytes()[4:8] == b"ftyp" and path.stat().st_size > 1000
+
+
+def test_road_lines_are_drawn_in_every_frame(tmp_path, monkeypatch):
+    """The tutorial's road lines (crashlab.scene.RoadLine) are in the animation's axes with their points, and a
+    kerb's pixels carry the kerb's grey in the first and the last frame (the static background every frame
+    restores)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.colors as mcolors
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from crashlab.tools.plotting import ROAD_LINE_LOOK
+    scene = crashlab.load_scene(PC_CRASH.parent / "tutorial" / "scene.toml")
+    out = crashlab.simulate(scene, model="impulse")
+    captured = {}
+    close = plt.close
+    monkeypatch.setattr(plt, "close", lambda fig=None: captured.setdefault("fig", fig))
+    path = write_animation(scene, out, tmp_path / "tutorial.gif", fps=4.0)
+    fig = captured["fig"]
+    ax = fig.axes[0]
+    drawn = [np.asarray(c.get_segments()[0]) for c in ax.collections if len(c.get_segments()) == 1]
+    for line in scene.road.lines:
+        assert any(d.shape == (len(line.points), 2) and np.allclose(d, line.points) for d in drawn), line
+    img = Image.open(path)
+    height = img.size[1]
+    kerb = np.asarray(mcolors.to_rgb(ROAD_LINE_LOOK["kerb"][0])) * 255
+    px = ax.transData.transform([(-11.75, -3.5)])[0]  # the middle of the south-west kerb's first segment
+    px[1] = height - px[1]
+    for k in (0, img.n_frames - 1):
+        img.seek(k)
+        assert _colour_near(np.asarray(img.convert("RGB")), px, kerb, tol=40), k
+    close(fig)

@@ -101,6 +101,9 @@ def reconstruct_out(tmp_path_factory):
     return out
 
 
+_INFER = {}  # the posterior and its result of infer_out, for the median draw's check
+
+
 @pytest.fixture(scope="module")
 def infer_out(tmp_path_factory):
     out = tmp_path_factory.mktemp("infer") / "out"
@@ -108,7 +111,7 @@ def infer_out(tmp_path_factory):
     post.settings = post.settings.model_copy(update={"walkers": 8, "burn": 4, "samples": 160, "draws_plotted": 2})
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(html_report, "_animate", two_frame_gif)
-        run_posterior(post, out, progress=False)
+        _INFER.update(post=post, result=run_posterior(post, out, progress=False))
     return out
 
 
@@ -150,14 +153,28 @@ def test_reconstruction_report_embeds_every_figure(reconstruct_out):
     assert_self_contained(out, page, figures)
 
 
+def pareto_tables(page: Page) -> list[list[list[str]]]:
+    """The Pareto set's tables ("pareto", "pareto-2", ...) in page order."""
+    return [t for name, t in page.tables.items() if name == "pareto" or name.startswith("pareto-")]
+
+
 def test_pareto_table_holds_pareto_csv_row_by_row(reconstruct_out):
+    """Split into tables of at most PARETO_COLUMNS_MAX columns (no box hides any), each led by "row": together
+    every column of pareto.csv exactly once, every cell equal to the CSV's."""
     table = pd.read_csv(reconstruct_out / "pareto.csv")
-    rows = _read(reconstruct_out).tables["pareto"]
-    assert rows[0] == ["row"] + list(table.columns)
-    assert len(rows) - 1 == len(table) >= 1
-    for k, (cells, (_, row)) in enumerate(zip(rows[1:], table.iterrows())):
-        assert cells[0] == str(k)
-        assert_cells_match(cells[1:], row.to_numpy(dtype=float))
+    tables = pareto_tables(_read(reconstruct_out))
+    assert len(tables) >= 2  # twin1's 28 columns do not fit one
+    seen = []
+    for rows in tables:
+        head = rows[0]
+        assert head[0] == "row" and 2 <= len(head) <= html_report.PARETO_COLUMNS_MAX + 1
+        assert len(rows) - 1 == len(table) >= 1
+        seen += head[1:]
+        for k, cells in enumerate(rows[1:]):
+            assert cells[0] == str(k)
+            assert_cells_match(cells[1:], table.loc[k, head[1:]].to_numpy(dtype=float))
+    assert sorted(seen) == sorted(table.columns) and len(seen) == len(set(seen))
+    assert 'class="scroll"' not in (reconstruct_out / "report.html").read_text()
 
 
 def test_pareto_table_keeps_every_digit_it_shows_and_says_when_it_is_cut(monkeypatch):
@@ -202,7 +219,8 @@ def test_no_feasible_solution_is_a_page_that_says_so(reconstruct_out, tmp_path):
     page = _read(tmp_path)
     text = " ".join(page.text)
     assert "No feasible solution" in text and "animation unavailable: no solution to animate" in text
-    assert "objectives.png: not drawn" in text and "16 x model raised N" in text
+    assert "objectives.png: not drawn" in text
+    assert ["failed: model raised N", "16"] in page.tables["evaluations"]
     assert "pareto" not in page.tables and not page.imgs
     assert "<code>x</code> <strong>y</strong>" in (tmp_path / "report.html").read_text()
 
@@ -224,6 +242,7 @@ def test_posterior_report_embeds_its_figures_the_quantiles_and_the_sigmas(infer_
     for n in ("V1", "V2"):
         assert ev[(f"rest.{n}", "x")][4] == ev[(f"rest.{n}", "y")][4] == "0.200"
         assert ev[(f"rest.{n}", "heading")][4] == "5.000"
+    assert "<td class=\"text\"><code>V1.speed &gt; 50</code></td>" in (out / "report.html").read_text()
     assert [r[0] for r in page.tables["questions"][1:]] == ["V1.speed > 50",
                                                           "V1.speed > V2.speed + 15 and V2.speed < 35"]
     assert "emcee" in " ".join(page.text)
@@ -292,3 +311,245 @@ def test_case5_report_is_under_5_mb_and_renders_in_headless_chromium(tmp_path, r
     assert_self_contained(out, page, {p.name for p in out.glob("*.png")})
     assert len(page.tables["pareto"]) - 1 == len(res.pareto)
     assert_not_blank(screenshot(out / "report.html", tmp_path / "case5.png"))
+
+
+# ------------------------------------------------------------------ issue 26: what an expert hands over
+def assert_impact_table_is_the_outcomes(rows: list[list[str]], outcome):
+    """Every cell of the impact table equals the Outcome's number to the digits printed (half a unit of the
+    last printed digit), computed here from the Outcome's public tables: impacts, first_contact and the
+    trajectories (a later impact's speed: the last sample before it)."""
+    head = rows[0]
+    assert head[:2] == ["vehicle", "other"] and len(rows) - 1 == len(outcome.impacts) >= 2
+    imp = outcome.impacts.assign(crush=[r["crush_energy"] for r in outcome.impact_rows])
+    first = outcome.first_contact
+    for cells in rows[1:]:
+        got = dict(zip(head, cells))
+        t = float(got["t [s]"])
+        match = imp[(imp.vehicle == got["vehicle"]) & (imp.other == got["other"]) & (abs(imp.t - t) <= 5e-4)]
+        assert len(match) == 1, got
+        r = match.iloc[0]
+        if abs(r.t - imp[imp.vehicle == r.vehicle].t.min()) < 1e-12:
+            speed = first.loc[r.vehicle, "speed"]
+        else:
+            tr = outcome.trajectory(r.vehicle)
+            before = tr[tr.t < r.t].iloc[-1]
+            speed = math.hypot(before.vx, before.vy)
+        expected = {"t [s]": r.t, "speed at impact [km/h]": speed, "delta-V [km/h]": r.delta_v,
+                    "EES [km/h]": r.ees, "PDOF [deg]": r.pdof, "PDOF [clock]": r.pdof_clock,
+                    "energy dissipated [kJ]": r.energy / 1e3, "of it this vehicle's [kJ]": r.crush / 1e3}
+        assert set(expected) == set(head[2:])
+        for key, value in expected.items():
+            digits = html_report.IMPACT_DIGITS[key]
+            if isinstance(value, float) and math.isnan(value):
+                assert got[key] == "", (key, got[key])
+                continue
+            assert abs(float(got[key]) - value) <= 0.5 * 10.0 ** -digits + 1e-9, (key, got[key], value)
+
+
+def test_impact_table_equals_the_outcome_of_pareto_row_0(reconstruct_out):
+    """Pareto row 0 simulated again here (the study's model, the start of pareto.csv's first row at full
+    precision from the search's archive): each impact and vehicle's time, speed at impact, delta-V, EES,
+    PDOF, energy are the Outcome's to the printed digit."""
+    import crashlab
+    study = load_study(reconstruct_out.parent / "tiny.toml")
+    pareto = pd.read_csv(reconstruct_out / "pareto.csv")
+    x = pareto.loc[0, [v.label for v in study.variables]].to_numpy(dtype=float)
+    outcome = crashlab.simulate(study.make_problem().scene_for(x), model=study.spec.model)
+    page = _read(reconstruct_out)
+    assert_impact_table_is_the_outcomes(page.tables["impacts"], outcome)
+    assert "solution_0_time.png" in {img["data-file"] for img in page.imgs}
+    text = (reconstruct_out / "report.html").read_text()
+    assert "@media print" in text and "@page" in text  # the print layout of the same page
+
+
+def test_a_broken_impact_table_fails_the_check(reconstruct_out):
+    """The check above fails on a table one printed digit off (here: delta-V 0.1 km/h)."""
+    import crashlab
+    study = load_study(reconstruct_out.parent / "tiny.toml")
+    x = pd.read_csv(reconstruct_out / "pareto.csv").loc[0, [v.label for v in study.variables]].to_numpy(float)
+    outcome = crashlab.simulate(study.make_problem().scene_for(x), model=study.spec.model)
+    rows = [list(r) for r in _read(reconstruct_out).tables["impacts"]]
+    j = rows[0].index("delta-V [km/h]")
+    rows[1][j] = f"{float(rows[1][j]) + 0.1:.1f}"
+    with pytest.raises(AssertionError):
+        assert_impact_table_is_the_outcomes(rows, outcome)
+
+
+def test_posterior_report_shows_the_median_draw_and_its_impacts(infer_out):
+    import crashlab
+    post, res = _INFER["post"], _INFER["result"]
+    from crashlab.reconstruction.infer_report import median_draw_index
+    k = median_draw_index(res)
+    outcome = crashlab.simulate(post.setter(res.samples[k]), model=post.study.spec.model)
+    page = _read(infer_out)
+    assert_impact_table_is_the_outcomes(page.tables["impacts"], outcome)
+    assert {"median_draw_time.png", "median_draw.png"} <= {img["data-file"] for img in page.imgs}
+    assert f"draw {k} of posterior.csv" in " ".join(page.text)
+
+
+def test_median_draw_is_the_draw_nearest_every_median():
+    """Two modes at -1 and +1 (x) with y tied to x: the component-wise median (0, 0) is no draw; the draw
+    nearest it, in units of each variable's 90 % interval, is the one returned."""
+    from types import SimpleNamespace
+
+    from crashlab.reconstruction.infer_report import median_draw_index
+    rng = np.random.default_rng(1)
+    x = np.concatenate([rng.normal(-1, 0.1, 500), rng.normal(1, 0.1, 500)])
+    samples = np.column_stack([x, 100 * x + rng.normal(0, 1, 1000)])
+    res = SimpleNamespace(samples=samples, log_likelihood=np.zeros(1000),
+                          interval=lambda: np.quantile(samples, (0.05, 0.5, 0.95), axis=0))
+    k = median_draw_index(res)
+    lo, med, hi = res.interval()
+    d = np.sum(((samples - med) / (hi - lo)) ** 2, axis=1)
+    assert k == int(np.argmin(d)) and d[k] <= d.min()
+    res.log_likelihood = np.where(np.arange(1000) == k, -np.inf, 0.0)  # a draw that could not be scored
+    assert median_draw_index(res) != k
+
+
+def _case_study(tmp_path, case: str) -> Path:
+    path = tmp_path / "case.toml"
+    path.write_text((REPO / "studies" / "reconstruction" / "twin1.toml").read_text()
+                    .replace('scene = "../pc_crash/side.toml"', f'scene = "{SIDE.as_posix()}"') + "\n" + case)
+    return path
+
+
+def test_case_is_shown_first_escaped(reconstruct_out, tmp_path):
+    from crashlab.reconstruction.report import ReconstructionResult
+    study = load_study(_case_study(tmp_path, '[case]\nid = "2026/117 <A&B>"\nanalyst = "J. Doe"\ndate = 2026-11-26\n'
+                                         'notes = "for the court"\nassumptions = ["dry road", "x < 3 & y"]\n'
+                                         'limitations = ["no EDR"]\n'))
+    info = {"optimizer": "nsga-sharing", "search_evaluations": 0, "polish_evaluations": 0, "polish_budget": 0}
+    result = ReconstructionResult(pd.DataFrame(), 0, 0, 0.0, 1.0, study.make_problem(), info)
+    html_report.write_reconstruction_report(study, result, tmp_path, [], near=None)
+    page = _read(tmp_path)
+    assert page.tables["case"] == [["case", "2026/117 <A&B>"], ["analyst", "J. Doe"], ["date", "2026-11-26"],
+                                   ["notes", "for the court"]]
+    text = (tmp_path / "report.html").read_text()
+    assert text.index("<h2>Case</h2>") < text.index("<h2>Study</h2>") < text.index("<h2>Evidence</h2>")
+    assert "2026/117 &lt;A&amp;B&gt;" in text and "<li>x &lt; 3 &amp; y</li>" in text and "<li>no EDR</li>" in text
+    # without [case]: the page says where to add one
+    study = load_study(_case_study(tmp_path, ""))
+    html_report.write_reconstruction_report(study, result, tmp_path, [], near=None)
+    assert "no [case] table" in " ".join(_read(tmp_path).text)
+
+
+@pytest.mark.parametrize("case, key", [('assumptions = "one string"', "case.assumptions"),
+                                       ("analyst = 3", "case.analyst"), ('idd = "x"', "case.idd")])
+def test_bad_case_is_one_line_exit_2(tmp_path, capsys, case, key):
+    from types import SimpleNamespace
+
+    from conftest import assert_one_error_line
+
+    from crashlab.cli import main
+    path = _case_study(tmp_path, "[case]\n" + case + "\n")
+    code = main(["reconstruct", str(path)])
+    cap = capsys.readouterr()
+    assert_one_error_line(SimpleNamespace(returncode=code, stdout=cap.out, stderr=cap.err), path, key)
+
+
+def test_objectives_figure_takes_zero_objectives_and_says_why_none_is_feasible(tmp_path):
+    """A perfect fit (objective 0) is drawn on linear axes (log axes refuse it: "Data cannot be log-scaled");
+    with no feasible evaluation nothing is drawn and the reason counts the infeasible starts."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    import matplotlib.pyplot as plt
+
+    from crashlab.reconstruction import report
+    problem = SimpleNamespace(objective_names=["V1", "V2"], evidence_set=None)
+    F = np.array([[0.0, 0.0], [0.5, 2.0], [1.0, 0.1]])
+    arch = {"X": np.zeros((5, 1)), "F": np.vstack([F, [[9, 9], [9, 9]]]), "ok": np.array([1, 1, 1, 1, 0], bool),
+            "G": np.array([[0, 0], [0, 0], [0, 0], [0.3, 0], [1, 1]], float), "reason": np.array([""] * 4 + ["x"])}
+    pareto = pd.DataFrame({"f_V1": [0.0], "f_V2": [0.0]})
+    assert report._objectives_figure(problem, arch, pareto, tmp_path / "o.png", plt) is None
+    ax = plt.gcf().axes[0]
+    assert ax.get_xscale() == "linear" and ax.get_xlabel().startswith("f_V1 [m]") and ax.get_ylabel() == "f_V2 [m]"
+    plt.close("all")
+    arch_pos = dict(arch, F=arch["F"] + 0.1)
+    report._objectives_figure(problem, arch_pos, pareto + 0.1, tmp_path / "o.png", plt)
+    assert plt.gcf().axes[0].get_xscale() == "log"
+    plt.close("all")
+    none = dict(arch, ok=np.array([1, 1, 0, 0, 0], bool), G=np.array([[0.2, 0], [0, 1], [0, 0], [0, 0], [1, 1]]))
+    why = report._objectives_figure(problem, none, pareto.iloc[:0], tmp_path / "n.png", plt)
+    assert why == ("no feasible evaluation to draw: 0 of 5 evaluations feasible: of the others 1 had the vehicles "
+                   "overlapping at the start, 1 made no contact, 3 failed (failures.csv gives each reason).")
+    assert report.evaluation_counts(problem, none) == {"total": 5, "feasible": 0, "overlap": 1, "no_contact": 1,
+                                                       "failed": 3}
+
+
+def test_near_optimal_figure_is_in_sigma_with_units(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    import matplotlib.pyplot as plt
+
+    from crashlab.reconstruction import report
+    from crashlab.reconstruction.schema import FreeVariable
+    free = [FreeVariable(vehicle="V1", field="speed", lower=30, upper=70),
+            FreeVariable(vehicle="V2", field="y", lower=-3, upper=3)]
+    near = pd.DataFrame({"V1.speed": [40.0, 41.0], "V2.y": [0.1, 0.2], "f_V1": [0.5, 0.9], "f_V2": [0.2, 1.0]})
+    for evidence_set, unit in ((object(), "sigma"), (None, "m")):
+        report._near_optimal_figure(SimpleNamespace(free=free, evidence_set=evidence_set), near, tmp_path / "n.png",
+                                    plt)
+        ax, bar = plt.gcf().axes
+        assert bar.get_ylabel() == f"largest objective [{unit}]"
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ("V1.speed [km/h]", "V2.y [m]")
+        plt.close("all")
+
+
+def test_spread_between_models_is_a_table(tmp_path):
+    """After a [refine]: both models' rest poses at each candidate, the distance between them and the heading
+    difference wrapped to -180..180 (179 and -179 deg are 2 deg apart)."""
+    from types import SimpleNamespace
+    t = pd.DataFrame({"candidate": [0], "row": [3], "model_gap_V1": [0.5],
+                      "search_rest_V1_x": [1.0], "search_rest_V1_y": [2.0], "search_rest_V1_heading": [179.0],
+                      "refine_rest_V1_x": [1.3], "refine_rest_V1_y": [2.4], "refine_rest_V1_heading": [-179.0]})
+    refined = SimpleNamespace(table=t, search_model="impulse", model="multibody", source="Pareto rows")
+    text = html_report.refine_section(tmp_path, refined, {"V1": (1.1, 2.1, None)})
+    rows = Page(text).tables["spread"]
+    assert rows[0][:3] == ["candidate", "row", "vehicle"] and "distance apart [m]" in rows[0]
+    got = dict(zip(rows[0], rows[1]))
+    assert got["distance apart [m]"] == "0.50" and got["heading multibody - impulse [deg]"] == "2.0"
+    assert got["impulse x [m]"] == "1.00" and got["multibody y [m]"] == "2.40"
+    assert got["measured x, y [m], heading [deg]"] == "1.10, 2.10"
+    assert "at most V1 0.50 m apart" in text
+
+
+def _weasyprint() -> bool:
+    return html_report.pdf_writer()[0] is not None
+
+
+@pytest.mark.skipif(not _weasyprint(), reason="WeasyPrint (or its Pango library) is not installed")
+def test_pdf_is_the_same_report_on_a4(reconstruct_out, tmp_path):
+    html = tmp_path / "report.html"
+    shutil.copy(reconstruct_out / "report.html", html)
+    pdf = html_report.write_pdf(html)
+    data = pdf.read_bytes()
+    assert pdf.name == "report.pdf" and data.startswith(b"%PDF-")
+    if shutil.which("pdftotext"):  # Debian: poppler-utils
+        text = subprocess.run(["pdftotext", "-layout", str(pdf), "-"], capture_output=True, text=True).stdout
+        assert text.count("\f") >= 3  # pages
+        for words in ("Pareto set: state at first contact", "The chosen solution", "speed at", "page 1 of"):
+            assert words in text, words
+
+
+def test_pdf_refused_in_one_line_before_the_run(tmp_path, capsys, monkeypatch):
+    """--pdf without --out, or without a usable WeasyPrint: exit 2, one line naming --pdf and what to install,
+    before any evaluation (no output folder made)."""
+    from types import SimpleNamespace
+
+    from conftest import assert_one_error_line
+
+    from crashlab.cli import main
+    study = _tiny_study(tmp_path)
+
+    def run(*args):
+        code = main(["reconstruct", str(study), *args])
+        cap = capsys.readouterr()
+        return SimpleNamespace(returncode=code, stdout=cap.out, stderr=cap.err)
+    assert_one_error_line(run("--pdf"), study, "--pdf", ["--out"])
+    monkeypatch.setattr(html_report, "pdf_writer", lambda: (None, "ImportError: No module named 'weasyprint'"))
+    assert_one_error_line(run("--pdf", "--out", str(tmp_path / "o")), study, "--pdf", ["pip install weasyprint"])
+    assert not (tmp_path / "o").exists()

@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import EXIT_NO_FEASIBLE, InputError
 from ..registry import UnknownPluginError
 from ..version import package_version
 from .simulate import _get_model, cmd_compare, cmd_simulate, refuse_other_kind
@@ -121,16 +121,31 @@ def cmd_stress(args):
     return 0
 
 
+def _with_pdf(run, args):
+    """run(args), and with --pdf DIR/report.pdf printed from DIR/report.html; a PDF that cannot be written
+    (no --out, WeasyPrint missing) is refused before the run."""
+    if not getattr(args, "pdf", False):
+        return run(args)
+    from pathlib import Path
+
+    from crashlab.reconstruction.html_report import REPORT_NAME, check_pdf, write_pdf
+    check_pdf(args.study, args.out)
+    code = run(args)
+    if code in (0, EXIT_NO_FEASIBLE) and (Path(args.out) / REPORT_NAME).is_file():
+        print(f"wrote {write_pdf(Path(args.out) / REPORT_NAME)}", file=sys.stderr)
+    return code
+
+
 def cmd_reconstruct(args):
     from crashlab.reconstruction import run_cli
     refuse_other_kind(args.study, "study")
-    return run_cli(args)
+    return _with_pdf(run_cli, args)
 
 
 def cmd_infer(args):
     from crashlab.reconstruction.infer import cmd_infer as run
     refuse_other_kind(args.study, "study")
-    return run(args)
+    return _with_pdf(run, args)
 
 
 def cmd_study(args):
@@ -241,6 +256,8 @@ def build_parser():
     inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
     inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
     inf.add_argument("--no-progress", action="store_true", help="no progress line")
+    inf.add_argument("--pdf", action="store_true", help="also print DIR/report.html to DIR/report.pdf (A4; needs "
+                     "WeasyPrint: pip install weasyprint)")
     inf.set_defaults(fn=cmd_infer)
     r = command("reconstruct", "search the pre-impact conditions that explain the evidence")
     r.add_argument("study", help="study TOML file (docs/reference.md)")
@@ -255,6 +272,8 @@ def build_parser():
                    help="write the Pareto set, report and figures here (default: print only)")
     r.add_argument("--json", action="store_true", help="print the result as JSON")
     r.add_argument("--no-progress", action="store_true", help="no progress line")
+    r.add_argument("--pdf", action="store_true", help="with --out: also print DIR/report.html to DIR/report.pdf "
+                   "(A4; needs WeasyPrint: pip install weasyprint)")
     r.set_defaults(fn=cmd_reconstruct)
     sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
                  "validation, the PC-Crash cases with every impulse law")

@@ -4,9 +4,9 @@
 
 draws, frame by frame, every vehicle's outline with a heading arrow at its interpolated pose, its CG path
 growing behind it, each impact flashed at its point (a large star and its time for FLASH_S of simulated
-time, then a small star), the time stamp, and the zones, barriers and scale bar as the top view draws
-them ((crashlab.tools.plotting)). The frames sample the recorded trajectories at `animation_times` (frame 0 is the
-start, the last frame the end of the run, so the last frame shows the rest or end poses of
+time, then a small star), the time stamp, and the road (zones and lines), barriers and scale bar as the top
+view draws them (crashlab.tools.plotting). The frames sample the recorded trajectories at `animation_times`
+(frame 0 is the start, the last frame the end of the run, so the last frame shows the rest or end poses of
 `outcome.rest_si`). A GIF is written with Pillow; an MP4 with ffmpeg, refused in one line
 (crashlab.InputError) when ffmpeg is not on PATH. Matplotlib runs headless (Agg).
 """
@@ -135,7 +135,7 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
     from matplotlib.lines import Line2D
     from matplotlib.patches import Polygon
 
-    from .plotting import draw_barriers, draw_zones, scale_bar, vehicle_colours
+    from .plotting import ROAD_LINE_LOOK, draw_barriers, draw_road, scale_bar, vehicle_colours
 
     times = animation_times(outcome, fps, speed, max_frames)
     poses = frame_poses(scene, outcome, times)
@@ -147,7 +147,7 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
     # the figure at the writer's dpi: savefig then draws each frame once, without a re-layout
     # (the axes take about 5 of the 7 in width, the legend the rest)
     fig, ax = plt.subplots(figsize=(7.0, float(np.clip(5.0 * aspect, 2.5, 7.0)) + 1.0), dpi=dpi)
-    draw_zones(ax, scene.road)
+    draw_road(ax, scene.road, legend=False)
     draw_barriers(ax, scene.barriers)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
@@ -181,6 +181,10 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
     handles = [Line2D([], [], color=colours[i % len(colours)], lw=2, label=v.name)
                for i, v in enumerate(scene.vehicles)]
     handles += [Line2D([], [], ls=":", color="0.4", label="start"), Line2D([], [], color="0.4", lw=1, label="CG path")]
+    for kind in dict.fromkeys(line.kind for line in scene.road.lines):  # one entry per kind of road line
+        colour, width, style = ROAD_LINE_LOOK[kind]
+        handles.append(Line2D([], [], color=colour, lw=width, ls="--" if style == "dashed" else "-",
+                              label=f"road {kind}"))
     if impacts:
         handles.append(Line2D([], [], ls="", marker="*", color="k", mfc="yellow", ms=10, label="impact"))
     ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)

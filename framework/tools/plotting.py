@@ -1,5 +1,6 @@
-"""Figures: the top view of a simulated scene, and the drawing helpers the other figures share
-(crashlab.tools.animation, the Monte Carlo figure): zones, barriers, the point of impact, a scale bar."""
+"""Figures: the top view of a simulated scene, speed, distance and heading against time, and the drawing
+helpers the other figures share (crashlab.tools.animation, the Monte Carlo figure): the road (friction zones
+and road lines), barriers, the point of impact, a scale bar."""
 from __future__ import annotations
 
 import numpy as np
@@ -24,6 +25,31 @@ def draw_zones(ax, road):
                 color="0.25", zorder=0)
 
 
+# how each kind of road line is drawn (colour, width, default style); a line's own `style` replaces the style
+ROAD_LINE_LOOK = {"edge": ("0.15", 1.6, "solid"), "kerb": ("0.35", 3.0, "solid"),
+                  "lane": ("0.45", 1.0, "dashed"), "centre": ("darkgoldenrod", 1.4, "dashed")}
+_LINESTYLE = {"solid": "-", "dashed": (0, (6, 4)), "dotted": ":"}
+
+
+def draw_road_lines(ax, road, legend: bool = True):
+    """The road's lines (edges, kerbs, lane markings, centre lines: crashlab.scene.RoadLine) under everything
+    else, one LineCollection each, added without widening the view (the vehicles set it); one legend entry
+    per kind drawn (legend=False: none)."""
+    from matplotlib.collections import LineCollection
+    shown = set()
+    for line in getattr(road, "lines", ()):
+        colour, width, style = ROAD_LINE_LOOK[line.kind]
+        label = f"road {line.kind}" if legend and line.kind not in shown else None
+        shown.add(line.kind)
+        ax.add_collection(LineCollection([np.asarray(line.points, dtype=float)], colors=colour, linewidths=width,
+                                         linestyles=_LINESTYLE[line.style or style], zorder=0.5, label=label),
+                          autolim=False)
+
+
+def draw_road(ax, road, legend: bool = True):
+    """The road under a top view: its friction zones shaded, then its lines."""
+    draw_zones(ax, road)
+    draw_road_lines(ax, road, legend)
 
 
 def draw_barriers(ax, barriers):
@@ -65,7 +91,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
 
     fig, ax = plt.subplots(figsize=(8, 6))
     colours = vehicle_colours()
-    draw_zones(ax, scene.road)
+    draw_road(ax, scene.road)
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]
         arrow_len = 0.8 * v.spec.cg_to_front
@@ -157,7 +183,7 @@ def compare_view(scene, outcomes: dict, path, title=None):
     fig, ax = plt.subplots(figsize=(8, 6))
     colours = vehicle_colours()
     styles = ["-", "--", "-.", ":"]
-    draw_zones(ax, scene.road)
+    draw_road(ax, scene.road)
     draw_barriers(ax, scene.barriers)
     for v in scene.vehicles:
         poly = vehicle_outline(v)
@@ -197,3 +223,46 @@ def compare_view(scene, outcomes: dict, path, title=None):
                     label=f"{src}: {name}, heading {wrap_deg(ref['heading']):.1f} deg")
             _arrow(ax, ref["x"], ref["y"], h, 0.8 * v.spec.cg_to_front, g, lw=3, alpha=0.5)
     _finish(fig, ax, title or f"{scene.name}: " + ", ".join(outcomes), path)
+
+
+def distance_travelled(x, y) -> np.ndarray:
+    """m, the length of the CG path from its first sample to each sample (cumulative sum of the chords)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    return np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))]) if len(x) else np.empty(0)
+
+
+def time_histories(scene, outcome, path, title=None):
+    """Speed [km/h], distance travelled [m] and heading [deg, continuous] of every vehicle's CG against time
+    [s], from the outcome's recorded trajectories, one colour per vehicle as in the top views; each impact a
+    vertical line. Raises ValueError when the outcome recorded no trajectories (a batch run)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tr = outcome.trajectories or {}
+    if not any(len(tr.get(v.name, {}).get("t", ())) for v in scene.vehicles):
+        raise ValueError(f"model {outcome.model!r} recorded no trajectories to plot")
+    colours = vehicle_colours()
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    for i, v in enumerate(scene.vehicles):
+        t = tr.get(v.name)
+        if t is None or not len(t["t"]):
+            continue
+        c = colours[i % len(colours)]
+        axes[0].plot(t["t"], np.hypot(t["vx"], t["vy"]) * 3.6, color=c, label=v.name)
+        axes[1].plot(t["t"], distance_travelled(t["x"], t["y"]), color=c, label=v.name)
+        axes[2].plot(t["t"], np.degrees(np.asarray(t["heading"], dtype=float)), color=c, label=v.name)
+    times = sorted({round(r["t"], 9) for r in outcome.impact_rows}) if outcome.outcome_ok else []
+    for ax in axes:
+        for k, ti in enumerate(times):
+            ax.axvline(ti, color="k", lw=0.8, ls="--", label="impact" if k == 0 and ax is axes[0] else None)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("speed [km/h]")
+    axes[1].set_ylabel("distance travelled [m]")
+    axes[2].set_ylabel("heading [deg]")
+    axes[2].set_xlabel("t [s]")
+    axes[0].legend(fontsize=8, loc="upper right")
+    axes[0].set_title(title or f"{scene.name} ({outcome.model}): speed, distance and heading against time")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
