@@ -208,8 +208,8 @@ def figure(result: MonteCarloResult, path) -> None:
     fig = plt.figure(figsize=(12, max(5.0, 2.6 * len(names))))
     gs = fig.add_gridspec(len(names), 2, width_ratios=(2.2, 1.0))
     ax = fig.add_subplot(gs[:, 0])
-    from crashlab.tools.plotting import draw_zones
-    draw_zones(ax, scene.road)  # friction zones shaded, as in the single run's top view
+    from crashlab.tools.plotting import draw_road
+    draw_road(ax, scene.road)  # friction zones shaded and road lines, as in the single run's top view
     nom = result.nominal
     for i, v in enumerate(scene.vehicles):
         c = colours[i % len(colours)]

@@ -94,10 +94,12 @@ class Study:
     def fingerprint(self) -> dict:
         """What a result depends on, part by part (crashlab.reconstruction.run, "Resume"): part -> digest."""
         # [refine] runs after the search and the posterior and changes neither
-        study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}, "refine": True})
+        study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}, "refine": True,
+                                              "case": True})  # (the case's description changes no result)
         scene = dataclasses.asdict(self.scene)
         for key in ("source", "references"):
             scene.pop(key, None)
+        scene["road"].pop("lines", None)  # road lines are drawn, never simulated
         for v in scene["vehicles"]:
             v.pop("spec", None)
         parts = {"study file": _digest(study), "scene file": _digest(scene)}

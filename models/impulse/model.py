@@ -65,7 +65,7 @@ class ImpulseModel(CollisionModel):
     0 deg and -3 or 105 deg at +-0.05 deg; with the zone 53 +- 1 deg over +-0.5 deg, and a search with
     heading evidence finds the truth (twin 2: 0.000 m at ten seeds against 1.04-1.14 m).
     With [impact] point = "engagement" the point and plane come instead from the outlines moved along their
-    velocities until they overlap by the scene's engagement_depth (kernel._engagement, docs/physics.md §4).
+    velocities until they overlap by the scene's engagement_depth (contact._engagement, docs/physics.md §4).
 
     Impact laws (docs/physics.md §3): kudlich-slibar and brach (friction against the initial slip, PC-Crash
     style) or routh (friction follows the slip as it stops, sticks or reverses). For the first two every
@@ -236,6 +236,8 @@ class ImpulseModel(CollisionModel):
             warnings.append("no contact between the vehicles")
         if scene.impact.law != "routh":
             warnings += _slip_warnings(names, P[:, P_MASS], imp, scene.impact.law)
+        if scene.impact.engagement:
+            warnings += _engagement_warnings(names, imp, scene.impact.engagement_depth)
         if scene.impact.restitution_law == SPEED:
             warnings += [w for w in map(range_warning, imp[:, K.I_CLOSING].tolist()) if w]
         return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[K.D_CONTACT_T], None, rows,
@@ -283,4 +285,27 @@ def _slip_warnings(names, mass, imp, law):
                    f"sticking where it cannot stick): delta-V "
                    f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
                    f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
+    return out
+
+
+def _engagement_warnings(names, imp, depth):
+    """A warning per impact that [impact] point = "engagement" could not place as asked (I_ENGAGE,
+    contact._engagement, docs/physics.md §4)."""
+    out = []
+    nv = len(names)
+    for n, r in enumerate(imp):
+        flag = int(r[K.I_ENGAGE])
+        if flag not in (K.ENGAGE_AMBIGUOUS, K.ENGAGE_FALLBACK):
+            continue
+        i, j = int(r[K.I_I]), int(r[K.I_J])
+        what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[K.I_T]:.3f} s)"
+        if flag == K.ENGAGE_AMBIGUOUS:
+            out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal value is "
+                       f"{100.0 * r[K.I_ENGAGE_RATIO]:.0f} % of the larger, above {100.0 * K.AMBIGUOUS_RATIO:.0f} %): the "
+                       "plane of the struck edge at first touch is used; give [impact] point and plane_angle, or "
+                       "another engagement_depth (docs/physics.md §4)")
+        else:
+            out.append(f"{what}: the outlines moved along their velocities never overlap engagement_depth = {depth:g} m "
+                       "(or would not approach there): the contact-zone point and the first-touch contact plane are "
+                       "used (docs/physics.md §4)")
     return out
