@@ -5,6 +5,7 @@ crashlab.uncertainty).
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -231,11 +232,33 @@ def _actions(v, i: int, duration: float, source) -> tuple[Action, ...]:
 
 
 def scene_from_dict(data: dict, source: str | Path = "<scene>", base_dir: Path | None = None) -> Scene:
-    """Validate a scene given as a dict in file units and convert it to SI."""
+    """Validate a scene given as a dict in file units and convert it to SI. An error's key names a vehicle by
+    its name (vehicles.V1.overrides.mass), not its index, where the file gives the name."""
+    try:
+        return _scene_from_dict(data, source, base_dir)
+    except InputError as err:
+        key = _named_key(err.key, data)
+        if key == err.key:
+            raise
+        raise InputError(err.file, key, err.problem) from None
+
+
+def _named_key(key: str, data) -> str:
+    """vehicles.<i>.rest with vehicles.<name>.rest where the i-th vehicle table has a name."""
+    m = re.match(r"^vehicles\.(\d+)(\..*)?$", key)
+    vehicles = data.get("vehicles") if isinstance(data, dict) else None
+    if not m or not isinstance(vehicles, list) or int(m.group(1)) >= len(vehicles):
+        return key
+    name = vehicles[int(m.group(1))].get("name") if isinstance(vehicles[int(m.group(1))], dict) else None
+    usable = isinstance(name, str) and 0 < len(name) <= 64 and name.isprintable() and m.group(2) != ".name"
+    return f"vehicles.{name}{m.group(2) or ''}" if usable else key
+
+
+def _scene_from_dict(data: dict, source, base_dir) -> Scene:
     try:
         f = SceneFile.model_validate(data)
     except ValidationError as err:
-        raise pydantic_error(source, err) from None
+        raise pydantic_error(source, err, schema=SceneFile) from None
     names = [v.name for v in f.vehicles]
     for i, n in enumerate(names):
         if names.index(n) != i:

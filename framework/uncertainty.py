@@ -126,7 +126,7 @@ def parse(raw: Sequence, scene, source: str | Path = "<scene>", prefix: str = "u
         try:
             e = UncertainFile.model_validate(entry)
         except ValidationError as err:
-            raise pydantic_error(source, err, key + ".") from None
+            raise pydantic_error(source, err, key + ".", UncertainFile) from None
         try:
             f = fields.resolve(scene, e.field)
             lo, hi = fields.field_range(scene, f)

@@ -9,8 +9,10 @@ together after the single fields.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import tomllib
+import typing
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Literal
@@ -266,13 +268,42 @@ def _shown(value) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def pydantic_error(file, err: ValidationError, prefix: str = "") -> InputError:
-    """The first validation error as one InputError line (file, dotted key, problem)."""
+def _model_in(annotation):
+    """The pydantic model an annotation holds (itself, or inside list[...], X | None, tuple[...]), or None."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        found = _model_in(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def keys_at(schema, loc) -> list[str]:
+    """The keys the table at `loc` (a pydantic error's location, list indices included) of a file with the
+    pydantic schema `schema` accepts; [] where unknown."""
+    for part in loc:
+        if isinstance(part, int) or schema is None:
+            continue
+        field = schema.model_fields.get(part) or next(
+            (f for f in schema.model_fields.values() if f.alias == part), None)
+        schema = None if field is None else _model_in(field.annotation)
+    if schema is None:
+        return []
+    return [f.alias or name for name, f in schema.model_fields.items()]
+
+
+def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) -> InputError:
+    """The first validation error as one InputError line (file, dotted key, problem); with the file's pydantic
+    `schema`, an unknown key gets the nearest known one ("did you mean").)"""
     first = err.errors()[0]
     key = ".".join(str(p) for p in first["loc"]) or "(top level)"
     msg = first["msg"].removeprefix("Value error, ")
     if first["type"] == "extra_forbidden":
         msg = "unknown key"
+        close = difflib.get_close_matches(str(first["loc"][-1]), keys_at(schema, first["loc"][:-1]), n=1)
+        if close:
+            msg += f"; did you mean {close[0]!r}?"
     elif first["type"] == "missing":
         msg = "missing key"
     elif first["type"] == "string_pattern_mismatch":
@@ -288,7 +319,7 @@ def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None
     try:
         spec = VehicleFile.model_validate(data)
     except ValidationError as err:
-        raise pydantic_error(file, err, prefix) from None
+        raise pydantic_error(file, err, prefix, VehicleFile) from None
     hit = _non_finite(data if overridden is None else overridden)
     if hit is not None:
         raise InputError(file, prefix + ".".join(map(str, hit)), "Input should be a finite number")

@@ -103,7 +103,7 @@ class Posterior:
         try:
             self.settings = InferSection.model_validate(extras.get("infer", {}))
         except ValidationError as err:
-            raise pydantic_error(path, err, "infer.") from None
+            raise pydantic_error(path, err, "infer.", InferSection) from None
         scene = study.scene
         declared = uncertainty.parse(extras["uncertain"], scene, path) if "uncertain" in extras else ()
         in_scene = tuple(getattr(scene, "uncertain", ()) or ())
@@ -129,7 +129,7 @@ class Posterior:
             try:
                 qf = QuestionFile.model_validate(q)
             except ValidationError as err:
-                raise pydantic_error(path, err, f"questions.{k}.") from None
+                raise pydantic_error(path, err, f"questions.{k}.", QuestionFile) from None
             question = parse_question(qf.expr, self.labels, path, f"questions.{k}.expr")
             question.name = qf.name or qf.expr
             self.questions.append(question)

@@ -201,7 +201,7 @@ def load_study(path) -> Study:
     try:
         spec = StudyFile.model_validate(data)
     except ValidationError as err:
-        raise pydantic_error(path, err) from None
+        raise pydantic_error(path, err, schema=StudyFile) from None
     if spec.model not in available_models():
         raise InputError(path, "model", str(UnknownPluginError("model", spec.model, available_models())))
     if spec.optimizer.name not in available_optimizers():

@@ -222,11 +222,11 @@ heading = 180.0
 BAD = {
     # case: (file text or None for a missing file, extra CLI args, text the key part must contain)
     "malformed": (SCENE.replace('name = "bad"', 'name = "bad'), [], "(syntax)"),
-    "missing_key": (SCENE.replace('vehicle = "clio"\n', ""), [], "vehicles.0.vehicle"),
-    "mistyped_key": (SCENE.replace("speed = 50.0", "sped = 50.0"), [], "vehicles.0.sped"),
-    "unknown_vehicle": (SCENE.replace('"clio"', '"clo"'), [], "vehicles.0"),
+    "missing_key": (SCENE.replace('vehicle = "clio"\n', ""), [], "vehicles.V1.vehicle"),
+    "mistyped_key": (SCENE.replace("speed = 50.0", "sped = 50.0"), [], "vehicles.V1.sped"),
+    "unknown_vehicle": (SCENE.replace('"clio"', '"clo"'), [], "vehicles.V1"),
     "unknown_model": (SCENE, ["--model", "impuls"], "--model"),
-    "negative_mass": (SCENE + "[vehicles.overrides]\nmass = -1.0\n", [], "vehicles.0.overrides.mass"),
+    "negative_mass": (SCENE + "[vehicles.overrides]\nmass = -1.0\n", [], "vehicles.V1.overrides.mass"),
     "overlap": (SCENE + SECOND, [], "vehicles"),
     "missing_file": (None, [], "scene"),
 }
@@ -252,5 +252,5 @@ def test_bad_input_one_line_status_2(tmp_path, case, command):
     line = lines[0]
     assert str(path) in line, "names the file"
     assert f": {key}: " in line, f"names the key {key}: {line}"
-    if case in ("unknown_vehicle", "unknown_model"):
+    if case in ("unknown_vehicle", "unknown_model", "mistyped_key"):
         assert "did you mean" in line

@@ -46,9 +46,9 @@ def scene_text(extra: str = "", top: str = "") -> str:
 
 
 @pytest.mark.parametrize("extra, key", [
-    ("[vehicles.overrides]\nmas = 1200.0", "vehicles.0.overrides.mas"),        # unknown vehicle key
-    ("[vehicles.overrides]\nmultibody = 3", "vehicles.0.overrides.multibody"),  # a table replaced by a value
-    ("x = nan", "vehicles.0.x"),                                               # NaN
+    ("[vehicles.overrides]\nmas = 1200.0", "vehicles.V1.overrides.mas"),        # unknown vehicle key
+    ("[vehicles.overrides]\nmultibody = 3", "vehicles.V1.overrides.multibody"),  # a table replaced by a value
+    ("x = nan", "vehicles.V1.x"),                                               # NaN
 ])
 def test_bad_scene_values(tmp_path, extra, key):
     f = tmp_path / "s.toml"
@@ -156,28 +156,28 @@ def refused(capsys, file, key, *argv):
 
 @pytest.mark.parametrize("top, extra, key", [
     # a traceback before (ZeroDivisionError in the outline geometry; math domain error in sin/cos)
-    ("", "x = 1e30", "vehicles.0.x"),
-    ("", "heading = 1e308", "vehicles.0.heading"),
+    ("", "x = 1e30", "vehicles.V1.x"),
+    ("", "heading = 1e308", "vehicles.V1.heading"),
     ("", "[[barriers]]\nx = 1e30\ny = 0.0\nlength = 1.0\nwidth = 1.0", "barriers.0.x"),
     ("", "[[barriers]]\nx = 50.0\ny = 0.0\nheading = 1e308\nlength = 1.0\nwidth = 1.0", "barriers.0.heading"),
     ("[impact]\npoint = [0.0, 0.0]\nplane_angle = 1e308", "", "impact.plane_angle"),
     # accepted before: ran with a spinning, a blown-up or an infinite vehicle
-    ("", "yaw_rate = 1e308", "vehicles.0.yaw_rate"),
+    ("", "yaw_rate = 1e308", "vehicles.V1.yaw_rate"),
     ("", "[[barriers]]\nx = 50.0\ny = 0.0\nlength = 1e30\nwidth = 1.0", "barriers.0.length"),
-    ("", "[vehicles.overrides]\nmass = inf", "vehicles.0.overrides.mass"),
-    ("", "[vehicles.overrides]\nyaw_inertia = -inf", "vehicles.0.overrides.yaw_inertia"),
-    ("", "[vehicles.overrides]\ncornering_stiffness = inf", "vehicles.0.overrides.cornering_stiffness"),
-    ("", "[vehicles.overrides]\nmass = 1e30", "vehicles.0.overrides.mass"),
-    ("", "[vehicles.overrides]\nyaw_inertia = 1e-9", "vehicles.0.overrides.yaw_inertia"),
-    ("", "[vehicles.overrides.multibody.chassis]\nmass = inf", "vehicles.0.overrides.multibody.chassis.mass"),
+    ("", "[vehicles.overrides]\nmass = inf", "vehicles.V1.overrides.mass"),
+    ("", "[vehicles.overrides]\nyaw_inertia = -inf", "vehicles.V1.overrides.yaw_inertia"),
+    ("", "[vehicles.overrides]\ncornering_stiffness = inf", "vehicles.V1.overrides.cornering_stiffness"),
+    ("", "[vehicles.overrides]\nmass = 1e30", "vehicles.V1.overrides.mass"),
+    ("", "[vehicles.overrides]\nyaw_inertia = 1e-9", "vehicles.V1.overrides.yaw_inertia"),
+    ("", "[vehicles.overrides.multibody.chassis]\nmass = inf", "vehicles.V1.overrides.multibody.chassis.mass"),
     ("[reference.pc.V1]\nx = 1e308", "", "reference.pc.V1.x"),
     ("[reference.pc.V1]\nhedaing = 30.0", "", "reference.pc.V1.hedaing"),  # a typo, ignored before
     # booleans are not numbers (true was a friction of 1.0, 1 a stop_at_rest)
     ("[road]\nfriction = true", "", "road.friction"),
     ("[impact]\nfriction = true", "", "impact.friction"),
     ("stop_at_rest = 1", "", "stop_at_rest"),
-    ("", "steer = true", "vehicles.0.steer"),
-    ("", "[vehicles.overrides]\nmass = true", "vehicles.0.overrides.mass"),
+    ("", "steer = true", "vehicles.V1.steer"),
+    ("", "[vehicles.overrides]\nmass = true", "vehicles.V1.overrides.mass"),
 ])
 def test_scene_numbers_finite_and_bounded(tmp_path, capsys, top, extra, key):
     f = tmp_path / "s.toml"
@@ -189,7 +189,7 @@ def test_scene_numbers_finite_and_bounded(tmp_path, capsys, top, extra, key):
                                       ("track", "1.9"), ("cg_height", "2.0"), ("wheel_radius", "nan")])
 def test_a_vehicle_file_and_an_override_pass_the_same_checks(tmp_path, capsys, key, bad):
     """The same bad value in a vehicle file (blamed on the vehicle file) and as an override of a good file
-    (blamed on the scene, vehicles.0.overrides.KEY) gives the same problem."""
+    (blamed on the scene, vehicles.V1.overrides.KEY) gives the same problem."""
     good = (REPO / "framework" / "vehicles" / "clio.toml").read_text()
     line = next(s for s in good.splitlines() if s.startswith(f"{key} ="))
     (tmp_path / "bad.toml").write_text(good.replace(line, f"{key} = {bad}"))
@@ -199,7 +199,7 @@ def test_a_vehicle_file_and_an_override_pass_the_same_checks(tmp_path, capsys, k
     override = scene_text(f"[vehicles.overrides]\n{key} = {bad}")
     f2.write_text(override.replace('"clio"', '"good.toml"'))
     in_file = refused(capsys, tmp_path / "bad.toml", key, "simulate", f1)
-    in_override = refused(capsys, f2, f"vehicles.0.overrides.{key}")
+    in_override = refused(capsys, f2, f"vehicles.V1.overrides.{key}")
     assert in_file.split(f": {key}: ")[1] == in_override.split(f".{key}: ")[1]
 
 
@@ -210,7 +210,7 @@ def test_mass_override_refused_when_the_inertias_are_not_scaled(tmp_path, capsys
     f.write_text(scene_text("[vehicles.overrides]\nmass = 3000.0"))
     assert crashlab.load_scene(f).vehicles[0].spec.mass == 3000.0
     f.write_text(scene_text("[vehicles.overrides]\nmass = 60000.0"))
-    line = refused(capsys, f, "vehicles.0.overrides.mass")
+    line = refused(capsys, f, "vehicles.V1.overrides.mass")
     assert "yaw_inertia" in line and "radius of gyration" in line
 
 
@@ -222,7 +222,7 @@ def test_bad_scene_of_a_study_is_refused_at_load(tmp_path):
     study.write_text(STUDY.format(free=FREE_SPEED, extra="").replace(SIDE.as_posix(), scene.as_posix()))
     with pytest.raises(crashlab.InputError) as err:
         load_study(study)
-    assert err.value.file == str(scene) and err.value.key == "vehicles.1.heading"
+    assert err.value.file == str(scene) and err.value.key == "vehicles.V2.heading"
 
 
 def test_an_input_error_is_one_line():

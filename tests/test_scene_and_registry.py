@@ -65,20 +65,20 @@ def test_negative_mass_names_file_and_key(tmp_path):
     with pytest.raises(crashlab.InputError) as err:
         crashlab.load_scene(p)
     msg = str(err.value)
-    assert str(p) in msg and "vehicles.0.overrides.mass" in msg
-    assert err.value.key == "vehicles.0.overrides.mass"
+    assert str(p) in msg and "vehicles.V1.overrides.mass" in msg
+    assert err.value.key == "vehicles.V1.overrides.mass"
 
 
 def test_unknown_vehicle_did_you_mean(tmp_path):
     p = write(tmp_path, BASE.format(vehicle="cleo", extra=""))
     with pytest.raises(crashlab.InputError, match="did you mean 'clio'") as err:
         crashlab.load_scene(p)
-    assert str(p) in str(err.value) and err.value.key == "vehicles.0"
+    assert str(p) in str(err.value) and err.value.key == "vehicles.V1"
 
 
-@pytest.mark.parametrize("extra, key", [("sped = 50.0", "vehicles.0.sped"),
-                                        ("wheels = \"blocked\"", "vehicles.0.wheels"),
-                                        ("speed = -3.0", "vehicles.0.speed")])
+@pytest.mark.parametrize("extra, key", [("sped = 50.0", "vehicles.V1.sped"),
+                                        ("wheels = \"blocked\"", "vehicles.V1.wheels"),
+                                        ("speed = -3.0", "vehicles.V1.speed")])
 def test_bad_keys_named(tmp_path, extra, key):
     text = BASE.format(vehicle="clio", extra=extra).replace("speed = 50.0\n", "")
     with pytest.raises(crashlab.InputError) as err:
@@ -172,17 +172,17 @@ def test_zero_friction_and_ints_accepted(make_scene):
 
 
 @pytest.mark.parametrize("vehicle, key", [
-    ({"x": 1e5 + 1}, "vehicles.0.x"), ({"y": -1e5 - 1}, "vehicles.0.y"),
-    ({"heading": 3601.0}, "vehicles.0.heading"), ({"yaw_rate": -721.0}, "vehicles.0.yaw_rate"),
-    ({"speed": 401.0}, "vehicles.0.speed"), ({"steer": 46.0}, "vehicles.0.steer"),
-    ({"overrides": {"mass": 49.0}}, "vehicles.0.overrides.mass"),
-    ({"overrides": {"mass": 60001.0}}, "vehicles.0.overrides.mass"),
-    ({"overrides": {"length": 31.0}}, "vehicles.0.overrides.length"),
-    ({"overrides": {"cg_to_front_axle": 1.9}}, "vehicles.0.overrides.cg_to_front_axle"),  # axle outside
+    ({"x": 1e5 + 1}, "vehicles.V1.x"), ({"y": -1e5 - 1}, "vehicles.V1.y"),
+    ({"heading": 3601.0}, "vehicles.V1.heading"), ({"yaw_rate": -721.0}, "vehicles.V1.yaw_rate"),
+    ({"speed": 401.0}, "vehicles.V1.speed"), ({"steer": 46.0}, "vehicles.V1.steer"),
+    ({"overrides": {"mass": 49.0}}, "vehicles.V1.overrides.mass"),
+    ({"overrides": {"mass": 60001.0}}, "vehicles.V1.overrides.mass"),
+    ({"overrides": {"length": 31.0}}, "vehicles.V1.overrides.length"),
+    ({"overrides": {"cg_to_front_axle": 1.9}}, "vehicles.V1.overrides.cg_to_front_axle"),  # axle outside
     ({"overrides": {"multibody": {"chassis": {"shape_exponents": [1.0, 4.0]}}}},
-     "vehicles.0.overrides.multibody.chassis.shape_exponents.0"),
+     "vehicles.V1.overrides.multibody.chassis.shape_exponents.0"),
     ({"overrides": {"multibody": {"suspension": {"stiffness": "stiff"}}}},
-     "vehicles.0.overrides.multibody.suspension.stiffness"),
+     "vehicles.V1.overrides.multibody.suspension.stiffness"),
 ])
 def test_documented_bounds(make_scene, vehicle, key):
     """Each bound of the Field descriptions, just outside it."""
