@@ -8,8 +8,8 @@ contact branch) as the root of the derivative
 angle and solved by Brent's method (zeroin): about 7 support-point evaluations to ~1e-12 rad instead of
 the 42 support values of a golden section whose comparisons stop resolving the flat maximum at ~1e-8 rad.
 When no maximum is bracketed within WARM_HALF (two extrema close together, a box corner), the warm
-golden-section search of the window runs as before. Why horizontal: chassis_contact.py. The general 3D narrow phase (common-normal Newton,
-SLSQP fallback) is a test tool in tests/narrow_phase_3d.py.
+golden-section search of the window runs as before. Why horizontal: chassis_contact.py. The general 3D
+narrow phase (common-normal Newton, SLSQP fallback) is a test tool in tests/narrow_phase_3d.py.
 """
 import math
 
