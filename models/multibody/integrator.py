@@ -1,4 +1,4 @@
-"""The time loop: Dormand-Prince 5(4) with FSAL and PI-free step control, hand-rolled in numba, over all
+"""The time loop: Dormand-Prince 5(4) with FSAL and PI step-size control (PI_BETA), hand-rolled in numba, over all
 vehicles of a scene at once (one step size, error norm over the awake vehicles).
 
 Scene awareness: step sizes grow up to h_max while nothing happens; a vehicle whose chassis has been
