@@ -21,7 +21,6 @@ from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
 from crashlab.models.common.crush_structure import clamp_restitution, speed_law_setting, structure_row
-from crashlab.models.common.rotations import from_matrix
 from crashlab.models.common.tyre_moments import OMEGA_BRAKE, brake_moment, rolling_resistance_moment
 from crashlab.models.common.vehicle_3d import CORNERS, NW, T_ETA, T_R1, T_R2, build_scene_vehicles, steer_angles
 from crashlab.models.common.wheel_states import BRAKED, LOCKED
@@ -29,6 +28,8 @@ from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
 from crashlab.restitution import E_SPEED_LAW, SPEED
 from crashlab.units import G
+
+from .chassis_state import chassis_states
 
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
 LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
@@ -242,6 +243,10 @@ class _Run:
         # vehicles whose wheel state, brake or steer can change in the run
         self.driven = [v for v in range(nv) if self.timed[v] or self.items[v]["locks"]]
         mbs.Assemble()
+        # the chassis states for the contact code: exudyn's coordinate vectors (chassis_state.py)
+        self.chassis_idx = np.array([mbs.GetNodeODE2Index(it["chassis"]["nodeNumber"]) for it in self.items],
+                                    dtype=np.int64)
+        self.q_ref = np.array(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
 
     # ------------------------------------------------------------------ state access
     def _chassis(self, v):
@@ -294,14 +299,9 @@ class _Run:
         """Read the chassis states exudyn holds now and evaluate every contact there: returns (FX (nv, 7):
         global force, moment about the chassis CG, power per chassis; the pairs' outputs psg; the road outputs
         RSG), all copies."""
-        for v in range(self.nv):
-            r, A, vel, om = self._chassis(v)
-            self.chassisA[v] = A
-            y = self.Y[v]
-            y[0:3] = r
-            y[3:7] = from_matrix(A)
-            y[7:10] = vel
-            y[10:13] = A.T @ om
+        sd = self.mbs.systemData
+        chassis_states(self.q_ref, sd.GetODE2Coordinates(), sd.GetODE2Coordinates_t(), self.chassis_idx, self.Y,
+                       self.chassisA)
         CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = self.CT
         psg = PSG[0]
         if PP.shape[0]:
@@ -567,7 +567,7 @@ class _Run:
         exu, mbs, o, scene = self.exu, self.mbs, self.o, self.scene
         nv = self.nv
         self.head = np.array([vs.heading for vs in scene.vehicles], dtype=float)
-        self.chassisA = [np.eye(3) for _ in range(nv)]
+        self.chassisA = np.tile(np.eye(3), (nv, 1, 1))
         self.locked = np.array([vs.wheels == "locked" for vs in scene.vehicles])
         self.mode = np.array([DI.effective_mode(DI.WHEEL_CODES[vs.wheels], False) for vs in scene.vehicles])
         self.contact = np.full((nv, 4), np.nan)

@@ -9,8 +9,9 @@ State y of one vehicle (nb bodies, nw wheels):
 Per body M = diag(m I3, J') (principal axes), g = [f ; n' - w' x J'w'].
   [M  D^T] [v_dot]   [g                         ]
   [D   0 ] [lam  ] = [gamma - 2 alpha Phi_dot - beta^2 Phi]
-solved as (D M^-1 D^T) lam = D M^-1 g - rhs (Cholesky; the Schur matrix is built from the two 6-blocks
-of each row, exploiting that a row touches only two bodies), then v_dot = M^-1 (g - D^T lam).
+solved as (D M^-1 D^T) lam = D M^-1 g - rhs (block-sparse Cholesky over the joints, constraint_solve.py: a
+row touches only two bodies, a block of the Schur matrix is non-zero only for joints sharing a body), then
+v_dot = M^-1 (g - D^T lam).
 """
 import math
 
@@ -21,7 +22,8 @@ from crashlab.models.common.driver_inputs import road_friction
 from crashlab.models.common.rotations import cross, p_dot, rotation_into
 from crashlab.models.common.vehicle_3d import B_IXX, B_IYY, B_IZZ, B_MASS, T_KZ
 
-from .joints import joint_rows
+from .constraint_solve import assemble, block_pattern, factor, solve
+from .joints import J_I, J_J, joint_rows
 from .spring_damper import spring_damper, spring_energy
 from .tyre import deflection, tyre
 
@@ -35,11 +37,14 @@ from .tyre import deflection, tyre
 (C_ROAD_CHI, C_ROAD_N) = range(25, 27)
 # chassis contact law (chassis_contact.LAW_*) and the restitution of the structure law's unloading (§13a)
 (C_LAW, C_REST) = range(27, 29)
-N_CFG = 29
+# beta of the PI step-size control (integrator.simulate)
+C_PI_BETA = 29
+N_CFG = 30
 # aux outputs of one evaluation (per vehicle)
 AUX_FZ, AUX_DRIFT_POS, AUX_DRIFT_ANG = 0, 4, 5
 N_AUX = 6
 MAX_ROWS = 48
+MAX_JOINTS = 16
 
 
 def sizes(nb, nw):
@@ -62,11 +67,12 @@ def unpack(y, nb, A, R, V, W):
 
 @njit(cache=True)
 def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, aux, fext, phit, brake,
-        ZC, ZS, ZM, ZB):
+        ZC, ZS, ZM, ZB, MD, jst, JB, NZ, IM):
     """fext: external load on the chassis (body 0): global force [0:3], global moment about its CG [3:6],
     its power [6] (added to the non-conservative work). brake: the driver's brake fraction b of the rolling
     wheels now; ZC, ZS, ZM, ZB: the road's friction zones (common/driver_inputs.pack_zones): each tyre takes
-    the friction at its contact point (docs/physics.md §2a)."""
+    the friction at its contact point (docs/physics.md §2a). MD, jst, JB, NZ: work arrays of the constraint
+    solve (constraint_solve.py); IM (nb, 6): the inverse masses and inertias."""
     nb, nw = BODY.shape[0], TYR.shape[0]
     nq, nvq = 7 * nb, 13 * nb
     unpack(y, nb, A, R, V, W)
@@ -102,11 +108,23 @@ def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos
         aux[AUX_FZ + k] = fz
         pnc += pw
     dy[nvq + 2 * nw] = pnc
-    # constraints
+    # constraints, leaf joints first (the knuckle-wheel joints come after the chassis-knuckle joints in the
+    # table): the Cholesky factor of the Schur matrix then has no fill-in (constraint_solve.py)
     m = 0
     phit[:] = 0.0
-    for k in range(JNT.shape[0]):
+    nj = JNT.shape[0]
+    for q in range(nj):
+        k = nj - 1 - q
+        jst[q] = m
+        JB[q, 0], JB[q, 1] = int(JNT[k, J_I]), int(JNT[k, J_J])
         m = joint_rows(JNT[k], A, R, V, W, D, phi, gam, rowb, ispos, m, phit)
+    jst[nj] = m
+    # inverse masses and inertias (M^-1 is diagonal per body)
+    for b in range(nb):
+        im = 1.0 / BODY[b, B_MASS]
+        for k in range(3):
+            IM[b, k] = im
+            IM[b, 3 + k] = 1.0 / BODY[b, 1 + k]
     dpos, dang = 0.0, 0.0
     a2, b2 = 2.0 * cfg[C_ALPHA], cfg[C_BETA] * cfg[C_BETA]
     for r in range(m):
@@ -115,52 +133,22 @@ def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos
         mq = 0.0
         for k in range(3):
             phid += D[r, k] * V[i, k] + D[r, 3 + k] * W[i, k] + D[r, 6 + k] * V[j, k] + D[r, 9 + k] * W[j, k]
-        # D M^-1 g
-        mi, mj = BODY[i, B_MASS], BODY[j, B_MASS]
-        for k in range(3):
-            mq += D[r, k] * Q[i, k] / mi + D[r, 6 + k] * Q[j, k] / mj
-            mq += D[r, 3 + k] * Q[i, 3 + k] / BODY[i, 1 + k] + D[r, 9 + k] * Q[j, 3 + k] / BODY[j, 1 + k]
+        # D M^-1 (per row, for the Schur matrix too) and D M^-1 g
+        for k in range(6):
+            MD[r, k] = D[r, k] * IM[i, k]
+            MD[r, 6 + k] = D[r, 6 + k] * IM[j, k]
+            mq += MD[r, k] * Q[i, k] + MD[r, 6 + k] * Q[j, k]
         lam[r] = mq - (gam[r] - a2 * phid - b2 * phi[r])
         if ispos[r]:
             dpos = max(dpos, abs(phi[r]))
         else:
             dang = max(dang, abs(phi[r]))
     aux[AUX_DRIFT_POS], aux[AUX_DRIFT_ANG] = dpos, dang
-    # Schur complement S = D M^-1 D^T (only pairs of rows that share a body)
-    for r in range(m):
-        for c in range(r + 1):
-            acc = 0.0
-            for sr in range(2):
-                br = rowb[r, sr]
-                for sc in range(2):
-                    if rowb[c, sc] == br:
-                        mb = BODY[br, B_MASS]
-                        for k in range(3):
-                            acc += D[r, 6 * sr + k] * D[c, 6 * sc + k] / mb
-                            acc += D[r, 6 * sr + 3 + k] * D[c, 6 * sc + 3 + k] / BODY[br, 1 + k]
-            S[r, c] = acc
-    # Cholesky S = L L^T in place (lower triangle), then solve
-    for j in range(m):
-        d = S[j, j]
-        for k in range(j):
-            d -= S[j, k] * S[j, k]
-        d = math.sqrt(max(d, 1e-300))
-        S[j, j] = d
-        for i in range(j + 1, m):
-            acc = S[i, j]
-            for k in range(j):
-                acc -= S[i, k] * S[j, k]
-            S[i, j] = acc / d
-    for i in range(m):
-        acc = lam[i]
-        for k in range(i):
-            acc -= S[i, k] * lam[k]
-        lam[i] = acc / S[i, i]
-    for i in range(m - 1, -1, -1):
-        acc = lam[i]
-        for k in range(i + 1, m):
-            acc -= S[k, i] * lam[k]
-        lam[i] = acc / S[i, i]
+    # (D M^-1 D^T) lam = D M^-1 g - rhs
+    block_pattern(JB, nj, NZ)
+    assemble(D, MD, jst, JB, nj, NZ, S)
+    factor(S, jst, nj, NZ)
+    solve(S, jst, nj, NZ, lam)
     # reactions and accelerations
     for r in range(m):
         i, j = rowb[r, 0], rowb[r, 1]
@@ -169,9 +157,8 @@ def rhs(y, dy, BODY, JNT, SPR, TYR, cfg, A, R, V, W, Q, D, phi, gam, rowb, ispos
             Q[j, k] -= D[r, 6 + k] * lam[r]
     for b in range(nb):
         o = nq + 6 * b
-        for k in range(3):
-            dy[o + k] = Q[b, k] / BODY[b, B_MASS]
-            dy[o + 3 + k] = Q[b, 3 + k] / BODY[b, 1 + k]
+        for k in range(6):
+            dy[o + k] = Q[b, k] * IM[b, k]
 
 
 @njit(cache=True)

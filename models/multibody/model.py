@@ -125,6 +125,7 @@ class MultibodyModel(CollisionModel):
         cfg[E.C_NEXP], cfg[E.C_VMIN] = o.contact_exponent, o.v_min
         cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS] = FRICTION_V0, FRICTION_V1, FRICTION_VS
         cfg[E.C_ROAD_CHI], cfg[E.C_ROAD_N] = RC.road_chi(), RC.N_ROAD
+        cfg[E.C_PI_BETA] = I.PI_BETA
         return cfg
 
     def settled(self, veh):
