@@ -116,6 +116,7 @@ class ExudynModel(CollisionModel):
     """
 
     name = "exudyn"
+    compiles = "common"  # the shared chassis contact, compiled with numba (models/common)
     driver_inputs = True   # actions and friction zones (docs/physics.md §2a): see _Run._driver
     # the guard's interpenetration check compares rectangular outlines; the contact bodies here are
     # superellipsoids (2/eps = 4) whose rounded corners lie up to ~0.3 m inside the rectangle's: a car at rest

@@ -70,6 +70,7 @@ class MultibodyModel(CollisionModel):
     (documented defaults, the same for every scene) are `Options` below, the model is described in README.md."""
 
     name = "multibody"
+    compiles = "multibody"  # its numba kernels (the command line announces a cold compile)
     driver_inputs = True    # actions and friction zones (docs/physics.md §2a; README "Driver actions")
     # the guard's interpenetration check compares rectangular outlines; the contact bodies here are
     # superellipsoids (2/eps = 4) whose rounded corners lie up to ~0.3 m inside the rectangle's: an SUV at rest
