@@ -259,6 +259,11 @@ def cmd_infer(args) -> int:
           f"outputs in {args.out}")
     if res.refine is not None:
         print(res.refine.summary_line(post.study.variables, wrote=True))
+    if post.counterfactuals:
+        from . import counterfactual
+        for line in counterfactual.summary_lines(counterfactual.run(post, res.samples, args.out)):
+            print(line)
+        print(f"wrote {Path(args.out) / 'counterfactuals.csv'}", file=sys.stderr)
     from .infer_report import chain_warnings
     for w in chain_warnings(res):  # (summary.md has them too)
         print("warning: " + w.removeprefix("**Warning**: "), file=sys.stderr)
@@ -269,4 +274,27 @@ def cmd_infer(args) -> int:
     return 0
 
 
-__all__ = ["CHECKPOINT_FORMAT", "PosteriorResult", "cmd_infer", "run_posterior"]
+__all__ = ["CHECKPOINT_FORMAT", "PosteriorResult", "cmd_avoid", "cmd_infer", "run_posterior"]
+
+
+def cmd_avoid(args) -> int:
+    """`crashlab avoid STUDY --out DIR`: the study's [[counterfactuals]] answered on DIR/posterior.csv, the draws
+    of an earlier `crashlab infer STUDY --out DIR` (crashlab.reconstruction.counterfactual)."""
+    import pandas as pd
+    post = load_posterior(args.study)
+    if not post.counterfactuals:
+        raise InputError(args.study, "counterfactuals", "the study has no [[counterfactuals]] to answer")
+    path = Path(args.out) / "posterior.csv"
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError) as err:
+        raise InputError(path, "--out", f"no posterior to read ({err}); run crashlab infer STUDY --out DIR first") \
+            from None
+    missing = [lab for lab in post.labels if lab not in table.columns]
+    if missing:
+        raise InputError(path, missing[0], "a variable of the study is not in this posterior (another study?)")
+    from . import counterfactual
+    for line in counterfactual.summary_lines(counterfactual.run(post, table[post.labels].to_numpy(float), args.out)):
+        print(line)
+    print(f"wrote {path.parent / 'counterfactuals.csv'}", file=sys.stderr)
+    return 0

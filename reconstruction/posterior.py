@@ -34,6 +34,7 @@ from crashlab import fields, uncertainty
 from crashlab.errors import InputError
 from crashlab.vehicle import pydantic_error
 
+from . import counterfactual
 from .evidence import log_likelihood_of
 from .problem import variable_label
 from .questions import parse_question
@@ -72,7 +73,8 @@ class QuestionFile(BaseModel):
 # ---------------------------------------------------------------- the study file's sections for the posterior
 def _extras(spec) -> dict:
     """The sections only the posterior reads (StudyFile keeps them unchecked; checked here)."""
-    return {k: getattr(spec, k) for k in ("questions", "uncertain", "infer") if k in spec.model_fields_set}
+    return {k: getattr(spec, k) for k in ("questions", "uncertain", "infer", "counterfactuals")
+            if k in spec.model_fields_set}
 
 
 @dataclass
@@ -133,6 +135,7 @@ class Posterior:
             question = parse_question(qf.expr, self.labels, path, f"questions.{k}.expr")
             question.name = qf.name or qf.expr
             self.questions.append(question)
+        self.counterfactuals = counterfactual.parse(extras.get("counterfactuals", []), scene, path)
         self.evaluations = 0
 
     def _truth(self):

@@ -371,6 +371,9 @@ class StudyFile(_Strict):
     # posterior's priors, the search's extra free variables within their support (problem.UncertainVariable)
     infer: dict = Field(default_factory=dict, description="the posterior sampler's settings (crashlab infer)")
     questions: list[dict] = Field(default_factory=list, description="[[questions]] expr = ... (crashlab infer)")
+    counterfactuals: list[dict] = Field(default_factory=list, description="[[counterfactuals]] name, set, shift, "
+                                        "scale, keep: what if ... answered from the posterior's draws (crashlab "
+                                        "infer, crashlab avoid; crashlab.reconstruction.counterfactual)")
     uncertain: list[dict] = Field(default_factory=list,
                                   description="[[uncertain]] parameters: priors of crashlab infer; extra free "
                                   "variables of crashlab reconstruct within their support (uniform and "

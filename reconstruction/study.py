@@ -95,7 +95,8 @@ class Study:
         """What a result depends on, part by part (crashlab.reconstruction.run, "Resume"): part -> digest."""
         # [refine] runs after the search and the posterior and changes neither
         study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}, "refine": True,
-                                              "case": True})  # (the case's description changes no result)
+                                              "case": True, "counterfactuals": True})
+        # (the case's description changes no result; the counterfactuals run after the search and the posterior)
         scene = dataclasses.asdict(self.scene)
         for key in ("source", "references"):
             scene.pop(key, None)

@@ -54,12 +54,12 @@ def test_zone_friction_blends_over_the_patch_and_keeps_the_friction_work():
 
 @pytest.mark.parametrize("change, key, words", [
     ({"vehicles": [{"actions": [{"t": 1.0, "brake": 0.5}, {"t": 0.5, "brake": 1.0}]}]},
-     "vehicles.0.actions.1.t", ["time order"]),
+     "vehicles.V1.actions.1.t", ["time order"]),
     ({"vehicles": [{"actions": [{"t": 1.0, "brake": 0.5, "ramp": 0.8}, {"t": 1.5, "steer": 2.0}]}]},
-     "vehicles.0.actions.0.ramp", ["longer"]),
-    ({"vehicles": [{"actions": [{"t": 1.0, "brake": 1.5}]}]}, "vehicles.0.actions.0.brake", []),
-    ({"vehicles": [{"actions": [{"t": 1.0}]}]}, "vehicles.0.actions.0", ["none"]),
-    ({"vehicles": [{"actions": [{"t": 9.0, "brake": 1.0}]}]}, "vehicles.0.actions.0.t", ["duration"]),
+     "vehicles.V1.actions.0.ramp", ["longer"]),
+    ({"vehicles": [{"actions": [{"t": 1.0, "brake": 1.5}]}]}, "vehicles.V1.actions.0.brake", []),
+    ({"vehicles": [{"actions": [{"t": 1.0}]}]}, "vehicles.V1.actions.0", ["none"]),
+    ({"vehicles": [{"actions": [{"t": 9.0, "brake": 1.0}]}]}, "vehicles.V1.actions.0.t", ["duration"]),
     ({"road": {"zones": [{"friction": 2.5, "polygon": WET["polygon"]}]}}, "road.zones.0.friction", []),
     ({"road": {"zones": [{"friction": 0.3, "polygon": [[0, 0], [1, 0]]}]}}, "road.zones.0.polygon", []),
     ({"road": {"zones": [{"friction": 0.3, "polygon": [[0, 0], [3, 2], [3, 0], [0, 3]]}]}},
@@ -81,7 +81,7 @@ def test_bad_action_from_the_command_line(tmp_path):
     path.write_text('duration = 5.0\n[[vehicles]]\nname = "V1"\nvehicle = "clio"\nspeed = 50.0\n'
                     '[[vehicles.actions]]\nt = 1.0\nbrake = 0.5\n[[vehicles.actions]]\nt = 0.5\nsteer = 2.0\n')
     res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(path)], capture_output=True, text=True)
-    assert_one_error_line(res, path, "vehicles.0.actions.1.t", ["time order"])
+    assert_one_error_line(res, path, "vehicles.V1.actions.1.t", ["time order"])
 
 
 def test_a_model_that_does_not_honour_actions_refuses_them():

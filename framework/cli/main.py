@@ -1,4 +1,5 @@
-"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | study | bench | stress | schema
+"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | avoid | study | bench |
+stress | schema
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line; a
@@ -148,6 +149,12 @@ def cmd_infer(args):
     return _with_pdf(run, args)
 
 
+def cmd_avoid(args):
+    from crashlab.reconstruction.infer import cmd_avoid as run
+    refuse_other_kind(args.study, "study")
+    return run(args)
+
+
 def cmd_study(args):
     from crashlab.comparison.command import run_cli
     return run_cli(args)
@@ -259,6 +266,12 @@ def build_parser():
     inf.add_argument("--pdf", action="store_true", help="also print DIR/report.html to DIR/report.pdf (A4; needs "
                      "WeasyPrint: pip install weasyprint)")
     inf.set_defaults(fn=cmd_infer)
+    av = command("avoid", "would it have been avoided: the study's [[counterfactuals]] answered on the draws of an "
+                 "earlier `crashlab infer STUDY --out DIR`")
+    av.add_argument("study", help="study TOML file with [[counterfactuals]]")
+    av.add_argument("--out", required=True, metavar="DIR", help="the infer run's output folder (posterior.csv); "
+                    "counterfactuals.csv is written there")
+    av.set_defaults(fn=cmd_avoid)
     r = command("reconstruct", "search the pre-impact conditions that explain the evidence")
     r.add_argument("study", help="study TOML file (docs/reference.md)")
     r.add_argument("--optimizer", default=None, metavar="NAME",

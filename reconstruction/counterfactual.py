@@ -1,0 +1,207 @@
+"""Would it have been avoided? Counterfactuals answered from the posterior's draws (issue 28).
+
+A `[[counterfactuals]]` table of a study names a change of the scene:
+
+    [[counterfactuals]]
+    name = "V1 at the limit"
+    set = { "vehicles.V1.speed" = 50.0 }          # a field set to a value (file units)
+    shift = { "vehicles.V1.actions.0.t" = -0.5 }  # a value added (the driver braking 0.5 s earlier)
+    scale = { "vehicles.V2.speed" = 0.0 }         # a value multiplied
+    keep = "position"                             # or "arrival"
+
+Fields are crashlab.fields paths. Every kept draw of the posterior (or an even subsample of at most
+`MAX_DRAWS`) is simulated again with the change, as one population (CollisionModel.simulate_population);
+the answer: the probability that the vehicles do not touch (with its 90 % interval, Jeffreys' beta interval
+of a binomial share), and where they still touch, each vehicle's speed at impact and delta-V at 5/50/95 %.
+
+keep (docs/physics.md, "Counterfactuals"): "position" (default) keeps each vehicle's start as drawn: the
+changed car starts where it was when the run starts (the moment the hazard appeared, for a scene that starts
+there), the usual avoidance question ("had V1 driven at 50 km/h up to that point"). "arrival" moves a car
+whose speed changed back or forth along its heading so that it would reach its first-contact point of the
+draw at the same time, assuming it runs at constant speed from its start to that point: start + (v - v') t_c
+along the heading (v, v' the drawn and changed speed, t_c the draw's first contact); a draw without contact
+keeps its start.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from crashlab import fields
+from crashlab.errors import InputError
+from crashlab.units import ms_to_kmh
+
+MAX_DRAWS = 2000  # draws re-simulated per counterfactual (an even subsample of the kept ones beyond this)
+QUANTILES = (0.05, 0.5, 0.95)
+
+
+class CounterfactualFile(BaseModel):
+    """A `[[counterfactuals]]` table (module docstring)."""
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+    name: str = Field(min_length=1, max_length=200, description="label of the counterfactual in the outputs")
+    set_: dict[str, float] = Field(default_factory=dict, alias="set",
+                                   description="field path -> the value it is set to (file units)")
+    shift: dict[str, float] = Field(default_factory=dict, description="field path -> the value added (file units)")
+    scale: dict[str, float] = Field(default_factory=dict, description="field path -> the factor it is multiplied by")
+    keep: str = Field(default="position", pattern="^(position|arrival)$",
+                      description="\"position\": the starts as drawn; \"arrival\": a car whose speed changed "
+                      "starts where it reaches its drawn first-contact point at the same time")
+
+
+@dataclasses.dataclass(frozen=True)
+class Counterfactual:
+    name: str
+    changes: tuple  # (how, crashlab.fields.Field, value): how in "set", "shift", "scale"
+    keep: str
+
+
+def parse(raw, scene, path) -> list[Counterfactual]:
+    """The study's [[counterfactuals]] checked against the scene; InputError naming the key."""
+    from crashlab.vehicle import pydantic_error
+    if not isinstance(raw, list):
+        raise InputError(path, "counterfactuals", "a list of tables ([[counterfactuals]] name = ..., set = {...})")
+    out = []
+    for k, entry in enumerate(raw):
+        key = f"counterfactuals.{k}"
+        try:
+            cf = CounterfactualFile.model_validate(entry)
+        except ValidationError as err:
+            raise pydantic_error(path, err, key + ".", CounterfactualFile) from None
+        changes = []
+        for how, table in (("set", cf.set_), ("shift", cf.shift), ("scale", cf.scale)):
+            for p, value in table.items():
+                where = f"{key}.{how}.{p}"
+                try:
+                    f = fields.resolve(scene, p)
+                except ValueError as err:
+                    raise InputError(path, where, str(err)) from None
+                if not math.isfinite(value):
+                    raise InputError(path, where, f"a finite number, got {value}")
+                if how == "set":
+                    lo, hi = fields.field_range(scene, f)
+                    if not lo <= value <= hi:
+                        raise InputError(path, where, f"{value:g} is outside [{lo:g}, {hi:g}] {f.unit}")
+                changes.append((how, f, float(value)))
+        if not changes:
+            raise InputError(path, key, "a counterfactual changes something: give set, shift or scale")
+        if len({f.path for _, f, _ in changes}) < len(changes):
+            raise InputError(path, key, "a field changed twice")
+        out.append(Counterfactual(cf.name, tuple(changes), cf.keep))
+    return out
+
+
+def changed_values(cf: Counterfactual, scene, var_fields, X, contact_t=None) -> tuple[list, np.ndarray]:
+    """(fields, values): the draws X (n, k) of var_fields with the counterfactual's changes applied; a changed
+    field that is no variable gets a column of its scene value first. contact_t (n,) [s]: each draw's first
+    contact (keep = "arrival")."""
+    fs = list(var_fields)
+    V = np.array(X, dtype=float, copy=True)
+
+    def column(f):
+        nonlocal V
+        for c, g in enumerate(fs):
+            if g.path == f.path:
+                return c
+        fs.append(f)
+        V = np.column_stack([V, np.full(len(V), fields.get(scene, f))])
+        return len(fs) - 1
+    for how, f, value in cf.changes:
+        c = column(f)
+        before = V[:, c].copy()
+        V[:, c] = value if how == "set" else (before + value if how == "shift" else before * value)
+        if cf.keep == "arrival" and f.kind == "vehicle" and f.quantity == "speed":
+            t = np.nan_to_num(np.asarray(contact_t, float), nan=0.0)  # no contact: the start kept
+            ch, cx, cy = (column(fields.parse(f"vehicles.{f.vehicle}.{q}")) for q in ("heading", "x", "y"))
+            h = np.radians(V[:, ch])
+            back = (before - V[:, c]) / 3.6 * t  # m: (v - v') t_c
+            V[:, cx] += back * np.cos(h)
+            V[:, cy] += back * np.sin(h)
+    return fs, V
+
+
+def jeffreys_interval(k: int, n: int, level: float = 0.90) -> tuple[float, float]:
+    """Jeffreys' interval of a binomial share k / n (Brown, Cai & DasGupta 2001): beta(k + 1/2, n - k + 1/2)
+    quantiles; 0 and 1 at the ends."""
+    from scipy.stats import beta
+    if n == 0:
+        return math.nan, math.nan
+    a = (1.0 - level) / 2.0
+    lo = 0.0 if k == 0 else float(beta.ppf(a, k + 0.5, n - k + 0.5))
+    hi = 1.0 if k == n else float(beta.ppf(1.0 - a, k + 0.5, n - k + 0.5))
+    return lo, hi
+
+
+def subsample(X: np.ndarray, limit: int = MAX_DRAWS) -> np.ndarray:
+    """X itself, or `limit` rows evenly spaced through it."""
+    if len(X) <= limit:
+        return X
+    return X[np.linspace(0, len(X) - 1, limit).round().astype(int)]
+
+
+def answer(model, scene, var_fields, X, counterfactuals) -> list[dict]:
+    """One row per counterfactual (and the draws as they are, first: name "posterior"): draws, failed,
+    p_avoided with its 90 % interval, per vehicle the speed at impact and delta-V [km/h] at 5/50/95 % where
+    the vehicles still touch. model: a CollisionModel."""
+    X = subsample(np.atleast_2d(np.asarray(X, dtype=float)))
+    base = model.simulate_population(scene, var_fields, X, invalid="fail")
+    rows = [_row("posterior", scene, base)]
+    for cf in counterfactuals:
+        fs, V = changed_values(cf, scene, var_fields, X, _first_contact(base))
+        rows.append(_row(cf.name, scene, model.simulate_population(scene, fs, V, invalid="fail")))
+    return rows
+
+
+def _first_contact(pop) -> np.ndarray:
+    t = np.where(np.isfinite(pop.first_impact_t), pop.first_impact_t, np.inf).min(axis=1)
+    return np.where(np.isfinite(t), t, np.nan)
+
+
+def _row(name, scene, pop) -> dict:
+    ok = pop.ok
+    n = int(ok.sum())
+    avoided = ok & (pop.n_impacts == 0)
+    k = int(avoided.sum())
+    lo, hi = jeffreys_interval(k, n)
+    row = {"name": name, "draws": len(pop), "failed": len(pop) - n, "p_avoided": k / n if n else math.nan,
+           "p_avoided_5": lo, "p_avoided_95": hi}
+    hit = ok & (pop.n_impacts > 0)
+    for i, v in enumerate(scene.vehicle_names):
+        for what, values in (("impact_speed", pop.contact[hit, i, 3]), ("delta_v", pop.delta_v[hit, i])):
+            q = np.quantile(ms_to_kmh(values), QUANTILES) if hit.any() else (math.nan,) * 3
+            for p, val in zip(QUANTILES, q):
+                row[f"{v}.{what}_{round(100 * p)}"] = float(val)
+    reasons = [r for r in pop.reason[~ok] if r]
+    row["failed_reason"] = max(set(reasons), key=reasons.count) if reasons else ""
+    return row
+
+
+def summary_lines(rows) -> list[str]:
+    """One line per row of `answer`, for the terminal and summary.md."""
+    out = []
+    for r in rows:
+        speeds = ", ".join(f"{k.split('.')[0]} {r[k]:.1f}" for k in r if k.endswith(".impact_speed_50")
+                           and math.isfinite(r[k]))
+        out.append(f"{r['name']}: avoided in {100 * r['p_avoided']:.1f} % of {r['draws'] - r['failed']} draws "
+                   f"(90 % {100 * r['p_avoided_5']:.1f}-{100 * r['p_avoided_95']:.1f} %)"
+                   + (f"; where they still touch, median impact speed {speeds} km/h" if speeds else "")
+                   + (f"; {r['failed']} draws failed ({r['failed_reason']})" if r["failed"] else ""))
+    return out
+
+
+def run(post, samples, out_dir=None) -> list[dict]:
+    """The posterior's counterfactuals (post: a Posterior with counterfactuals) answered on its kept samples
+    (file units, the posterior's variables as columns) with the study's model; with out_dir,
+    counterfactuals.csv (one row per counterfactual, the draws as they are first)."""
+    import pandas as pd
+
+    from crashlab.execution import model_for
+    spec = post.study.spec
+    rows = answer(model_for(spec.model, spec.model_options), post.study.scene, post.fields, samples,
+                  post.counterfactuals)
+    if out_dir is not None:
+        pd.DataFrame(rows).to_csv(Path(out_dir) / "counterfactuals.csv", index=False)
+    return rows
