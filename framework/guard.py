@@ -2,8 +2,8 @@
 
 A model's result that breaks physics is a failure with a reason, never a quiet number. The guard runs on
 the Outcome of every `CollisionModel.simulate` / `simulate_batch` (the base class applies it, so built-in
-and third-party models are checked alike; crashlab.model). A model may declare in `guard_skip` the checks
-that do not apply to it. Checks (docs/physics.md, "Physics guard"):
+and third-party models are checked alike, also a simulate assigned to an instance; crashlab.model). A
+model may declare in `guard_skip` the checks that do not apply to it. Checks (docs/physics.md, "Physics guard"):
 
   energy_overall          the kinetic energy at the end exceeds the kinetic energy at the start
   energy_outside_contact  a vehicle's mechanical energy (the trajectory's column energy where a model
@@ -14,6 +14,17 @@ that do not apply to it. Checks (docs/physics.md, "Physics guard"):
   impact_energy           an impact creates energy (dissipated energy below zero)
   interpenetration        two vehicles, or a vehicle and a barrier, end with their outlines overlapping
   below_road              a part of a 3D vehicle's body lies below the road (trajectory column z_min)
+and, always (no model skips them):
+  non_finite              NaN or inf in the end state, in any column of a recorded trajectory, or in an
+                          impact row's numbers (rows checked where built: every run that records
+                          trajectories; a batch's rows, built on first access, are not built for it)
+  end_state               the end state (rest poses, final velocities) contradicts the trajectory's last
+                          sample by more than END_POSE_TOL / END_HEADING_TOL / END_VELOCITY_TOL /
+                          END_YAW_RATE_TOL
+
+Every Outcome is checked each time a model returns it, also one that was checked before (a plugin may
+return an inner model's checked Outcome after changing it); checking again adds nothing to one that
+passed unchanged.
 
 Tolerance of the energy checks: ENERGY_TOL_J + ENERGY_TOL_REL x the kinetic energy at the start, per
 vehicle for energy_outside_contact x the largest energy that vehicle had (a 3D vehicle's suspension and
@@ -183,6 +194,8 @@ def _check_one(scene, out, skip, tol, near) -> None:
             k = int(np.argmin(e_imp))
             out.fail("impact_energy", _impact_reason(k, e_imp[k], tol))
     trajectories = out.trajectories
+    if trajectories or not callable(out._impact_rows):  # (a batch's lazy rows stay unbuilt: see the docstring)
+        _check_finite_impacts(out)
     if trajectories:
         _check_finite_trajectories(scene, out)
         _check_trajectory_end(scene, out)
@@ -277,6 +290,16 @@ def _check_finite_trajectories(scene, out) -> None:
                 t = np.asarray(tr.get("t", ()), dtype=float)
                 when = f"t = {t[k]:.3f} s" if k < len(t) and math.isfinite(t[k]) else f"sample {k}"
                 out.fail("non_finite", f"{v.name}'s trajectory column {column} is {a[k]} at {when}")
+                return
+
+
+def _check_finite_impacts(out) -> None:
+    """NaN or inf in a number of an impact row fails (non_finite), naming the row, its vehicle and column."""
+    for k, row in enumerate(out.impact_rows):
+        for column, value in row.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out.fail("non_finite", f"impact row {k + 1} ({row.get('vehicle')} with {row.get('other')}): "
+                         f"column {column} is {value}")
                 return
 
 

@@ -437,3 +437,11 @@ def test_monte_carlo_and_compare_do_not_report_a_changed_checked_outcome_as_ok(p
     assert (result.summary()["draws"] == 0).all()
     table = comparison_table(scene, {"reuser": model.simulate(scene)})
     assert not table[table.source == "reuser"]["ok"].any()
+
+
+def test_nan_in_an_impact_row_fails():
+    scene = _two_cars()
+    row = {"t": 0.1, "vehicle": "V1", "other": "V2", "dvx": math.nan, "dvy": 0.0, "d_yaw_rate": 0.0, "energy": 1e3,
+           "kind": "full", "point_x": 0.0, "point_y": 0.0, "plane_angle": 0.0}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], impact_rows=[row])).simulate(scene)
+    assert out.violations == ["non_finite"] and "impact row 1 (V1 with V2): column dvx is nan" in out.warnings[-1]
