@@ -87,3 +87,23 @@ def test_an_unreachable_scheduler_is_one_line(monkeypatch):
         with Executor("dask", 1, "tcp://somewhere:8786"):
             pass
     assert seen["timeout"] == SCHEDULER_CONNECT_TIMEOUT_S == 5.0
+
+
+def test_a_friction_zone_of_twenty_thousand_corners(tmp_path, capsys):
+    """Issue 27: 20,000 corners took minutes (the crossing check is n^2 / 2 segment tests): refused above
+    ZONE_CORNERS_MAX, naming the zone's key; a zone of ZONE_CORNERS_MAX corners is accepted."""
+    import math
+
+    from crashlab.scene import ZONE_CORNERS_MAX
+
+    def zone(n):
+        pts = ", ".join(f"[{50 + 40 * math.cos(2 * math.pi * k / n):.6f}, {40 * math.sin(2 * math.pi * k / n):.6f}]"
+                        for k in range(n))
+        return SIDE.replace("[impact]", f"[[road.zones]]\nfriction = 0.3\npolygon = [{pts}]\n\n[impact]", 1)
+
+    assert "[impact]" in SIDE
+    p = _scene(tmp_path, zone(20_000))
+    res = _cli(capsys, "simulate", p, "--model", "impulse")
+    assert_one_error_line(res, p, "road.zones.0.polygon", [f"20000 corners: at most {ZONE_CORNERS_MAX}"])
+    from crashlab.scene_file import load_scene
+    assert len(load_scene(_scene(tmp_path, zone(ZONE_CORNERS_MAX), "ok.toml")).road.zones[0].polygon) == 1000
