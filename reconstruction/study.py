@@ -43,6 +43,7 @@ from crashlab.vehicle import pydantic_error, read_toml
 from crashlab.version import package_version
 
 from .evidence import build_evidence
+from .infer_settings import InferSection
 from .problem import ReconstructionProblem, UncertainVariable
 from .repair import CollisionRepair
 from .run import run_study
@@ -253,11 +254,10 @@ def _checked_model(path, name: str, options: dict, key: str):
 
 def _check_infer_table(path, spec: StudyFile) -> None:
     """`[infer]` checked by every command that reads the study, as `crashlab infer` checks it
-    (crashlab.reconstruction.posterior.InferSection: one line naming infer.KEY), so that `reconstruct` does
-    not quietly accept junk there (issue 27)."""
+    (crashlab.reconstruction.infer_settings.InferSection: one line naming infer.KEY), so that `reconstruct`
+    does not quietly accept junk there (issue 27)."""
     if "infer" not in spec.model_fields_set:
         return
-    from .posterior import InferSection  # (posterior imports this module)
     try:
         InferSection.model_validate(spec.infer)
     except ValidationError as err:

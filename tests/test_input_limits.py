@@ -107,3 +107,12 @@ def test_a_friction_zone_of_twenty_thousand_corners(tmp_path, capsys):
     assert_one_error_line(res, p, "road.zones.0.polygon", [f"20000 corners: at most {ZONE_CORNERS_MAX}"])
     from crashlab.scene_file import load_scene
     assert len(load_scene(_scene(tmp_path, zone(ZONE_CORNERS_MAX), "ok.toml")).road.zones[0].polygon) == 1000
+
+
+def test_the_infer_table_has_one_schema():
+    """reconstruct checks [infer] with crashlab.reconstruction.infer_settings (the study loader cannot import the
+    posterior, which imports it); the posterior's own must be the same schema."""
+    from crashlab.reconstruction import infer_settings, posterior
+    fields = [posterior.InferSection.model_json_schema()["properties"],
+              infer_settings.InferSection.model_json_schema()["properties"]]
+    assert fields[0] == fields[1]
