@@ -2,8 +2,8 @@
 
 A model's result that breaks physics is a failure with a reason, never a quiet number. The guard runs on
 the Outcome of every `CollisionModel.simulate` / `simulate_batch` (the base class applies it, so built-in
-and third-party models are checked alike; crashlab.model). A model may declare in `guard_skip` the checks
-that do not apply to it. Checks (docs/physics.md, "Physics guard"):
+and third-party models are checked alike, also a simulate assigned to an instance; crashlab.model). A
+model may declare in `guard_skip` the checks that do not apply to it. Checks (docs/physics.md, "Physics guard"):
 
   energy_overall          the kinetic energy at the end exceeds the kinetic energy at the start
   energy_outside_contact  a vehicle's mechanical energy (the trajectory's column energy where a model
@@ -14,6 +14,17 @@ that do not apply to it. Checks (docs/physics.md, "Physics guard"):
   impact_energy           an impact creates energy (dissipated energy below zero)
   interpenetration        two vehicles, or a vehicle and a barrier, end with their outlines overlapping
   below_road              a part of a 3D vehicle's body lies below the road (trajectory column z_min)
+and, always (no model skips them):
+  non_finite              NaN or inf in the end state, in any column of a recorded trajectory, or in an
+                          impact row's numbers (rows checked where built: every run that records
+                          trajectories; a batch's rows, built on first access, are not built for it)
+  end_state               the end state (rest poses, final velocities) contradicts the trajectory's last
+                          sample by more than END_POSE_TOL / END_HEADING_TOL / END_VELOCITY_TOL /
+                          END_YAW_RATE_TOL
+
+Every Outcome is checked each time a model returns it, also one that was checked before (a plugin may
+return an inner model's checked Outcome after changing it); checking again adds nothing to one that
+passed unchanged.
 
 Tolerance of the energy checks: ENERGY_TOL_J + ENERGY_TOL_REL x the kinetic energy at the start, per
 vehicle for energy_outside_contact x the largest energy that vehicle had (a 3D vehicle's suspension and
@@ -31,6 +42,8 @@ from .scene import barrier_outline, vehicle_outline
 from .units import G
 
 CHECKS = ("energy_overall", "energy_outside_contact", "impact_energy", "interpenetration", "below_road")
+# always on (a model cannot skip them): non_finite (NaN or inf in the end state or a trajectory) and end_state
+# (the end state contradicts the trajectory's last sample)
 ENERGY_TOL_J = 1000.0  # J
 ENERGY_TOL_REL = 0.02  # of the kinetic energy at the start
 PENETRATION_TOL = 0.05  # m of outline overlap left at the end
@@ -38,6 +51,16 @@ ROAD_TOL = 0.05  # m below the road
 CONTACT_PAD = 1e-3  # s: a sample this close to a contact belongs to it (a model's clock and its records differ
 #                     by round-off, e.g. a contact at 0.24000000000000002 s against a sample at 0.2399999)
 ROLLOVER_ANGLE = math.pi / 2  # rad of roll or pitch at the end
+# the end state against the trajectory's last sample (docs/physics.md, "Physics guard"): a model may end its
+# run up to one record interval after its last sample (0.01 s in the built-in models); within it a car moves
+# at most v dt (70 m/s x 0.01 s = 0.7 m), its speed changes by at most the road's mu g dt (0.1 m/s), a contact
+# aside; the tolerances are loose against that and tight against a contradiction (51 km/h against 0)
+END_POSE_TOL = 1.0  # m
+END_HEADING_TOL = 0.5  # rad
+END_VELOCITY_TOL = 1.0  # m/s (3.6 km/h)
+END_YAW_RATE_TOL = 1.0  # rad/s
+_END_COLUMNS = ("x", "y", "heading", "vx", "vy", "yaw_rate")
+_END_NAMES = ("x [m]", "y [m]", "heading [rad]", "vx [m/s]", "vy [m/s]", "yaw rate [rad/s]")
 
 
 def check(scene, out, skip=frozenset()) -> None:
@@ -47,10 +70,10 @@ def check(scene, out, skip=frozenset()) -> None:
 
 def check_batch(scenes, outs, skip=frozenset()) -> None:
     """`check` over a batch; the energy balance and the end-state checks are vectorised (a reconstruction
-    checks thousands of outcomes of one scene composition)."""
-    todo = [(s, o) for s, o in zip(scenes, outs) if not o.guarded]
-    if not todo:
-        return
+    checks thousands of outcomes of one scene composition). Every Outcome is checked every time it is
+    returned, also one checked before (`guarded` True: a plugin may have changed it since; issue 27):
+    checking again adds nothing to an Outcome that passed and did not change."""
+    todo = list(zip(scenes, outs))
     for _, o in todo:
         o.guarded = True
     groups: dict = {}
@@ -171,7 +194,11 @@ def _check_one(scene, out, skip, tol, near) -> None:
             k = int(np.argmin(e_imp))
             out.fail("impact_energy", _impact_reason(k, e_imp[k], tol))
     trajectories = out.trajectories
+    if trajectories or not callable(out._impact_rows):  # (a batch's lazy rows stay unbuilt: see the docstring)
+        _check_finite_impacts(out)
     if trajectories:
+        _check_finite_trajectories(scene, out)
+        _check_trajectory_end(scene, out)
         if "energy_outside_contact" not in skip:
             _check_free_energy(scene, out)
         if "below_road" not in skip:
@@ -251,10 +278,57 @@ def _recorded(scene, out, column):
             yield v, tr
 
 
+def _check_finite_trajectories(scene, out) -> None:
+    """NaN or inf anywhere in a recorded trajectory fails (every comparison with NaN is False: the other
+    checks would pass it quietly): the vehicle, the column and the time of the first such sample."""
+    for v in scene.vehicles:
+        tr = out.trajectories.get(v.name)
+        for column, values in (tr or {}).items():
+            a = np.asarray(values, dtype=float)
+            if not np.isfinite(a).all():
+                k = int(np.flatnonzero(~np.isfinite(a))[0])
+                t = np.asarray(tr.get("t", ()), dtype=float)
+                when = f"t = {t[k]:.3f} s" if k < len(t) and math.isfinite(t[k]) else f"sample {k}"
+                out.fail("non_finite", f"{v.name}'s trajectory column {column} is {a[k]} at {when}")
+                return
+
+
+def _check_finite_impacts(out) -> None:
+    """NaN or inf in a number of an impact row fails (non_finite), naming the row, its vehicle and column."""
+    for k, row in enumerate(out.impact_rows):
+        for column, value in row.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out.fail("non_finite", f"impact row {k + 1} ({row.get('vehicle')} with {row.get('other')}): "
+                         f"column {column} is {value}")
+                return
+
+
+def _check_trajectory_end(scene, out) -> None:
+    """The end state (rest_si, final_si) is the trajectory's last sample, within END_POSE_TOL and
+    END_VELOCITY_TOL (a model may stop between two samples; docs/physics.md, "Physics guard")."""
+    for i, v in enumerate(scene.vehicles):
+        tr = out.trajectories.get(v.name)
+        if tr is None or not all(k in tr and len(tr[k]) for k in _END_COLUMNS):
+            continue
+        end = np.array([float(tr[k][-1]) for k in _END_COLUMNS])
+        state = np.concatenate((out.rest_si[i], out.final_si[i]))
+        gap = np.abs(end - state)
+        tol = np.array([END_POSE_TOL, END_POSE_TOL, END_HEADING_TOL, END_VELOCITY_TOL, END_VELOCITY_TOL,
+                        END_YAW_RATE_TOL])
+        bad = np.flatnonzero(~(gap <= tol))  # (NaN fails)
+        if len(bad):
+            k = int(bad[0])
+            out.fail("end_state", f"{v.name}'s {_END_NAMES[k]} at the end is {state[k]:.3g}, its trajectory ends at "
+                     f"{end[k]:.3g} (t = {float(tr['t'][-1]):.3f} s; tolerance {tol[k]:.3g})")
+            return
+
+
 def _check_road(scene, out) -> None:
     for v, tr in _recorded(scene, out, "z_min"):
-        z = np.asarray(tr["z_min"])
-        k = int(np.argmin(z))
+        z = np.asarray(tr["z_min"], dtype=float)
+        if np.isnan(z).all():
+            continue
+        k = int(np.nanargmin(z))  # (one NaN sample hides nothing: it fails non_finite, the rest is still read)
         if z[k] < -ROAD_TOL:
             out.fail("below_road", f"{v.name} reaches {-z[k]:.2f} m below the road at t = {tr['t'][k]:.2f} s")
             return
@@ -265,8 +339,8 @@ def _report_rollover(scene, out) -> None:
         roll, pitch = float(tr["roll"][-1]), float(tr.get("pitch", [0.0])[-1])
         # continuous angles: the attitude is upside down or on a side when the wrapped angle exceeds 90 deg
         roll_w, pitch_w = math.remainder(roll, 2 * math.pi), math.remainder(pitch, 2 * math.pi)
-        if abs(roll_w) > ROLLOVER_ANGLE or abs(pitch_w) > ROLLOVER_ANGLE:
-            out.rolled_over.append(v.name)
+        if (abs(roll_w) > ROLLOVER_ANGLE or abs(pitch_w) > ROLLOVER_ANGLE) and v.name not in out.rolled_over:
+            out.rolled_over.append(v.name)  # (once: the guard may check an Outcome again)
             out.warnings.append(f"{v.name} rolled over (ends at roll {math.degrees(roll_w):.0f} deg, "
                                 f"pitch {math.degrees(pitch_w):.0f} deg)")
 

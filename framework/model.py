@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import abc
 import functools
+import types
 
 import numpy as np
 
@@ -78,6 +79,35 @@ def _guarded_population(method):
     return wrapper
 
 
+class _GuardedMethod:
+    """simulate / simulate_batch / simulate_population of a model class with the guard around it, as a data
+    descriptor: it takes precedence over an instance's attribute of the same name, so a function assigned to
+    the instance (`self.simulate = self._fast` in __init__, or written into its __dict__) is guarded too
+    (issue 27: such an attribute escaped the class-level wrapper)."""
+
+    def __init__(self, name: str, fn, wrap):
+        self.name, self.wrap, self.fn = name, wrap, wrap(fn)
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self.fn  # the guarded function (its __wrapped__ the model's own)
+        own = getattr(obj, "__dict__", {}).get(self.name)
+        if own is None:
+            return types.MethodType(self.fn, obj)
+        return types.MethodType(self.wrap(functools.wraps(own)(lambda _self, *a, **k: own(*a, **k))), obj)
+
+    def __set__(self, obj, value) -> None:
+        obj.__dict__[self.name] = value
+
+    def __delete__(self, obj) -> None:
+        obj.__dict__.pop(self.name, None)
+
+
+_WRAPS = {"simulate": lambda fn: _guarded(fn, guard.check),
+          "simulate_batch": lambda fn: _guarded(fn, guard.check_batch),
+          "simulate_population": _guarded_population}
+
+
 def _put_rows(pop: Population, rows, part: Population) -> None:
     for name in ARRAYS:
         getattr(pop, name)[rows] = getattr(part, name)
@@ -112,7 +142,8 @@ class CollisionModel(abc.ABC):
     `simulate` never raises for a physically failed run: it returns an Outcome with outcome_ok False.
 
     Every Outcome a model returns passes the physics guard (crashlab.guard): the base class wraps the
-    `simulate` and `simulate_batch` of every subclass, built-in or plugin. `guard_skip` names the
+    `simulate`, `simulate_batch` and `simulate_population` of every subclass, built-in or plugin, also one
+    assigned to an instance (a data descriptor, _GuardedMethod). `guard_skip` names the
     guard's checks that do not apply to a model (crashlab.guard.CHECKS).
     """
 
@@ -130,13 +161,11 @@ class CollisionModel(abc.ABC):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        for attr, wrap in (("simulate", lambda fn: _guarded(fn, guard.check)),
-                           ("simulate_batch", lambda fn: _guarded(fn, guard.check_batch)),
-                           ("simulate_population", _guarded_population)):
+        for attr, wrap in _WRAPS.items():
             fn = getattr(cls, attr, None)  # also a method a mixin brings along
             if fn is not None and not getattr(fn, "__guarded__", False) \
                     and not getattr(fn, "__isabstractmethod__", False):
-                setattr(cls, attr, wrap(fn))
+                setattr(cls, attr, _GuardedMethod(attr, fn, wrap))
         unknown = set(cls.guard_skip) - set(guard.CHECKS)
         if unknown:
             raise TypeError(f"model {cls.name!r}: unknown guard checks in guard_skip: {sorted(unknown)}")
@@ -154,7 +183,7 @@ class CollisionModel(abc.ABC):
         """Simulate many scenes; models override this to vectorise or parallelise."""
         return [self.simulate(s) for s in scenes]
 
-    simulate_batch = _guarded(simulate_batch, guard.check_batch)
+    simulate_batch = _GuardedMethod("simulate_batch", simulate_batch, _WRAPS["simulate_batch"])
 
     def simulate_population(self, scene: Scene, fields, values, invalid: str = "raise") -> Population:
         """N variants of `scene` with `fields` (dotted paths, crashlab.fields) set to the rows of `values`
@@ -172,7 +201,7 @@ class CollisionModel(abc.ABC):
         masses = scene_fields.vehicle_columns(scene, fields, values, ("mass",))["mass"]
         return Population.of_outcomes(simulate_each(self, scenes), scene.vehicle_names, masses)
 
-    simulate_population = _guarded_population(simulate_population)
+    simulate_population = _GuardedMethod("simulate_population", simulate_population, _guarded_population)
 
     def get_options(self) -> dict:
         return {} if self.options is None else self.options.model_dump()

@@ -53,7 +53,8 @@ class Outcome:
     building the rows); contact_intervals: optional list of (t_start, t_end) [s] during which any
     contact acted (an impulse is (t, t)); without it the impact rows' t (+ duration) are used.
     `violations` lists the kinds of physics-guard violations (crashlab.guard); `rolled_over` the vehicles
-    that end upside down or on their side.
+    that end upside down or on their side; `guarded` True once the guard has checked it (it checks it again
+    each time a model returns it: nothing trusts the flag).
     """
 
     def __init__(self, names, rest_si, final_si=None, contact_si=None, contact_time=math.nan,

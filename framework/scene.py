@@ -31,6 +31,9 @@ STEER_MAX = 45.0  # deg at the road wheels (lock of a car ~35-40 deg)
 DURATION_MAX = 120.0  # s
 FRICTION_MAX = 2.0  # road and impact friction; 0 is allowed (ice; an impact isolated from the road)
 BARRIER_SIZE = (0.05, 1000.0)  # m: a post to a kilometre of wall
+ZONE_CORNERS_MAX = 1000  # corners of a friction zone: checking that no two edges cross takes n^2 / 2 segment
+#                          tests (1,000 corners: 1 s; the 20,000 of issue 27's fuzz: minutes); a road edge
+#                          at 0.5 m over 500 m fits
 
 
 # ---------------------------------------------------------------- the scene (SI)
@@ -217,8 +220,11 @@ def start_overlaps(scene: Scene) -> list[tuple[str, str]]:
 
 
 def polygon_problem(points) -> str | None:
-    """Why a polygon (corners in order) cannot be a zone, or None: it must enclose an area and no two of its
-    edges may cross or touch except neighbours at their shared corner (segment test by orientations)."""
+    """Why a polygon (corners in order) cannot be a zone, or None: at most ZONE_CORNERS_MAX corners, it must
+    enclose an area and no two of its edges may cross or touch except neighbours at their shared corner
+    (segment test by orientations)."""
+    if len(points) > ZONE_CORNERS_MAX:
+        return f"{len(points)} corners: at most {ZONE_CORNERS_MAX}"
     pts = [tuple(map(float, p)) for p in points]
     n = len(pts)
     area2 = sum(pts[k][0] * pts[(k + 1) % n][1] - pts[(k + 1) % n][0] * pts[k][1] for k in range(n))

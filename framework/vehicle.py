@@ -247,6 +247,10 @@ def _deep_merge(base: dict, update: dict) -> dict:
 
 
 def read_toml(path: Path, what: str = "file") -> dict:
+    """A TOML file as a dict; anything that keeps it from being read is an InputError naming the file: not
+    found, a path the system refuses (too long: a name of more than 255 bytes), malformed, not UTF-8, an
+    integer of more than Python's 4,300 digits, arrays or tables nested deeper than Python's recursion
+    allows (the line and its key named)."""
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
@@ -258,6 +262,30 @@ def read_toml(path: Path, what: str = "file") -> dict:
         raise InputError(path, "(encoding)", "not a UTF-8 text file") from None
     except OSError as err:
         raise InputError(path, what, err.strerror or str(err)) from None
+    except ValueError:  # int(): more digits than sys.get_int_max_str_digits()
+        raise InputError(path, _line_key(path, rf"[0-9_]{{{_INT_DIGITS_MAX},}}"),
+                         f"an integer of more than {_INT_DIGITS_MAX:,} digits") from None
+    except RecursionError:
+        raise InputError(path, _line_key(path, r"(?:[\[{]\s*){100,}"),
+                         "arrays or tables nested too deep (hundreds of levels)") from None
+
+
+_INT_DIGITS_MAX = 4300  # Python's default int <-> str conversion limit (sys.get_int_max_str_digits)
+
+
+def _line_key(path, pattern: str) -> str:
+    """'KEY (line N)' of the first line of the file matching `pattern`, for a refusal that tomllib does not
+    locate; "(syntax)" when none does."""
+    import re
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return "(syntax)"
+    for n, line in enumerate(text.splitlines(), 1):
+        if re.search(pattern, line):
+            key = line.split("=", 1)[0].strip() if "=" in line else ""
+            return f"{key} (line {n})" if key and len(key) < 80 else f"(line {n})"
+    return "(syntax)"
 
 
 def _shown(value) -> str:
@@ -336,7 +364,11 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
     checks (errors name the scene file and `<where>.overrides.<key>`)."""
     if ref.endswith(".toml"):
         path = (base_dir or Path.cwd()) / ref
-        if not path.is_file():
+        try:
+            found = path.is_file()
+        except OSError as err:  # a name too long for the system (more than 255 bytes)
+            raise InputError(scene_file, where, f"vehicle file {ref!r}: {err.strerror or err}") from None
+        if not found:
             raise InputError(scene_file, where, f"vehicle file {ref!r} not found")
     else:
         names = library()

@@ -43,6 +43,7 @@ from crashlab.vehicle import pydantic_error, read_toml
 from crashlab.version import package_version
 
 from .evidence import build_evidence
+from .infer_settings import InferSection
 from .problem import ReconstructionProblem, UncertainVariable
 from .repair import CollisionRepair
 from .run import run_study
@@ -208,6 +209,7 @@ def load_study(path) -> Study:
     if spec.optimizer.name not in available_optimizers():
         raise InputError(path, "optimizer.name",
                          str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
+    _check_infer_table(path, spec)
     model = _checked_model(path, spec.model, spec.model_options, "model_options")
     if spec.refine is not None:
         if spec.refine.model not in available_models():
@@ -215,7 +217,11 @@ def load_study(path) -> Study:
                                                                           available_models())))
         _checked_model(path, spec.refine.model, spec.refine.model_options, "refine.model_options")
     scene_path = path.parent / spec.scene
-    if not scene_path.is_file():
+    try:
+        found = scene_path.is_file()
+    except OSError as err:  # a name too long for the system (more than 255 bytes)
+        raise InputError(path, "scene", f"scene file {spec.scene!r}: {err.strerror or err}") from None
+    if not found:
         raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
     scene = load_scene(scene_path)
     names = scene.vehicle_names
@@ -247,6 +253,18 @@ def _checked_model(path, name: str, options: dict, key: str):
         raise InputError(path, f"{key}.{err.key}", err.problem) from None
     except (TypeError, ValueError) as err:
         raise InputError(path, key, str(err)) from None
+
+
+def _check_infer_table(path, spec: StudyFile) -> None:
+    """`[infer]` checked by every command that reads the study, as `crashlab infer` checks it
+    (crashlab.reconstruction.infer_settings.InferSection: one line naming infer.KEY), so that `reconstruct`
+    does not quietly accept junk there (issue 27)."""
+    if "infer" not in spec.model_fields_set:
+        return
+    try:
+        InferSection.model_validate(spec.infer)
+    except ValidationError as err:
+        raise pydantic_error(path, err, "infer.") from None
 
 
 def uncertain_variables(path, spec: StudyFile, scene: Scene) -> list[UncertainVariable]:

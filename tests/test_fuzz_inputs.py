@@ -202,6 +202,22 @@ def _text_mutations(text: str, rng: random.Random):
     return out
 
 
+def _limit_mutations(text: str, path_key: str):
+    """(label, bytes, refused) beyond what Python reads (issue 27: tracebacks): an integer of more than
+    4,300 digits, arrays nested thousands deep (tomllib recurses), a vehicle or scene file path longer than
+    a file name may be (255 bytes) at `path_key` (a scene's vehicle, a study's scene). Always in the default
+    run (refused at once)."""
+    out = []
+    first = text.index("\n") + 1
+    out.append(("integer of 5000 digits", (text[:first] + "huge = " + "9" * 5000 + "\n" + text[first:]).encode(), True))
+    out.append(("arrays 5000 deep", (text[:first] + "deep = " + "[" * 5000 + "]" * 5000 + "\n" + text[first:]).encode(),
+                True))
+    long = re.sub(rf'^{path_key} = "[^"]*"', f'{path_key} = "{"a" * 300}.toml"', text, count=1, flags=re.M)
+    assert long != text
+    out.append((f"{path_key} path of 305 characters", long.encode(), True))
+    return out
+
+
 def _scene_additions(doc: dict):
     """Keys the bundled scenes leave out, set to values beyond their range (refused) and a few inside."""
     valid = {"vehicles.0.yaw_rate=90.0", "vehicles.0.overrides.mass=700.0", "vehicles.0.overrides.mass=3000.0",
@@ -300,6 +316,10 @@ def all_cases() -> list[dict]:
             muts += _text_mutations(dumps(doc), rng)
         cases += [{"id": f"study:{path.stem}:{lab}", "kind": "study", "content": data, "refused": r}
                   for lab, data, r in muts]
+    for kind, path, key in (("scene", SCENES[0], "vehicle"), ("study", STUDIES[0], "scene")):
+        text = path.read_text() if kind == "scene" else dumps(_tiny_study(tomllib.loads(path.read_text()), path, 0))
+        cases += [{"id": f"{kind}:{path.stem}:limit:{lab}", "kind": kind, "content": data, "refused": r}
+                  for lab, data, r in _limit_mutations(text, key)]
     seen = set()
     for c in cases:  # ids are the test ids: unique
         base, n = c["id"], 2
@@ -314,7 +334,8 @@ def split(cases):
     rng = random.Random(SEED + 1)
     default, slow = [], []
     for c in cases:
-        if c["id"].endswith(":unmutated"):  # the bases always run: they must run (exit 0)
+        if c["id"].endswith(":unmutated") or ":limit:" in c["id"]:  # the bases always run: they must run
+            #                                                           (exit 0); the limits: refused at once
             default.append(c)
             continue
         share = DEFAULT_SHARE[c["kind"]]

@@ -34,9 +34,17 @@ class Scripted(CollisionModel):
         return self.make(scene)
 
 
-def _outcome(scene, rest, final=None, **kw):
+def _outcome(scene, rest, final=None, raw=False, **kw):
+    """An Outcome; its trajectories (a copy) end at its end state unless raw (the end_state check)."""
     final = np.zeros((len(scene.vehicles), 3)) if final is None else np.array(final, float)
-    return Outcome(scene.vehicle_names, np.array(rest, float), final, model="scripted", **kw)
+    rest = np.array(rest, float)
+    if kw.get("trajectories") and not raw:
+        kw["trajectories"] = {n: {k: np.array(v, float) for k, v in tr.items()} for n, tr in kw["trajectories"].items()}
+        for i, n in enumerate(scene.vehicle_names):
+            tr = kw["trajectories"][n]
+            for k, value in zip(("x", "y", "heading", "vx", "vy", "yaw_rate"), (*rest[i], *final[i])):
+                tr[k][-1] = value
+    return Outcome(scene.vehicle_names, rest, final, model="scripted", **kw)
 
 
 def _traj(t, vx, **cols):
@@ -303,3 +311,137 @@ def test_cli_failed_simulation_exits_3_with_one_line(tmp_path):
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("crashlab: simulation failed: ") and "scene.toml" in lines[0]
     assert res.stdout == ""
+
+
+# ------------------------------------------------------------------ no blind spots (issue 27)
+def _checked_then_changed(change):
+    """A plugin that runs an inner model (whose Outcome the guard checked) and returns it after `change`."""
+    inner = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]]))
+
+    class Reuser(CollisionModel):
+        name = "reuser"
+
+        def simulate(self, scene):
+            out = inner.simulate(scene)
+            assert out.guarded and out.outcome_ok
+            change(out)
+            return out
+
+    return Reuser()
+
+
+def test_a_checked_outcome_changed_after_the_check_is_checked_again():
+    """An Outcome the guard passed (guarded True), then given NaN rest poses by a plugin: it fails; the
+    reused unchanged Outcome passes without a second warning."""
+    def nan_rest(out):
+        out.rest_si[:] = np.nan
+
+    out = _checked_then_changed(nan_rest).simulate(_two_cars())
+    assert not out.outcome_ok and out.violations == ["non_finite"]
+    assert out.at_rest_mask.all()  # at rest, NaN poses: what issue 27 saw pass
+    out = _checked_then_changed(lambda o: None).simulate(_two_cars())
+    assert out.outcome_ok and out.warnings == [] and out.violations == []
+
+
+def test_a_checked_outcome_given_energy_after_the_check_fails():
+    def speed_up(out):
+        out.final_si[0] = (kmh_to_ms(120.0), 0.0, 0.0)
+
+    out = _checked_then_changed(speed_up).simulate(_two_cars())
+    assert out.violations == ["energy_overall"]
+
+
+def test_an_instance_level_simulate_is_guarded():
+    """A plugin that assigns self.simulate (and simulate_batch, simulate_population) in __init__: what it
+    returns passes the guard like a method's result."""
+    fast = [[kmh_to_ms(900.0), 0, 0], [0, 0, 0]]
+
+    class Sneaky(CollisionModel):
+        name = "sneaky"
+
+        def __init__(self):
+            super().__init__()
+            self.simulate = self._fast
+            self.simulate_batch = lambda scenes: [self._fast(s) for s in scenes]
+
+        def simulate(self, scene):  # never called: the instance's attribute shadows it
+            raise AssertionError
+
+        def _fast(self, scene):
+            return _outcome(scene, [[20, 0, 0], [30, 0, math.pi]], fast)
+
+    model = Sneaky()
+    assert model.simulate(_two_cars()).violations == ["energy_overall"]
+    assert [o.violations for o in model.simulate_batch([_two_cars()] * 2)] == [["energy_overall"]] * 2
+    pop = model.simulate_population(_two_cars(), ["vehicles.V1.speed"], [[50.0], [60.0]])
+    assert not pop.ok.any() and all("energy_overall" in r for r in pop.reason)
+    vars(model)["simulate"] = model._fast  # written into the instance's __dict__: guarded too
+    assert model.simulate(_two_cars()).violations == ["energy_overall"]
+
+
+def test_nan_anywhere_in_a_trajectory_fails_with_vehicle_column_and_time():
+    scene = _two_cars()
+    t = np.linspace(0, 1, 11)
+    vx = np.zeros_like(t)
+    vx[4] = np.nan
+    traj = {"V1": _traj(t, np.zeros_like(t)), "V2": _traj(t, vx)}
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [30, 0, 0]], trajectories=traj)).simulate(scene)
+    assert out.violations == ["non_finite"]
+    assert "V2's trajectory column vx is nan at t = 0.400 s" in out.warnings[-1]
+    traj["V2"]["vx"][4] = np.inf
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [30, 0, 0]], trajectories=traj)).simulate(scene)
+    assert out.violations == ["non_finite"] and "vx is inf" in out.warnings[-1]
+
+
+def test_one_nan_z_min_sample_does_not_hide_a_car_below_the_road():
+    scene = _two_cars()
+    t = np.linspace(0, 1, 11)
+    z_min = np.full_like(t, -0.5)
+    z_min[3] = np.nan
+    traj = {"V1": _traj(t, np.zeros_like(t), z=np.full_like(t, 0.5), z_min=z_min), "V2": _traj(t, np.zeros_like(t))}
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [30, 0, 0]], trajectories=traj)).simulate(scene)
+    assert out.violations == ["non_finite", "below_road"] and "0.50 m below the road" in out.warnings[-1]
+
+
+def test_final_velocities_that_contradict_the_trajectorys_end_fail():
+    """Rest speed 51 km/h while the recorded trajectory ends at 0: end_state; the trajectory's last sample
+    itself, or within the tolerance of one record interval, passes."""
+    scene = _two_cars()
+    t = np.linspace(0, 1, 11)
+    traj = {"V1": _traj(t, np.zeros_like(t)), "V2": _traj(t, np.zeros_like(t), x=np.full_like(t, 30.0))}
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [30, 0, 0]], [[kmh_to_ms(51.0), 0, 0], [0, 0, 0]], raw=True,
+                                      trajectories=traj)).simulate(scene)
+    assert "end_state" in out.violations
+    assert "V1's vx [m/s] at the end is 14.2, its trajectory ends at 0" in out.warnings[out.violations.index(
+        "end_state")]
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [30, 0, 0]], [[0.5, 0, 0], [0, 0, 0]], raw=True,
+                                      trajectories=traj)).simulate(scene)
+    assert out.outcome_ok, out.warnings
+    out = Scripted(lambda s: _outcome(s, [[0, 0, 0], [35.0, 0, 0]], raw=True, trajectories=traj)).simulate(scene)
+    assert out.violations == ["end_state"] and "V2's x [m] at the end is 35" in out.warnings[-1]
+
+
+def test_monte_carlo_and_compare_do_not_report_a_changed_checked_outcome_as_ok(pc_crash_dir):
+    """Issue 27: a plugin that gave a checked Outcome NaN rest poses had the Monte Carlo report "failed
+    draws: 0" with NaN medians and `compare` show it as ok."""
+    from crashlab.reconstruction import montecarlo
+    from crashlab.tools.compare import comparison_table
+
+    def nan_rest(out):
+        out.rest_si[:] = np.nan
+
+    scene = crashlab.load_scene(pc_crash_dir.parent / "montecarlo" / "side.toml")
+    model = _checked_then_changed(nan_rest)
+    result = montecarlo.run(scene, model, 5, seed=1)
+    assert len(result.failed) == 5 and all("non_finite" in r for r in result.failed["reason"])
+    assert (result.summary()["draws"] == 0).all()
+    table = comparison_table(scene, {"reuser": model.simulate(scene)})
+    assert not table[table.source == "reuser"]["ok"].any()
+
+
+def test_nan_in_an_impact_row_fails():
+    scene = _two_cars()
+    row = {"t": 0.1, "vehicle": "V1", "other": "V2", "dvx": math.nan, "dvy": 0.0, "d_yaw_rate": 0.0, "energy": 1e3,
+           "kind": "full", "point_x": 0.0, "point_y": 0.0, "plane_angle": 0.0}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], impact_rows=[row])).simulate(scene)
+    assert out.violations == ["non_finite"] and "impact row 1 (V1 with V2): column dvx is nan" in out.warnings[-1]

@@ -269,3 +269,46 @@ def test_stress_sweep_full():
     caught = _stress(scenes, check_moving=False)
     print(f"\npymunk stress: {len(scenes)} runs, {len(caught)} caught")
     assert caught == []
+
+
+# ---------------------------------------------------------------- a car pressed between two others
+def sandwich_scene(restitution=0.5):
+    """V1 at 50 km/h into V2, which stands against V3 (bumpers touching): V2 is pressed between the two."""
+    from conftest import build_scene
+    length = 2 * 1.8875  # the Clio's cg_to_front + cg_to_rear
+    return build_scene([{"x": 0.0, "speed": 50.0}, {"x": length + 1.0}, {"x": 2 * length + 1.0}],
+                       impact={"restitution": restitution, "friction": 0.3}, duration=1.0)
+
+
+def test_a_sandwiched_car_is_no_energy_creating_impact():
+    """Issue 27: the per-pair share of a car pressed between two others read "impact creates 31.5 kJ" while
+    the total kinetic energy fell. Booked per contact island, every impact dissipates, the impacts account
+    for the energy lost (road off), the kinetic energy never rises along the trajectories, and the guard
+    passes the run."""
+    scene = sandwich_scene()
+    out = model(ground_forces=False).simulate(scene)
+    assert out.outcome_ok, out.warnings
+    ke0 = out.diagnostics.energy_start
+    assert np.all(out.impact_energy >= -1e-6 * ke0), out.impact_energy
+    assert out.impact_energy.sum() == pytest.approx(ke0 - out.diagnostics.energy_end, rel=1e-6)
+    ke = sum(0.5 * v.spec.mass * (out.trajectories[v.name]["vx"] ** 2 + out.trajectories[v.name]["vy"] ** 2)
+             + 0.5 * v.spec.yaw_inertia * out.trajectories[v.name]["yaw_rate"] ** 2 for v in scene.vehicles)
+    assert np.all(np.diff(ke) <= 1e-6 * ke0)  # the system's kinetic energy: never up
+    assert model().simulate(scene).outcome_ok  # with the road
+
+
+def test_an_energy_creating_sandwich_still_fails(monkeypatch):
+    """The same scene with the contacts' restitution forced to 1.6 (an engine that creates energy): the
+    island's books show it and the guard fails the run."""
+    from crashlab.models.pymunk import model as pm
+
+    pre_solve = pm._Run._pre_solve
+
+    def bouncy(self, arb, space, data):
+        pre_solve(self, arb, space, data)
+        arb.restitution = 1.6
+
+    monkeypatch.setattr(pm._Run, "_pre_solve", bouncy)
+    out = model(ground_forces=False).simulate(sandwich_scene())
+    assert out.diagnostics.energy_end > out.diagnostics.energy_start
+    assert not out.outcome_ok and "impact_energy" in out.violations

@@ -9,6 +9,8 @@ from .dask_cluster import _chunks, evaluate_on_dask
 from .evaluate import evaluate_in_process
 from .pool import WorkerPool
 
+SCHEDULER_CONNECT_TIMEOUT_S = 5.0  # s: an unreachable --scheduler / [execution] scheduler is refused after this
+
 
 class Executor:
     """Runs populations on a backend ('serial', 'processes', 'dask'); a context manager that owns its
@@ -34,7 +36,14 @@ class Executor:
         elif self.backend == "dask":
             from dask.distributed import Client, LocalCluster
             if self.scheduler:
-                self._client = Client(self.scheduler)
+                try:  # Dask's own default waits 30 s (distributed.comm.timeouts.connect), then a traceback
+                    self._client = Client(self.scheduler, timeout=SCHEDULER_CONNECT_TIMEOUT_S)
+                except Exception as err:  # noqa: BLE001 - refused, timed out, a bad address, or something else
+                    #                          answering there (bytes Dask cannot read: seen as a MemoryError)
+                    from ..errors import InputError
+                    raise InputError("execution", "scheduler", f"no Dask scheduler answers at {self.scheduler!r} "
+                                     f"within {SCHEDULER_CONNECT_TIMEOUT_S:g} s ({type(err).__name__}: {err})") \
+                        from None
             else:
                 # no PR_SET_PDEATHSIG here: it is bound to the thread that starts a process, and Dask's
                 # nanny starts workers from helper threads that come and go; Dask's workers watch their

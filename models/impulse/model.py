@@ -45,8 +45,11 @@ class ImpulseModel(CollisionModel):
                           within the tolerance, with 0.01 mm by ~0.1 cm, for a few more bisection steps
       record_dt = 0.01 s  trajectory sampling of `simulate` (batch runs record none)
       v_rest = 0.03       m/s and rad/s below which a vehicle out of contact is at rest
-      max_impacts = 20    cap on impacts (rows of the impact table) per run; reaching it stops the run
-                          and fails it (outcome_ok False); a contact is never ignored
+      max_impacts = 20    cap on impacts (rows of the impact table) per run and vehicle beyond the first:
+                          a run of n vehicles stops and fails (outcome_ok False) after max_impacts x (n - 1)
+                          impacts (two cars 20, a 32-car pile-up 620: a chain of n cars has n - 1
+                          contacts, each may repeat; a fixed 20 failed the pile-up, issue 27); a contact is
+                          never ignored
       crush_time = 0.036 s  the point of impact is the middle of the contact zone that the approach
                           speed v_n at first touch would crush, zone depth = crush_time * v_n
                           (geometry.contact_zone_centroid); 0.036 s = 0.5 m of crush at 50 km/h into a
@@ -118,7 +121,8 @@ class ImpulseModel(CollisionModel):
                                   ge=0)
         v_rest: float = option(0.03, "speed (m/s) and yaw rate (rad/s) below which a vehicle out of contact is at "
                                "rest", "m/s", gt=0, le=1.0)
-        max_impacts: int = option(20, "cap on impacts per run; reaching it fails the run", "", ge=1, le=10000)
+        max_impacts: int = option(20, "cap on impacts per run and vehicle beyond the first (a run of n vehicles "
+                                  "fails after max_impacts x (n - 1) impacts)", "", ge=1, le=10000)
         crush_time: float = option(0.036, "the point of impact is the middle of the zone the approach speed at "
                                    "first touch would crush in this time (0: the first-touch point)", "s",
                                    ge=0, le=1.0)
@@ -140,6 +144,10 @@ class ImpulseModel(CollisionModel):
         self.record_dt, self.v_rest, self.max_impacts, self.crush_time = o.record_dt, o.v_rest, o.max_impacts, \
             o.crush_time
 
+    def impact_cap(self, nv: int) -> int:
+        """Impacts a run of nv vehicles may have (the rows its impact array needs): max_impacts x (nv - 1)."""
+        return self.max_impacts * max(1, nv - 1)
+
     # ------------------------------------------------------------------ packing
     def pack(self, scene):
         """Arrays (P, S0, B, cfg, A, NA, zones) of one scene for the kernel (A, NA: the driver's action
@@ -156,7 +164,8 @@ class ImpulseModel(CollisionModel):
             cfg[K.C_GIVEN], cfg[K.C_PX], cfg[K.C_PY], cfg[K.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
             cfg[K.C_GIVEN_I], cfg[K.C_GIVEN_J] = given_pair(scene)
         cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
-        cfg[K.C_ONSET_TOL], cfg[K.C_V_REST], cfg[K.C_MAX_IMPACTS] = self.onset_tol, self.v_rest, self.max_impacts
+        cfg[K.C_ONSET_TOL], cfg[K.C_V_REST] = self.onset_tol, self.v_rest
+        cfg[K.C_MAX_IMPACTS] = self.impact_cap(len(scene.vehicles))
         cfg[K.C_CRUSH_TIME] = self.crush_time
         cfg[K.C_ENGAGE], cfg[K.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
         cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
@@ -169,7 +178,7 @@ class ImpulseModel(CollisionModel):
         P, S0, B, cfg, A, NA, zones = self.pack(scene)
         nv = P.shape[0]
         rest, final, contact = np.empty((nv, 3)), np.empty((nv, 3)), np.empty((nv, 4))
-        imp, diag = np.zeros((self.max_impacts, K.N_IMP)), np.zeros(K.N_DIAG)
+        imp, diag = np.zeros((self.impact_cap(nv), K.N_IMP)), np.zeros(K.N_DIAG)
         n_rec = int(scene.duration / self.record_dt) + 3 if self.record_dt > 0 else 0
         traj = np.zeros((n_rec, nv, 7))
         K.simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag)
@@ -194,7 +203,7 @@ class ImpulseModel(CollisionModel):
         ZC, ZS, ZMU, ZBOX = (np.stack([p[6][k] for p in packs]) for k in range(4))
         n, nv = P.shape[0], P.shape[1]
         rest, final, contact = np.empty((n, nv, 3)), np.empty((n, nv, 3)), np.empty((n, nv, 4))
-        imp, diag = np.zeros((n, self.max_impacts, K.N_IMP)), np.zeros((n, K.N_DIAG))
+        imp, diag = np.zeros((n, self.impact_cap(nv), K.N_IMP)), np.zeros((n, K.N_DIAG))
         K.simulate_many(P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX, rest, final, contact, imp, diag)
         wall = (time.perf_counter() - t0) / n
         return [self._outcome(s, P[k], rest[k], final[k], contact[k], imp[k], diag[k], wall)
@@ -208,8 +217,8 @@ class ImpulseModel(CollisionModel):
 
     def status_text(self) -> dict:
         """Why a run with each failed kernel status failed."""
-        return {**STATUS_TEXT, K.STATUS_IMPACT_CAP: f"more impacts than max_impacts = {self.max_impacts}: the run "
-                "was stopped there"}
+        return {**STATUS_TEXT, K.STATUS_IMPACT_CAP: f"more impacts than max_impacts = {self.max_impacts} x (vehicles "
+                "- 1): the run was stopped there"}
 
     def _outcome(self, scene, P, rest, final, contact, imp, diag, wall) -> Outcome:
         names = scene.vehicle_names

@@ -128,6 +128,26 @@ class _Episode:
         self.j = np.zeros(2)  # impulse of this step on vehicle i [N s, global] (on k: -j)
 
 
+def _islands(episodes, nv):
+    """The contact islands of a step: (sorted vehicles, their episodes) per group of vehicles joined by
+    vehicle-vehicle contacts (a barrier is static: it joins nothing)."""
+    root = list(range(nv))
+
+    def find(a):
+        while root[a] != a:
+            root[a] = root[root[a]]
+            a = root[a]
+        return a
+
+    for ep in episodes:
+        if ep.k < nv:
+            root[find(ep.k)] = find(ep.i)
+    groups: dict = {}
+    for ep in episodes:
+        groups.setdefault(find(ep.i), []).append(ep)
+    return [(sorted({q for ep in eps for q in (ep.i, ep.k) if q < nv}), eps) for eps in groups.values()]
+
+
 class _Run:
     """The state of one simulation: the pymunk space and the bookkeeping of contacts."""
 
@@ -344,7 +364,11 @@ class _Run:
     def _book(self, S1, jump, mass, iz):
         """Share each vehicle's contact jump of this step among its contact episodes: the velocity jump
         exactly, from each contact's impulse (so every episode exchanges momentum, m1 dv1 + m2 dv2 = 0, also
-        when a car touches two others at once); the yaw-rate jump and the energy by impulse share."""
+        when a car touches two others at once); the yaw-rate jump by impulse share. The energy is booked per
+        contact island (the vehicles in touch with each other this step): the kinetic energy the island's
+        contact impulses removed, shared among its episodes by impulse. A pair's own share is no dissipation
+        measure when three touch (a car pressed between two others passes energy on from one to the
+        other: per vehicle shares read as energy created while the island's total falls; issue 27)."""
         active = list(self.open.values())  # an episode that separated this step had no impulse in it
         if not active:
             return
@@ -360,7 +384,11 @@ class _Run:
                 else:
                     ep.dv[side, 0:2] += (1.0 if side == 0 else -1.0) * ep.j / mass[q]
                     ep.dv[side, 2] += share * jump[q, 2]
-                ep.energy -= share * self._step_energy(S1, jump, mass, iz, (q,))
+        for members, eps in _islands(active, self.nv):
+            de = self._step_energy(S1, jump, mass, iz, members)
+            total = sum(ep.weight for ep in eps)
+            for ep in eps:
+                ep.energy -= (ep.weight / total if total > 0 else 1.0 / len(eps)) * de
 
     # ------------------------------------------------------------------ results
     def _outcome(self, S, traj, steps, ke0, e_contact, warnings, ok, wall) -> Outcome:
