@@ -28,6 +28,7 @@ from .scene import (
     SPEED_MAX,
     STEER_MAX,
     YAW_RATE_MAX,
+    ZONE_CORNERS_MAX,
     Action,
     Barrier,
     Impact,
@@ -57,7 +58,8 @@ class ZoneFile(_Strict):
     """A friction polygon of the road (docs/physics.md §2a): a wheel standing in it takes its friction."""
     friction: Real = Field(ge=0, le=FRICTION_MAX, description=f"tyre-road friction in the zone; [0, {FRICTION_MAX:g}]")
     polygon: list[tuple[Position, Position]] = Field(
-        min_length=3, description="m, corners [[x, y], ...] in order (either sense); at least three, not crossing")
+        min_length=3, description=f"m, corners [[x, y], ...] in order (either sense); 3 to {ZONE_CORNERS_MAX}, not "
+        "crossing")
     name: Name | None = Field(default=None, description="label of the zone in tables and plots; default "
                               "'zone K'")
 

@@ -24,7 +24,6 @@ import hashlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError
@@ -36,29 +35,12 @@ from crashlab.vehicle import pydantic_error
 
 from . import counterfactual
 from .evidence import log_likelihood_of
+from .infer_settings import InferSection
 from .problem import variable_label
 from .questions import parse_question
-from .schema import SEED_MAX
 from .study import Study, _canonical, load_study
 
 Int = Annotated[int, Strict()]
-
-
-class InferSection(BaseModel):
-    """`[infer]` of a study file: the sampler's settings (module docstring)."""
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    sampler: Literal["emcee", "zeus"] = Field(  # zeus: the comparison (README); no --resume
-        default="emcee", description="ensemble MCMC sampler; zeus cannot --resume")
-    walkers: Int | None = Field(default=None, ge=8, le=10_000,
-                                description="[8, 10000]; default max(32, 6 x dims), even")
-    samples: Int = Field(default=20_000, ge=10, le=10_000_000,
-                         description="kept samples (walkers x iterations); [10, 1e7]")
-    burn: Int = Field(default=500, ge=0, le=1_000_000, description="iterations discarded; [0, 1e6]")
-    thin: Int = Field(default=1, ge=1, le=10_000, description="keep every thin-th iteration; [1, 10000]")
-    init: Int = Field(default=20, ge=1, le=10_000, description="prior draws per walker to start from; [1, 10000]")
-    seed: Int = Field(default=1, ge=0, le=SEED_MAX, description=f"seed of the sampler; [0, {SEED_MAX}]")
-    checkpoint_every: Int = Field(default=100, ge=1, le=1_000_000, description="iterations; [1, 1e6]")
-    draws_plotted: Int = Field(default=20, ge=0, le=1000, description="posterior draws in the top view; [0, 1000]")
 
 
 class QuestionFile(BaseModel):

@@ -309,12 +309,12 @@ def _engagement_warnings(names, imp, depth):
         i, j = int(r[K.I_I]), int(r[K.I_J])
         what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[K.I_T]:.3f} s)"
         if flag == K.ENGAGE_AMBIGUOUS:
-            out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal value is "
-                       f"{100.0 * r[K.I_ENGAGE_RATIO]:.0f} % of the larger, above {100.0 * K.AMBIGUOUS_RATIO:.0f} %): the "
-                       "plane of the struck edge at first touch is used; give [impact] point and plane_angle, or "
-                       "another engagement_depth (docs/physics.md §4)")
+            out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal "
+                       f"value is {100.0 * r[K.I_ENGAGE_RATIO]:.0f} % of the larger, above "
+                       f"{100.0 * K.AMBIGUOUS_RATIO:.0f} %): the plane of the struck edge at first touch is used; give "
+                       "[impact] point and plane_angle, or another engagement_depth (docs/physics.md §4)")
         else:
-            out.append(f"{what}: the outlines moved along their velocities never overlap engagement_depth = {depth:g} m "
-                       "(or would not approach there): the contact-zone point and the first-touch contact plane are "
-                       "used (docs/physics.md §4)")
+            out.append(f"{what}: the outlines moved along their velocities never overlap engagement_depth = "
+                       f"{depth:g} m (or would not approach there): the contact-zone point and the first-touch "
+                       "contact plane are used (docs/physics.md §4)")
     return out

@@ -68,7 +68,7 @@ def simulate_variants(model, scene, fs, values) -> Population:
     n, nv = arrays[0].shape[0], arrays[0].shape[1]
     rest, final, contact = np.empty((n, nv, 3)), np.empty((n, nv, 3)), np.empty((n, nv, 4))
     # (the impact records beyond each run's count are never read: no zeroing of n x max_impacts rows)
-    imp, diag = np.empty((n, model.max_impacts, K.N_IMP)), np.zeros((n, K.N_DIAG))
+    imp, diag = np.empty((n, model.impact_cap(nv), K.N_IMP)), np.zeros((n, K.N_DIAG))
     K.simulate_many(*arrays, rest, final, contact, imp, diag)
     return population_of(model, scene.vehicle_names, arrays[0][:, :, P_MASS], rest, final, contact, imp, diag)
 

@@ -15,7 +15,6 @@ import math
 from numba import njit
 
 
-
 @njit(cache=True)
 def block_pattern(JB, nj, NZ):
     """NZ[a, b] (b <= a): block (a, b) of S or of its Cholesky factor can be non-zero (joints sharing a

@@ -13,7 +13,6 @@ solved as (D M^-1 D^T) lam = D M^-1 g - rhs (block-sparse Cholesky over the join
 row touches only two bodies, a block of the Schur matrix is non-zero only for joints sharing a body), then
 v_dot = M^-1 (g - D^T lam).
 """
-import math
 
 import numpy as np
 from numba import njit

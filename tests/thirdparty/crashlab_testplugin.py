@@ -23,5 +23,4 @@ class DelegatingModel(crashlab.CollisionModel):
     def simulate(self, scene):
         out = self._inner.simulate(scene)
         out.model = self.name
-        out.guarded = False  # this model's own guard pass (the base class runs it on return)
         return out
