@@ -45,7 +45,7 @@ def test_arrays_nested_thousands_deep(tmp_path, capsys):
 def test_a_vehicle_path_longer_than_the_system_allows(tmp_path, capsys):
     p = _scene(tmp_path, SIDE.replace('vehicle = "clio"', 'vehicle = "' + "a" * 300 + '.toml"', 1))
     res = _cli(capsys, "simulate", p, "--model", "impulse")
-    assert_one_error_line(res, p, "vehicles.0", ["File name too long"])
+    assert_one_error_line(res, p, "vehicles.V1", ["File name too long"])
 
 
 def test_a_scene_path_longer_than_the_system_allows(tmp_path, capsys):

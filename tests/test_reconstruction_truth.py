@@ -330,7 +330,9 @@ def test_bad_study_value_cli_exits_2_before_the_search(tmp_path):
 
 def test_json_counts_failed_and_reasons(tmp_path):
     res = cli("reconstruct", study_file(tmp_path, base="case1", scene_text=SHORT), "--json", "--no-progress")
-    assert res.returncode == 0, res.stderr
+    # every evaluation failed: the run finished without a feasible solution, exit 4 with one line on stderr
+    assert res.returncode == 4, res.stderr
+    assert res.stderr.strip().splitlines()[-1].startswith("crashlab: no feasible solution: ")
     data = json.loads(res.stdout)
     print({k: v for k, v in data.items() if k != "pareto"})
     assert data["failed"] == sum(data["failure_reasons"].values()) == data["evaluations"] == 36

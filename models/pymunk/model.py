@@ -76,6 +76,7 @@ class PymunkModel(CollisionModel):
     """
 
     name = "pymunk"
+    compiles = "pymunk"  # its numba ground contact (models/pymunk/ground.py)
     driver_inputs = True  # actions and friction zones (docs/physics.md §2a) through ground.ground_forces
 
     class Options(ModelOptions):
