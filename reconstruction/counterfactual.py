@@ -195,7 +195,8 @@ def summary_lines(rows) -> list[str]:
 def run(post, samples, out_dir=None) -> list[dict]:
     """The posterior's counterfactuals (post: a Posterior with counterfactuals) answered on its kept samples
     (file units, the posterior's variables as columns) with the study's model; with out_dir,
-    counterfactuals.csv (one row per counterfactual, the draws as they are first)."""
+    counterfactuals.csv (one row per counterfactual, the draws as they are first: `crashlab avoid`; `crashlab
+    infer` writes it with its other outputs)."""
     import pandas as pd
 
     from crashlab.execution import model_for

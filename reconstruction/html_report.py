@@ -520,12 +520,12 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
 
 # ---------------------------------------------------------------- crashlab infer
 def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(), questions=(), median=None,
-                           median_figures=()) -> Path:
+                           median_figures=(), counterfactuals=()) -> Path:
     """DIR/report.html of a posterior: the study, the sampler, the evidence, the variables' medians and 90 %
     intervals, the questions, the corner plot, the median draw (median: (scene, outcome, draw index);
     median_figures: [(file name, caption)]) with its impact table, the draws' top view and the animation of
     `best` (scene, outcome: the draw of largest log-likelihood); questions: (question, probability, standard
-    error) rows."""
+    error) rows; counterfactuals: counterfactual.answer's rows."""
     out_dir = Path(out_dir)
     study, s = post.study, post.settings
     run = (f"sampler {res.sampler} ({res.walkers} walkers, {res.iterations} iterations of which {res.burn} burn-in "
@@ -546,6 +546,15 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
     qtable = (Table(["question", "probability", "MC standard error"],
                     [[f"`{q}`", num(p), num(se)] for q, p, se in questions], "questions", md_cols=(0,))
               if questions else None)
+    ctable = None
+    if counterfactuals:
+        names = post.study.scene.vehicle_names
+        ctable = Table(["counterfactual", "draws", "failed", "avoided", "90 % interval"]
+                       + [f"{n} impact speed, median [km/h]" for n in names],
+                       [[r["name"], str(r["draws"]), str(r["failed"]), num(r["p_avoided"]),
+                         f"{num(r['p_avoided_5'])}-{num(r['p_avoided_95'])}"]
+                        + [num(r[f"{n}.impact_speed_50"], 1) for n in names] for r in counterfactuals],
+                       "counterfactuals")
     corner = figure_of(out_dir / "corner.png", "the posterior's one- and two-variable marginals (each axis in its "
                        "variable's unit); dashed: 5, 50 and 95 % quantiles"
                        + ("; lines: the twin's truth" if truth is not None else "") + ".")
@@ -566,7 +575,7 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
                         "model_options": _options(study.spec.model_options), "run": run},
                  scene=scene_context(study), evidence=evidence_context(study),
                  posterior=Table(head, rows, "posterior", (0, 1, 2), md_cols=(len(head) - 1,)),
-                 warnings=list(warnings), questions=qtable,
+                 warnings=list(warnings), questions=qtable, counterfactuals=ctable,
                  corner=corner, solution=solution, tops=tops,
                  animation=animation_context(best, out_dir, "the posterior draw of largest log-likelihood"),
                  refine=refine_context(out_dir, getattr(res, "refine", None), study.evidence), notes=list(notes))

@@ -70,6 +70,7 @@ class PosteriorResult:
     truth: np.ndarray | None = None
     chain: np.ndarray | None = None  # (iterations, walkers, d), every iteration
     refine: object = None  # refine.RefineResult of the study's [refine] on the best draws
+    counterfactuals: list | None = None  # counterfactual.answer's rows of the study's [[counterfactuals]]
 
     def interval(self, q=(0.05, 0.5, 0.95)) -> np.ndarray:
         return np.quantile(self.samples, q, axis=0)
@@ -155,6 +156,9 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
     result = PosteriorResult(post.labels, flat, loglik, tau, nw * n_kept_iters / np.maximum(tau, 1.0), nw,
                              len(chain), s.burn, s.thin, evaluations, acc, time.time() - t0, s.sampler,
                              post.truth, chain)
+    if post.counterfactuals:  # what if ... on the kept draws (counterfactual.py), before the outputs show it
+        from . import counterfactual
+        result.counterfactuals = counterfactual.run(post, result.samples)
     page = None
     if out is not None:
         from .infer_report import write_outputs
@@ -259,11 +263,10 @@ def cmd_infer(args) -> int:
           f"outputs in {args.out}")
     if res.refine is not None:
         print(res.refine.summary_line(post.study.variables, wrote=True))
-    if post.counterfactuals:
+    if res.counterfactuals:
         from . import counterfactual
-        for line in counterfactual.summary_lines(counterfactual.run(post, res.samples, args.out)):
+        for line in counterfactual.summary_lines(res.counterfactuals):
             print(line)
-        print(f"wrote {Path(args.out) / 'counterfactuals.csv'}", file=sys.stderr)
     from .infer_report import chain_warnings
     for w in chain_warnings(res):  # (summary.md has them too)
         print("warning: " + w.removeprefix("**Warning**: "), file=sys.stderr)

@@ -50,6 +50,11 @@ def summary_lines(post, res) -> list[str]:
     if post.questions:
         lines += ["", "## Questions", "", "| question | probability | MC standard error |", "|---|---|---|"]
         lines += [f"| `{q}` | {p:.3f} | {se:.3f} |" for q, p, se in question_rows(post, res)]
+    if res.counterfactuals:
+        from .counterfactual import summary_lines as counterfactual_lines
+        lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, evenly subsampled) simulated again "
+                  "with the change (docs/physics.md §29; every number in counterfactuals.csv):", ""]
+        lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals)]
     lines += ["", "## Evidence", ""] + [f"- {s}" for s in post.study.evidence_set.describe()]
     lines += ["", "Likelihood: Gaussian in the normalised residuals (crashlab.reconstruction.evidence); priors "
               "as in the table; a start that overlaps, misses or fails has probability 0 "
@@ -225,6 +230,9 @@ def write_outputs(post, res, out: Path) -> dict:
     out = Path(out)
     try:
         write_posterior_csv(post, res, out / "posterior.csv")
+        if res.counterfactuals:
+            import pandas as pd
+            pd.DataFrame(res.counterfactuals).to_csv(out / "counterfactuals.csv", index=False)
         (out / "summary.md").write_text("\n".join(summary_lines(post, res)) + "\n")
         corner_plot(res, out / "corner.png", [v.unit for v in post.variables])
         if post.settings.draws_plotted:
@@ -242,6 +250,7 @@ def write_outputs(post, res, out: Path) -> dict:
             median, median_figures = None, []
             notes.append(f"the median draw could not be run again ({type(err).__name__}).")
         return dict(warnings=chain_warnings(res), best=best, notes=notes, median=median,
-                    median_figures=median_figures, questions=question_rows(post, res) if post.questions else [])
+                    median_figures=median_figures, questions=question_rows(post, res) if post.questions else [],
+                    counterfactuals=res.counterfactuals or [])
     except OSError as err:
         raise InputError(out, "--out", err.strerror or str(err)) from None

@@ -133,3 +133,28 @@ def test_avoid_answers_a_studys_counterfactuals_on_an_infer_runs_draws(tmp_path,
     assert "V1 stopped: avoided in 100.0 % of 5 draws" in out
     assert main(["avoid", str(src), "--out", str(tmp_path)]) == 2  # no [[counterfactuals]]: one line
     assert "counterfactuals: the study has no [[counterfactuals]]" in capsys.readouterr().err
+
+
+def test_infer_answers_the_counterfactuals_in_its_outputs(tmp_path):
+    """`crashlab infer` with [[counterfactuals]]: counterfactuals.csv beside posterior.csv, a section in
+    summary.md and in report.html, the numbers equal to answering them again on posterior.csv."""
+    import pandas as pd
+
+    from crashlab.reconstruction.infer import run_posterior
+    from crashlab.reconstruction.posterior import load_posterior
+    text = (REPO / "studies" / "infer" / "twin_infer.toml").read_text().replace(
+        'scene = "../pc_crash/side.toml"', f'scene = "{(REPO / "studies" / "pc_crash" / "side.toml").as_posix()}"')
+    study = tmp_path / "study.toml"
+    study.write_text(text + '\n[[counterfactuals]]\nname = "V1 stopped"\nscale = { "vehicles.V1.speed" = 0.0 }\n')
+    post = load_posterior(study)
+    post.settings = post.settings.model_copy(update={"walkers": 16, "burn": 20, "samples": 16 * 20,
+                                                     "draws_plotted": 0})
+    out = tmp_path / "out"
+    res = run_posterior(post, out, progress=False)
+    table = pd.read_csv(out / "counterfactuals.csv")
+    assert list(table["name"]) == ["posterior", "V1 stopped"] and list(table["p_avoided"]) == [0.0, 1.0]
+    assert table["draws"][0] == len(res.samples)
+    again = counterfactual.answer(ImpulseModel(), post.study.scene, post.fields, res.samples, post.counterfactuals)
+    np.testing.assert_allclose(table["V2.impact_speed_50"], [r["V2.impact_speed_50"] for r in again], rtol=1e-9)
+    assert "## Counterfactuals" in (out / "summary.md").read_text()
+    assert "Would it have been avoided?" in (out / "report.html").read_text()
