@@ -45,7 +45,6 @@ from .report import (
 from .run import CHECKPOINT_FORMAT, run_study
 from .schema import (
     ANGLE_MAX,
-    FIELD_RANGES,
     FRICTION_MAX,
     GENERATIONS_MAX,
     IMPACT_FIELDS,
@@ -73,7 +72,7 @@ from .schema import (
 from .study import Study, load_study
 
 __all__ = [
-    "ANGLE_MAX", "CHECKPOINT_FORMAT", "DUPLICATE_TOL", "FAILED_OBJECTIVE", "FIELD_RANGES", "FRICTION_MAX",
+    "ANGLE_MAX", "CHECKPOINT_FORMAT", "DUPLICATE_TOL", "FAILED_OBJECTIVE", "FRICTION_MAX",
     "GENERATIONS_MAX", "HEADING_WARN_DEG", "IMPACT_FIELDS", "POLISH_MIN", "POLISH_SHARE", "POLISH_SPACING",
     "POP_SIZE_RANGE", "POSITION_MAX", "SEED_MAX", "SPEED_MAX", "VEHICLE_FIELDS", "WORKERS_MAX",
     "CollisionRepair", "Evidence", "EvidenceItem", "EvidenceSet", "log_likelihood_of",

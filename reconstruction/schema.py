@@ -8,7 +8,6 @@ the same thing.
 from __future__ import annotations
 
 import math
-import re
 from typing import Annotated, Literal
 
 from pydantic import (
@@ -22,6 +21,7 @@ from pydantic import (
     model_validator,
 )
 
+from crashlab import fields
 from crashlab.damage import DamageEvidence
 from crashlab.execution import DEFAULT_TIMEOUT_S
 from crashlab.fields import study_path
@@ -29,10 +29,8 @@ from crashlab.file_numbers import Real
 
 VEHICLE_FIELDS = ("x", "y", "heading", "speed")
 IMPACT_FIELDS = ("restitution", "friction", "engagement_depth")
-# a driver action's value (vehicle given): actions.K.t|brake|steer|ramp; the road: road.friction and a zone's
-# friction zones.K.friction (no vehicle); docs/physics.md §2a
-ACTION_FIELD = re.compile(r"^actions\.(\d+)\.(t|brake|steer|ramp)$")
-ZONE_FIELD = re.compile(r"^zones\.(\d+)\.friction$")
+# also a driver action's value (vehicle given): actions.K.t|brake|steer|ramp; the road: road.friction and a
+# zone's friction zones.K.friction (no vehicle); docs/physics.md §2a; read by crashlab.fields (field_parts)
 ROAD_FIELDS = ("road.friction",)
 DURATION_MAX = 120.0  # s, as a scene's duration
 # default polish budget: this share of pop_size x generations, at least POLISH_MIN evaluations (a
@@ -47,30 +45,25 @@ POSITION_MAX = 1e5  # m: |x|, |y| of free bounds and evidence (a local site fram
 ANGLE_MAX = 3600.0  # deg: |heading|
 SPEED_MAX = 400.0  # km/h
 FRICTION_MAX = 2.0
-FIELD_RANGES = {"x": (-POSITION_MAX, POSITION_MAX), "y": (-POSITION_MAX, POSITION_MAX),
-                "heading": (-ANGLE_MAX, ANGLE_MAX), "speed": (0.0, SPEED_MAX),
-                "restitution": (0.0, 1.0), "friction": (0.0, FRICTION_MAX),
-                "t": (0.0, DURATION_MAX), "brake": (0.0, 1.0), "steer": (-45.0, 45.0), "ramp": (0.0, DURATION_MAX)}
-UNITS = {"x": " m", "y": " m", "heading": " deg", "speed": " km/h", "t": " s", "steer": " deg", "ramp": " s"}
 
 
 def field_parts(field: str) -> tuple[str, int | None, str]:
-    """(kind, index, quantity) of a free field: ("vehicle", None, "speed"), ("impact", None, "friction"),
-    ("action", 0, "t"), ("road", None, "friction"), ("zone", 1, "friction"). ValueError for anything else."""
-    if field in VEHICLE_FIELDS:
-        return "vehicle", None, field
+    """(kind, index, quantity) of a free field, read as crashlab.fields reads it (the one vocabulary of a
+    scene's numbers): ("vehicle", None, "speed"), ("impact", None, "friction"), ("action", 0, "t"),
+    ("road", None, "friction"), ("zone", 1, "friction"); a vehicle's field is relative to the variable's
+    vehicle and one of its start state's VEHICLE_FIELDS. ValueError for anything else."""
     if field in IMPACT_FIELDS:
         return "impact", None, field
-    if field in ROAD_FIELDS:
-        return "road", None, "friction"
-    m = ACTION_FIELD.match(field)
-    if m:
-        return "action", int(m.group(1)), m.group(2)
-    m = ZONE_FIELD.match(field)
-    if m:
-        return "zone", int(m.group(1)), "friction"
-    raise ValueError(f"unknown field {field!r}: one of {', '.join(VEHICLE_FIELDS + IMPACT_FIELDS + ROAD_FIELDS)}, "
-                     "actions.K.t|brake|steer|ramp, zones.K.friction")
+    try:
+        f = fields.parse(field if field.startswith(("road.", "zones.")) else f"vehicles.V.{field}")
+    except ValueError:
+        f = None
+    if f is None or f.kind == "spec" or (f.kind == "vehicle" and f.quantity not in VEHICLE_FIELDS):
+        raise ValueError(f"unknown field {field!r}: one of {', '.join(VEHICLE_FIELDS + IMPACT_FIELDS + ROAD_FIELDS)}, "
+                         "actions.K.t|brake|steer|ramp, zones.K.friction")
+    return f.kind, f.index, f.quantity
+
+
 POP_SIZE_RANGE = (4, 100_000)  # 4: two mating pairs; 1e5 x the largest sensible number of free variables
 GENERATIONS_MAX = 100_000
 SEED_MAX = 2**32 - 1  # numpy's seed range
@@ -114,11 +107,12 @@ class FreeVariable(_Strict):
     @model_validator(mode="after")
     def _check(self):
         kind, _, quantity = self.parts
-        lo, hi = FIELD_RANGES[quantity]
+        lo, hi = fields.STATIC_RANGES[quantity]  # the scene file's range of the field
         for key in ("lower", "upper"):
             val = getattr(self, key)
             if not lo <= val <= hi:
-                raise ValueError(f"{key} = {val:g} is outside [{lo:g}, {hi:g}]{UNITS.get(quantity, '')} for "
+                unit = "" if fields.UNITS[quantity] == "-" else " " + fields.UNITS[quantity]
+                raise ValueError(f"{key} = {val:g} is outside [{lo:g}, {hi:g}]{unit} for "
                                  f"{self.field}")
         if not self.lower < self.upper:
             raise ValueError(f"lower ({self.lower}) must be below upper ({self.upper})")

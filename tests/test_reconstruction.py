@@ -557,3 +557,14 @@ def test_heading_evidence_and_the_contact_zone_point_of_impact():
           f"contact zone {np.round(found[0.036], 3)}")
     assert min(found[0.0]) > 0.5
     assert max(found[0.036]) <= 0.10
+
+
+def test_a_free_engagement_depth_is_checked_against_its_scene_range():
+    """The study's free fields are read by crashlab.fields (one vocabulary, one table of ranges): the
+    engagement depth, a field a study may free, had no range in the study's own table (a KeyError)."""
+    from pydantic import ValidationError
+
+    from crashlab.reconstruction.schema import FreeVariable
+    assert FreeVariable(field="engagement_depth", lower=0.2, upper=0.8).path == "impact.engagement_depth"
+    with pytest.raises(ValidationError, match=r"lower = 0 is outside \[0.001, .*\] m for engagement_depth"):
+        FreeVariable(field="engagement_depth", lower=0.0, upper=0.8)
