@@ -64,7 +64,8 @@ def test_a_lower_speed_and_earlier_braking_avoid_the_collision_the_draws_do_not(
     X = np.linspace(58.0, 66.0, 41)[:, None]
     cfs = counterfactual.parse([{"name": "at the limit", "set": {"vehicles.V1.speed": 50.0}},
                                 {"name": "braking 0.5 s earlier", "shift": {"vehicles.V1.actions.0.t": -0.5}},
-                                {"name": "a little slower", "scale": {"vehicles.V1.speed": 0.99}}], scene, "t.toml")
+                                {"name": "a little slower", "scale": {"vehicles.V1.speed": 0.99}},
+                                {"name": "nothing", "scale": {"vehicles.V1.speed": 1.0}}], scene, "t.toml")
     rows = {r["name"]: r for r in counterfactual.answer(model, scene, var, X, cfs)}
     post, limit, early = rows["posterior"], rows["at the limit"], rows["braking 0.5 s earlier"]
     assert post["failed"] == 0 and post["p_avoided"] == 0.0
@@ -76,6 +77,8 @@ def test_a_lower_speed_and_earlier_braking_avoid_the_collision_the_draws_do_not(
     assert 0.95 < limit["p_avoided_5"] < 1.0 and limit["p_avoided_95"] == 1.0
     # 1 % slower: 57.4-65.3 km/h still stops after 31 m (57.4 km/h: 32.2 m): every draw still collides
     assert rows["a little slower"]["p_avoided"] == 0.0
+    same = {k: v for k, v in rows["nothing"].items() if k != "name"}  # a change that changes nothing
+    assert same == {k: v for k, v in post.items() if k != "name"}
     lines = counterfactual.summary_lines(rows.values())
     assert lines[1].startswith("at the limit: avoided in 100.0 % of 41 draws")
 
