@@ -47,6 +47,6 @@ def _no_feasible(args, res) -> int:
     if len(res.pareto):
         return 0
     print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations collided without a "
-          f"start overlap and ended at rest ({res.failed} failed; reasons in pareto.csv's archive and report.html "
+          f"start overlap and ended at rest ({res.failed} failed; their reasons in failures.csv and report.html "
           "with --out)", file=sys.stderr)
     return EXIT_NO_FEASIBLE
