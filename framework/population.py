@@ -114,13 +114,9 @@ class Population:
         self.ok[idx] = False
         self.reason[idx] = reason
 
-    def take(self, idx) -> Population:
-        """The rows idx (an index array or mask) as a population of their own."""
-        return dataclasses.replace(self, **{name: getattr(self, name)[idx] for name in ARRAYS},
-                                   variants=None, model=None)
-
     @classmethod
     def concat(cls, parts: list[Population]) -> Population:
+        """The rows of several populations of one scene, in order."""
         return dataclasses.replace(parts[0], **{name: np.concatenate([getattr(p, name) for p in parts])
                                                 for name in ARRAYS}, variants=None, model=None)
 
