@@ -27,7 +27,7 @@ def run_cli(args) -> int:
         print(json.dumps(out, indent=2))
         return _no_feasible(args, res)
     import pandas as pd
-    with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 200, "display.max_columns", 40):
+    with pd.option_context("display.float_format", _three_decimals, "display.width", 200, "display.max_columns", 40):
         cols = [f.label for f in study.variables] + [f"f_{n}" for n in study.objective_names]
         cols += [f"dheading_{n}" for n, ev in study.evidence.items() if ev[2] is not None]
         f_unit = "m" if study.mode == "thesis" else "sigma"  # misfit: residuals in their sigmas
@@ -40,6 +40,12 @@ def run_cli(args) -> int:
     if refined is not None:
         print(refined.summary_line(study.variables, wrote=bool(args.out)))
     return _no_feasible(args, res)
+
+
+def _three_decimals(v: float) -> str:
+    """A printed number with 3 decimals, 0.000 rather than -0.000."""
+    text = f"{v:.3f}"
+    return "0.000" if text == "-0.000" else text
 
 
 def _no_feasible(args, res) -> int:
