@@ -16,6 +16,7 @@ from conftest import PC_CRASH
 from crashlab.errors import InputError
 from crashlab.fields import parse, setter
 from crashlab.models.impulse import kernel as K
+from crashlab.models.impulse import layout as L
 from crashlab.scene_file import load_scene
 
 HALF_W, HALF_L = 0.82, 1.8875  # the Clio's half width and CG-to-front = CG-to-rear (m)
@@ -34,14 +35,14 @@ def axis_diff(a, b):
 
 
 def kernel_row(model, scene):
-    """The first impact's kernel row (every column, K.I_*) of the scene run by the impulse model; the impact
+    """The first impact's kernel row (every column, L.I_*) of the scene run by the impulse model; the impact
     record starts as garbage (7.0), as an np.empty one may: the kernel writes every column of a row it keeps."""
     P, S0, B, cfg, A, NA, zones = model.pack(scene)
     nv = P.shape[0]
     rest, final, contact = np.empty((nv, 3)), np.empty((nv, 3)), np.empty((nv, 4))
-    imp, diag = np.full((model.max_impacts, K.N_IMP), 7.0), np.zeros(K.N_DIAG)
+    imp, diag = np.full((model.max_impacts, L.N_IMP), 7.0), np.zeros(L.N_DIAG)
     K.simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, np.zeros((0, nv, 7)), diag)
-    assert diag[K.D_IMPACTS] >= 1
+    assert diag[L.D_IMPACTS] >= 1
     return imp[0]
 
 
@@ -89,7 +90,7 @@ def test_aligned_frontal_plane_across_the_driving_direction(make_scene, impulse_
     assert r.point_x == pytest.approx(5.0 - HALF_L, abs=ONSET)
     assert r.point_y == pytest.approx(0.5 * (y2 - HALF_W + HALF_W), abs=1e-6)
     row = kernel_row(impulse_model, sc)
-    assert row[K.I_ENGAGE] == K.ENGAGE_USED and row[K.I_ENGAGE_RATIO] == pytest.approx(0.0, abs=1e-9)
+    assert row[L.I_ENGAGE] == L.ENGAGE_USED and row[L.I_ENGAGE_RATIO] == pytest.approx(0.0, abs=1e-9)
     if y2 == 0.0:  # a central impact: no tangential slip, the impulse is full
         assert r.kind == "full"
 
@@ -127,10 +128,10 @@ def test_t_bone_plane_along_the_struck_side(make_scene, impulse_model, v2):
     row = kernel_row(impulse_model, sc)
     # V2's start y puts V1's centre line at V2's centre at first touch; the hand numbers hold for any y inside
     dy = d * v2 / 50.0
-    assert axis_diff(math.degrees(row[K.I_PLANE]) % 180.0, 90.0) < 1e-6
-    assert row[K.I_ENGAGE] == K.ENGAGE_USED
-    assert row[K.I_ENGAGE_RATIO] == pytest.approx(d * (v2 / 50.0) / (2 * HALF_W), abs=1e-4)
-    assert row[K.I_PX] == pytest.approx(2.5, abs=1e-4) and row[K.I_PY] == pytest.approx(-0.5 * dy, abs=1e-4)
+    assert axis_diff(math.degrees(row[L.I_PLANE]) % 180.0, 90.0) < 1e-6
+    assert row[L.I_ENGAGE] == L.ENGAGE_USED
+    assert row[L.I_ENGAGE_RATIO] == pytest.approx(d * (v2 / 50.0) / (2 * HALF_W), abs=1e-4)
+    assert row[L.I_PX] == pytest.approx(2.5, abs=1e-4) and row[L.I_PY] == pytest.approx(-0.5 * dy, abs=1e-4)
 
 
 def oblique(make_scene, theta, depth, barrier=False):
@@ -184,10 +185,10 @@ def test_oblique_front_into_side_plane_between_the_crushed_faces(make_scene, imp
     assert ratio == pytest.approx(math.tan(math.radians(theta / 2.0)) ** 2)
     point = (C + P1 + P2) / 3.0 - 0.5 * D
     row = kernel_row(impulse_model, sc)
-    assert row[K.I_ENGAGE] == K.ENGAGE_USED
-    assert axis_diff(math.degrees(row[K.I_PLANE]) % 180.0, plane) < 1e-4
-    assert row[K.I_ENGAGE_RATIO] == pytest.approx(ratio, abs=1e-6)
-    assert row[K.I_PX] == pytest.approx(point[0], abs=1e-4) and row[K.I_PY] == pytest.approx(point[1], abs=1e-4)
+    assert row[L.I_ENGAGE] == L.ENGAGE_USED
+    assert axis_diff(math.degrees(row[L.I_PLANE]) % 180.0, plane) < 1e-4
+    assert row[L.I_ENGAGE_RATIO] == pytest.approx(ratio, abs=1e-6)
+    assert row[L.I_PX] == pytest.approx(point[0], abs=1e-4) and row[L.I_PY] == pytest.approx(point[1], abs=1e-4)
 
 
 def test_oblique_into_a_barrier_plane_along_the_barrier(make_scene, impulse_model):
@@ -202,9 +203,9 @@ def test_oblique_into_a_barrier_plane_along_the_barrier(make_scene, impulse_mode
     P2 = C + (p / math.cos(th)) * np.array([-math.cos(th), -math.sin(th)])
     point = (C + P1 + P2) / 3.0 - 0.5 * np.array([p, p * math.tan(th)])
     row = kernel_row(impulse_model, sc)
-    assert row[K.I_ENGAGE] == K.ENGAGE_USED and row[K.I_ENGAGE_RATIO] == pytest.approx(0.0, abs=1e-9)
-    assert axis_diff(math.degrees(row[K.I_PLANE]) % 180.0, 90.0) < 1e-6
-    assert row[K.I_PX] == pytest.approx(point[0], abs=1e-4) and row[K.I_PY] == pytest.approx(point[1], abs=1e-4)
+    assert row[L.I_ENGAGE] == L.ENGAGE_USED and row[L.I_ENGAGE_RATIO] == pytest.approx(0.0, abs=1e-9)
+    assert axis_diff(math.degrees(row[L.I_PLANE]) % 180.0, 90.0) < 1e-6
+    assert row[L.I_PX] == pytest.approx(point[0], abs=1e-4) and row[L.I_PY] == pytest.approx(point[1], abs=1e-4)
 
 
 def test_ambiguous_plane_is_flagged_and_keeps_the_first_touch_plane(make_scene, impulse_model):
@@ -216,10 +217,10 @@ def test_ambiguous_plane_is_flagged_and_keeps_the_first_touch_plane(make_scene, 
     theta = 88.0
     sc, _ = oblique(make_scene, theta, 0.04)
     row = kernel_row(impulse_model, sc)
-    assert row[K.I_ENGAGE] == K.ENGAGE_AMBIGUOUS
-    assert row[K.I_ENGAGE_RATIO] == pytest.approx(math.tan(math.radians(theta / 2)) ** 2, abs=1e-6)
+    assert row[L.I_ENGAGE] == L.ENGAGE_AMBIGUOUS
+    assert row[L.I_ENGAGE_RATIO] == pytest.approx(math.tan(math.radians(theta / 2)) ** 2, abs=1e-6)
     found = sc.replace(impact=dataclasses.replace(sc.impact, engagement=False))
-    assert row[K.I_PLANE] == pytest.approx(kernel_row(impulse_model, found)[K.I_PLANE], abs=1e-9)
+    assert row[L.I_PLANE] == pytest.approx(kernel_row(impulse_model, found)[L.I_PLANE], abs=1e-9)
 
 
 def test_engagement_never_reached_is_flagged(make_scene, impulse_model):
@@ -228,14 +229,14 @@ def test_engagement_never_reached_is_flagged(make_scene, impulse_model):
     without engagement (the contact-zone point, a given point) the column is 0."""
     sc = frontal(make_scene, 1.44, 0.5)
     row = kernel_row(impulse_model, sc)
-    assert row[K.I_ENGAGE] == K.ENGAGE_FALLBACK
+    assert row[L.I_ENGAGE] == L.ENGAGE_FALLBACK
     found = kernel_row(impulse_model, sc.replace(impact=dataclasses.replace(sc.impact, engagement=False)))
-    assert found[K.I_ENGAGE] == 0
-    for c in (K.I_PX, K.I_PY, K.I_PLANE, K.I_DVX_I, K.I_DVY_I):
+    assert found[L.I_ENGAGE] == 0
+    for c in (L.I_PX, L.I_PY, L.I_PLANE, L.I_DVX_I, L.I_DVY_I):
         assert row[c] == found[c]
     given = make_scene(vehicles=[{"speed": 50.0}, {"x": 2 * HALF_L, "heading": 180.0}],
                        impact={"point": [HALF_L, 0.0], "plane_angle": 90.0}, duration=1.0)  # fronts touching
-    assert kernel_row(impulse_model, given)[K.I_ENGAGE] == 0  # the collision position's impact at t = 0
+    assert kernel_row(impulse_model, given)[L.I_ENGAGE] == 0  # the collision position's impact at t = 0
 
 
 def test_engagement_depth_is_a_field_and_plane_angle_is_refused(make_scene):

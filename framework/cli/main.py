@@ -175,6 +175,11 @@ def cmd_schema(args):
     return 0
 
 
+def _pdf_option(parser) -> None:
+    parser.add_argument("--pdf", action="store_true", help="with --out: also print DIR/report.html to DIR/report.pdf "
+                        "(A4; needs WeasyPrint: pip install \"crashlab[pdf]\")")
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0], formatter_class=HelpFormatter)
     p.add_argument("--version", action="version", version=f"crashlab {package_version()}",
@@ -263,8 +268,7 @@ def build_parser():
     inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
     inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
     inf.add_argument("--no-progress", action="store_true", help="no progress line")
-    inf.add_argument("--pdf", action="store_true", help="also print DIR/report.html to DIR/report.pdf (A4; needs "
-                     "WeasyPrint: pip install weasyprint)")
+    _pdf_option(inf)
     inf.set_defaults(fn=cmd_infer)
     av = command("avoid", "would it have been avoided: the study's [[counterfactuals]] answered on the draws of an "
                  "earlier `crashlab infer STUDY --out DIR`")
@@ -285,8 +289,7 @@ def build_parser():
                    help="write the Pareto set, report and figures here (default: print only)")
     r.add_argument("--json", action="store_true", help="print the result as JSON")
     r.add_argument("--no-progress", action="store_true", help="no progress line")
-    r.add_argument("--pdf", action="store_true", help="with --out: also print DIR/report.html to DIR/report.pdf "
-                   "(A4; needs WeasyPrint: pip install weasyprint)")
+    _pdf_option(r)
     r.set_defaults(fn=cmd_reconstruct)
     sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
                  "validation, the PC-Crash cases with every impulse law")

@@ -139,12 +139,6 @@ def cmd_monte_carlo(args, scene, model):
     return 0
 
 
-def ms_to_kmh_hypot(vx, vy):
-    """The speed [km/h] of velocity components given in km/h."""
-    import numpy as np
-    return np.hypot(vx.astype(float), vy.astype(float))
-
-
 def _cell(v) -> str:
     """A table cell: true/false for a boolean, "-" for a missing number, 2 decimals without -0.00 and with
     -180.00 read as 180.00 (a heading wrapped to (-180, 180] that rounds to the boundary)."""
@@ -163,7 +157,8 @@ def _cell(v) -> str:
 
 
 def _table_text(df) -> str:
-    """A printed table: cells by _cell, columns right-aligned under their headers, two spaces apart."""
+    """A printed table: cells by _cell, right-aligned under their headers, two spaces apart (tabulate pads
+    every column by two more beyond its widest cell: the pose table took 107 columns)."""
     cells = [[_cell(v) for v in row] for row in df.astype(object).itertuples(index=False)]
     heads = [str(c) for c in df.columns]
     widths = [max([len(h)] + [len(r[k]) for r in cells]) for k, h in enumerate(heads)]
@@ -273,6 +268,7 @@ def cmd_simulate(args):
 
 
 def cmd_compare(args):
+    import numpy as np
     import pandas as pd
 
     from ..scene_file import load_scene
@@ -308,7 +304,8 @@ def cmd_compare(args):
     else:
         print(f"{scene.name}: end poses (heading wrapped to (-180, 180]; turned: since the start)")
         poses = df[["source", "vehicle", "x", "y"]].assign(
-            heading=df["heading"], yaw_turned=df["yaw_turned"], speed=ms_to_kmh_hypot(df["vx"], df["vy"]),
+            heading=df["heading"], yaw_turned=df["yaw_turned"],
+            speed=np.hypot(df["vx"].astype(float), df["vy"].astype(float)),  # (vx, vy in km/h)
             at_rest=df["at_rest"], ok=df["ok"])
         print(_table_text(poses.rename(columns={"x": "x [m]", "y": "y [m]", "heading": "heading [deg]",
                                                 "yaw_turned": "turned [deg]", "speed": "v [km/h]"})))

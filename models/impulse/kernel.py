@@ -24,7 +24,7 @@ CONTACT_SLOP. Reaching max_impacts or MAX_STEPS stops and fails the run.
 The time loop and its step policy live here; the stages it calls, one module per reason to change:
 contact.py (outlines, contact geometry, the engagement point, the position projection), impacts.py (the impulse
 at a point and the impact record), motion.py (the Heun step and the wheels' road friction), pairs.py (which
-vehicles and pairs a step visits), layout.py (the arrays' layouts, re-exported here for model.py).
+vehicles and pairs a step visits), layout.py (the arrays' layouts).
 """
 import math
 
@@ -47,8 +47,7 @@ from crashlab.units import G
 
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
 from .impacts import _apply_impulse, _kinetic, _merge_impact, _record_impact, _struck
-from .layout import (  # noqa: F401 (every layout name: model.py reads them as kernel.*)
-    AMBIGUOUS_RATIO,
+from .layout import (
     C_BROAD_PHASE,
     C_COARSE_DT,
     C_CRUSH_TIME,
@@ -87,41 +86,9 @@ from .layout import (  # noqa: F401 (every layout name: model.py reads them as k
     D_STEPS,
     D_T_END,
     D_VEHICLE_STEPS,
-    ENGAGE_AMBIGUOUS,
-    ENGAGE_FALLBACK,
-    ENGAGE_USED,
-    I_ALT_DR_I,
-    I_ALT_DR_J,
-    I_ALT_PN,
-    I_ALT_PT,
-    I_CLOSING,
-    I_DR_I,
-    I_DR_J,
-    I_DVX_I,
-    I_DVX_J,
-    I_DVY_I,
-    I_DVY_J,
-    I_ENERGY,
     I_ENGAGE,
     I_ENGAGE_RATIO,
-    I_HEAD_I,
-    I_HEAD_J,
-    I_I,
-    I_J,
-    I_KIND,
-    I_N_FOLLOW,
-    I_OWN_DR_I,
-    I_OWN_DR_J,
-    I_OWN_PN,
-    I_OWN_PT,
-    I_PLANE,
-    I_PN,
-    I_PT,
-    I_PX,
-    I_PY,
-    I_REVERSED,
     I_T,
-    I_T_END,
     IN_BRAKE,
     IN_COS_HEADING,
     IN_COS_STEER,
@@ -129,9 +96,6 @@ from .layout import (  # noqa: F401 (every layout name: model.py reads them as k
     IN_SIN_HEADING,
     IN_SIN_STEER,
     IN_STEER,
-    N_CFG,
-    N_DIAG,
-    N_IMP,
     N_IN,
     STATUS_IMPACT_CAP,
     STATUS_NAN,

@@ -20,14 +20,15 @@ from crashlab.scene import given_pair
 from crashlab.units import ms_to_kmh
 
 from . import kernel as K
+from . import layout as L
 from .laws import BRACH, FULL, KUDLICH_SLIBAR, REVERSED, ROUTH, SLIDING
 from .population import simulate_variants
 
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH, "routh": ROUTH}
 KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed"}
-STATUS_TEXT = {K.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
-               K.STATUS_NAN: "the state became NaN",
-               K.STATUS_STEP_LIMIT: "step limit reached (the time step collapsed)"}
+STATUS_TEXT = {L.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
+               L.STATUS_NAN: "the state became NaN",
+               L.STATUS_STEP_LIMIT: "step limit reached (the time step collapsed)"}
 
 
 class ImpulseModel(CollisionModel):
@@ -156,19 +157,19 @@ class ImpulseModel(CollisionModel):
         S0 = np.array([[v.x, v.y, v.heading, v.speed * math.cos(v.heading), v.speed * math.sin(v.heading),
                         v.yaw_rate] for v in scene.vehicles])
         B = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
-        cfg = np.zeros(K.N_CFG)
+        cfg = np.zeros(L.N_CFG)
         imp = scene.impact
-        cfg[K.C_MU_ROAD], cfg[K.C_E], cfg[K.C_MU_IMP] = scene.road.friction, kernel_value(imp), imp.friction
-        cfg[K.C_LAW], cfg[K.C_DURATION], cfg[K.C_STOP_AT_REST] = LAWS[imp.law], scene.duration, scene.stop_at_rest
+        cfg[L.C_MU_ROAD], cfg[L.C_E], cfg[L.C_MU_IMP] = scene.road.friction, kernel_value(imp), imp.friction
+        cfg[L.C_LAW], cfg[L.C_DURATION], cfg[L.C_STOP_AT_REST] = LAWS[imp.law], scene.duration, scene.stop_at_rest
         if imp.point is not None:
-            cfg[K.C_GIVEN], cfg[K.C_PX], cfg[K.C_PY], cfg[K.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
-            cfg[K.C_GIVEN_I], cfg[K.C_GIVEN_J] = given_pair(scene)
-        cfg[K.C_DT], cfg[K.C_COARSE_DT], cfg[K.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
-        cfg[K.C_ONSET_TOL], cfg[K.C_V_REST] = self.onset_tol, self.v_rest
-        cfg[K.C_MAX_IMPACTS] = self.impact_cap(len(scene.vehicles))
-        cfg[K.C_CRUSH_TIME] = self.crush_time
-        cfg[K.C_ENGAGE], cfg[K.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
-        cfg[K.C_BROAD_PHASE], cfg[K.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
+            cfg[L.C_GIVEN], cfg[L.C_PX], cfg[L.C_PY], cfg[L.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
+            cfg[L.C_GIVEN_I], cfg[L.C_GIVEN_J] = given_pair(scene)
+        cfg[L.C_DT], cfg[L.C_COARSE_DT], cfg[L.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
+        cfg[L.C_ONSET_TOL], cfg[L.C_V_REST] = self.onset_tol, self.v_rest
+        cfg[L.C_MAX_IMPACTS] = self.impact_cap(len(scene.vehicles))
+        cfg[L.C_CRUSH_TIME] = self.crush_time
+        cfg[L.C_ENGAGE], cfg[L.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
+        cfg[L.C_BROAD_PHASE], cfg[L.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
         A, NA = pack_action_tables(scene.vehicles)
         return P, S0, B, cfg, A, NA, pack_zones(scene.road)
 
@@ -178,12 +179,12 @@ class ImpulseModel(CollisionModel):
         P, S0, B, cfg, A, NA, zones = self.pack(scene)
         nv = P.shape[0]
         rest, final, contact = np.empty((nv, 3)), np.empty((nv, 3)), np.empty((nv, 4))
-        imp, diag = np.zeros((self.impact_cap(nv), K.N_IMP)), np.zeros(K.N_DIAG)
+        imp, diag = np.zeros((self.impact_cap(nv), L.N_IMP)), np.zeros(L.N_DIAG)
         n_rec = int(scene.duration / self.record_dt) + 3 if self.record_dt > 0 else 0
         traj = np.zeros((n_rec, nv, 7))
         K.simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag)
         out = self._outcome(scene, P, rest, final, contact, imp, diag, time.perf_counter() - t0)
-        nr = int(diag[K.D_NREC])
+        nr = int(diag[L.D_NREC])
         out._trajectories = {v.name: {"t": traj[:nr, i, 0], "x": traj[:nr, i, 1], "y": traj[:nr, i, 2],
                                       "heading": traj[:nr, i, 3], "vx": traj[:nr, i, 4],
                                       "vy": traj[:nr, i, 5], "yaw_rate": traj[:nr, i, 6]}
@@ -203,7 +204,7 @@ class ImpulseModel(CollisionModel):
         ZC, ZS, ZMU, ZBOX = (np.stack([p[6][k] for p in packs]) for k in range(4))
         n, nv = P.shape[0], P.shape[1]
         rest, final, contact = np.empty((n, nv, 3)), np.empty((n, nv, 3)), np.empty((n, nv, 4))
-        imp, diag = np.zeros((n, self.impact_cap(nv), K.N_IMP)), np.zeros((n, K.N_DIAG))
+        imp, diag = np.zeros((n, self.impact_cap(nv), L.N_IMP)), np.zeros((n, L.N_DIAG))
         K.simulate_many(P, S0, B, cfg, A, NA, ZC, ZS, ZMU, ZBOX, rest, final, contact, imp, diag)
         wall = (time.perf_counter() - t0) / n
         return [self._outcome(s, P[k], rest[k], final[k], contact[k], imp[k], diag[k], wall)
@@ -217,30 +218,30 @@ class ImpulseModel(CollisionModel):
 
     def status_text(self) -> dict:
         """Why a run with each failed kernel status failed."""
-        return {**STATUS_TEXT, K.STATUS_IMPACT_CAP: f"more impacts than max_impacts = {self.max_impacts} x (vehicles "
+        return {**STATUS_TEXT, L.STATUS_IMPACT_CAP: f"more impacts than max_impacts = {self.max_impacts} x (vehicles "
                 "- 1): the run was stopped there"}
 
     def _outcome(self, scene, P, rest, final, contact, imp, diag, wall) -> Outcome:
         names = scene.vehicle_names
-        status = int(diag[K.D_STATUS])
-        warnings = [self.status_text()[status]] if status != K.STATUS_OK else []
-        ok = status == K.STATUS_OK
-        n_imp = int(diag[K.D_IMPACTS])
+        status = int(diag[L.D_STATUS])
+        warnings = [self.status_text()[status]] if status != L.STATUS_OK else []
+        ok = status == L.STATUS_OK
+        n_imp = int(diag[L.D_IMPACTS])
         imp = imp[:n_imp].copy()
         rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp)
-        intervals = list(zip(imp[:, K.I_T].tolist(), imp[:, K.I_T_END].tolist()))
+        intervals = list(zip(imp[:, L.I_T].tolist(), imp[:, L.I_T_END].tolist()))
         d = diag.tolist()
         # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps; built
         # directly, not from a dict (a batch builds thousands)
         diagnostics = Diagnostics(
-            steps=int(d[K.D_STEPS]), rejected_steps=int(d[K.D_BISECT]), episodes=n_imp, t_end=d[K.D_T_END],
-            max_penetration=d[K.D_MAX_DEPTH],
-            extra={"coarse_steps": int(d[K.D_COARSE]), "kinetic_energy_start": d[K.D_KE0],
-                   "energy_dissipated_impacts": d[K.D_E_IMPACT], "contact_impulses": int(d[K.D_FOLLOW]),
-                   "projected": d[K.D_PROJECTED],
+            steps=int(d[L.D_STEPS]), rejected_steps=int(d[L.D_BISECT]), episodes=n_imp, t_end=d[L.D_T_END],
+            max_penetration=d[L.D_MAX_DEPTH],
+            extra={"coarse_steps": int(d[L.D_COARSE]), "kinetic_energy_start": d[L.D_KE0],
+                   "energy_dissipated_impacts": d[L.D_E_IMPACT], "contact_impulses": int(d[L.D_FOLLOW]),
+                   "projected": d[L.D_PROJECTED],
                    # the work: awake vehicles integrated (summed over steps), outline tests of pairs the
                    # bounding circles did not reject (sleeping vehicles and distant pairs skipped)
-                   "vehicle_steps": int(d[K.D_VEHICLE_STEPS]), "outline_tests": int(d[K.D_NARROW])})
+                   "vehicle_steps": int(d[L.D_VEHICLE_STEPS]), "outline_tests": int(d[L.D_NARROW])})
         if n_imp == 0:
             warnings.append("no contact between the vehicles")
         if scene.impact.law != "routh":
@@ -248,10 +249,10 @@ class ImpulseModel(CollisionModel):
         if scene.impact.engagement:
             warnings += _engagement_warnings(names, imp, scene.impact.engagement_depth)
         if scene.impact.restitution_law == SPEED:
-            warnings += [w for w in map(range_warning, imp[:, K.I_CLOSING].tolist()) if w]
-        return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[K.D_CONTACT_T], None, rows,
+            warnings += [w for w in map(range_warning, imp[:, L.I_CLOSING].tolist()) if w]
+        return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[L.D_CONTACT_T], None, rows,
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
-                       impact_energy=imp[:, K.I_ENERGY].copy())
+                       impact_energy=imp[:, L.I_ENERGY].copy())
 
 def _impact_rows(names, mass, imp):
     """Impact table rows (SI), one per vehicle per impact; an impact's row holds the sums over its contact
@@ -259,14 +260,14 @@ def _impact_rows(names, mass, imp):
     `t_end`); kind, point and plane are the impact's."""
     rows = []
     for r in imp:
-        pn, pt, plane = r[K.I_PN], r[K.I_PT], r[K.I_PLANE]
+        pn, pt, plane = r[L.I_PN], r[L.I_PT], r[L.I_PLANE]
         nx, ny = math.sin(plane), -math.cos(plane)
         ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
-        dv = ((r[K.I_DVX_I], r[K.I_DVY_I], r[K.I_DR_I]), (r[K.I_DVX_J], r[K.I_DVY_J], r[K.I_DR_J]))
-        rows += pair_rows(names, mass, int(r[K.I_I]), int(r[K.I_J]), r[K.I_T], r[K.I_ENERGY], dv,
-                          ((-ix, -iy), (ix, iy)), (r[K.I_HEAD_I], r[K.I_HEAD_J]), (r[K.I_PX], r[K.I_PY]), plane,
-                          KIND_TEXT[int(r[K.I_KIND])], t_end=r[K.I_T_END],
-                          contact_impulses=int(r[K.I_N_FOLLOW]), slip_reversed=bool(r[K.I_REVERSED]))
+        dv = ((r[L.I_DVX_I], r[L.I_DVY_I], r[L.I_DR_I]), (r[L.I_DVX_J], r[L.I_DVY_J], r[L.I_DR_J]))
+        rows += pair_rows(names, mass, int(r[L.I_I]), int(r[L.I_J]), r[L.I_T], r[L.I_ENERGY], dv,
+                          ((-ix, -iy), (ix, iy)), (r[L.I_HEAD_I], r[L.I_HEAD_J]), (r[L.I_PX], r[L.I_PY]), plane,
+                          KIND_TEXT[int(r[L.I_KIND])], t_end=r[L.I_T_END],
+                          contact_impulses=int(r[L.I_N_FOLLOW]), slip_reversed=bool(r[L.I_REVERSED]))
     return rows
 
 
@@ -277,19 +278,19 @@ def _slip_warnings(names, mass, imp, law):
     out = []
     nv = len(names)
     for n, r in enumerate(imp):
-        if r[K.I_REVERSED] < 0.5:
+        if r[L.I_REVERSED] < 0.5:
             continue
-        i, j = int(r[K.I_I]), int(r[K.I_J])
-        own, alt = math.hypot(r[K.I_OWN_PN], r[K.I_OWN_PT]), math.hypot(r[K.I_ALT_PN], r[K.I_ALT_PT])
-        off = math.degrees(abs(math.remainder(math.atan2(r[K.I_OWN_PT], r[K.I_OWN_PN])
-                                              - math.atan2(r[K.I_ALT_PT], r[K.I_ALT_PN]), 2.0 * math.pi)))
-        sides = [(i, K.I_OWN_DR_I, K.I_ALT_DR_I)] + ([(j, K.I_OWN_DR_J, K.I_ALT_DR_J)] if j < nv else [])
+        i, j = int(r[L.I_I]), int(r[L.I_J])
+        own, alt = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT]), math.hypot(r[L.I_ALT_PN], r[L.I_ALT_PT])
+        off = math.degrees(abs(math.remainder(math.atan2(r[L.I_OWN_PT], r[L.I_OWN_PN])
+                                              - math.atan2(r[L.I_ALT_PT], r[L.I_ALT_PN]), 2.0 * math.pi)))
+        sides = [(i, L.I_OWN_DR_I, L.I_ALT_DR_I)] + ([(j, L.I_OWN_DR_J, L.I_ALT_DR_J)] if j < nv else [])
         dv = ", ".join(f"{names[q]} {ms_to_kmh(own / mass[q]):.1f} instead of {ms_to_kmh(alt / mass[q]):.1f} km/h"
                        for q, _, _ in sides)
         yaw = ", ".join(f"{names[q]} {math.degrees(r[o]):.0f} instead of {math.degrees(r[a]):.0f} deg/s"
                         for q, o, a in sides)
         other = names[j] if j < nv else barrier_name(j - nv)
-        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[K.I_T]:.3f} s): the slip at the point of impact "
+        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the slip at the point of impact "
                    f"stops and reverses, which law = \"{law}\" does not follow (friction against the initial slip, or "
                    f"sticking where it cannot stick): delta-V "
                    f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
@@ -303,15 +304,15 @@ def _engagement_warnings(names, imp, depth):
     out = []
     nv = len(names)
     for n, r in enumerate(imp):
-        flag = int(r[K.I_ENGAGE])
-        if flag not in (K.ENGAGE_AMBIGUOUS, K.ENGAGE_FALLBACK):
+        flag = int(r[L.I_ENGAGE])
+        if flag not in (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK):
             continue
-        i, j = int(r[K.I_I]), int(r[K.I_J])
-        what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[K.I_T]:.3f} s)"
-        if flag == K.ENGAGE_AMBIGUOUS:
+        i, j = int(r[L.I_I]), int(r[L.I_J])
+        what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[L.I_T]:.3f} s)"
+        if flag == L.ENGAGE_AMBIGUOUS:
             out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal "
-                       f"value is {100.0 * r[K.I_ENGAGE_RATIO]:.0f} % of the larger, above "
-                       f"{100.0 * K.AMBIGUOUS_RATIO:.0f} %): the plane of the struck edge at first touch is used; give "
+                       f"value is {100.0 * r[L.I_ENGAGE_RATIO]:.0f} % of the larger, above "
+                       f"{100.0 * L.AMBIGUOUS_RATIO:.0f} %): the plane of the struck edge at first touch is used; give "
                        "[impact] point and plane_angle, or another engagement_depth (docs/physics.md §4)")
         else:
             out.append(f"{what}: the outlines moved along their velocities never overlap engagement_depth = "

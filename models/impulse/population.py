@@ -19,9 +19,10 @@ from crashlab.outcome import at_rest
 from crashlab.population import Population
 
 from . import kernel as K
+from . import layout as L
 
 _STATE = ("x", "y", "heading", "speed", "yaw_rate")
-_CFG = {"restitution": K.C_E, "friction": K.C_MU_IMP, "engagement_depth": K.C_ENGAGE_DEPTH}
+_CFG = {"restitution": L.C_E, "friction": L.C_MU_IMP, "engagement_depth": L.C_ENGAGE_DEPTH}
 
 
 def _direct(f) -> bool:
@@ -47,7 +48,7 @@ def pack_variants(model, scene, fs, values) -> tuple:
         if f.kind == "spec":
             P[:, names.index(f.vehicle), P_MASS if f.quantity == "mass" else P_IZ] = v
         elif f.kind == "road":
-            cfg[:, K.C_MU_ROAD] = v
+            cfg[:, L.C_MU_ROAD] = v
         elif f.kind == "zone":
             ZMU[:, f.index] = v
         elif f.kind == "impact":
@@ -68,7 +69,7 @@ def simulate_variants(model, scene, fs, values) -> Population:
     n, nv = arrays[0].shape[0], arrays[0].shape[1]
     rest, final, contact = np.empty((n, nv, 3)), np.empty((n, nv, 3)), np.empty((n, nv, 4))
     # (the impact records beyond each run's count are never read: no zeroing of n x max_impacts rows)
-    imp, diag = np.empty((n, model.impact_cap(nv), K.N_IMP)), np.zeros((n, K.N_DIAG))
+    imp, diag = np.empty((n, model.impact_cap(nv), L.N_IMP)), np.zeros((n, L.N_DIAG))
     K.simulate_many(*arrays, rest, final, contact, imp, diag)
     return population_of(model, scene.vehicle_names, arrays[0][:, :, P_MASS], rest, final, contact, imp, diag)
 
@@ -78,11 +79,11 @@ def population_of(model, names, mass, rest, final, contact, imp, diag) -> Popula
     models/common/impact_rows.py: crush energy split in proportion to 1 / mass, a barrier takes none)."""
     n, nv = rest.shape[0], rest.shape[1]
     pop = Population.empty(n, names, "")
-    status = diag[:, K.D_STATUS].astype(int)
-    ok = status == K.STATUS_OK
+    status = diag[:, L.D_STATUS].astype(int)
+    ok = status == L.STATUS_OK
     texts = model.status_text()
     pop.reason[~ok] = [texts[s] for s in status[~ok]]
-    n_imp = diag[:, K.D_IMPACTS].astype(int)
+    n_imp = diag[:, L.D_IMPACTS].astype(int)
     imp = imp[:, :max(int(n_imp.max(initial=0)), 1)]  # the records in use
     pop.ok[:], pop.mass[:], pop.n_impacts[:] = ok, mass, n_imp
     good = np.flatnonzero(ok)
@@ -91,19 +92,19 @@ def population_of(model, names, mass, rest, final, contact, imp, diag) -> Popula
     pop.at_rest[good] = at_rest(final[good])
     valid = np.arange(imp.shape[1])[None, :] < n_imp[:, None]  # (n, impacts)
     imp = np.where(valid[..., None], imp, 0.0)  # (unwritten records)
-    energy = imp[..., K.I_ENERGY]
+    energy = imp[..., L.I_ENERGY]
     pop.energy_impacts[good] = energy.sum(1)[good]
-    low = np.where(valid, imp[..., K.I_ENERGY], np.inf).min(1)
+    low = np.where(valid, imp[..., L.I_ENERGY], np.inf).min(1)
     pop.lowest_impact_energy[good] = np.where(np.isfinite(low), low, np.nan)[good]
-    i, j = imp[..., K.I_I].astype(int), imp[..., K.I_J].astype(int)
+    i, j = imp[..., L.I_I].astype(int), imp[..., L.I_J].astype(int)
     inv = 1.0 / mass
     inv_i = np.take_along_axis(inv, np.clip(i, 0, nv - 1), 1)
     inv_j = np.where(j < nv, np.take_along_axis(inv, np.clip(j, 0, nv - 1), 1), 0.0)
     positive, both = np.maximum(energy, 0.0), inv_i + inv_j
     for v in range(nv):
         as_i, as_j = valid & (i == v), valid & (j == v)
-        dvx = np.where(as_i, imp[..., K.I_DVX_I], 0.0) + np.where(as_j, imp[..., K.I_DVX_J], 0.0)
-        dvy = np.where(as_i, imp[..., K.I_DVY_I], 0.0) + np.where(as_j, imp[..., K.I_DVY_J], 0.0)
+        dvx = np.where(as_i, imp[..., L.I_DVX_I], 0.0) + np.where(as_j, imp[..., L.I_DVX_J], 0.0)
+        dvy = np.where(as_i, imp[..., L.I_DVY_I], 0.0) + np.where(as_j, imp[..., L.I_DVY_J], 0.0)
         crush = np.where(as_i, positive * inv_i / both, 0.0) + np.where(as_j, positive * inv_j / both, 0.0)
         pop.delta_v[good, v] = np.hypot(dvx.sum(1), dvy.sum(1))[good]
         pop.crush_energy[good, v] = crush.sum(1)[good]
@@ -114,7 +115,7 @@ def population_of(model, names, mass, rest, final, contact, imp, diag) -> Popula
         pick = good[some[good]]
         pop.first_delta_v[good, v] = 0.0
         pop.first_delta_v[pick, v] = np.hypot(dvx[rows, first], dvy[rows, first])[pick]
-        pop.first_impact_t[pick, v] = imp[rows, first, K.I_T][pick]
-        pop.first_impact_point[pick, v, 0] = imp[rows, first, K.I_PX][pick]
-        pop.first_impact_point[pick, v, 1] = imp[rows, first, K.I_PY][pick]
+        pop.first_impact_t[pick, v] = imp[rows, first, L.I_T][pick]
+        pop.first_impact_point[pick, v, 0] = imp[rows, first, L.I_PX][pick]
+        pop.first_impact_point[pick, v, 1] = imp[rows, first, L.I_PY][pick]
     return pop
