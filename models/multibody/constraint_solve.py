@@ -76,6 +76,22 @@ def dense_tail(nj, NZ):
 
 
 @njit(cache=True)
+def _dense_cholesky(S, lo, hi):
+    """Cholesky in place of the dense diagonal block S[lo:hi, lo:hi] (lower triangle)."""
+    for j in range(lo, hi):
+        d = S[j, j]
+        for p in range(lo, j):
+            d -= S[j, p] * S[j, p]
+        d = math.sqrt(max(d, 1e-300))
+        S[j, j] = d
+        for i in range(j + 1, hi):
+            acc = S[i, j]
+            for p in range(lo, j):
+                acc -= S[i, p] * S[j, p]
+            S[i, j] = acc / d
+
+
+@njit(cache=True)
 def factor(S, jst, nj, NZ):
     """Cholesky S = L L^T in place (lower triangle), visiting only the blocks NZ marks: the blocks before the
     dense tail right-looking (factor the diagonal block, solve the blocks below it, update the trailing
@@ -83,17 +99,7 @@ def factor(S, jst, nj, NZ):
     kt = dense_tail(nj, NZ)
     for K in range(kt):
         k0, k1 = jst[K], jst[K + 1]
-        for j in range(k0, k1):
-            d = S[j, j]
-            for p in range(k0, j):
-                d -= S[j, p] * S[j, p]
-            d = math.sqrt(max(d, 1e-300))
-            S[j, j] = d
-            for i in range(j + 1, k1):
-                acc = S[i, j]
-                for p in range(k0, j):
-                    acc -= S[i, p] * S[j, p]
-                S[i, j] = acc / d
+        _dense_cholesky(S, k0, k1)
         for A in range(K + 1, nj):
             if not NZ[A, K]:
                 continue
@@ -116,18 +122,7 @@ def factor(S, jst, nj, NZ):
                         for p in range(k0, k1):
                             acc += S[i, p] * S[c, p]
                         S[i, c] -= acc
-    t0, m = jst[kt], jst[nj]
-    for j in range(t0, m):
-        d = S[j, j]
-        for p in range(t0, j):
-            d -= S[j, p] * S[j, p]
-        d = math.sqrt(max(d, 1e-300))
-        S[j, j] = d
-        for i in range(j + 1, m):
-            acc = S[i, j]
-            for p in range(t0, j):
-                acc -= S[i, p] * S[j, p]
-            S[i, j] = acc / d
+    _dense_cholesky(S, jst[kt], jst[nj])  # the dense tail
 
 
 @njit(cache=True)
