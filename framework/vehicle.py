@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .errors import InputError
 from .file_numbers import Real, bounded
 from .structure import STRUCTURE_SIDES, StructureSection, structure_of
+from .units import split_unit
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
@@ -270,6 +271,8 @@ def read_toml(path: Path, what: str = "file") -> dict:
                          "arrays or tables nested too deep (hundreds of levels)") from None
 
 
+# pydantic's error types of a violated bound (ge, gt, le, lt)
+BOUND_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
 _INT_DIGITS_MAX = 4300  # Python's default int <-> str conversion limit (sys.get_int_max_str_digits)
 
 
@@ -307,18 +310,38 @@ def _model_in(annotation):
     return None
 
 
+def _field_at(schema, part):
+    """The pydantic field named (or aliased) `part` of `schema`, or None."""
+    if schema is None:
+        return None
+    return schema.model_fields.get(part) or next((f for f in schema.model_fields.values() if f.alias == part), None)
+
+
 def keys_at(schema, loc) -> list[str]:
     """The keys the table at `loc` (a pydantic error's location, list indices included) of a file with the
     pydantic schema `schema` accepts; [] where unknown."""
     for part in loc:
         if isinstance(part, int) or schema is None:
             continue
-        field = schema.model_fields.get(part) or next(
-            (f for f in schema.model_fields.values() if f.alias == part), None)
+        field = _field_at(schema, part)
         schema = None if field is None else _model_in(field.annotation)
     if schema is None:
         return []
     return [f.alias or name for name, f in schema.model_fields.items()]
+
+
+def unit_at(schema, loc) -> str:
+    """The unit of the key at `loc` of a file with the pydantic schema `schema`, as its description states it
+    (crashlab.units.split_unit); "" where unknown or unitless."""
+    keys = [p for p in loc if not isinstance(p, int)]
+    if not keys:
+        return ""
+    for part in keys[:-1]:
+        field = _field_at(schema, part)
+        schema = None if field is None else _model_in(field.annotation)
+    field = _field_at(schema, keys[-1])
+    unit = split_unit(field.description)[0] if field is not None else ""
+    return "" if unit == "-" else unit
 
 
 def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) -> InputError:
@@ -338,6 +361,9 @@ def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) ->
         msg = "no control characters (line breaks, tabs) allowed"
     elif first["type"].endswith("_type") or first["type"] in ("finite_number", "bool_parsing"):
         msg += f", got {_shown(first.get('input'))}"
+    elif first["type"] in BOUND_ERRORS:  # the bound in the key's unit, and what the file gave
+        unit = unit_at(schema, first["loc"])
+        msg = f"{msg}{' ' + unit if unit else ''}, got {_shown(first.get('input'))}"
     return InputError(file, prefix + key, msg)
 
 

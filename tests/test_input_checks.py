@@ -266,3 +266,17 @@ def test_on_ice_the_vehicles_keep_moving(make_scene, model, wheels):
     assert vx == pytest.approx([v1p, v2p], abs=0.02 * abs(v1 - v2))
     assert np.all(np.abs(out.final_si[:, 1]) < 1e-6 + 0.01 * abs(v1 - v2))
     assert not out.rest["at_rest"].any()
+
+
+@pytest.mark.parametrize("extra, key, expected", [
+    ("steer = 200.0", "vehicles.V1.steer", "less than or equal to 45 deg, got 200.0"),
+    ("heading = 1e308", "vehicles.V1.heading", " deg, got 1e+308"),
+    ("[vehicles.overrides]\nyaw_inertia = -5.0", "vehicles.V1.overrides.yaw_inertia", "greater than 0 kg m^2, got -5.0"),
+    ("[vehicles.overrides]\nwheelbase = -1.0", "vehicles.V1.overrides.wheelbase", "greater than 0 m, got -1.0"),
+])
+def test_a_range_error_gives_the_bound_in_the_keys_unit(tmp_path, capsys, extra, key, expected):
+    """Issue 26 item 5: a bound is read in the key's unit (its description's, as in docs/reference.md), with the
+    value the file gave: '400' alone does not say km/h or m/s."""
+    f = tmp_path / "s.toml"
+    f.write_text(scene_text(extra))
+    assert refused(capsys, f, key).endswith(expected)

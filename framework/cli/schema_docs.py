@@ -23,9 +23,9 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
+from ..units import split_unit
+
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
-# units a description may start with ("m, CG position ..."; "km/h; [0, 400]"): the Unit column
-UNITS = ("kg m^2", "N s/m", "N/rad", "N/m^2", "N/m", "N", "m/deg", "deg/s", "deg", "km/h", "kg", "m", "s", "-")
 TITLES = {"scene": "Scene file", "vehicle": "Vehicle file", "study": "Study file"}
 
 
@@ -184,17 +184,6 @@ def default_text(field) -> str:
 
 
 _TRAILING_RANGE = re.compile(r";\s*(?:[\[(][^;]*[\])]|\|value\| <= [0-9.e+]+)$")
-
-
-def split_unit(description: str) -> tuple[str, str]:
-    """(unit, meaning) of a description that starts with a unit ("m, ...", "km/h; ...", "kg m^2 about ...")."""
-    d = (description or "").strip()
-    for u in UNITS:
-        if d == u:
-            return u, ""
-        if d.startswith(u) and (d[len(u)] in ",;" or (d[len(u)] == " " and not u.isalpha())):
-            return u, d[len(u) + 1:].strip()
-    return "", d
 
 
 def _meaning(description: str, has_range: bool) -> tuple[str, str]:
