@@ -34,7 +34,8 @@ def test_simulate_json_shape(pc_crash_dir):
     res = run("simulate", pc_crash_dir / "head_on.toml", "--json")
     assert res.returncode == 0, res.stderr
     data = json.loads(res.stdout)
-    assert set(data) == {"scene", "results", "references", "comparison", "units"}
+    assert set(data) == {"scene", "results", "references", "comparison", "spread", "units"}
+    assert data["spread"] == []  # one model: no spread between models
     assert data["scene"] == {"name": "Head-on collision with a stopped car", "file": str(pc_crash_dir / "head_on.toml")}
     assert len(data["results"]) == 1
     result = data["results"][0]

@@ -28,7 +28,9 @@ JSON_UNITS = {"x": "m", "y": "m", "heading": "deg, wrapped to (-180, 180]",
               "yaw_turned": "deg, continuous: rest heading minus start heading (two spins add 720)",
               "speed": "km/h", "vx": "km/h, global", "vy": "km/h, global", "yaw_rate": "deg/s", "wall_time_s": "s",
               "d_<source>_m": "m, distance of a model's rest position to the reference's",
-              "d_<source>_deg": "deg, wrapped to (-180, 180], model heading minus reference heading"}
+              "d_<source>_deg": "deg, wrapped to (-180, 180], model heading minus reference heading",
+              "distance_m": "m, spread: the largest distance between two models' rest positions",
+              "heading_deg": "deg, spread: the largest wrapped heading difference between two models"}
 
 
 def result_json(scene, out) -> dict:
@@ -50,17 +52,19 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
     """The one JSON shape of `simulate --json` (one result) and `compare --json` (one per model):
     {"scene": {"name", "file"}, "results": [result_json ...], "references": {source: {vehicle: {x, y,
     heading, ...}}}, "comparison": [a row of crashlab.tools.compare.comparison_table per source and vehicle],
-    "units": JSON_UNITS | the impact table's units}."""
+    "spread": [crashlab.tools.compare.model_spread's row per vehicle; empty with fewer than two models], "units": JSON_UNITS | the impact table's units}."""
     from ..outcome import IMPACT_UNITS
-    from ..tools.compare import comparison_table
+    from ..tools.compare import comparison_table, model_spread
     table = comparison_table(scene, outcomes)
     comparison = [{k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()}
                   for row in table.astype(object).to_dict(orient="records")]
+    spread = [{k: (v if isinstance(v, (str, int)) else _num(v)) for k, v in row.items()}
+              for row in model_spread(table, outcomes).to_dict(orient="records")]
     references = {src: {n: {k: _num(v) for k, v in ref.items()} for n, ref in per.items()}
                   for src, per in scene.references.items()}
     return {"scene": {"name": scene.name, "file": str(scene_file)},
             "results": [result_json(scene, out) for out in outcomes.values()],
-            "references": references, "comparison": comparison,
+            "references": references, "comparison": comparison, "spread": spread,
             "units": {**JSON_UNITS, **{f"impacts.{k}": u for k, u in IMPACT_UNITS.items()}}}
 
 
@@ -140,12 +144,14 @@ def cmd_monte_carlo(args, scene, model):
 
 
 def _cell(v) -> str:
-    """A table cell: true/false for a boolean, "-" for a missing number, 2 decimals without -0.00 and with
+    """A table cell: true/false for a boolean, a count as an integer, "-" for a missing number, 2 decimals without -0.00 and with
     -180.00 read as 180.00 (a heading wrapped to (-180, 180] that rounds to the boundary)."""
     if v is None or isinstance(v, str):
         return "-" if v is None else v
     if isinstance(v, (bool,)) or type(v).__name__ == "bool_":
         return str(bool(v)).lower()
+    if isinstance(v, int) or type(v).__name__.startswith("int"):  # a count
+        return str(int(v))
     try:
         x = float(v)
     except (TypeError, ValueError):
@@ -272,7 +278,7 @@ def cmd_compare(args):
     import pandas as pd
 
     from ..scene_file import load_scene
-    from ..tools.compare import comparison_table, with_unit_headers
+    from ..tools.compare import comparison_table, model_spread, with_unit_headers
     refuse_other_kind(args.scene, "scene")
     scene = load_scene(args.scene)
     models = [m.strip() for m in args.models.split(",") if m.strip()]
@@ -319,6 +325,12 @@ def cmd_compare(args):
                                                                     d_deg=models[f"d_{ref}_deg"]) for ref in refs])
             print(_table_text(rows.rename(columns={"source": "model", "d_m": "distance [m]",
                                                    "d_deg": "heading [deg]"})))
+    spread = model_spread(df, outcomes)
+    if len(spread):
+        print("spread between the models (the largest over every pair that ran; the choice of model is an\n"
+              "uncertainty of its own)")
+        print(_table_text(spread.rename(columns={"distance_m": "distance [m]", "distance_pair": "models apart",
+                                                 "heading_deg": "heading [deg]", "heading_pair": "models turned"})))
     for m, out in outcomes.items():
         for w in out.warnings:
             print(f"warning ({m}):", w)

@@ -74,3 +74,25 @@ def with_unit_headers(df: pd.DataFrame) -> pd.DataFrame:
         base = c[:-2] if c.endswith("_m") and c.startswith("d_") else c[:-4] if c.endswith("_deg") else c
         return f"{base.replace('_', ' ') if base == 'yaw_turned' else base} [{units[c]}]"
     return df.rename(columns={c: name(c) for c in df.columns})
+
+
+def model_spread(df: pd.DataFrame, outcomes: dict) -> pd.DataFrame:
+    """The spread between the models of a comparison_table: per vehicle, over every pair of models that ran
+    (ok), the largest distance between their rest positions [m] and the largest wrapped heading difference [deg],
+    each with the pair it belongs to; empty with fewer than two such models. The choice of model is an
+    uncertainty of its own, which the evidence's sigmas do not contain."""
+    ran = [m for m, out in outcomes.items() if out.outcome_ok]
+    rows = []
+    for name in dict.fromkeys(df["vehicle"]):
+        poses = df[(df.vehicle == name) & df.source.isin(ran)].set_index("source")
+        pairs = [(a, b) for i, a in enumerate(poses.index) for b in poses.index[i + 1:]]
+        if not pairs:
+            continue
+        dist = {p: math.hypot(poses.at[p[0], "x"] - poses.at[p[1], "x"], poses.at[p[0], "y"] - poses.at[p[1], "y"])
+                for p in pairs}
+        head = {p: abs(wrap_deg(poses.at[p[1], "heading"] - poses.at[p[0], "heading"])) for p in pairs}
+        far, turned = max(pairs, key=dist.get), max(pairs, key=head.get)
+        rows.append({"vehicle": name, "models": len(poses), "distance_m": dist[far], "distance_pair": "/".join(far),
+                     "heading_deg": head[turned], "heading_pair": "/".join(turned)})
+    return pd.DataFrame(rows, columns=["vehicle", "models", "distance_m", "distance_pair", "heading_deg",
+                                       "heading_pair"])
