@@ -207,11 +207,21 @@ def test_evidence_scored_on_the_arrays_equals_the_outcomes_scores(model):
 
 
 @pytest.mark.slow  # worker processes load the numba cache
-def test_the_executor_sends_the_scene_and_blocks_of_rows_to_its_workers(model):
+@pytest.mark.parametrize("backend", ["processes", "dask"])
+def test_the_executor_sends_the_scene_and_blocks_of_rows_to_its_workers(model, backend):
+    """Worker processes and a local Dask cluster (2 workers) get the scene and blocks of rows (Variants) and
+    return what this process computes, bit for bit, in the rows' order; one bad row (NaN speed, invalid="fail")
+    fails only itself there too."""
+    if backend == "dask":
+        pytest.importorskip("dask.distributed")
     scene = crashlab.load_scene(SIDE)
     values = _rows(20)
-    here = model.simulate_population(scene, SPEEDS_HEADINGS, values)
-    with crashlab.execution.Executor("processes", workers=2) as ex:
-        there = ex.evaluate("impulse", {}, Variants(scene, tuple(SPEEDS_HEADINGS), values))
+    values[7, 0] = np.nan
+    here = model.simulate_population(scene, SPEEDS_HEADINGS, values, invalid="fail")
+    with crashlab.execution.Executor(backend, workers=2) as ex:
+        there = ex.evaluate("impulse", {}, Variants(scene, tuple(SPEEDS_HEADINGS), values, invalid="fail"))
+    assert isinstance(there, Population) and len(there.ok) == 20
+    assert not there.ok[7] and "vehicles.V1.speed" in there.reason[7] and there.ok[np.arange(20) != 7].all()
     np.testing.assert_array_equal(there.rest, here.rest)
     np.testing.assert_array_equal(there.ok, here.ok)
+    np.testing.assert_array_equal(there.delta_v, here.delta_v)
