@@ -12,6 +12,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, WrapValidator
 
 from . import uncertainty
+from .file_units import from_us, system_of
 from .errors import InputError
 from .file_numbers import Real
 from .restitution import SPEED
@@ -43,7 +44,7 @@ from .scene import (
     start_overlaps,
 )
 from .units import deg_to_rad, kmh_to_ms
-from .vehicle import load_vehicle, pydantic_error, read_toml
+from .vehicle import VehicleFile, load_vehicle, pydantic_error, read_toml
 
 Position = Annotated[Real, Field(ge=-POSITION_MAX, le=POSITION_MAX,
                                  description=f"m; |value| <= {POSITION_MAX:g}")]
@@ -189,6 +190,8 @@ class ReferenceFile(_Strict):
 
 
 class SceneFile(_Strict):
+    units: Literal["si", "us"] = Field(default="si", description="the file's units: \"si\" (m, km/h, kg as every "
+                                       "key's unit says) or \"us\" (ft, mph, lb: docs/reference.md's US column)")
     name: str = Field(default="scene", description="title of the scene in tables and plots")
     duration: Real = Field(default=10.0, gt=0, le=DURATION_MAX,
                            description=f"s, longest simulated time; (0, {DURATION_MAX:g}]")
@@ -257,6 +260,8 @@ def _named_key(key: str, data) -> str:
 
 
 def _scene_from_dict(data: dict, source, base_dir) -> Scene:
+    if system_of(data, source) == "us":  # ft, mph, lb read into the file units the checks speak (crashlab.file_units)
+        data = from_us(data, SceneFile, {"overrides": VehicleFile, "uncertain": uncertainty.UncertainFile})
     try:
         f = SceneFile.model_validate(data)
     except ValidationError as err:

@@ -101,7 +101,7 @@ def test_headings_print_wrapped_and_turns_continuous(tmp_path, capsys):
         assert code == 0
         header = next(line for line in table.splitlines() if "heading" in line)
         assert "heading [deg, -180..180]" in header and "yaw turned [deg]" in header
-        row = next(line for line in table.splitlines() if line.startswith("V1 ")).split()
+        row = next(line for line in table.splitlines() if line.split()[:1] == ["V1"]).split()
         data = json.loads(main_out(capsys, "simulate", path, "--json")[1])["results"][0]["vehicles"]["V1"]["rest"]
         runs[h] = (float(row[3]), float(row[4]), data)
     (w0, turn0, d0), (w720, turn720, d720) = runs[0.0], runs[720.0]

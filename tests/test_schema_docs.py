@@ -45,9 +45,11 @@ def test_reference_md_is_the_generators_output():
 def test_reference_lists_unit_range_default():
     md = reference_markdown(schema_roots())
     row = next(line for line in md.splitlines() if line.startswith("| `vehicles[].speed` |"))
-    assert row.split(" | ")[1:5] == ["number", "km/h", "[0, 400]", "0"]
+    assert row.split(" | ")[1:6] == ["number", "km/h", "mph", "[0, 400]", "0"]
     row = next(line for line in md.splitlines() if line.startswith("| `mass` |"))
-    assert row.split(" | ")[1:5] == ["number", "kg", "[50, 60000]", "required"]
+    assert row.split(" | ")[1:6] == ["number", "kg", "lb", "[50, 60000]", "required"]
+    row = next(line for line in md.splitlines() if line.startswith("| `vehicles[].heading` |"))
+    assert row.split(" | ")[2:4] == ["deg", ""]  # no US form: read as written
     assert "| `free[].lower` |" in md and "| `infer.walkers` |" in md and "| `questions[].expr` |" in md
 
 

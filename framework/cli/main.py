@@ -180,6 +180,12 @@ def _pdf_option(parser) -> None:
                         "(A4; needs WeasyPrint: pip install \"crashlab[pdf]\")")
 
 
+def _units_option(parser) -> None:
+    parser.add_argument("--units", choices=("si", "us"), default="si",
+                        help="units of the printed tables and JSON: si (m, km/h, kg, J) or us (ft, mph, lb, ft-lbf); "
+                        "a scene file says its own with units = \"us\"")
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0], formatter_class=HelpFormatter)
     p.add_argument("--version", action="version", version=f"crashlab {package_version()}",
@@ -216,6 +222,9 @@ def build_parser():
     s.add_argument("--seed", type=int, default=None, help="--monte-carlo: seed of the draws (default: 1)")
     s.add_argument("--out", default=None, metavar="DIR", help="--monte-carlo: write montecarlo.csv, summary.csv "
                    "and montecarlo.png here (default: print the summary only)")
+    s.add_argument("--wide", action="store_true", help="print every column of the impact table (default: the "
+                   "columns that fit 100)")
+    _units_option(s)
     s.set_defaults(fn=cmd_simulate)
     c = command("compare", "compare models with each other and with the scene's published results")
     c.add_argument("scene", help="scene TOML file, optionally with [reference.SOURCE.VEHICLE] tables")
@@ -226,6 +235,7 @@ def build_parser():
                    "the published rest poses (PNG, PDF, SVG)")
     c.add_argument("--wide", action="store_true", help="print every column in one table (default: end poses, then "
                    "the differences to each published result, within 100 columns)")
+    _units_option(c)
     c.set_defaults(fn=cmd_compare)
     b = command("bench", "simulations per second, single and batched")
     b.add_argument("--model", default="impulse", help="collision model")

@@ -23,7 +23,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
-from ..units import split_unit
+from ..units import US_UNITS, split_unit, us_unit
 
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 TITLES = {"scene": "Scene file", "vehicle": "Vehicle file", "study": "Study file"}
@@ -276,7 +276,7 @@ def _cell(text: str) -> str:
 
 
 def markdown_table(model, extras=None) -> str:
-    rows = ["| key | type | unit | range | default | meaning |", "|---|---|---|---|---|---|"]
+    rows = ["| key | type | unit | US unit | range | default | meaning |", "|---|---|---|---|---|---|---|"]
     for key, owner, name, field in iter_fields(model, extras):
         try:
             hint = typing.get_type_hints(owner, include_extras=True).get(name)
@@ -285,7 +285,8 @@ def markdown_table(model, extras=None) -> str:
         ann = _annotation(field, hint)
         rng = range_text(field, ann)
         unit, meaning = _meaning(field.description, bool(rng))
-        rows.append("| " + " | ".join(_cell(c) for c in (f"`{key}`", type_name(ann), unit, rng,
+        us = us_unit(unit) if unit in US_UNITS else ""
+        rows.append("| " + " | ".join(_cell(c) for c in (f"`{key}`", type_name(ann), unit, us, rng,
                                                           default_text(field), meaning)) + " |")
     return "\n".join(rows)
 
@@ -299,7 +300,10 @@ def reference_markdown(roots: dict) -> str:
            "Key paths: `a.b` is key `b` of table `[a]`; `a[].b` is key `b` of each `[[a]]` table; `<name>` is "
            "a key you choose (a vehicle's name, a reference source). Range: `[lo, hi]` closed, `(lo, hi]` open "
            "at lo. Numbers are finite; true/false are not numbers; unknown keys are refused unless said "
-           "otherwise. `crashlab schema scene|study|vehicle` prints the JSON Schema of each file for editors.",
+           "otherwise. `crashlab schema scene|study|vehicle` prints the JSON Schema of each file for editors. "
+           "A scene file with `units = \"us\"` gives its numbers in the US unit column (ft, mph, lb; a "
+           "[[uncertain]] table's numbers in its field's), read into the unit column before any check; ranges "
+           "and defaults are in the unit column. Study files and vehicle files are read in the unit column.",
            ""]
     for kind, (model, extras) in roots.items():
         out += [f"## {TITLES.get(kind, kind)}", ""]

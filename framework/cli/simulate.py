@@ -11,6 +11,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..registry import UnknownPluginError
 from ..units import wrap_deg
+from .shown_units import json_in, table_in
 
 
 def _num(v):
@@ -23,6 +24,9 @@ def _num(v):
 
 
 # units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
+# impact-table columns printed with --wide only (the default table fits 100 columns; a reversed slip is also a
+# warning of its own)
+IMPACT_WIDE_ONLY = ("dvx", "dvy", "pdof_clock", "slip_reversed", "point_x", "point_y")
 JSON_UNITS = {"x": "m", "y": "m", "heading": "deg, wrapped to (-180, 180]",
               "heading_continuous": "deg, continuous: the start heading plus every turn",
               "yaw_turned": "deg, continuous: rest heading minus start heading (two spins add 720)",
@@ -52,7 +56,8 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
     """The one JSON shape of `simulate --json` (one result) and `compare --json` (one per model):
     {"scene": {"name", "file"}, "results": [result_json ...], "references": {source: {vehicle: {x, y,
     heading, ...}}}, "comparison": [a row of crashlab.tools.compare.comparison_table per source and vehicle],
-    "spread": [crashlab.tools.compare.model_spread's row per vehicle; empty with fewer than two models], "units": JSON_UNITS | the impact table's units}."""
+    "spread": [crashlab.tools.compare.model_spread's row per vehicle; empty with fewer than two models],
+    "units": JSON_UNITS | the impact table's units}."""
     from ..outcome import IMPACT_UNITS
     from ..tools.compare import comparison_table, model_spread
     table = comparison_table(scene, outcomes)
@@ -143,9 +148,10 @@ def cmd_monte_carlo(args, scene, model):
     return 0
 
 
-def _cell(v) -> str:
-    """A table cell: true/false for a boolean, a count as an integer, "-" for a missing number, 2 decimals without -0.00 and with
-    -180.00 read as 180.00 (a heading wrapped to (-180, 180] that rounds to the boundary)."""
+def _cell(v, digits: int = 2) -> str:
+    """A table cell: true/false for a boolean, a count as an integer, "-" for a missing number, `digits` decimals
+    without a minus zero and with -180 read as 180 (a heading wrapped to (-180, 180] that rounds to the
+    boundary)."""
     if v is None or isinstance(v, str):
         return "-" if v is None else v
     if isinstance(v, (bool,)) or type(v).__name__ == "bool_":
@@ -158,14 +164,15 @@ def _cell(v) -> str:
         return str(v)
     if not math.isfinite(x):
         return "-"
-    text = f"{x:.2f}"
-    return {"-0.00": "0.00", "-180.00": "180.00"}.get(text, text)
+    text = f"{x:.{digits}f}"
+    zero, half_turn = f"{0:.{digits}f}", f"{180:.{digits}f}"
+    return {"-" + zero: zero, "-" + half_turn: half_turn}.get(text, text)
 
 
-def _table_text(df) -> str:
+def _table_text(df, digits: int = 2) -> str:
     """A printed table: cells by _cell, right-aligned under their headers, two spaces apart (tabulate pads
     every column by two more beyond its widest cell: the pose table took 107 columns)."""
-    cells = [[_cell(v) for v in row] for row in df.astype(object).itertuples(index=False)]
+    cells = [[_cell(v, digits) for v in row] for row in df.astype(object).itertuples(index=False)]
     heads = [str(c) for c in df.columns]
     widths = [max([len(h)] + [len(r[k]) for r in cells]) for k, h in enumerate(heads)]
     return "\n".join("  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in [heads] + cells)
@@ -243,31 +250,30 @@ def cmd_simulate(args):
     if written:  # (stderr: --json keeps stdout to the JSON)
         print("wrote " + ", ".join(str(w) for w in written), file=sys.stderr)
     if args.json:
-        print(json.dumps(results_json(args.scene, scene, {out.model or args.model: out}), indent=2))
+        print(json.dumps(json_in(results_json(args.scene, scene, {out.model or args.model: out}), args.units),
+                         indent=2))
     if not out.outcome_ok:
         print(f"crashlab: simulation failed: {args.scene}: model {out.model}: {'; '.join(out.warnings)}",
               file=sys.stderr)
         return 3
     if args.json:
         return 0
-    import pandas as pd
-    with pd.option_context("display.float_format", "{:.3f}".format, "display.width", 160):
-        print(f"{scene.name} — model {out.model}, {out.wall_time_s * 1e3:.1f} ms")
-        print("end pose:")
-        print(_rest_table(scene, out).to_string())
-        for i, n in enumerate(out.names):
-            if not out.at_rest_mask[i]:
-                print(f"{n}: {out.pose_label(i)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
-                      "not a rest pose")
-        print("final velocity:")
-        print(out.final.rename(columns={"vx": "vx [km/h]", "vy": "vy [km/h]", "yaw_rate": "yaw_rate [deg/s]"})
-              .to_string())
-        if len(out.impacts):
-            print("impacts:")
-            from ..outcome import IMPACT_UNITS
-            table = out.impacts.drop(columns=["plane_angle"])
-            print(table.rename(columns={c: f"{c} [{IMPACT_UNITS[c]}]" for c in table if c in IMPACT_UNITS})
-                  .to_string(index=False))
+    print(f"{scene.name} — model {out.model}, {out.wall_time_s * 1e3:.1f} ms")
+    print("end pose:")
+    print(_table_text(table_in(_rest_table(scene, out).reset_index(), args.units), digits=3))
+    for i, n in enumerate(out.names):
+        if not out.at_rest_mask[i]:
+            print(f"{n}: {out.pose_label(i)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
+                  "not a rest pose")
+    print("final velocity:")
+    final = out.final.rename(columns={"vx": "vx [km/h]", "vy": "vy [km/h]", "yaw_rate": "yaw_rate [deg/s]"})
+    print(_table_text(table_in(final.reset_index(), args.units), digits=3))
+    if len(out.impacts):
+        print("impacts:")
+        from ..outcome import IMPACT_UNITS
+        table = out.impacts.drop(columns=["plane_angle"] + ([] if args.wide else list(IMPACT_WIDE_ONLY)))
+        table = table.rename(columns={c: f"{c} [{IMPACT_UNITS[c]}]" for c in table if c in IMPACT_UNITS})
+        print(_table_text(table_in(table, args.units), digits=3))
     for w in out.warnings:
         print("warning:", w)
     return 0
@@ -297,7 +303,7 @@ def cmd_compare(args):
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
         print(f"wrote {args.plot}", file=sys.stderr)
     if args.json:
-        print(json.dumps(results_json(args.scene, scene, outcomes), indent=2))
+        print(json.dumps(json_in(results_json(args.scene, scene, outcomes), args.units), indent=2))
         for m in failed:
             print(f"crashlab: simulation failed: {args.scene}: model {m}: {'; '.join(outcomes[m].warnings)}",
                   file=sys.stderr)
@@ -306,15 +312,16 @@ def cmd_compare(args):
     if args.wide:
         print(f"{scene.name}: end pose, final velocity; d_<source>: difference to a published result "
               "(heading wrapped; yaw turned: continuous, since the start)")
-        print(_table_text(with_unit_headers(df)))
+        print(_table_text(table_in(with_unit_headers(df), args.units)))
     else:
         print(f"{scene.name}: end poses (heading wrapped to (-180, 180]; turned: since the start)")
         poses = df[["source", "vehicle", "x", "y"]].assign(
             heading=df["heading"], yaw_turned=df["yaw_turned"],
             speed=np.hypot(df["vx"].astype(float), df["vy"].astype(float)),  # (vx, vy in km/h)
             at_rest=df["at_rest"], ok=df["ok"])
-        print(_table_text(poses.rename(columns={"x": "x [m]", "y": "y [m]", "heading": "heading [deg]",
-                                                "yaw_turned": "turned [deg]", "speed": "v [km/h]"})))
+        print(_table_text(table_in(poses.rename(columns={"x": "x [m]", "y": "y [m]", "heading": "heading [deg]",
+                                                         "yaw_turned": "turned [deg]", "speed": "v [km/h]"}),
+                                   args.units)))
         refs = [c[2:-2] for c in df.columns if c.startswith("d_") and c.endswith("_m")]
         if refs:
             import pandas as pd
@@ -323,14 +330,15 @@ def cmd_compare(args):
             models = df[df["ok"].notna()]
             rows = pd.concat([models[["source", "vehicle"]].assign(reference=ref, d_m=models[f"d_{ref}_m"],
                                                                     d_deg=models[f"d_{ref}_deg"]) for ref in refs])
-            print(_table_text(rows.rename(columns={"source": "model", "d_m": "distance [m]",
-                                                   "d_deg": "heading [deg]"})))
+            print(_table_text(table_in(rows.rename(columns={"source": "model", "d_m": "distance [m]",
+                                                            "d_deg": "heading [deg]"}), args.units)))
     spread = model_spread(df, outcomes)
     if len(spread):
         print("spread between the models (the largest over every pair that ran; the choice of model is an\n"
               "uncertainty of its own)")
-        print(_table_text(spread.rename(columns={"distance_m": "distance [m]", "distance_pair": "models apart",
-                                                 "heading_deg": "heading [deg]", "heading_pair": "models turned"})))
+        print(_table_text(table_in(spread.rename(columns={"distance_m": "distance [m]", "distance_pair": "models apart",
+                                                          "heading_deg": "heading [deg]",
+                                                          "heading_pair": "models turned"}), args.units)))
     for m, out in outcomes.items():
         for w in out.warnings:
             print(f"warning ({m}):", w)

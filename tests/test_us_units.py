@@ -1,0 +1,164 @@
+"""US customary units (issue 26 item 4): a scene written in ft, mph and lb (`units = "us"`) gives the same results
+as its SI twin (1e-9 relative), and `--units us` prints ft, mph, lb in every table header and JSON unit.
+
+The twin is written here with the exact definitions (1 ft = 0.3048 m, 1 mile = 1609.344 m, 1 lb = 0.45359237 kg;
+NIST SP 811), independent of the pint conversion the code uses."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import crashlab
+
+FT, MPH, LB = 0.3048, 1.609344, 0.45359237  # m, km/h, kg per US unit (exact by definition)
+
+SCENE = """{units}
+name = "US twin"
+duration = 6.0
+
+[road]
+friction = 0.8
+[[road.zones]]
+friction = 0.3
+polygon = [[{z0}, {zm}], [{z1}, {zm}], [{z1}, {zp}], [{z0}, {zp}]]
+[[road.lines]]
+points = [[{l0}, {lm}], [{l1}, {lm}]]
+
+[impact]
+restitution = 0.1
+friction = 0.3
+
+[[vehicles]]
+name = "V1"
+vehicle = "clio"
+x = 0.0
+y = {y1}
+heading = 0.0
+speed = {v1}
+wheels = "locked_after_impact"
+[vehicles.overrides]
+mass = {m1}
+length = {len1}
+
+[[vehicles]]
+name = "V2"
+vehicle = "clio"
+x = {x2}
+y = 0.0
+heading = 90.0
+speed = {v2}
+wheels = "locked_after_impact"
+
+[[barriers]]
+x = {bx}
+y = {by}
+heading = 0.0
+length = {bl}
+width = {bw}
+
+[reference.pc.V1]
+x = {rx}
+y = {ry}
+heading = 26.0
+vx = {rv}
+
+[[uncertain]]
+field = "vehicles.V1.speed"
+distribution = "normal"
+mean = {v1}
+sd = {sd}
+"""
+SI = dict(z0=4.0, z1=20.0, zm=-5.0, zp=5.0, l0=-10.0, l1=30.0, lm=-3.5, y1=0.1, v1=50.0, m1=1150.0, len1=4.0,
+          x2=3.5, v2=30.0, bx=25.0, by=12.0, bl=10.0, bw=0.5, rx=6.66, ry=1.64, rv=1.0, sd=3.0)
+LENGTHS = {"z0", "z1", "zm", "zp", "l0", "l1", "lm", "y1", "len1", "x2", "bx", "by", "bl", "bw", "rx", "ry"}
+SPEEDS = {"v1", "v2", "rv", "sd"}
+
+
+def us_values():
+    return {k: v / FT if k in LENGTHS else v / MPH if k in SPEEDS else v / LB if k == "m1" else v
+            for k, v in SI.items()}
+
+
+@pytest.fixture(scope="module")
+def twins(tmp_path_factory):
+    d = tmp_path_factory.mktemp("us")
+    si, us = d / "si.toml", d / "us.toml"
+    si.write_text(SCENE.format(units="", **{k: repr(v) for k, v in SI.items()}))
+    us.write_text(SCENE.format(units='units = "us"', **{k: repr(v) for k, v in us_values().items()}))
+    return si, us
+
+
+def test_the_scene_is_read_into_the_si_scene(twins):
+    a, b = (crashlab.load_scene(p) for p in twins)
+    for va, vb in zip(a.vehicles, b.vehicles, strict=True):
+        for attr in ("x", "y", "heading", "speed"):
+            assert getattr(vb, attr) == pytest.approx(getattr(va, attr), rel=1e-12, abs=1e-12)
+        assert vb.spec.mass == pytest.approx(va.spec.mass, rel=1e-12)
+        assert vb.spec.length == pytest.approx(va.spec.length, rel=1e-12)
+    assert b.barriers[0].length == pytest.approx(a.barriers[0].length, rel=1e-12)
+    assert np.allclose(b.road.zones[0].polygon, a.road.zones[0].polygon, rtol=1e-12, atol=1e-12)
+    assert b.references["pc"]["V1"]["x"] == pytest.approx(a.references["pc"]["V1"]["x"], rel=1e-12)
+    assert b.uncertain[0].sd == pytest.approx(a.uncertain[0].sd, rel=1e-12)
+
+
+@pytest.mark.parametrize("model", ["impulse", "pymunk"])
+def test_us_scene_gives_the_si_twins_results(twins, model):
+    a, b = (crashlab.simulate(crashlab.load_scene(p), model=model) for p in twins)
+    assert a.outcome_ok and b.outcome_ok and len(a.impact_rows) > 0
+    scale = np.maximum(1.0, np.abs(a.rest_si))
+    assert np.max(np.abs(a.rest_si - b.rest_si) / scale) <= 1e-9
+    for x, y in zip(a.impact_rows, b.impact_rows, strict=True):
+        assert y["energy"] == pytest.approx(x["energy"], rel=1e-9)
+
+
+def test_a_bad_units_word_is_one_line(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text(SCENE.format(units='units = "imperial"', **{k: repr(v) for k, v in SI.items()}))
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(f)], capture_output=True, text=True)
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+    assert f"{f}: units:" in res.stderr
+
+
+def cli(*args):
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", *map(str, args)], capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0, res.stderr
+    return res.stdout
+
+
+SI_HEADS = ("[m]", "[m,", "[km/h]", "[km/h,", "[kg]", "[J]", "[N]")
+
+
+@pytest.mark.parametrize("command", [("simulate",), ("simulate", "--wide"), ("compare", "--models", "impulse,pymunk"),
+                                     ("compare", "--models", "impulse", "--wide")])
+def test_every_printed_table_header_is_in_us_units(twins, command):
+    si, _ = twins
+    us_text = cli(*command, si, "--units", "us")
+    heads = [line for line in us_text.splitlines() if "[" in line and "]" in line]
+    assert heads and not any(h in line for line in heads for h in SI_HEADS), heads
+    assert any("[ft]" in line for line in heads)
+    assert any("[mph]" in line for line in heads)
+    if command[0] == "simulate":
+        assert any("[ft-lbf]" in line for line in heads)  # the impact table's energy
+    si_text = cli(*command, si)
+    if "--wide" not in command:
+        assert max(len(line) for line in si_text.splitlines() if not line.startswith("warning")) <= 100
+
+
+def test_json_in_us_units(twins):
+    si, _ = twins
+    a, b = (json.loads(cli("simulate", si, "--json", *extra)) for extra in ((), ("--units", "us")))
+    ra, rb = a["results"][0], b["results"][0]
+    for name in ("V1", "V2"):
+        assert rb["vehicles"][name]["rest"]["x"] == pytest.approx(ra["vehicles"][name]["rest"]["x"] / FT, rel=1e-6)
+        assert rb["vehicles"][name]["rest"]["heading"] == ra["vehicles"][name]["rest"]["heading"]
+    for x, y in zip(ra["impacts"], rb["impacts"], strict=True):
+        assert y["delta_v"] == pytest.approx(x["delta_v"] / MPH, rel=1e-6)
+        assert y["energy"] == pytest.approx(x["energy"] / (FT * LB * 9.80665), rel=1e-6)  # ft-lbf
+        assert y["t"] == x["t"] and y["pdof"] == x["pdof"]
+    assert b["comparison"][0]["d_pc_m"] == pytest.approx(a["comparison"][0]["d_pc_m"] / FT, rel=1e-6)
+    assert b["units"]["x"] == "ft" and b["units"]["impacts.energy"] == "ft-lbf" and b["units"]["speed"] == "mph"
