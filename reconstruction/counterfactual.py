@@ -36,6 +36,9 @@ from crashlab.errors import InputError
 from crashlab.units import ms_to_kmh
 
 MAX_DRAWS = 2000  # draws re-simulated per counterfactual (an even subsample of the kept ones beyond this)
+MISS_DRAWS = 500  # draws without contact run again with trajectories for the miss distance and time gap
+GRID_DT = 0.01  # s: the common time grid on which the outlines are compared (linear between recorded samples)
+CROSSING_STRIDE = 5  # grid steps between the path samples searched for the crossing point
 QUANTILES = (0.05, 0.5, 0.95)
 
 
@@ -123,6 +126,82 @@ def changed_values(cf: Counterfactual, scene, var_fields, X, contact_t=None) -> 
     return fs, V
 
 
+# ---------------------------------------------------------------- how far apart they stay (docs/physics.md §29)
+def tracks(outcome, dt: float = GRID_DT) -> tuple[np.ndarray, np.ndarray]:
+    """(t (T,), poses (nv, T, 3)): each vehicle's CG x, y [m] and heading [rad] on one time grid of step dt,
+    linear between the recorded samples (heading unwrapped first), the last pose held after a record ends."""
+    trs = [outcome.trajectories[n] for n in outcome.names]
+    end = max(float(tr["t"][-1]) for tr in trs)
+    t = np.arange(0.0, end + dt / 2, dt)
+    poses = np.empty((len(trs), len(t), 3))
+    for i, tr in enumerate(trs):
+        tt = np.asarray(tr["t"], float)
+        for j, (key, wrap) in enumerate((("x", False), ("y", False), ("heading", True))):
+            v = np.asarray(tr[key], float)
+            poses[i, :, j] = np.interp(t, tt, np.unwrap(v) if wrap else v)
+    return t, poses
+
+
+def outline_corners(spec, poses) -> np.ndarray:
+    """(T, 4, 2) corners of a vehicle's outline (its spec's cg_to_front, cg_to_rear, width) at poses (T, 3),
+    in the order of crashlab.geometry.rect_corners."""
+    hw = spec.width / 2
+    local = np.array([(spec.cg_to_front, -hw), (spec.cg_to_front, hw), (-spec.cg_to_rear, hw),
+                      (-spec.cg_to_rear, -hw)])
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    return np.stack([poses[:, :1] + c * local[:, 0] - s * local[:, 1],
+                     poses[:, 1:2] + s * local[:, 0] + c * local[:, 1]], axis=-1)
+
+
+def outline_distance(a, b) -> np.ndarray:
+    """(T,) distance between two convex outlines (T, m, 2) that do not overlap: the smallest distance from a
+    corner of one to an edge of the other (exact for disjoint convex polygons)."""
+    def corners_to_edges(p, q):
+        e0, d = q, np.roll(q, -1, axis=1) - q  # (T, m, 2) edge starts and vectors
+        w = p[:, :, None, :] - e0[:, None, :, :]  # (T, corner, edge, 2)
+        u = np.clip(np.einsum("tcek,tek->tce", w, d) / np.einsum("tek,tek->te", d, d)[:, None, :], 0.0, 1.0)
+        return np.linalg.norm(w - u[..., None] * d[:, None, :, :], axis=-1).min(axis=(1, 2))
+    return np.minimum(corners_to_edges(a, b), corners_to_edges(b, a))
+
+
+def path_crossing(t, p, q) -> tuple[float, float]:
+    """(t_p, t_q): the times two CG paths (T, 2), sampled at times t, pass the first point where they cross
+    (the earliest on either path, linear between samples); (NaN, NaN) when they do not cross."""
+    a, r = p[:-1], np.diff(p, axis=0)  # segments of p: a + u r, u in [0, 1]
+    b, s = q[:-1], np.diff(q, axis=0)
+    den = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]
+    w = b[None, :, :] - a[:, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = (w[..., 0] * s[None, :, 1] - w[..., 1] * s[None, :, 0]) / den
+        v = (w[..., 0] * r[:, None, 1] - w[..., 1] * r[:, None, 0]) / den
+    hit = (den != 0) & (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1)
+    if not hit.any():
+        return math.nan, math.nan
+    dt = np.diff(t)
+    i, j = np.nonzero(hit)
+    tp, tq = t[i] + u[i, j] * dt[i], t[j] + v[i, j] * dt[j]
+    k = int(np.argmin(np.minimum(tp, tq)))
+    return float(tp[k]), float(tq[k])
+
+
+def miss(scene, outcome) -> tuple[float, float]:
+    """(distance [m], time gap [s]) of a run without contact (docs/physics.md §29): the smallest distance
+    between the outlines of the nearest pair of vehicles over the run, and for that pair (i before j in the
+    scene) t_j - t_i at the first point where their CG paths cross (positive: i passed it first; NaN when the
+    paths do not cross, e.g. one stops short of the other's path)."""
+    t, poses = tracks(outcome)
+    specs = [v.spec for v in scene.vehicles]
+    corners = [outline_corners(sp, ps) for sp, ps in zip(specs, poses)]
+    best = (math.inf, 0, 1)
+    for i in range(len(specs)):
+        for j in range(i + 1, len(specs)):
+            best = min(best, (float(outline_distance(corners[i], corners[j]).min()), i, j))
+    d, i, j = best
+    stride = slice(None, None, CROSSING_STRIDE)  # the paths at 0.05 s: straight enough between samples
+    ti, tj = path_crossing(t[stride], poses[i, stride, :2], poses[j, stride, :2])
+    return d, tj - ti
+
+
 def jeffreys_interval(k: int, n: int, level: float = 0.90) -> tuple[float, float]:
     """Jeffreys' interval of a binomial share k / n (Brown, Cai & DasGupta 2001): beta(k + 1/2, n - k + 1/2)
     quantiles; 0 and 1 at the ends."""
@@ -136,28 +215,66 @@ def jeffreys_interval(k: int, n: int, level: float = 0.90) -> tuple[float, float
 
 
 def subsample(X: np.ndarray, limit: int = MAX_DRAWS) -> np.ndarray:
-    """X itself, or `limit` rows evenly spaced through it."""
+    """X itself, or `limit` rows (elements) evenly spaced through it."""
     if len(X) <= limit:
         return X
     return X[np.linspace(0, len(X) - 1, limit).round().astype(int)]
 
 
+@dataclasses.dataclass
+class Answer:
+    """One counterfactual (or the draws as they are) answered: the values simulated, the population, per draw
+    the miss distance [m] and time gap [s] (NaN where they touch or the draw was not measured), the row."""
+    name: str
+    fields: list
+    values: np.ndarray  # (n, k) file units
+    pop: object  # crashlab.population.Population
+    miss_distance: np.ndarray  # (n,)
+    time_gap: np.ndarray  # (n,)
+    row: dict
+
+
+def answers(model, scene, var_fields, X, counterfactuals) -> list[Answer]:
+    """The draws as they are (name "posterior", first) and each counterfactual (its rows: `_row`), with the
+    populations and the per-draw miss distances (`miss`, on at most MISS_DRAWS draws that do not touch).
+    model: a CollisionModel."""
+    X = subsample(np.atleast_2d(np.asarray(X, dtype=float)))
+    base = model.simulate_population(scene, var_fields, X, invalid="fail")
+    out = [_answer("posterior", scene, list(var_fields), X, base)]
+    for cf in counterfactuals:
+        fs, V = changed_values(cf, scene, var_fields, X, _first_contact(base))
+        out.append(_answer(cf.name, scene, fs, V, model.simulate_population(scene, fs, V, invalid="fail")))
+    return out
+
+
 def answer(model, scene, var_fields, X, counterfactuals) -> list[dict]:
     """One row per counterfactual (and the draws as they are, first: name "posterior"): draws, failed,
     p_avoided with its 90 % interval, per vehicle the speed at impact and delta-V [km/h] at 5/50/95 % where
-    the vehicles still touch. model: a CollisionModel."""
-    X = subsample(np.atleast_2d(np.asarray(X, dtype=float)))
-    base = model.simulate_population(scene, var_fields, X, invalid="fail")
-    rows = [_row("posterior", scene, base)]
-    for cf in counterfactuals:
-        fs, V = changed_values(cf, scene, var_fields, X, _first_contact(base))
-        rows.append(_row(cf.name, scene, model.simulate_population(scene, fs, V, invalid="fail")))
-    return rows
+    the vehicles still touch, the miss distance and time gap at 5/50/95 % where they do not. model: a
+    CollisionModel."""
+    return [a.row for a in answers(model, scene, var_fields, X, counterfactuals)]
 
 
 def _first_contact(pop) -> np.ndarray:
     t = np.where(np.isfinite(pop.first_impact_t), pop.first_impact_t, np.inf).min(axis=1)
     return np.where(np.isfinite(t), t, np.nan)
+
+
+def _answer(name, scene, fs, V, pop) -> Answer:
+    n = len(pop)
+    dist, gap = np.full(n, np.nan), np.full(n, np.nan)
+    for k in subsample(np.flatnonzero(pop.ok & (pop.n_impacts == 0)), MISS_DRAWS):
+        dist[k], gap[k] = miss(scene, pop.outcome(int(k)))
+    row = _row(name, scene, pop)
+    reason = row.pop("failed_reason")
+    row["miss_draws"] = int(np.isfinite(dist).sum())
+    for what, values in (("miss_distance", dist), ("time_gap", gap)):
+        ok = np.isfinite(values)
+        q = np.quantile(values[ok], QUANTILES) if ok.any() else (math.nan,) * 3
+        for p, val in zip(QUANTILES, q):
+            row[f"{what}_{round(100 * p)}"] = float(val)
+    row["failed_reason"] = reason
+    return Answer(name, fs, V, pop, dist, gap, row)
 
 
 def _row(name, scene, pop) -> dict:
