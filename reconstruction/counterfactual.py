@@ -12,7 +12,9 @@ A `[[counterfactuals]]` table of a study names a change of the scene:
 Fields are crashlab.fields paths. Every kept draw of the posterior (or an even subsample of at most
 `MAX_DRAWS`) is simulated again with the change, as one population (CollisionModel.simulate_population);
 the answer: the probability that the vehicles do not touch (with its 90 % interval, Jeffreys' beta interval
-of a binomial share), and where they still touch, each vehicle's speed at impact and delta-V at 5/50/95 %.
+of a binomial share), where they still touch each vehicle's speed at impact and delta-V at 5/50/95 %, and
+where they do not (at most MISS_DRAWS such draws, evenly subsampled, run again with trajectories) how far
+apart the outlines stay and the time gap at the point where the CG paths cross, at 5/50/95 % (`miss`).
 
 keep (docs/physics.md, "Counterfactuals"): "position" (default) keeps each vehicle's start as drawn: the
 changed car starts where it was when the run starts (the moment the hazard appeared, for a scene that starts
@@ -305,11 +307,17 @@ def summary_lines(rows) -> list[str]:
         out.append(f"{r['name']}: avoided in {100 * r['p_avoided']:.1f} % of {r['draws'] - r['failed']} draws "
                    f"(90 % {100 * r['p_avoided_5']:.1f}-{100 * r['p_avoided_95']:.1f} %)"
                    + (f"; where they still touch, median impact speed {speeds} km/h" if speeds else "")
+                   + (f"; where they do not, the outlines {r['miss_distance_50']:.2f} m apart at the closest "
+                      f"(median; 5-95 % {r['miss_distance_5']:.2f}-{r['miss_distance_95']:.2f} m)"
+                      if math.isfinite(r.get("miss_distance_50", math.nan)) else "")
+                   + (f", time gap at the crossing point {r['time_gap_50']:+.2f} s (5-95 % "
+                      f"{r['time_gap_5']:+.2f} to {r['time_gap_95']:+.2f} s)"
+                      if math.isfinite(r.get("time_gap_50", math.nan)) else "")
                    + (f"; {r['failed']} draws failed ({r['failed_reason']})" if r["failed"] else ""))
     return out
 
 
-def run(post, samples, out_dir=None) -> list[dict]:
+def run(post, samples, out_dir=None) -> list[Answer]:
     """The posterior's counterfactuals (post: a Posterior with counterfactuals) answered on its kept samples
     (file units, the posterior's variables as columns) with the study's model; with out_dir,
     counterfactuals.csv (one row per counterfactual, the draws as they are first: `crashlab avoid`; `crashlab
@@ -318,8 +326,8 @@ def run(post, samples, out_dir=None) -> list[dict]:
 
     from crashlab.execution import model_for
     spec = post.study.spec
-    rows = answer(model_for(spec.model, spec.model_options), post.study.scene, post.fields, samples,
+    out = answers(model_for(spec.model, spec.model_options), post.study.scene, post.fields, samples,
                   post.counterfactuals)
     if out_dir is not None:
-        pd.DataFrame(rows).to_csv(Path(out_dir) / "counterfactuals.csv", index=False)
-    return rows
+        pd.DataFrame([a.row for a in out]).to_csv(Path(out_dir) / "counterfactuals.csv", index=False)
+    return out

@@ -34,6 +34,7 @@ from crashlab.units import wrap_deg
 from crashlab.version import package_version
 
 from .evidence import UNITS
+from .avoidance import TIME_DISTANCE_CAPTION
 from .problem import variable_unit
 
 REPORT_NAME = "report.html"
@@ -453,10 +454,12 @@ def evaluations_table(problem, failure_reasons=None, evaluations=None) -> tuple[
 
 
 def write_reconstruction_report(study, result, out_dir, figures, near_figure=None, near=None, tol=None,
-                                best=None, warnings=(), notes=(), failure_reasons=None, time_figure=None) -> Path:
+                                best=None, warnings=(), notes=(), failure_reasons=None, time_figure=None,
+                                time_distance_figure=None) -> Path:
     """DIR/report.html of a reconstruction. figures: [(file name in out_dir, caption)] top views; best:
     (scene, outcome) of the first Pareto row, for its impact table and the animation; time_figure: the file
-    name of its speed / distance / heading against time; near: the near-optimal table (its variable ranges
+    name of its speed / distance / heading against time, time_distance_figure its time-distance diagram;
+    near: the near-optimal table (its variable ranges
     shown), tol its bound; warnings: lines shown highlighted under the Pareto set; failure_reasons: {reason:
     count} of the failed evaluations."""
     out_dir = Path(out_dir)
@@ -503,8 +506,9 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
             "The chosen solution: Pareto row 0", "The start of the smallest sum of objectives, simulated again "
             f"with `{spec.model}`: every impact, and each vehicle's speed, distance travelled and heading against "
             "time.", best[1], out_dir,
-            [(time_figure, "speed, distance travelled along the CG path and heading (continuous) against time; "
-              "dashed: the impacts.")] if time_figure else [])
+            ([(time_figure, "speed, distance travelled along the CG path and heading (continuous) against time; "
+               "dashed: the impacts.")] if time_figure else [])
+            + ([(time_distance_figure, TIME_DISTANCE_CAPTION)] if time_distance_figure else []))
     return _page("reconstruction.html", out_dir, f"Reconstruction: {spec.name or study.path.stem}",
                  case=case_context(spec), study=study_ctx, evaluations=evaluations,
                  evaluations_note=evaluations_note, free=free_table(problem.free, truth), scene=scene_context(study),
@@ -520,12 +524,13 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
 
 # ---------------------------------------------------------------- crashlab infer
 def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(), questions=(), median=None,
-                           median_figures=(), counterfactuals=()) -> Path:
+                           median_figures=(), counterfactuals=(), counterfactual_figures=()) -> Path:
     """DIR/report.html of a posterior: the study, the sampler, the evidence, the variables' medians and 90 %
     intervals, the questions, the corner plot, the median draw (median: (scene, outcome, draw index);
     median_figures: [(file name, caption)]) with its impact table, the draws' top view and the animation of
     `best` (scene, outcome: the draw of largest log-likelihood); questions: (question, probability, standard
-    error) rows; counterfactuals: counterfactual.answer's rows."""
+    error) rows; counterfactuals: counterfactual.answer's rows, counterfactual_figures their [(file name,
+    caption)]."""
     out_dir = Path(out_dir)
     study, s = post.study, post.settings
     run = (f"sampler {res.sampler} ({res.walkers} walkers, {res.iterations} iterations of which {res.burn} burn-in "
@@ -550,11 +555,13 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
     if counterfactuals:
         names = post.study.scene.vehicle_names
         ctable = Table(["counterfactual", "draws", "failed", "avoided", "90 % interval"]
-                       + [f"{n} impact speed, median [km/h]" for n in names],
+                       + [f"{n} impact speed, median [km/h]" for n in names]
+                       + ["miss distance, median (5-95 %) [m]", "time gap, median (5-95 %) [s]"],
                        [[r["name"], str(r["draws"]), str(r["failed"]), num(r["p_avoided"]),
                          f"{num(r['p_avoided_5'])}-{num(r['p_avoided_95'])}"]
-                        + [num(r[f"{n}.impact_speed_50"], 1) for n in names] for r in counterfactuals],
-                       "counterfactuals")
+                        + [num(r[f"{n}.impact_speed_50"], 1) for n in names]
+                        + [_median_range(r, "miss_distance", 2), _median_range(r, "time_gap", 2)]
+                        for r in counterfactuals], "counterfactuals")
     corner = figure_of(out_dir / "corner.png", "the posterior's one- and two-variable marginals (each axis in its "
                        "variable's unit); dashed: 5, 50 and 95 % quantiles"
                        + ("; lines: the twin's truth" if truth is not None else "") + ".")
@@ -576,9 +583,18 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
                  scene=scene_context(study), evidence=evidence_context(study),
                  posterior=Table(head, rows, "posterior", (0, 1, 2), md_cols=(len(head) - 1,)),
                  warnings=list(warnings), questions=qtable, counterfactuals=ctable,
+                 counterfactual_figures=[figure_of(out_dir / f, c) for f, c in counterfactual_figures],
                  corner=corner, solution=solution, tops=tops,
                  animation=animation_context(best, out_dir, "the posterior draw of largest log-likelihood"),
                  refine=refine_context(out_dir, getattr(res, "refine", None), study.evidence), notes=list(notes))
+
+
+def _median_range(row, what, digits) -> str:
+    """"median (5 % to 95 %)" of counterfactual row's `what`; empty when not measured."""
+    m = row.get(f"{what}_50", math.nan)
+    if not math.isfinite(m):
+        return ""
+    return f"{num(m, digits)} ({num(row[f'{what}_5'], digits)} to {num(row[f'{what}_95'], digits)})"
 
 
 # ---------------------------------------------------------------- PDF

@@ -160,7 +160,14 @@ def test_infer_answers_the_counterfactuals_in_its_outputs(tmp_path):
     again = counterfactual.answer(ImpulseModel(), post.study.scene, post.fields, res.samples, post.counterfactuals)
     np.testing.assert_allclose(table["V2.impact_speed_50"], [r["V2.impact_speed_50"] for r in again], rtol=1e-9)
     assert "## Counterfactuals" in (out / "summary.md").read_text()
-    assert "Would it have been avoided?" in (out / "report.html").read_text()
+    page = (out / "report.html").read_text()
+    assert "Would it have been avoided?" in page
+    for name in ("counterfactual_impact_speed.png", "counterfactual_top_views.png", "time_distance.png"):
+        assert (out / name).is_file() and f'data-file="{name}"' in page, name
+    td = pd.read_csv(out / "time_distance.csv")
+    assert list(td.columns) == ["vehicle", "t", "s", "speed", "to_impact"] and set(td["vehicle"]) == {"V1", "V2"}
+    # "V1 stopped": every draw misses; V2 crosses 3.5 m ahead of V1's CG (the docstring of the test above)
+    assert table["miss_draws"][1] == table["draws"][1] and 0.5 < table["miss_distance_50"][1] < 1.2
 
 
 # ---------------------------------------------------------------- how far apart they stay
@@ -263,3 +270,21 @@ def test_twin_answers_the_truths_counterfactuals(tmp_path):
     table = pd.read_csv(tmp_path / "counterfactuals.csv")
     assert list(table["name"]) == ["posterior", "V1 at 50 km/h", "V1 braking 0.2 s later", "nothing changed"]
     assert "Would it have been avoided?" in (tmp_path / "report.html").read_text()
+
+
+def test_time_distance_of_the_analytic_twin(scene):
+    """V1 at 62 km/h (module docstring): at t = 0 its front is GAP from V2's near side, so the distance to the
+    point of impact is GAP (the CG travels as far as the front); its speed 62 km/h for the reaction time, then
+    falling by mu g; V2 stands still: 0 to go. The distance to go reaches 0 at the impact."""
+    from crashlab.reconstruction.avoidance import time_distance
+    out = crashlab.simulate(scene, model="impulse")
+    td = time_distance(out)
+    v1 = td[td["vehicle"] == "V1"]
+    assert v1["to_impact"].iloc[0] == pytest.approx(GAP, abs=0.05)
+    assert v1["speed"].iloc[0] == pytest.approx(62.0, abs=1e-9)
+    t_c = float(out.impacts["t"].min())
+    assert float(np.interp(t_c, v1["t"], v1["to_impact"])) == pytest.approx(0.0, abs=1e-9)
+    late = v1[(v1["t"] > T_R + 0.2) & (v1["t"] < t_c - 0.05)]
+    slope = np.polyfit(late["t"], late["speed"] / 3.6, 1)[0]
+    assert slope == pytest.approx(-MU * G, rel=0.05)  # locked wheels: Coulomb
+    np.testing.assert_allclose(td[td["vehicle"] == "V2"]["to_impact"].iloc[0], 0.0, atol=1e-9)
