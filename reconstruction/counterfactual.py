@@ -38,7 +38,7 @@ from crashlab.errors import InputError
 from crashlab.units import ms_to_kmh
 
 MAX_DRAWS = 2000  # draws re-simulated per counterfactual (an even subsample of the kept ones beyond this)
-MISS_DRAWS = 500  # draws without contact run again with trajectories for the miss distance and time gap
+MISS_DRAWS = 200  # draws without contact run again with trajectories for the miss distance and time gap
 GRID_DT = 0.01  # s: the common time grid on which the outlines are compared (linear between recorded samples)
 CROSSING_STRIDE = 5  # grid steps between the path samples searched for the crossing point
 QUANTILES = (0.05, 0.5, 0.95)
@@ -193,11 +193,16 @@ def miss(scene, outcome) -> tuple[float, float]:
     paths do not cross, e.g. one stops short of the other's path)."""
     t, poses = tracks(outcome)
     specs = [v.spec for v in scene.vehicles]
-    corners = [outline_corners(sp, ps) for sp, ps in zip(specs, poses)]
+    radius = [math.hypot(max(sp.cg_to_front, sp.cg_to_rear), sp.width / 2) for sp in specs]
     best = (math.inf, 0, 1)
     for i in range(len(specs)):
         for j in range(i + 1, len(specs)):
-            best = min(best, (float(outline_distance(corners[i], corners[j]).min()), i, j))
+            # the outlines hold the CGs, so their distance lies in [d_cg - r_i - r_j, d_cg]: only the instants
+            # whose CG distance is within r_i + r_j of the smallest can hold the smallest outline distance
+            d_cg = np.hypot(*(poses[i, :, :2] - poses[j, :, :2]).T)
+            near = d_cg <= d_cg.min() + radius[i] + radius[j]
+            d = outline_distance(outline_corners(specs[i], poses[i, near]), outline_corners(specs[j], poses[j, near]))
+            best = min(best, (float(d.min()), i, j))
     d, i, j = best
     stride = slice(None, None, CROSSING_STRIDE)  # the paths at 0.05 s: straight enough between samples
     ti, tj = path_crossing(t[stride], poses[i, stride, :2], poses[j, stride, :2])
