@@ -121,6 +121,7 @@ def top_views_figure(answers, path: Path, n: int = TOP_VIEW_DRAWS) -> int:
     import matplotlib.pyplot as plt
 
     from crashlab.tools.plotting import draw_road, vehicle_colours
+
     from . import counterfactual
     shown = answers[:1 + TOP_VIEW_COUNTERFACTUALS]
     ok = np.logical_and.reduce([a.pop.ok for a in shown])
@@ -144,7 +145,7 @@ def top_views_figure(answers, path: Path, n: int = TOP_VIEW_DRAWS) -> int:
                               for i in range(len(corners)) for j in range(i + 1, len(corners))], axis=0)
                 moment = int(np.argmin(gap))
             draw_road(ax, scene.road, legend=False)
-            for i, v in enumerate(scene.vehicles):
+            for i in range(len(scene.vehicles)):
                 col = colours[i % len(colours)]
                 ax.plot(poses[i, :, 0], poses[i, :, 1], color=col, lw=0.8)
                 for step, style in ((0, ":"), (moment, "--"), (-1, "-")):

@@ -173,7 +173,7 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         draws = draws.sort_values("log_likelihood", ascending=False, kind="stable")
         result.refine = refine(post.study, draws, out, source="posterior draws", progress=progress)
     if page is not None:  # report.html last: it shows every file above
-        from .html_report import write_posterior_report
+        from .html_posterior import write_posterior_report
         try:
             write_posterior_report(post, result, out, **page)
         except OSError as err:
@@ -284,7 +284,8 @@ __all__ = ["CHECKPOINT_FORMAT", "PosteriorResult", "cmd_avoid", "cmd_infer", "ru
 
 def cmd_avoid(args) -> int:
     """`crashlab avoid STUDY --out DIR`: the study's [[counterfactuals]] answered on DIR/posterior.csv, the draws
-    of an earlier `crashlab infer STUDY --out DIR` (crashlab.reconstruction.counterfactual)."""
+    of an earlier `crashlab infer STUDY --out DIR` (crashlab.reconstruction.counterfactual): DIR/counterfactuals.csv
+    and its figures (crashlab.reconstruction.avoidance), a line each on the terminal."""
     import pandas as pd
     post = load_posterior(args.study)
     if not post.counterfactuals:
