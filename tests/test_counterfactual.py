@@ -167,7 +167,8 @@ def test_infer_answers_the_counterfactuals_in_its_outputs(tmp_path):
     td = pd.read_csv(out / "time_distance.csv")
     assert list(td.columns) == ["vehicle", "t", "s", "speed", "to_impact"] and set(td["vehicle"]) == {"V1", "V2"}
     # "V1 stopped": every draw misses; V2 crosses 3.5 m ahead of V1's CG (the docstring of the test above)
-    assert table["miss_draws"][1] == table["draws"][1] and 0.5 < table["miss_distance_50"][1] < 1.2
+    assert table["miss_draws"][1] == min(table["draws"][1], counterfactual.MISS_DRAWS)
+    assert 0.5 < table["miss_distance_50"][1] < 1.2
 
 
 # ---------------------------------------------------------------- how far apart they stay
