@@ -357,7 +357,12 @@ def test_impact_table_equals_the_outcome_of_pareto_row_0(reconstruct_out):
     outcome = crashlab.simulate(study.make_problem().scene_for(x), model=study.spec.model)
     page = _read(reconstruct_out)
     assert_impact_table_is_the_outcomes(page.tables["impacts"], outcome)
-    assert "solution_0_time.png" in {img["data-file"] for img in page.imgs}
+    assert {"solution_0_time.png", "time_distance.png"} <= {img["data-file"] for img in page.imgs}
+    # the time-distance table (docs/physics.md §29): each vehicle's distance to go is 0 at its first impact
+    td = pd.read_csv(reconstruct_out / "time_distance.csv")
+    for name, part in td.groupby("vehicle"):
+        t_c = outcome.impacts.loc[outcome.impacts["vehicle"] == name, "t"].min()
+        assert abs(np.interp(t_c, part["t"], part["to_impact"])) < 1e-3, name
     text = (reconstruct_out / "report.html").read_text()
     assert "@media print" in text and "@page" in text  # the print layout of the same page
 
@@ -383,7 +388,7 @@ def test_posterior_report_shows_the_median_draw_and_its_impacts(infer_out):
     outcome = crashlab.simulate(post.setter(res.samples[k]), model=post.study.spec.model)
     page = _read(infer_out)
     assert_impact_table_is_the_outcomes(page.tables["impacts"], outcome)
-    assert {"median_draw_time.png", "median_draw.png"} <= {img["data-file"] for img in page.imgs}
+    assert {"median_draw_time.png", "median_draw.png", "time_distance.png"} <= {img["data-file"] for img in page.imgs}
     assert f"draw {k} of posterior.csv" in " ".join(page.text)
 
 
