@@ -9,11 +9,11 @@ A `[[counterfactuals]]` table of a study names a change of the scene:
     scale = { "vehicles.V2.speed" = 0.0 }         # a value multiplied
     keep = "position"                             # or "arrival"
 
-Fields are crashlab.fields paths. Every kept draw of the posterior (or an even subsample of at most
-`MAX_DRAWS`) is simulated again with the change, as one population (CollisionModel.simulate_population);
+Fields are crashlab.fields paths. Every kept draw of the posterior (or a random subsample of at most
+`MAX_DRAWS`, `subsample`) is simulated again with the change, as one population (CollisionModel.simulate_population);
 the answer: the probability that the vehicles do not touch (with its 90 % interval, Jeffreys' beta interval
 of a binomial share), where they still touch each vehicle's speed at impact and delta-V at 5/50/95 %, and
-where they do not (at most MISS_DRAWS such draws, evenly subsampled, run again with trajectories) how far
+where they do not (at most MISS_DRAWS such draws, a seeded random subsample, run again with trajectories) how far
 apart the outlines stay and the time gap at the point where the CG paths cross, at 5/50/95 % (`miss`).
 
 keep (docs/physics.md, "Counterfactuals"): "position" (default) keeps each vehicle's start as drawn: the
@@ -37,7 +37,7 @@ from crashlab import fields
 from crashlab.errors import InputError
 from crashlab.units import ms_to_kmh
 
-MAX_DRAWS = 2000  # draws re-simulated per counterfactual (an even subsample of the kept ones beyond this)
+MAX_DRAWS = 2000  # draws re-simulated per counterfactual (a random subsample of the kept ones beyond this)
 MISS_DRAWS = 200  # draws without contact run again with trajectories for the miss distance and time gap
 GRID_DT = 0.01  # s: the common time grid on which the outlines are compared (linear between recorded samples)
 CROSSING_STRIDE = 5  # grid steps between the path samples searched for the crossing point
@@ -131,8 +131,11 @@ def changed_values(cf: Counterfactual, scene, var_fields, X, contact_t=None) -> 
 # ---------------------------------------------------------------- how far apart they stay (docs/physics.md §29)
 def tracks(outcome, dt: float = GRID_DT) -> tuple[np.ndarray, np.ndarray]:
     """(t (T,), poses (nv, T, 3)): each vehicle's CG x, y [m] and heading [rad] on one time grid of step dt,
-    linear between the recorded samples (heading unwrapped first), the last pose held after a record ends."""
-    trs = [outcome.trajectories[n] for n in outcome.names]
+    linear between the recorded samples (heading unwrapped first), the last pose held after a record ends.
+    ValueError when the run recorded no trajectories."""
+    trs = [(outcome.trajectories or {}).get(n) for n in outcome.names]
+    if any(tr is None or not len(tr["t"]) for tr in trs):
+        raise ValueError("the run recorded no trajectories")
     end = max(float(tr["t"][-1]) for tr in trs)
     t = np.arange(0.0, end + dt / 2, dt)
     poses = np.empty((len(trs), len(t), 3))
@@ -222,10 +225,12 @@ def jeffreys_interval(k: int, n: int, level: float = 0.90) -> tuple[float, float
 
 
 def subsample(X: np.ndarray, limit: int = MAX_DRAWS) -> np.ndarray:
-    """X itself, or `limit` rows (elements) evenly spaced through it."""
+    """X itself, or `limit` of its rows (elements) drawn at random without replacement, in their order, with a
+    fixed seed (the same answer every run). Not an even stride: the draws of an ensemble sampler are walkers
+    interleaved, and a stride sharing a factor with their number would pick the same few walkers."""
     if len(X) <= limit:
         return X
-    return X[np.linspace(0, len(X) - 1, limit).round().astype(int)]
+    return X[np.sort(np.random.default_rng(0).choice(len(X), limit, replace=False))]
 
 
 @dataclasses.dataclass
@@ -271,7 +276,10 @@ def _answer(name, scene, fs, V, pop) -> Answer:
     n = len(pop)
     dist, gap = np.full(n, np.nan), np.full(n, np.nan)
     for k in subsample(np.flatnonzero(pop.ok & (pop.n_impacts == 0)), MISS_DRAWS):
-        dist[k], gap[k] = miss(scene, pop.outcome(int(k)))
+        try:
+            dist[k], gap[k] = miss(scene, pop.outcome(int(k)))
+        except ValueError:  # a model that records no trajectories: not measured (miss_draws says how many were)
+            break
     row = _row(name, scene, pop)
     reason = row.pop("failed_reason")
     row["miss_draws"] = int(np.isfinite(dist).sum())

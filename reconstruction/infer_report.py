@@ -53,7 +53,7 @@ def summary_lines(post, res) -> list[str]:
         lines += [f"| `{q}` | {p:.3f} | {se:.3f} |" for q, p, se in question_rows(post, res)]
     if res.counterfactuals:
         from .counterfactual import summary_lines as counterfactual_lines
-        lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, evenly subsampled) simulated again "
+        lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
                   "with the change (docs/physics.md §29; every number in counterfactuals.csv):", ""]
         lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals)]
     lines += ["", "## Evidence", ""] + [f"- {s}" for s in post.study.evidence_set.describe()]
