@@ -295,7 +295,7 @@ def test_time_distance_of_the_analytic_twin(scene):
 def test_cost_of_the_tutorials_counterfactuals(benchmark):
     """Issue 28's cost: the counterfactuals of the tutorial (studies/tutorial/counterfactuals.toml) on 2,000
     draws of the tutorial's posterior (its [infer] settings, 3,008 draws subsampled), the model compiled
-    first. Measured: 4.9-6.3 s (mean 5.7 s over 3 rounds) on the 2 shared cores at load 5.6; target under 10 s. Run with
+    first. Measured: 5.4-6.1 s (mean 5.8 s over 3 rounds) on the 2 shared cores at load 4-5; target under 10 s. Run with
     `python -m pytest tests/test_counterfactual.py -k cost --benchmark-only -p no:cacheprovider`."""
     import tomllib
 
