@@ -71,6 +71,7 @@ class PosteriorResult:
     chain: np.ndarray | None = None  # (iterations, walkers, d), every iteration
     refine: object = None  # refine.RefineResult of the study's [refine] on the best draws
     counterfactuals: list | None = None  # counterfactual.answer's rows of the study's [[counterfactuals]]
+    answers: list | None = None  # counterfactual.Answer of each (the populations and per-draw numbers)
 
     def interval(self, q=(0.05, 0.5, 0.95)) -> np.ndarray:
         return np.quantile(self.samples, q, axis=0)
@@ -158,7 +159,8 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
                              post.truth, chain)
     if post.counterfactuals:  # what if ... on the kept draws (counterfactual.py), before the outputs show it
         from . import counterfactual
-        result.counterfactuals = counterfactual.run(post, result.samples)
+        result.answers = counterfactual.run(post, result.samples)
+        result.counterfactuals = [a.row for a in result.answers]
     page = None
     if out is not None:
         from .infer_report import write_outputs
@@ -171,7 +173,7 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         draws = draws.sort_values("log_likelihood", ascending=False, kind="stable")
         result.refine = refine(post.study, draws, out, source="posterior draws", progress=progress)
     if page is not None:  # report.html last: it shows every file above
-        from .html_report import write_posterior_report
+        from .html_posterior import write_posterior_report
         try:
             write_posterior_report(post, result, out, **page)
         except OSError as err:
@@ -282,7 +284,8 @@ __all__ = ["CHECKPOINT_FORMAT", "PosteriorResult", "cmd_avoid", "cmd_infer", "ru
 
 def cmd_avoid(args) -> int:
     """`crashlab avoid STUDY --out DIR`: the study's [[counterfactuals]] answered on DIR/posterior.csv, the draws
-    of an earlier `crashlab infer STUDY --out DIR` (crashlab.reconstruction.counterfactual)."""
+    of an earlier `crashlab infer STUDY --out DIR` (crashlab.reconstruction.counterfactual): DIR/counterfactuals.csv
+    and its figures (crashlab.reconstruction.avoidance), a line each on the terminal."""
     import pandas as pd
     post = load_posterior(args.study)
     if not post.counterfactuals:
@@ -297,7 +300,14 @@ def cmd_avoid(args) -> int:
     if missing:
         raise InputError(path, missing[0], "a variable of the study is not in this posterior (another study?)")
     from . import counterfactual
-    for line in counterfactual.summary_lines(counterfactual.run(post, table[post.labels].to_numpy(float), args.out)):
+    answers = counterfactual.run(post, table[post.labels].to_numpy(float), args.out)
+    for line in counterfactual.summary_lines([a.row for a in answers]):
         print(line)
+    from .avoidance import write_counterfactual_figures
+    figures, notes = write_counterfactual_figures(answers, post.study.scene.vehicle_names, args.out)
+    for note in notes:
+        print("warning: " + note, file=sys.stderr)
+    for name, _ in figures:
+        print(f"wrote {path.parent / name}", file=sys.stderr)
     print(f"wrote {path.parent / 'counterfactuals.csv'}", file=sys.stderr)
     return 0

@@ -1,7 +1,8 @@
 """The outputs of `crashlab infer` (crashlab.reconstruction.infer): posterior.csv, summary.md, corner.png,
 posterior_top_view.png (the rest outlines and CG paths of posterior draws over the measured rest poses), the
-median draw's top view and time histories (median_draw.png, median_draw_time.png) and report.html
-(crashlab.reconstruction.html_report)."""
+median draw's top view, time histories and time-distance diagram (median_draw.png, median_draw_time.png,
+time_distance.png and .csv), with [[counterfactuals]] counterfactuals.csv and its figures
+(crashlab.reconstruction.avoidance), and report.html (crashlab.reconstruction.html_report)."""
 from __future__ import annotations
 
 import math
@@ -52,7 +53,7 @@ def summary_lines(post, res) -> list[str]:
         lines += [f"| `{q}` | {p:.3f} | {se:.3f} |" for q, p, se in question_rows(post, res)]
     if res.counterfactuals:
         from .counterfactual import summary_lines as counterfactual_lines
-        lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, evenly subsampled) simulated again "
+        lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
                   "with the change (docs/physics.md §29; every number in counterfactuals.csv):", ""]
         lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals)]
     lines += ["", "## Evidence", ""] + [f"- {s}" for s in post.study.evidence_set.describe()]
@@ -249,8 +250,21 @@ def write_outputs(post, res, out: Path) -> dict:
         except Exception as err:  # noqa: BLE001 - the report stands without the median draw's section
             median, median_figures = None, []
             notes.append(f"the median draw could not be run again ({type(err).__name__}).")
+        if median is not None:  # the avoidance diagram of the median draw (docs/physics.md §29)
+            from .avoidance import TIME_DISTANCE_CAPTION, write_time_distance
+            name, more = write_time_distance(median[1], out, "Median draw: distance to the point of impact and "
+                                             "speed against time")
+            notes += more
+            if name:
+                median_figures = list(median_figures) + [(name, TIME_DISTANCE_CAPTION)]
+        counterfactual_figures = []
+        if res.answers:
+            from .avoidance import write_counterfactual_figures
+            counterfactual_figures, more = write_counterfactual_figures(res.answers, post.study.scene.vehicle_names,
+                                                                        out)
+            notes += more
         return dict(warnings=chain_warnings(res), best=best, notes=notes, median=median,
                     median_figures=median_figures, questions=question_rows(post, res) if post.questions else [],
-                    counterfactuals=res.counterfactuals or [])
+                    counterfactuals=res.counterfactuals or [], counterfactual_figures=counterfactual_figures)
     except OSError as err:
         raise InputError(out, "--out", err.strerror or str(err)) from None

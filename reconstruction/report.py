@@ -266,7 +266,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             chosen.append((k, result.pareto.loc[k, cols].to_numpy(dtype=float)))
     figures = []
     best = None  # (scene, outcome) of Pareto row 0: its impact table, time histories and animation in report.html
-    time_figure = None
+    time_figure = time_distance_figure = None
     for k, x in chosen[:3]:
         scene = problem.scene_for(x)
         try:
@@ -284,6 +284,10 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                 notes.append(drawing_failed("solution_0_time.png", err))
             finally:
                 plt.close("all")
+            from .avoidance import write_time_distance  # the avoidance diagram (docs/physics.md §29)
+            time_distance_figure, more = write_time_distance(outcome, out_dir, "Pareto row 0: distance to the "
+                                                             "point of impact and speed against time")
+            notes += more
         try:
             top_view(scene, outcome, out_dir / f"solution_{k}.png",
                      title=f"Pareto solution {k}", measured=problem.evidence)
@@ -380,5 +384,5 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             f"the smallest f_{n}" for n in names if int(result.pareto[f"f_{n}"].idxmin()) == k]
         captions.append((f, f"Pareto row {k}: {', '.join(why)}."))
     return dict(figures=captions, near_figure=figures_near, near=near, tol=tol, best=best, warnings=warnings,
-                notes=notes, time_figure=time_figure,
+                notes=notes, time_figure=time_figure, time_distance_figure=time_distance_figure,
                 failure_reasons=failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)

@@ -20,7 +20,7 @@ import pandas as pd
 import pytest
 from conftest import two_frame_gif
 
-from crashlab.reconstruction import html_report, load_study
+from crashlab.reconstruction import html_report, html_sections, load_study
 from crashlab.reconstruction.infer import run_posterior
 from crashlab.reconstruction.posterior import load_posterior
 
@@ -29,7 +29,7 @@ SIDE = REPO / "studies" / "pc_crash" / "side.toml"
 CASE5 = REPO / "studies" / "reconstruction" / "case5.toml"
 TWIN_INFER = REPO / "studies" / "infer" / "twin_infer.toml"
 SIZE_LIMIT = 5_000_000  # bytes: issue 15's limit for case 5's report.html
-# a shown number is within this of the true one: html_report.num's 3 decimals or 4 significant digits
+# a shown number is within this of the true one: html_page.num's 3 decimals or 4 significant digits
 ABS_TOL, REL_TOL = 5e-4, 5e-4
 PNG, GIF = b"\x89PNG\r\n\x1a\n", b"GIF8"
 
@@ -266,11 +266,11 @@ def test_a_missing_or_failing_animation_is_said_so(tmp_path, monkeypatch):
 
 def test_refine_files_become_a_section(tmp_path):
     """refine.md (escaped, as written) and refine.csv (a table) make the Refinement section; none without them."""
-    assert html_report.refine_section(tmp_path) == ""
+    assert html_sections.refine_section(tmp_path) == ""
     (tmp_path / "refine.md").write_text("# Refinement\n\nV1.speed <narrowed> & kept\n")
     pd.DataFrame({"variable": ["V1.speed", "V2.speed"], "before": [49.9, 30.1], "after": [50.0004, 1.5e-5]}) \
         .to_csv(tmp_path / "refine.csv", index=False)
-    text = html_report.refine_section(tmp_path)
+    text = html_sections.refine_section(tmp_path)
     assert text.count("<h2>Refinement</h2>") == 1
     assert "V1.speed &lt;narrowed&gt; &amp; kept" in text
     assert "<td>50.000</td>" in text and "<td>1.500e-05</td>" in text and "<td>49.900</td>" in text
@@ -339,7 +339,7 @@ def assert_impact_table_is_the_outcomes(rows: list[list[str]], outcome):
                     "energy dissipated [kJ]": r.energy / 1e3, "of it this vehicle's [kJ]": r.crush / 1e3}
         assert set(expected) == set(head[2:])
         for key, value in expected.items():
-            digits = html_report.IMPACT_DIGITS[key]
+            digits = html_sections.IMPACT_DIGITS[key]
             if isinstance(value, float) and math.isnan(value):
                 assert got[key] == "", (key, got[key])
                 continue
@@ -357,7 +357,12 @@ def test_impact_table_equals_the_outcome_of_pareto_row_0(reconstruct_out):
     outcome = crashlab.simulate(study.make_problem().scene_for(x), model=study.spec.model)
     page = _read(reconstruct_out)
     assert_impact_table_is_the_outcomes(page.tables["impacts"], outcome)
-    assert "solution_0_time.png" in {img["data-file"] for img in page.imgs}
+    assert {"solution_0_time.png", "time_distance.png"} <= {img["data-file"] for img in page.imgs}
+    # the time-distance table (docs/physics.md §29): each vehicle's distance to go is 0 at its first impact
+    td = pd.read_csv(reconstruct_out / "time_distance.csv")
+    for name, part in td.groupby("vehicle"):
+        t_c = outcome.impacts.loc[outcome.impacts["vehicle"] == name, "t"].min()
+        assert abs(np.interp(t_c, part["t"], part["to_impact"])) < 1e-3, name
     text = (reconstruct_out / "report.html").read_text()
     assert "@media print" in text and "@page" in text  # the print layout of the same page
 
@@ -383,7 +388,7 @@ def test_posterior_report_shows_the_median_draw_and_its_impacts(infer_out):
     outcome = crashlab.simulate(post.setter(res.samples[k]), model=post.study.spec.model)
     page = _read(infer_out)
     assert_impact_table_is_the_outcomes(page.tables["impacts"], outcome)
-    assert {"median_draw_time.png", "median_draw.png"} <= {img["data-file"] for img in page.imgs}
+    assert {"median_draw_time.png", "median_draw.png", "time_distance.png"} <= {img["data-file"] for img in page.imgs}
     assert f"draw {k} of posterior.csv" in " ".join(page.text)
 
 
@@ -507,7 +512,7 @@ def test_spread_between_models_is_a_table(tmp_path):
                       "search_rest_V1_x": [1.0], "search_rest_V1_y": [2.0], "search_rest_V1_heading": [179.0],
                       "refine_rest_V1_x": [1.3], "refine_rest_V1_y": [2.4], "refine_rest_V1_heading": [-179.0]})
     refined = SimpleNamespace(table=t, search_model="impulse", model="multibody", source="Pareto rows")
-    text = html_report.refine_section(tmp_path, refined, {"V1": (1.1, 2.1, None)})
+    text = html_sections.refine_section(tmp_path, refined, {"V1": (1.1, 2.1, None)})
     rows = Page(text).tables["spread"]
     assert rows[0][:3] == ["candidate", "row", "vehicle"] and "distance apart [m]" in rows[0]
     got = dict(zip(rows[0], rows[1]))

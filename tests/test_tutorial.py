@@ -50,6 +50,8 @@ def test_commands_and_figures_are_found():
     assert any(c.startswith("crashlab reconstruct studies/tutorial/study.toml") for c in cmds)
     assert any(c.startswith("crashlab infer studies/tutorial/study.toml") for c in cmds)
     assert any("--monte-carlo" in c for c in cmds)
+    assert any(c.startswith("crashlab avoid") for c in cmds)
+    assert len(printed_after(text, next(c for c in cmds if c.startswith("crashlab avoid")))) == 4
     assert any(e == 2 for _, e in commands(text))
     assert len(figures(text)) >= 5
     assert commands("```bash\ncrashlab x  # exit 3\n# a comment\n\ncrashlab y\n```\n") == \
@@ -128,8 +130,10 @@ def test_tutorial_commands_run_and_make_its_figures(tmp_path):
     (tmp_path / "studies").symlink_to(REPO / "studies", target_is_directory=True)
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
                MPLBACKEND="Agg")
+    stdout = {}
     for cmd, expected in commands(text):
         r = subprocess.run(cmd, shell=True, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
+        stdout[cmd] = r.stdout
         assert r.returncode == expected, f"{cmd}: exit {r.returncode}\n{r.stdout[-2000:]}\n{r.stderr[-2000:]}"
         if expected == 2:  # bad input: one line naming the file and the key
             lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
@@ -148,3 +152,42 @@ def test_tutorial_commands_run_and_make_its_figures(tmp_path):
     with open(tmp_path / "out" / "reconstruct" / "pareto.csv") as f:
         best = min(csv.DictReader(f), key=lambda r: float(r["f_V1"]) + float(r["f_V2"]))
     assert float(best["f_V1"]) <= 1.0 and float(best["f_V2"]) <= 1.0, best
+    check_counterfactuals(text, stdout, tmp_path / "out" / "infer", rows)
+
+
+def printed_after(text: str, command: str) -> list[str]:
+    """The lines of the ```text block that follows the ```bash block holding `command`."""
+    m = re.search(r"^```bash\n(?:[^`]*\n)?" + re.escape(command) + r".*?^```\n+```text\n(.*?)^```", text,
+                  flags=re.S | re.M)
+    assert m, command
+    return m.group(1).splitlines()
+
+
+def numbers(line: str) -> list[float]:
+    return [float(x) for x in re.findall(r"[-+]?\d+(?:\.\d+)?", line)]
+
+
+def check_counterfactuals(text, stdout, out, posterior_rows):
+    """Section 6: the lines the tutorial prints are the run's (every number within its printed rounding, a
+    little more for the sampler's last digits); the draws as they are all collide; "V2 stopped at its line"
+    misses every draw by the gap between V1's right side and V2's front, written here from the scene
+    (V1's CG 1.75 m south of the centre line, V2's front cg_to_front ahead of its drawn y)."""
+    import numpy as np
+    import pandas as pd
+
+    import crashlab
+    cmd = next(c for c in stdout if c.startswith("crashlab avoid"))
+    doc = {ln.split(":")[0]: ln for ln in printed_after(text, cmd)}
+    run = {ln.split(":")[0]: ln for ln in stdout[cmd].splitlines() if ln.strip()}
+    assert doc.keys() == run.keys(), (doc.keys(), run.keys())
+    for name, line in doc.items():
+        np.testing.assert_allclose(numbers(run[name]), numbers(line), rtol=0.02, atol=0.06, err_msg=name)
+    table = pd.read_csv(out / "counterfactuals.csv").set_index("name")
+    assert table.loc["posterior", "p_avoided"] == 0.0
+    assert table.loc["V2 stopped at its line", "p_avoided"] == 1.0
+    scene = crashlab.load_scene(TUTORIAL / "scene.toml")
+    v1, v2 = scene.vehicles
+    y2 = np.median([float(r["V2.y"]) for r in posterior_rows])
+    gap = (v1.y - v1.spec.width / 2) - (y2 + v2.spec.cg_to_front)
+    assert table.loc["V2 stopped at its line", "miss_distance_50"] == pytest.approx(gap, abs=0.1)
+    assert (out / "time_distance.csv").is_file()

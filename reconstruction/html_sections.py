@@ -1,0 +1,207 @@
+"""The sections both report pages show (crashlab.reconstruction.html_report, html_posterior), as data for the
+templates: the case, the scene, the free variables, the evidence, the chosen solution's impact table and
+figures, and the spread between the models after a [refine]."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from crashlab.units import wrap_deg
+
+from .evidence import UNITS
+from .html_page import Solution, Table, figure_of, macro, num
+from .problem import variable_unit
+
+
+# ---------------------------------------------------------------- the case, the study and the evidence
+def case_context(spec):
+    """The study's [case] for the template: (label, text) rows, assumptions and limitations; None without."""
+    case = getattr(spec, "case", None)
+    if case is None:
+        return None
+    fields = [(label, value) for label, value in (("case", case.id), ("analyst", case.analyst),
+                                                  ("date", case.date), ("notes", case.notes)) if value]
+    return {"fields": fields, "assumptions": list(case.assumptions), "limitations": list(case.limitations)}
+
+
+def scene_context(study) -> dict:
+    scene = study.scene
+    rows = []
+    for v in scene.vehicles:
+        s = v.spec
+        rows.append([v.name, getattr(s, "name", "") or "", num(s.mass, 0), num(s.length, 2), num(s.width, 2),
+                     num(v.x, 2), num(v.y, 2), num(math.degrees(v.heading), 1), num(v.speed * 3.6, 1), v.wheels])
+    imp = scene.impact
+    road = scene.road
+    extra = (f"road friction {road.friction:g}" + (f", {len(road.zones)} friction zone(s)" if road.zones else "")
+             + (f", {len(road.lines)} road line(s)" if getattr(road, "lines", ()) else "")
+             + (f", {len(scene.barriers)} barrier(s)" if scene.barriers else "")
+             + "; impact restitution " + ("of the closing speed (\"speed\")" if imp.restitution_law == "speed"
+                                           else f"{imp.restitution:g}") + f", friction {imp.friction:g}"
+             + ("" if imp.point is None else f", point of impact given at ({imp.point[0]:.2f}, {imp.point[1]:.2f}) m")
+             + f"; duration {scene.duration:g} s")
+    return {"name": scene.name, "source": scene.source, "extra": extra,
+            "table": Table(["vehicle", "data", "mass [kg]", "length [m]", "width [m]", "x [m]", "y [m]",
+                            "heading [deg]", "speed [km/h]", "wheels"], rows, "scene", (0, 1, 9))}
+
+
+def _options(d: dict) -> str:
+    return ", ".join(f"{k} = {v}" for k, v in d.items()) if d else "defaults"
+
+
+def free_table(variables, truth=None) -> Table:
+    """The searched variables (label, unit, bounds; the twin's truth)."""
+    rows = []
+    for j, f in enumerate(variables):
+        row = [f.label, variable_unit(f), num(f.lower), num(f.upper)]
+        if truth is not None:
+            row.append(num(truth[j]) if j < len(truth) else "")
+        rows.append(row)
+    head = ["free variable", "unit", "lower", "upper"] + (["truth (twin)"] if truth is not None else [])
+    return Table(head, rows, "free", (0, 1))
+
+
+def evidence_context(study) -> dict:
+    """The evidence as the objectives use it: measured rest poses (thesis objective, no sigmas), or every
+    item with its value and standard deviation (misfit objective)."""
+    es = study.evidence_set
+    ev = study.spec.evidence
+    twin = ("Twin experiment: the evidence is the model's own run of the base scene"
+            + ("" if ev.noise_seed is None else f", with Gaussian noise of the given sigmas (noise_seed "
+               f"{ev.noise_seed})") + ".") if ev.twin else ""
+    if es is None:
+        rows = [[n, num(x), num(y), "not measured" if h is None else num(h, 2)]
+                for n, (x, y, h) in study.evidence.items()]
+        return {"twin": twin, "intro": "Measured rest poses (the thesis objective: f_<vehicle> = |r - r*| + "
+                "heading_weight |dpsi| [m]; no standard deviations).",
+                "table": Table(["vehicle", "x [m]", "y [m]", "heading [deg]"], rows, "evidence")}
+    rows = []
+    for it in es.items:
+        if it.kind == "marks":
+            pts = ", ".join(f"({x:.2f}, {y:.2f})" for x, y in it.points)
+            rows.append([it.label, ", ".join(it.vehicles), "CG path through", pts, num(it.sigmas[0]), "m"])
+            continue
+        for c, v, s in zip(it.components, it.values, it.sigmas):
+            rows.append([it.label, ", ".join(it.vehicles), c, num(v), num(s), UNITS.get(c, "")])
+    return {"twin": twin, "intro": "Every item with its standard deviation (sigma). Objectives: f_<vehicle> = "
+            "sqrt(sum (residual / sigma)^2) over the items that concern the vehicle [sigma]; log-likelihood = -0.5 "
+            "sum (residual / sigma)^2 over all items, each once.",
+            "table": Table(["item", "vehicles", "component", "value", "sigma", "unit"], rows, "evidence",
+                           (0, 1, 2, 3, 5))}
+
+
+# ---------------------------------------------------------------- the chosen solution: impacts, time histories
+# printed digits of the impact table's columns (the test compares every cell with the Outcome to these)
+IMPACT_DIGITS = {"t [s]": 3, "speed at impact [km/h]": 1, "delta-V [km/h]": 1, "EES [km/h]": 1, "PDOF [deg]": 0,
+                 "PDOF [clock]": 0, "energy dissipated [kJ]": 1, "of it this vehicle's [kJ]": 1}
+IMPACT_NOTE = ("One row per impact and vehicle, from the simulation's impact rows (crashlab Outcome.impacts). "
+               "Speed at impact: the vehicle's speed when it touched the other (the state at first contact, "
+               "Outcome.first_contact; for a later impact the last recorded sample before it). delta-V: the "
+               "magnitude of the vehicle's velocity change in the impact; EES: the energy equivalent speed of the "
+               "energy the vehicle absorbed; PDOF: principal direction of force, deg counter-clockwise from straight "
+               "ahead, and as the SAE J224 clock (12 from ahead, 3 from the right); energy dissipated: kinetic "
+               "energy lost in the impact (both vehicles), and this vehicle's share of it (docs/physics.md §21). An "
+               "empty cell: the model does not give that number.")
+
+
+def speed_at_impact(outcome, i: int, t_impact: float) -> float:
+    """km/h: vehicle i's speed when an impact at t_impact began: the state at first contact for the vehicle's
+    first impact, else the last trajectory sample before t_impact (NaN without one)."""
+    first = [r["t"] for r in outcome.impact_rows if r["vehicle"] == outcome.names[i]]
+    if first and abs(t_impact - min(first)) < 1e-12 and np.isfinite(outcome.contact_si[i, 3]):
+        return float(outcome.contact_si[i, 3]) * 3.6
+    tr = (outcome.trajectories or {}).get(outcome.names[i])
+    if tr is None or not len(tr["t"]):
+        return math.nan
+    k = int(np.searchsorted(np.asarray(tr["t"], dtype=float), t_impact, side="left")) - 1
+    return math.nan if k < 0 else float(math.hypot(tr["vx"][k], tr["vy"][k])) * 3.6
+
+
+def impact_table(outcome, table_id: str = "impacts") -> Table | None:
+    """The impact table of a run (IMPACT_NOTE), sorted by time; None when nothing touched."""
+    if not outcome.outcome_ok or not outcome.impact_rows:
+        return None
+    df = outcome.impacts
+    crush = [r.get("crush_energy", math.nan) for r in outcome.impact_rows]
+    df = df.assign(crush_energy=crush).sort_values(["t", "vehicle"], kind="stable")
+    rows = []
+    for _, r in df.iterrows():
+        i = outcome.names.index(r["vehicle"])
+        values = {"t [s]": r["t"], "speed at impact [km/h]": speed_at_impact(outcome, i, r["t"]),
+                  "delta-V [km/h]": r["delta_v"], "EES [km/h]": r["ees"], "PDOF [deg]": r["pdof"],
+                  "PDOF [clock]": r["pdof_clock"], "energy dissipated [kJ]": r["energy"] / 1e3,
+                  "of it this vehicle's [kJ]": r["crush_energy"] / 1e3}
+        rows.append([r["vehicle"], r["other"]] + [num(v, IMPACT_DIGITS[k]) for k, v in values.items()])
+    return Table(["vehicle", "other"] + list(IMPACT_DIGITS), rows, table_id, (0, 1))
+
+
+def solution_context(title, intro, outcome, out_dir, figures) -> Solution | None:
+    """The chosen solution's section: its impact table and figures [(file name in out_dir, caption)]."""
+    if outcome is None:
+        return None
+    return Solution(title, intro, impact_table(outcome), IMPACT_NOTE,
+                    [figure_of(Path(out_dir) / f, c) for f, c in figures])
+
+
+# ---------------------------------------------------------------- refine
+def spread_table(refined, evidence: dict) -> Table | None:
+    """The spread between the search model and the refine model (a [refine]'s RefineResult): per candidate and
+    vehicle, both models' rest poses at the same start, the distance between them and the heading difference."""
+    t = getattr(refined, "table", None)
+    if t is None or not len(t):
+        return None
+    a, b = refined.search_model, refined.model
+    names = sorted({c[len("model_gap_"):] for c in t.columns if c.startswith("model_gap_")},
+                   key=lambda n: list(t.columns).index(f"model_gap_{n}"))
+    rows = []
+    for _, r in t.iterrows():
+        for n in names:
+            ha, hb = r[f"search_rest_{n}_heading"], r[f"refine_rest_{n}_heading"]
+            m = evidence.get(n)
+            rows.append([str(int(r["candidate"])), str(r["row"]), n,
+                         num(r[f"search_rest_{n}_x"], 2), num(r[f"search_rest_{n}_y"], 2), num(ha, 1),
+                         num(r[f"refine_rest_{n}_x"], 2), num(r[f"refine_rest_{n}_y"], 2), num(hb, 1),
+                         num(r[f"model_gap_{n}"], 2), num(wrap_deg(hb - ha) if np.isfinite(ha - hb) else math.nan, 1),
+                         "" if m is None else f"{m[0]:.2f}, {m[1]:.2f}" + ("" if m[2] is None else f", {m[2]:.1f}")])
+    head = ["candidate", "row", "vehicle", f"{a} x [m]", f"{a} y [m]", f"{a} heading [deg]", f"{b} x [m]",
+            f"{b} y [m]", f"{b} heading [deg]", "distance apart [m]", f"heading {b} - {a} [deg]",
+            "measured x, y [m], heading [deg]"]
+    return Table(head, rows, "spread", (2, 11))
+
+
+def refine_context(out_dir: Path, refined=None, evidence=None) -> dict | None:
+    """The spread between the models (refined: the RefineResult, when there is one), DIR/refine.md (as text)
+    and DIR/refine.csv (as a table); None when there is none of them (the report is written once, after the
+    refine step)."""
+    md, csv = Path(out_dir) / "refine.md", Path(out_dir) / "refine.csv"
+    ctx = {"spread": spread_table(refined, evidence or {}) if refined is not None else None, "md": None,
+           "csv": None, "error": None, "spread_intro": ""}
+    if ctx["spread"] is not None:
+        t = refined.table
+        gaps = [c for c in t.columns if c.startswith("model_gap_")]
+        worst = ", ".join(f"{c[len('model_gap_'):]} {t[c].max():.2f} m" for c in gaps if np.isfinite(t[c]).any())
+        ctx["spread_intro"] = (f"Each candidate ({refined.source}, best first) simulated with both models from the "
+                               f"same start: `{refined.search_model}` (the search's) and `{refined.model}` (the "
+                               f"refine model). The models' rest positions lie at most {worst or '-'} apart over "
+                               f"the {len(t)} candidate(s): an uncertainty of the choice of model, which the "
+                               "evidence's sigmas do not contain.")
+    if md.is_file():
+        ctx["md"] = md.read_text(encoding="utf-8", errors="replace")
+    if csv.is_file():
+        import pandas as pd
+        try:
+            df = pd.read_csv(csv)
+            ctx["csv"] = Table(list(df.columns), [[num(v) if isinstance(v, (int, float, np.number)) else str(v)
+                                                   for v in r] for r in df.itertuples(index=False)], "refine", ())
+        except Exception as err:  # noqa: BLE001 - an unreadable refine.csv is named, not fatal
+            ctx["error"] = f"refine.csv could not be read ({type(err).__name__})."
+    if not any(ctx[k] is not None for k in ("spread", "md", "csv", "error")):
+        return None
+    return ctx
+
+
+def refine_section(out_dir: Path, refined=None, evidence=None) -> str:
+    ctx = refine_context(out_dir, refined, evidence)
+    return "" if ctx is None else str(macro("refine_section", ctx))
