@@ -8,13 +8,10 @@ variables) takes that field's unit (crashlab.fields.UNITS). Degrees, seconds and
 and are read as written. Every conversion is a factor (crashlab.units.us_factor, through pint)."""
 from __future__ import annotations
 
-import typing
-
-from pydantic import BaseModel
-
 from . import fields
 from .errors import InputError
 from .units import UNIT_SYSTEMS, split_unit, us_factor
+from .vehicle import schema_in
 
 UNITS_KEY = "units"
 # keys whose values are in the unit of the field the same table names (`field = "vehicles.V1.speed"`)
@@ -27,17 +24,6 @@ def system_of(data: dict, file) -> str:
     if system not in UNIT_SYSTEMS:
         raise InputError(file, UNITS_KEY, f"units = {system!r}: give one of {', '.join(map(repr, UNIT_SYSTEMS))}")
     return system
-
-
-def _schema_of(annotation):
-    """The pydantic model an annotation holds (itself, or inside list[...], dict[..., ...], X | None), or None."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = _schema_of(arg)
-        if found is not None:
-            return found
-    return None
 
 
 def _scaled(value, factor: float):
@@ -72,7 +58,7 @@ def from_us(data, schema, nested: dict | None = None):
         if field is None:
             out[key] = value  # an unknown key: the schema's check names it
             continue
-        inner = nested.get(key) or _schema_of(field.annotation)
+        inner = nested.get(key) or schema_in(field.annotation)
         if inner is not None:
             out[key] = _tables(value, inner, nested)
         elif key in FIELD_VALUE_KEYS and isinstance(data.get("field"), str):

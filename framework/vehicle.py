@@ -42,23 +42,26 @@ Positive3 = tuple[Annotated[Real, Field(gt=0, le=1e7)], Annotated[Real, Field(gt
                   Annotated[Real, Field(gt=0, le=1e7)]]
 
 
+_Axis15, _Axis2 = Annotated[Real, Field(gt=0, le=15)], Annotated[Real, Field(gt=0, le=2)]
+# 2/eps of a superellipsoid: 2 is an ellipsoid, larger is boxier; below 2 the shape is not convex
+_Exponent = Annotated[Real, Field(ge=2, le=20)]
+ShapeExponents = tuple[_Exponent, _Exponent]
+
+
 class MultibodyChassis(_MultibodyPart):
-    semi_axes: tuple[Annotated[Real, Field(gt=0, le=15)], Annotated[Real, Field(gt=0, le=15)],
-                     Annotated[Real, Field(gt=0, le=15)]] | None = Field(
+    semi_axes: tuple[_Axis15, _Axis15, _Axis15] | None = Field(
         None, description="m, contact superellipsoid about the chassis CG; each in (0, 15]")
-    # 2/eps: 2 is an ellipsoid, larger is boxier; below 2 the shape is not convex
-    shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = \
-        Field(None, description="2/eps of the superellipsoid; each in [2, 20] (convex)")
+    shape_exponents: ShapeExponents | None = Field(None, description="2/eps of the superellipsoid; each in [2, 20] "
+                                                   "(convex)")
     mass: Real | None = bounded(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
     inertia: Positive3 | None = Field(None, description="kg m^2: Ixx, Iyy, Izz; each in (0, 1e7]")
 
 
 class MultibodyWheel(_MultibodyPart):
-    semi_axes: tuple[Annotated[Real, Field(gt=0, le=2)], Annotated[Real, Field(gt=0, le=2)],
-                     Annotated[Real, Field(gt=0, le=2)]] | None = Field(
+    semi_axes: tuple[_Axis2, _Axis2, _Axis2] | None = Field(
         None, description="m, the wheel's superellipsoid about its centre; each in (0, 2]")
-    shape_exponents: tuple[Annotated[Real, Field(ge=2, le=20)], Annotated[Real, Field(ge=2, le=20)]] | None = \
-        Field(None, description="2/eps of the wheel's superellipsoid; each in [2, 20] (convex)")
+    shape_exponents: ShapeExponents | None = Field(None, description="2/eps of the wheel's superellipsoid; each in "
+                                                   "[2, 20] (convex)")
     mass: Real | None = bounded(0.0, 2000.0, "kg, one wheel", lo_open=True, default=None)
     inertia: Positive3 | None = Field(None, description="kg m^2, one wheel: Ixx, Iyy, Izz; each in (0, 1e7]")
 
@@ -299,12 +302,13 @@ def _shown(value) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _model_in(annotation):
-    """The pydantic model an annotation holds (itself, or inside list[...], X | None, tuple[...]), or None."""
+def schema_in(annotation):
+    """The pydantic model an annotation holds (itself, or inside list[...], dict[..., ...], X | None, tuple[...]),
+    or None."""
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
     for arg in typing.get_args(annotation):
-        found = _model_in(arg)
+        found = schema_in(arg)
         if found is not None:
             return found
     return None
@@ -324,7 +328,7 @@ def keys_at(schema, loc) -> list[str]:
         if isinstance(part, int) or schema is None:
             continue
         field = _field_at(schema, part)
-        schema = None if field is None else _model_in(field.annotation)
+        schema = None if field is None else schema_in(field.annotation)
     if schema is None:
         return []
     return [f.alias or name for name, f in schema.model_fields.items()]
@@ -338,7 +342,7 @@ def unit_at(schema, loc) -> str:
         return ""
     for part in keys[:-1]:
         field = _field_at(schema, part)
-        schema = None if field is None else _model_in(field.annotation)
+        schema = None if field is None else schema_in(field.annotation)
     field = _field_at(schema, keys[-1])
     unit = split_unit(field.description)[0] if field is not None else ""
     return "" if unit == "-" else unit

@@ -26,38 +26,17 @@ SIDE = REPO / "studies" / "pc_crash" / "side.toml"
 PROFILE = [0.10, 0.18, 0.25, 0.22, 0.15, 0.08]  # V1's front, m
 WIDTH, SIGMA_C, SIGMA_S = 1.2, 0.02, 0.15
 
-MEASURED = f'''
-scene = "{SIDE.as_posix()}"
-{FREE_SPEEDS}[evidence.rest.V1]
-x = 6.30
-y = -2.20
-sigma_xy = 1.0
-[evidence.damage.V1]
-side = "front"
-profile = {PROFILE}
-width = {WIDTH}
-sigma_crush = {SIGMA_C}
-sigma_stiffness = {SIGMA_S}
-'''
 
-TWIN = f'''
-scene = "{SIDE.as_posix()}"
-{FREE_SPEEDS}[evidence]
-twin = true
-[evidence.rest.V1]
-sigma_xy = 1.0
-[evidence.damage.V1]
-side = "front"
-width = {WIDTH}
-sigma_crush = {SIGMA_C}
-sigma_stiffness = {SIGMA_S}
-[evidence.damage.V2]
-side = "side"
-width = 1.5
-offset = 0.3
-sigma_crush = {SIGMA_C}
-sigma_stiffness = {SIGMA_S}
-'''
+def damage(vehicle: str, side: str, width: float, extra: str = "") -> str:
+    """An [evidence.damage.<vehicle>] table with the module's sigmas."""
+    return (f'[evidence.damage.{vehicle}]\nside = "{side}"\nwidth = {width}\n{extra}'
+            f"sigma_crush = {SIGMA_C}\nsigma_stiffness = {SIGMA_S}\n")
+
+
+MEASURED = (f'\nscene = "{SIDE.as_posix()}"\n{FREE_SPEEDS}[evidence.rest.V1]\nx = 6.30\ny = -2.20\nsigma_xy = 1.0\n'
+            + damage("V1", "front", WIDTH, f"profile = {PROFILE}\n"))
+TWIN = (f'\nscene = "{SIDE.as_posix()}"\n{FREE_SPEEDS}[evidence]\ntwin = true\n[evidence.rest.V1]\nsigma_xy = 1.0\n'
+        + damage("V1", "front", WIDTH) + damage("V2", "side", 1.5, "offset = 0.3\n"))
 
 
 def write(tmp_path, text, name="study.toml") -> Path:

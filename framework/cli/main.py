@@ -175,12 +175,16 @@ def cmd_schema(args):
     return 0
 
 
-def _pdf_option(parser) -> None:
+def _run_options(parser) -> None:
+    """--no-progress and --pdf of a command that runs a search or a sampler and writes a report."""
+    parser.add_argument("--no-progress", action="store_true", help="no progress line")
     parser.add_argument("--pdf", action="store_true", help="with --out: also print DIR/report.html to DIR/report.pdf "
                         "(A4; needs WeasyPrint: pip install \"crashlab[pdf]\")")
 
 
-def _units_option(parser) -> None:
+def _table_options(parser, wide: str) -> None:
+    """--wide (what it adds: `wide`) and --units of a command that prints tables."""
+    parser.add_argument("--wide", action="store_true", help=wide)
     parser.add_argument("--units", choices=("si", "us"), default="si",
                         help="units of the printed tables and JSON: si (m, km/h, kg, J) or us (ft, mph, lb, ft-lbf); "
                         "a scene file says its own with units = \"us\"")
@@ -222,9 +226,7 @@ def build_parser():
     s.add_argument("--seed", type=int, default=None, help="--monte-carlo: seed of the draws (default: 1)")
     s.add_argument("--out", default=None, metavar="DIR", help="--monte-carlo: write montecarlo.csv, summary.csv "
                    "and montecarlo.png here (default: print the summary only)")
-    s.add_argument("--wide", action="store_true", help="print every column of the impact table (default: the "
-                   "columns that fit 100)")
-    _units_option(s)
+    _table_options(s, "print every column of the impact table (default: the columns that fit 100)")
     s.set_defaults(fn=cmd_simulate)
     c = command("compare", "compare models with each other and with the scene's published results")
     c.add_argument("scene", help="scene TOML file, optionally with [reference.SOURCE.VEHICLE] tables")
@@ -233,9 +235,8 @@ def build_parser():
                    "model), references, comparison, units}")
     c.add_argument("--plot", metavar="FILE", help="write one top view with every model's paths and end poses and "
                    "the published rest poses (PNG, PDF, SVG)")
-    c.add_argument("--wide", action="store_true", help="print every column in one table (default: end poses, then "
-                   "the differences to each published result, within 100 columns)")
-    _units_option(c)
+    _table_options(c, "print every column in one table (default: end poses, then the differences to each "
+                   "published result, within 100 columns)")
     c.set_defaults(fn=cmd_compare)
     b = command("bench", "simulations per second, single and batched")
     b.add_argument("--model", default="impulse", help="collision model")
@@ -277,8 +278,7 @@ def build_parser():
     inf.add_argument("--seed", type=int, default=None, help="sampler seed (default: [infer] seed)")
     inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
     inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
-    inf.add_argument("--no-progress", action="store_true", help="no progress line")
-    _pdf_option(inf)
+    _run_options(inf)
     inf.set_defaults(fn=cmd_infer)
     av = command("avoid", "would it have been avoided: the study's [[counterfactuals]] answered on the draws of an "
                  "earlier `crashlab infer STUDY --out DIR`")
@@ -298,8 +298,7 @@ def build_parser():
     r.add_argument("--out", default=None, metavar="DIR",
                    help="write the Pareto set, report and figures here (default: print only)")
     r.add_argument("--json", action="store_true", help="print the result as JSON")
-    r.add_argument("--no-progress", action="store_true", help="no progress line")
-    _pdf_option(r)
+    _run_options(r)
     r.set_defaults(fn=cmd_reconstruct)
     sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
                  "validation, the PC-Crash cases with every impulse law")
