@@ -20,6 +20,9 @@ REST_YAW_RATE = 0.1  # rad/s
 IMPACT_COLUMNS = ["t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate", "energy", "ees",
                   "pdof", "pdof_clock", "kind", "slip_reversed", "point_x", "point_y", "plane_angle"]
 # units of the impact table's columns (printed headers)
+# units of Outcome.trajectory's columns (file units)
+TRAJECTORY_UNITS = {"t": "s", "x": "m", "y": "m", "heading": "deg", "vx": "km/h", "vy": "km/h", "yaw_rate": "deg/s",
+                    "z": "m", "roll": "deg", "pitch": "deg"}
 IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_yaw_rate": "deg/s", "energy": "J",
                 "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
 

@@ -162,3 +162,17 @@ def test_json_in_us_units(twins):
         assert y["t"] == x["t"] and y["pdof"] == x["pdof"]
     assert b["comparison"][0]["d_pc_m"] == pytest.approx(a["comparison"][0]["d_pc_m"] / FT, rel=1e-6)
     assert b["units"]["x"] == "ft" and b["units"]["impacts.energy"] == "ft-lbf" and b["units"]["speed"] == "mph"
+
+
+def test_csv_in_us_units(twins, tmp_path):
+    import pandas as pd
+    si, _ = twins
+    cli("simulate", si, "--csv", tmp_path / "si")
+    cli("simulate", si, "--csv", tmp_path / "us", "--units", "us")
+    for name, column, factor in (("trajectories", "x", FT), ("trajectories", "vx", MPH), ("impacts", "energy",
+                                                                                         FT * LB * 9.80665)):
+        a, b = (pd.read_csv(tmp_path / d / f"{name}.csv") for d in ("si", "us"))
+        us_column = next(c for c in b.columns if c.startswith(column + " ["))
+        assert us_column in (f"{column} [ft]", f"{column} [mph]", f"{column} [ft-lbf]")
+        np.testing.assert_allclose(b[us_column], a[column] / factor, rtol=1e-9, atol=1e-9)
+    assert "heading [deg]" in pd.read_csv(tmp_path / "us" / "trajectories.csv").columns  # no US form: as it is

@@ -178,18 +178,26 @@ def _table_text(df, digits: int = 2) -> str:
     return "\n".join("  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in [heads] + cells)
 
 
-def _write_csv(out, folder: Path) -> None:
+def _write_csv(out, folder: Path, units: str = "si") -> None:
     """DIR/trajectories.csv (vehicle, t [s], x, y [m], heading [deg, continuous], vx, vy [km/h], yaw_rate
     [deg/s], and z [m], roll, pitch [deg] where the model records them) and DIR/impacts.csv (Outcome.impacts:
-    units in its docstring); written for a failed run too (it shows where it went wrong)."""
+    units in its docstring); written for a failed run too (it shows where it went wrong). units "us": the
+    columns with a US unit converted and named with it ("x [ft]", "vx [mph]")."""
     import pandas as pd
+
+    from ..outcome import IMPACT_UNITS, TRAJECTORY_UNITS
+
+    def shown(df, column_units):
+        if units == "si":
+            return df
+        return table_in(df.rename(columns={c: f"{c} [{column_units[c]}]" for c in df if c in column_units}), units)
     try:
         folder.mkdir(parents=True, exist_ok=True)
         frames = [out.trajectory(n).assign(vehicle=n) for n in out.names if n in (out.trajectories or {})]
         traj = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=["vehicle", "t"])
-        traj[["vehicle"] + [c for c in traj.columns if c != "vehicle"]].to_csv(folder / "trajectories.csv",
-                                                                             index=False)
-        out.impacts.to_csv(folder / "impacts.csv", index=False)
+        traj = traj[["vehicle"] + [c for c in traj.columns if c != "vehicle"]]
+        shown(traj, TRAJECTORY_UNITS).to_csv(folder / "trajectories.csv", index=False)
+        shown(out.impacts, IMPACT_UNITS).to_csv(folder / "impacts.csv", index=False)
     except OSError as err:
         raise InputError(str(folder), "--csv", f"cannot write there ({err.strerror or err})") from None
 
@@ -228,7 +236,7 @@ def cmd_simulate(args):
     out = model.simulate(scene)
     written = []
     if args.csv:
-        _write_csv(out, Path(args.csv))
+        _write_csv(out, Path(args.csv), args.units)
         written += [Path(args.csv) / "trajectories.csv", Path(args.csv) / "impacts.csv"]
     if args.plot:
         from ..tools.plotting import top_view
