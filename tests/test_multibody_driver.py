@@ -11,7 +11,7 @@ from conftest import build_scene
 
 import crashlab
 from crashlab.models.common.vehicle_3d import T_R1, T_R2, build_scene_vehicles, steer_angles
-from crashlab.models.multibody import integrator as I
+from crashlab.models.multibody import driver_control as DC
 from crashlab.units import G
 
 MU = 0.8
@@ -40,7 +40,7 @@ def test_compiled_ackermann_is_the_common_steer_angles(model):
     for steer in (-0.3, -0.05, 0.0, 0.02, 0.4):
         ref = steer_angles(veh, steer)
         for k in (0, 1):
-            assert I.ackermann(veh.wheelbase, veh.axle_y[k], steer) == pytest.approx(ref[k], abs=1e-14)
+            assert DC.ackermann(veh.wheelbase, veh.axle_y[k], steer) == pytest.approx(ref[k], abs=1e-14)
 
 
 def test_locked_then_released_wheels_spin_up_and_the_car_rolls_on(model):

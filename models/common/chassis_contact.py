@@ -23,6 +23,11 @@ Contact point: the midpoint of the two support points sigma1(d), sigma2(-d) (for
 its projection on the box face). No Newton / SLSQP is needed in the loop (narrow_phase.py stays the
 general 3D tool and its tests).
 
+Engagement (structure law, §13a): from the first touch the normal is the bisector of the two struck faces'
+outward normals (crush_structure.engagement_normal; a barrier's face alone), turning with the vehicles, and the
+crush is the two shapes' projection overlap along it counted from the episode's first touch (PST[:, S_C0]); the
+point is the middle of the engaged zone. The gap search above still decides whether the shapes overlap at all.
+
 Generic law. Force on vehicle i (the body 1 of the pair, d points from i to j), penetration delta = -g > 0,
 delta_dot = (v_i(M) - v_j(M)).d (> 0 approaching):
     F_N = K delta^n (1 + chi delta_dot / delta_dot0),  F_N >= 0   (contact_force.normal_force_chi)
@@ -42,7 +47,16 @@ from crashlab.restitution import range_warning
 
 from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi
-from .crush_structure import E_HI, E_LO, N_STR, permanent_crush, side_code, structure_force
+from .crush_structure import (
+    E_HI,
+    E_LO,
+    N_STR,
+    engagement_normal,
+    face_normal_angle,
+    permanent_crush,
+    side_code,
+    structure_force,
+)
 from .narrow_phase import horizontal_gap, support_value_body
 from .rotations import rot_z, rotation_matrix_into
 from .superellipsoid import support_global
@@ -66,7 +80,11 @@ S_CMAX, S_SIDE_I, S_SIDE_J = 20, 21, 22
 # restitution = "speed" (cfg_e = crashlab.restitution.E_SPEED_LAW): the unloading's e, set from the law at the
 # normal closing speed S_VCLOSE of the pair's first crush (while S_CMAX is 0) and kept for it (docs/physics.md §13b)
 S_E, S_VCLOSE = 23, 24
-N_PST = 25
+# engagement (structure law, §13a): the outward normal angles of the struck faces in the body frames of i and j
+# (face_normal_angle; latched with the sides), and the crush offset along their engagement normal at the first
+# touch (-1: not engaged, the minimum-translation normal is used)
+S_FACE_I, S_FACE_J, S_C0 = 25, 26, 27
+N_PST = 28
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -205,6 +223,44 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             M = (0.5 * (P1[0] + P2[0]), 0.5 * (P1[1] + P2[1]), 0.5 * (P1[2] + P2[2]))
         else:
             M = (P1[0] + 0.5 * g * d0, P1[1] + 0.5 * g * d1, P1[2])
+        crush = -g
+        if cfg_law == LAW_STRUCTURE:
+            # §13a: struck sides and faces latched until the contact opens (a contact on other faces forgets the
+            # crush)
+            if PST[p, S_ACT] == 0.0:
+                xl = A1[0, 0] * (M[0] - rc1[0]) + A1[1, 0] * (M[1] - rc1[1]) + A1[2, 0] * (M[2] - rc1[2])
+                yl = A1[0, 1] * (M[0] - rc1[0]) + A1[1, 1] * (M[1] - rc1[1]) + A1[2, 1] * (M[2] - rc1[2])
+                si = side_code(xl, yl, sh1[0], sh1[1])
+                fi = face_normal_angle(xl, yl, sh1[0], sh1[1])
+                xl = A2[0, 0] * (M[0] - rc2[0]) + A2[1, 0] * (M[1] - rc2[1]) + A2[2, 0] * (M[2] - rc2[2])
+                yl = A2[0, 1] * (M[0] - rc2[0]) + A2[1, 1] * (M[1] - rc2[1]) + A2[2, 1] * (M[2] - rc2[2])
+                fj = face_normal_angle(xl, yl, sh2[0], sh2[1])
+                sj = side_code(xl, yl, sh2[0], sh2[1]) if k2 == 0 else 0
+                if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
+                        or fj != PST[p, S_FACE_J]:
+                    PST[p, S_CMAX] = 0.0
+                    PST[p, S_SIDE_I], PST[p, S_SIDE_J] = si, sj
+                    PST[p, S_FACE_I], PST[p, S_FACE_J] = fi, fj
+            # §13a engagement: the normal of the struck faces (turning with the vehicles), the crush counted along
+            # it from the episode's first touch (S_C0 set until the contact opens, then held)
+            e0, e1, ok = engagement_normal(PST[p, S_FACE_I], PST[p, S_FACE_J], A1, A2, k2 == 1)
+            if ok:
+                top = support_value_body(0, e0, e1, 0.0, sh1, rc1, A1)
+                bot = -support_value_body(k2, -e0, -e1, 0.0, sh2, rc2, A2)
+                if PST[p, S_ACT] == 0.0:
+                    PST[p, S_C0] = top - bot + g if e0 * d0 + e1 * d1 > 0.0 else -1.0
+                if PST[p, S_C0] >= 0.0:
+                    crush = top - bot - PST[p, S_C0]
+                    d0, d1 = e0, e1
+                    psg[p, G_TH] = math.atan2(e1, e0)
+                    # the point: the middle of the engaged zone (across the normal: the overlap of the shadows;
+                    # along it: between the two bodies' faces)
+                    hp = min(support_value_body(0, -e1, e0, 0.0, sh1, rc1, A1),
+                             support_value_body(k2, -e1, e0, 0.0, sh2, rc2, A2))
+                    hm = min(support_value_body(0, e1, -e0, 0.0, sh1, rc1, A1),
+                             support_value_body(k2, e1, -e0, 0.0, sh2, rc2, A2))
+                    mt, md = 0.5 * (hp - hm), 0.5 * (top + bot)
+                    M = (-mt * e1 + md * e0, mt * e0 + md * e1, M[2])
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
         a2 = (M[0] - r2[0], M[1] - r2[1], M[2] - r2[2])
         u1 = (v1[0] + om1[1] * a1[2] - om1[2] * a1[1], v1[1] + om1[2] * a1[0] - om1[0] * a1[2],
@@ -215,19 +271,6 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
         dd = vr[0] * d0 + vr[1] * d1
         psg[p, G_DDOT] = dd
         if cfg_law == LAW_STRUCTURE:
-            # §13a: struck sides latched until the contact opens (a contact on other sides forgets the crush)
-            if PST[p, S_ACT] == 0.0:
-                xl = A1[0, 0] * (M[0] - rc1[0]) + A1[1, 0] * (M[1] - rc1[1]) + A1[2, 0] * (M[2] - rc1[2])
-                yl = A1[0, 1] * (M[0] - rc1[0]) + A1[1, 1] * (M[1] - rc1[1]) + A1[2, 1] * (M[2] - rc1[2])
-                si = side_code(xl, yl, sh1[0], sh1[1])
-                sj = 0
-                if k2 == 0:
-                    xl = A2[0, 0] * (M[0] - rc2[0]) + A2[1, 0] * (M[1] - rc2[1]) + A2[2, 0] * (M[2] - rc2[2])
-                    yl = A2[0, 1] * (M[0] - rc2[0]) + A2[1, 1] * (M[1] - rc2[1]) + A2[2, 1] * (M[2] - rc2[2])
-                    sj = side_code(xl, yl, sh2[0], sh2[1])
-                if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J]:
-                    PST[p, S_CMAX] = 0.0
-                    PST[p, S_SIDE_I], PST[p, S_SIDE_J] = si, sj
             ci = P_STR_I + 3 * int(PST[p, S_SIDE_I])
             cj = P_STR_J + 3 * int(PST[p, S_SIDE_J])
             a1s, b1s, a2s, b2s = PP[p, ci], PP[p, ci + 1], PP[p, cj], PP[p, cj + 1]
@@ -238,7 +281,11 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                     PST[p, S_VCLOSE] = max(dd, 0.0)
                     PST[p, S_E] = min(max(speed_restitution(dd), E_LO), E_HI)
                 e = PST[p, S_E]
-            psg[p, G_DEL] = -g - permanent_crush(cm, e, a1s, b1s, a2s, b2s)
+            psg[p, G_CRUSH] = crush
+            # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
+            # episode) exceeds the permanent set: an engaged episode does not chatter between the two measures
+            cp = permanent_crush(cm, e, a1s, b1s, a2s, b2s)
+            psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue
             # engaged width: overlap of the two plan shadows across the normal, within each structure's width
@@ -252,7 +299,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 w = min(w, PP[p, cj + 2])
             w = max(w, 0.0)
             psg[p, G_WIDTH] = w
-            fn = w * structure_force(-g, cm, e, a1s, b1s, a2s, b2s)
+            fn = w * structure_force(crush, cm, e, a1s, b1s, a2s, b2s)
         else:
             if g >= 0.0:
                 continue

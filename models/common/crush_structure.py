@@ -17,6 +17,8 @@ the class default there (the one home of those numbers, docs/physics.md §28).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -69,6 +71,37 @@ def side_code(x, y, a, b):
     if abs(x) * b >= abs(y) * a:
         return 0 if x >= 0.0 else 1
     return 2
+
+
+@njit(cache=True)
+def face_normal_angle(x, y, a, b):
+    """Outward normal angle, in the body frame, of the bounding-box face nearest in proportion to the point (x, y)
+    (side_code's rule): 0 front (+x), pi rear, pi/2 left side (+y), -pi/2 right side."""
+    if abs(x) * b >= abs(y) * a:
+        return 0.0 if x >= 0.0 else math.pi
+    return 0.5 * math.pi if y >= 0.0 else -0.5 * math.pi
+
+
+@njit(cache=True)
+def engagement_normal(fi, fj, A1, A2, barrier):
+    """The plan contact normal (from i towards j) of an engaged crush (docs/physics.md §13a): the bisector of the
+    struck faces' outward normals n_i and -n_j, each turned with its body (face angles fi, fj in the body frames,
+    rotations A1, A2); against a barrier (rigid: it does not crush) its face's normal alone. Returns (e0, e1, ok);
+    ok False where two vehicles' faces do not face each other (n_i . n_j >= 0)."""
+    c, s = math.cos(fj), math.sin(fj)
+    nj0, nj1 = A2[0, 0] * c + A2[0, 1] * s, A2[1, 0] * c + A2[1, 1] * s
+    if barrier:
+        e0, e1 = -nj0, -nj1
+    else:
+        c, s = math.cos(fi), math.sin(fi)
+        ni0, ni1 = A1[0, 0] * c + A1[0, 1] * s, A1[1, 0] * c + A1[1, 1] * s
+        if ni0 * nj0 + ni1 * nj1 >= 0.0:
+            return 0.0, 0.0, False
+        e0, e1 = ni0 - nj0, ni1 - nj1
+    n = math.sqrt(e0 * e0 + e1 * e1)
+    if n < 1e-9:
+        return 0.0, 0.0, False
+    return e0 / n, e1 / n, True
 
 
 @njit(cache=True)

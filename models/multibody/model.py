@@ -59,8 +59,10 @@ from crashlab.outcome import Outcome
 from crashlab.restitution import E_SPEED_LAW, SPEED
 from crashlab.units import G
 
+from . import dormand_prince as DP
 from . import equations as E
 from . import integrator as I
+from . import recording as REC
 from .joints import vehicle_joints
 from .tyre import deflection, tyres_for
 
@@ -126,7 +128,7 @@ class MultibodyModel(CollisionModel):
         cfg[E.C_NEXP], cfg[E.C_VMIN] = o.contact_exponent, o.v_min
         cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS] = FRICTION_V0, FRICTION_V1, FRICTION_VS
         cfg[E.C_ROAD_CHI], cfg[E.C_ROAD_N] = RC.road_chi(), RC.N_ROAD
-        cfg[E.C_PI_BETA] = I.PI_BETA
+        cfg[E.C_PI_BETA] = DP.PI_BETA
         return cfg
 
     def settled(self, veh):
@@ -140,11 +142,11 @@ class MultibodyModel(CollisionModel):
             cfg[E.C_FRICTION] = 1.0
             Y = _initial_local(veh)[None, :].copy()
             nslip = 2 * NW
-            diag = np.zeros(I.N_DIAG)
+            diag = np.zeros(REC.N_DIAG)
             I.simulate(Y, veh.BODY[None], vehicle_joints(veh, modes, np.zeros(NW))[None], veh.SPR[None],
                        tyres_for(veh, modes)[None], contact_arrays(veh.chassis_shape[None], np.zeros((0, N_PP)),
                                                                    np.zeros((0, 5)), 1),
-                       _no_driver(), cfg, nslip, np.zeros((0, 1, I.N_REC)), diag, np.zeros(1),
+                       _no_driver(), cfg, nslip, np.zeros((0, 1, REC.N_REC)), diag, np.zeros(1),
                        np.zeros((1, 4)), np.zeros((1, 4)), False, np.zeros((0, N_IMP)), np.zeros((1, 4)),
                        _road_arrays([veh.mass]), np.zeros(1, np.bool_))
             y = Y[0]
@@ -257,8 +259,8 @@ class MultibodyModel(CollisionModel):
         e_start = [self._energy(Y[v], BODY[v], SPR[v], TYR[v]) for v in range(nv)]
         rec = self.options.record_dt
         n_rec = int(scene.duration / rec) + 3 if rec > 0 else 2
-        traj = np.zeros((n_rec, nv, I.N_REC))
-        diag = np.zeros(I.N_DIAG)
+        traj = np.zeros((n_rec, nv, REC.N_REC))
+        diag = np.zeros(REC.N_DIAG)
         head = np.array([vs.heading for vs in scene.vehicles])
         fz0, fz1 = np.zeros((nv, 4)), np.zeros((nv, 4))
         CT = contact_arrays(prep["CSH"], prep["PP"], BAR, nv)
@@ -266,8 +268,8 @@ class MultibodyModel(CollisionModel):
         CONT = np.full((nv, 4), np.nan)
         I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["DV"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
                    CONT, _road_arrays([v.mass for v in vehs]), prep["ASLEEP"])
-        nr = int(diag[I.D_NREC])
-        status = int(diag[I.D_STATUS])
+        nr = int(diag[REC.D_NREC])
+        status = int(diag[REC.D_STATUS])
         warnings, ok = list(prep.get("warnings", [])), True
         if status == I.STATUS_NAN:
             ok, warnings = False, ["the state became NaN"]
@@ -281,53 +283,53 @@ class MultibodyModel(CollisionModel):
         trajectories = {}
         e_end, w_nc = [], []
         for v, n in enumerate(names):
-            p = I.pose(Y[v], BODY[v], NB)
+            p = REC.pose(Y[v], BODY[v], NB)
             rest[v] = [p[0], p[1], head[v]]
             final[v] = [p[6], p[7], p[8]]
             tr = traj[:nr, v]
-            trajectories[n] = {"t": tr[:, I.R_T].copy(), "x": tr[:, I.R_X].copy(), "y": tr[:, I.R_Y].copy(),
-                               "heading": tr[:, I.R_HEAD].copy(), "vx": tr[:, I.R_VX].copy(),
-                               "vy": tr[:, I.R_VY].copy(), "yaw_rate": tr[:, I.R_YAW_RATE].copy(),
-                               "z": tr[:, I.R_Z].copy(), "roll": tr[:, I.R_ROLL].copy(),
-                               "pitch": tr[:, I.R_PITCH].copy(), "wheel_loads": tr[:, I.R_FZ:I.R_FZ + 4].copy(),
-                               "z_min": tr[:, I.R_ZMIN_REC].copy(), "energy": tr[:, I.R_EMECH].copy()}
+            trajectories[n] = {"t": tr[:, REC.R_T].copy(), "x": tr[:, REC.R_X].copy(), "y": tr[:, REC.R_Y].copy(),
+                               "heading": tr[:, REC.R_HEAD].copy(), "vx": tr[:, REC.R_VX].copy(),
+                               "vy": tr[:, REC.R_VY].copy(), "yaw_rate": tr[:, REC.R_YAW_RATE].copy(),
+                               "z": tr[:, REC.R_Z].copy(), "roll": tr[:, REC.R_ROLL].copy(),
+                               "pitch": tr[:, REC.R_PITCH].copy(), "wheel_loads": tr[:, REC.R_FZ:REC.R_FZ + 4].copy(),
+                               "z_min": tr[:, REC.R_ZMIN_REC].copy(), "energy": tr[:, REC.R_EMECH].copy()}
             e_end.append(self._energy(Y[v], BODY[v], SPR[v], TYR[v]))
             w_nc.append(float(Y[v, ny - 1]))
         balance = [(e_end[v] - e_start[v] - w_nc[v]) / max(abs(e_start[v]), 1.0) for v in range(nv)]
-        n_imp = min(int(diag[I.D_NIMP]), MAX_IMP)
+        n_imp = min(int(diag[REC.D_NIMP]), MAX_IMP)
         diagnostics = {
-            "steps": int(diag[I.D_STEPS]), "rejected_steps": int(diag[I.D_REJECTED]),
-            "rhs_evaluations": int(diag[I.D_NFEV]), "t_end": float(diag[I.D_T_END]),
-            "h_min": float(diag[I.D_H_MIN]), "h_max": float(diag[I.D_H_MAX]),
-            "max_constraint_drift": float(diag[I.D_MAX_DRIFT_POS]),
-            "max_constraint_drift_angular": float(diag[I.D_MAX_DRIFT_ANG]),
-            "max_euler_norm_error": float(diag[I.D_MAX_NORM_ERR]),
+            "steps": int(diag[REC.D_STEPS]), "rejected_steps": int(diag[REC.D_REJECTED]),
+            "rhs_evaluations": int(diag[REC.D_NFEV]), "t_end": float(diag[REC.D_T_END]),
+            "h_min": float(diag[REC.D_H_MIN]), "h_max": float(diag[REC.D_H_MAX]),
+            "max_constraint_drift": float(diag[REC.D_MAX_DRIFT_POS]),
+            "max_constraint_drift_angular": float(diag[REC.D_MAX_DRIFT_ANG]),
+            "max_euler_norm_error": float(diag[REC.D_MAX_NORM_ERR]),
             "wheel_loads_static": {n: fz0[v].tolist() for v, n in enumerate(names)},
             "wheel_loads_final": {n: fz1[v].tolist() for v, n in enumerate(names)},
             "mechanical_energy_start": e_start, "mechanical_energy_end": e_end, "work_nonconservative": w_nc,
             "energy_balance": balance,
             "vehicle_notes": {n: vehs[v].notes for v, n in enumerate(names)},
             "wheel_order": list(CORNERS),
-            "episodes": int(diag[I.D_NIMP]),
+            "episodes": int(diag[REC.D_NIMP]),
             "max_penetration": float(IMP[:n_imp, I_MAXPEN].max(initial=0.0)),
-            "max_onset_penetration": float(diag[I.D_MAX_ONSET]),
-            "onset_bisections": int(diag[I.D_ONSET_BISECT]),
+            "max_onset_penetration": float(diag[REC.D_MAX_ONSET]),
+            "onset_bisections": int(diag[REC.D_ONSET_BISECT]),
             "broad_phase": dict(zip(("pair_evaluations", "removed_by_circle", "removed_by_height",
                                      "removed_by_obb", "narrow_phase"), CT[8].tolist())),
         }
-        if diag[I.D_NIMP] > MAX_IMP:  # later episodes would be missing from the table and the guard
+        if diag[REC.D_NIMP] > MAX_IMP:  # later episodes would be missing from the table and the guard
             ok = False
             warnings.append(f"more than {MAX_IMP} contact episodes: the run cannot report them all")
-        heads = [(traj[:nr, v, I.R_T].copy(), traj[:nr, v, I.R_HEAD].copy()) for v in range(nv)]
+        heads = [(traj[:nr, v, REC.R_T].copy(), traj[:nr, v, REC.R_HEAD].copy()) for v in range(nv)]
         imp = IMP[:n_imp].copy()
         rows = impact_rows(names, BODY[:, :, 0].sum(1), imp, heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
-        intervals = contact_intervals(imp[:, I_T0], imp[:, I_T1], traj[:nr, :, I.R_T], traj[:nr, :, I.R_ROAD])
-        diagnostics["road_contact_time"] = {n: float(np.sum(np.diff(traj[:nr, v, I.R_T])
-                                                            * (traj[1:nr, v, I.R_ROAD] > 0)))
+        intervals = contact_intervals(imp[:, I_T0], imp[:, I_T1], traj[:nr, :, REC.R_T], traj[:nr, :, REC.R_ROAD])
+        diagnostics["road_contact_time"] = {n: float(np.sum(np.diff(traj[:nr, v, REC.R_T])
+                                                            * (traj[1:nr, v, REC.R_ROAD] > 0)))
                                             for v, n in enumerate(names)}
-        out = Outcome(names, rest, final, contact, float(diag[I.D_CONTACT_T]), trajectories, rows, diagnostics,
+        out = Outcome(names, rest, final, contact, float(diag[REC.D_CONTACT_T]), trajectories, rows, diagnostics,
                       warnings, ok, self.name, time.perf_counter() - t0, contact_intervals=intervals)
         overlap = end_overlap(names, prep["PP"], CT[6][6])
         if ok and overlap is not None:

@@ -1,0 +1,118 @@
+"""Engagement of the crush-structure contact (docs/physics.md §13a): once two chassis have started to crush into
+each other, the contact normal is that of their struck faces (turning with the vehicles) and the crush is counted
+along it from the first touch, so a small-overlap or oblique crush keeps engaging instead of the rounded shapes
+sliding off along their minimum-translation normal; the tangential force is the contact friction.
+
+References written here: the force per width of two equal CRASH3 structures in series, A + B C / 2 (force
+equilibrium, each crushing C / 2), over the engaged width 2 b - offset (the plan shadows' overlap across the
+normal, exact for a superellipsoid), its moment about the CG at the middle of the engaged zone; for the runs, the
+planar impulse-momentum of a frictionless impact along the fronts' normal at the engaged point (Brach & Brach
+2011, ch. 5: P = (1 + e) v / (1/m1 + 1/m2 + r1^2/I1 + r2^2/I2))."""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from crashlab.models.common import chassis_contact as C
+from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS
+
+sys.path.insert(0, str(Path(__file__).parent))
+from conftest import build_scene  # noqa: E402
+
+A, B = 48e3, 590e3                    # N/m, N/m^2: both fronts
+SH = np.array([2.38, 0.916, 0.25, 0.5, 0.5, 0.0, 0.0])   # a, b, c, eps1, eps2 (2/eps = 4), offsets
+OFFSET = 0.75 * 2 * SH[1]             # lateral offset of the CGs: 25 % overlap
+W_REF = 2 * SH[1] - OFFSET            # engaged width [m]
+STR = np.array([A, B, 1.832, A, B, 1.832, A, B, 4.7])
+
+
+def _state(x2, y2=OFFSET):
+    """V1 at the origin heading +x, V2 at (x2, y2) heading -x, both at rest (Euler parameters of 0 and 180 deg)."""
+    Y = np.zeros((2, 13))
+    Y[0, :7] = [0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0]
+    Y[1, :7] = [x2, y2, 0.5, 0.0, 0.0, 0.0, 1.0]
+    return Y
+
+
+def _evaluate(Y, CT):
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
+    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, 1.5, 0.0, 0.3, 0.0, FRICTION_V0, FRICTION_V1,
+               FRICTION_VS, 1e-3, float(C.LAW_STRUCTURE), 0.1)
+    return PSG[0, 0].copy(), FX.copy()
+
+
+def _arrays():
+    PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]))
+    return C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
+
+
+def _first_touch():
+    """x of V2 at which the undeformed shapes touch (bisection on the gap, fresh pair state each time)."""
+    lo, hi = 4.0, 6.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        out, _ = _evaluate(_state(mid), _arrays())
+        lo, hi = (mid, hi) if out[C.G_DEL] > 0.0 else (lo, mid)
+    return hi
+
+
+@pytest.mark.parametrize("depth", [0.2, 0.8])
+def test_small_overlap_crush_stays_along_the_fronts(depth):
+    """Fronts at 25 % overlap: engaged at the first touch, then V2 pushed `depth` further along -x (0.8 m: beyond
+    the 0.46 m lateral overlap, where the minimum-translation normal of the rounded shapes has turned sideways).
+    The force on V1 is -w (A + B C / 2) along x with C = depth, w = 2 b - offset; no lateral force (no sliding
+    velocity); its moment about V1's CG that of the force at the middle of the engaged zone (y = offset / 2)."""
+    x0 = _first_touch()
+    CT = _arrays()
+    _evaluate(_state(x0), CT)          # the latch at the first touch (pair not yet in contact)
+    CT[5][0, C.S_ACT] = 1.0            # the episode opens (contact_episodes.open_episode)
+    out, FX = _evaluate(_state(x0 - depth), CT)
+    f_ref = W_REF * (A + 0.5 * B * depth)
+    assert out[C.G_CRUSH] == pytest.approx(depth, abs=1e-6)
+    assert out[C.G_WIDTH] == pytest.approx(W_REF, rel=1e-9)
+    assert FX[0, 0] == pytest.approx(-f_ref, rel=1e-6)
+    assert FX[0, 1] == pytest.approx(0.0, abs=1e-6 * f_ref)
+    assert FX[0, 5] == pytest.approx(f_ref * 0.5 * OFFSET, rel=1e-6)
+    assert FX[1, :3] == pytest.approx(-FX[0, :3], abs=1e-9)      # equal and opposite
+
+
+def test_contact_ends_when_the_shapes_part_sideways():
+    """An engaged pair whose shapes have moved apart across the normal (no lateral overlap) is out of contact:
+    no force, penetration <= 0 (the episode closes)."""
+    x0 = _first_touch()
+    CT = _arrays()
+    _evaluate(_state(x0), CT)
+    CT[5][0, C.S_ACT] = 1.0
+    out, FX = _evaluate(_state(x0 - 0.5, 2 * SH[1] + 0.01), CT)
+    assert out[C.G_DEL] <= 0.0
+    assert np.all(FX[:, :6] == 0.0)
+
+
+def _dv_first(out, name):
+    r = min((r for r in out.impact_rows if r["vehicle"] == name), key=lambda r: r["t"])
+    return 3.6 * math.hypot(r["dvx"], r["dvy"])
+
+
+def test_small_overlap_head_on_engages():
+    """Two saloons head-on at 50/50 km/h with 25 % overlap (restitution 0.1, impact friction 0.3): the crush zones
+    engage and the velocity change of the impact is that of an impact along the fronts' normal at the engaged
+    point, P = (1 + e) v / (2/m + 2 r^2/I), r = offset / 2 from each CG (frictionless: the friction adds a
+    little, the rounded shapes' slide-off took most of it away: 9.5 km/h before the engagement). 15 %."""
+    from crashlab.models.multibody import MultibodyModel
+
+    width = 1.832
+    sc = build_scene([{"vehicle": "saloon", "speed": 50.0},
+                      {"vehicle": "saloon", "x": 5.2, "y": 0.75 * width, "heading": 180.0, "speed": 50.0}],
+                     impact={"restitution": 0.1, "friction": 0.3}, road={"friction": 0.8}, duration=3.0)
+    spec = sc.vehicles[0].spec
+    m, inertia, r = spec.mass, spec.yaw_inertia, 0.5 * 0.75 * width
+    dv_ref = 3.6 * 1.1 * (100 / 3.6) / (2 / m + 2 * r * r / inertia) / m
+    out = MultibodyModel().simulate(sc)
+    assert out.outcome_ok, out.warnings
+    rows = out.impact_rows
+    # equal cars: the momentum one loses the other gains (the contact forces are equal and opposite)
+    assert abs(sum(q["dvx"] for q in rows)) < 1e-6 * 27.8 and abs(sum(q["dvy"] for q in rows)) < 1e-6 * 27.8
+    assert _dv_first(out, "V1") == pytest.approx(dv_ref, rel=0.15)
+    assert _dv_first(out, "V2") == pytest.approx(dv_ref, rel=0.15)
