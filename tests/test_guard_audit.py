@@ -297,6 +297,43 @@ def _copy(out, trajectories=None, impact_rows=None):
                    impact_rows=out.impact_rows if impact_rows is None else impact_rows, model=out.model)
 
 
+class _Doctored:
+    """A stand-in model (no CollisionModel, so no guard): the impulse model's Outcome changed by `edit`."""
+
+    def __init__(self, edit):
+        self.inner, self.edit = crashlab.get_model("impulse"), edit
+
+    def simulate(self, scene):
+        out = self.inner.simulate(scene)
+        self.edit(out)
+        return out
+
+
+def _gain(out):  # +8 m/s on V1 from mid-run (trajectory and end state): energy from nowhere
+    tr = out.trajectories[out.names[0]]
+    k = len(tr["t"]) // 2
+    tr["vx"] = np.asarray(tr["vx"], dtype=float).copy()
+    tr["vx"][k:] += 8.0
+    out.final_si[0, 0] = tr["vx"][-1]
+
+
+def _silent_fail(out):
+    out.outcome_ok, out.warnings = False, []
+
+
+def _false_alarm(out):
+    out.fail("energy_overall", "a verdict with nothing behind it")
+
+
+@pytest.mark.parametrize("edit, expected", [(_gain, "silent"), (_silent_fail, "no_reason"),
+                                            (_false_alarm, "false_alarm?"), (lambda out: None, "ok")])
+def test_classify_tells_the_classes_apart(edit, expected):
+    """The classification is not blind: an energy gain the guard did not see is "silent", a failure without a
+    reason "no_reason", a guard verdict on clean physics "false_alarm?" (scene 1 passes both as it is)."""
+    cls, cause, found = classify(audit_scene(1), _Doctored(edit), rounded=False)
+    assert cls == expected, (cls, cause, found)
+
+
 def test_scenes_meet_the_brief():
     """3-5 vehicles, no overlap at the start, and across 40 seeds: actions, zones and barriers all occur."""
     from crashlab.scene import start_overlaps
