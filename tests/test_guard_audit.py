@@ -148,9 +148,14 @@ def _touching(scene, out, t) -> np.ndarray:
     return touch
 
 
-def audit(scene, out, rounded: bool) -> list[str]:
-    """Every violation of physics the independent checks find in `out` (empty: clean)."""
+def audit(scene, out, rounded: bool, worst: dict | None = None) -> list[str]:
+    """Every violation of physics the independent checks find in `out` (empty: clean). `worst`, if given,
+    keeps the largest value / tolerance seen per check (how near a clean run came to a finding)."""
     found = []
+    worst = {} if worst is None else worst
+
+    def near(check, ratio):
+        worst[check] = max(worst.get(check, 0.0), float(ratio))
     vs = scene.vehicles
     rest, final = np.asarray(out.rest_si, float), np.asarray(out.final_si, float)
     if not (np.isfinite(rest).all() and np.isfinite(final).all()):
@@ -169,9 +174,11 @@ def audit(scene, out, rounded: bool) -> list[str]:
     e0 = float(np.sum(0.5 * mass * np.square([v.speed for v in vs]) + 0.5 * iz * np.square([v.yaw_rate for v in vs])))
     e1 = float(np.sum(0.5 * mass * (final[:, 0] ** 2 + final[:, 1] ** 2) + 0.5 * iz * final[:, 2] ** 2))
     tol0 = ENERGY_TOL_J + ENERGY_TOL_REL * e0
+    near("energy_end", (e1 - e0) / tol0)
     if e1 - e0 > tol0:
         found.append(f"energy_end: {e1 / 1e3:.1f} kJ at the end, {e0 / 1e3:.1f} kJ at the start")
     for r in rows:
+        near("impact_energy", -r["energy"] / tol0)
         if r["energy"] < -tol0:
             found.append(f"impact_energy: {r['vehicle']}-{r['other']} at t = {r['t']:.3f} s: "
                          f"{r['energy'] / 1e3:.1f} kJ")
@@ -219,6 +226,7 @@ def audit(scene, out, rounded: bool) -> list[str]:
                         continue
                     rise = seg[1:] - np.minimum.accumulate(seg)[:-1]
                     k = int(np.argmax(rise))
+                    near("energy_free", rise[k] / tol)
                     if rise[k] > tol:
                         found.append(f"energy_free: {v.name} gains {rise[k] / 1e3:.1f} kJ touching nothing "
                                      f"(by t = {times[s + 1 + k]:.2f} s; tolerance {tol / 1e3:.1f} kJ)")
@@ -230,6 +238,7 @@ def audit(scene, out, rounded: bool) -> list[str]:
     for i in range(len(vs)):
         for name, rect in [(vs[j].name, rects[j]) for j in range(i + 1, len(vs))] + others:
             depth = sat_overlap(rects[i], rect)
+            near("overlap", depth / tol_ov)
             if depth > tol_ov:
                 found.append(f"overlap: {vs[i].name} and {name} end {depth:.2f} m into each other")
     return found
@@ -238,13 +247,14 @@ def audit(scene, out, rounded: bool) -> list[str]:
 GUARD = "physics guard: "
 
 
-def classify(scene, model, rounded: bool) -> tuple[str, str, list[str]]:
-    """(class, cause, audit findings) of one run (see the module docstring)."""
+def classify(scene, model, rounded: bool, worst: dict | None = None) -> tuple[str, str, list[str]]:
+    """(class, cause, audit findings) of one run (see the module docstring); `worst` (optional) gathers the
+    margins of the runs the guard passed (see `audit`)."""
     try:
         out = model.simulate(scene)
     except Exception as err:  # noqa: BLE001 - a model that raises is recorded, not hidden
         return "exception", f"{type(err).__name__}: {err}"[:80], []
-    found = audit(scene, out, rounded)
+    found = audit(scene, out, rounded, worst if out.outcome_ok else None)
     if out.outcome_ok:
         return ("silent" if found else "ok"), "", found
     reasons = [w for w in out.warnings if w.startswith(GUARD)]
@@ -256,21 +266,25 @@ def classify(scene, model, rounded: bool) -> tuple[str, str, list[str]]:
     return "failed", " ".join(out.warnings[-1].split()[:5]), found
 
 
-def run_audit(model_name: str, seeds) -> tuple[Counter, list]:
+def run_audit(model_name: str, seeds) -> tuple[Counter, list, dict]:
+    """(counts per class and cause, (seed, class, cause, findings) of every run not ok, the worst margins of
+    the passed runs: value / tolerance per check)."""
     model = crashlab.get_model(model_name)
     rounded = model_name in ("multibody", "exudyn")
-    counts, notes = Counter(), []
+    counts, notes, worst = Counter(), [], {}
     for seed in seeds:
         scene = audit_scene(seed)
-        cls, cause, found = classify(scene, model, rounded)
+        cls, cause, found = classify(scene, model, rounded, worst)
         counts[f"{cls}: {cause}" if cause else cls] += 1
         if cls not in ("ok",):
             notes.append((seed, cls, cause, found))
-    return counts, notes
+    return counts, notes, worst
 
 
-def _print_table(model_name, counts, notes, wall):
+def _print_table(model_name, counts, notes, wall, worst):
     print(f"\n== {model_name}: {sum(counts.values())} runs in {wall:.0f} s")
+    print("   largest value / tolerance in the passed runs: "
+          + ", ".join(f"{k} {v:.2f}" for k, v in sorted(worst.items())))
     for k, n in sorted(counts.items()):
         print(f"   {n:4d}  {k}")
     for seed, cls, cause, found in notes:
@@ -392,8 +406,8 @@ def test_scenes_meet_the_brief():
 # ------------------------------------------------------------------ the audit
 def test_audit_impulse_few():
     """Default run: 8 impulse scenes, no silent violation, no failure without a reason."""
-    counts, notes = run_audit("impulse", range(8))
-    _print_table("impulse", counts, notes, 0.0)
+    counts, notes, worst = run_audit("impulse", range(8))
+    _print_table("impulse", counts, notes, 0.0, worst)
     _assert_clean(counts)
     assert not any(cls == "false_alarm?" for _, cls, _, _ in notes), notes
 
@@ -404,8 +418,8 @@ def test_guard_audit(model_name):
     """Issue 27's audit: COUNTS[model] random scenes; 0 silent violations, 0 failures without a reason,
     0 false alarms; exudyn fails fewer than 2 of 12."""
     t0 = time.perf_counter()
-    counts, notes = run_audit(model_name, range(COUNTS[model_name]))
-    _print_table(model_name, counts, notes, time.perf_counter() - t0)
+    counts, notes, worst = run_audit(model_name, range(COUNTS[model_name]))
+    _print_table(model_name, counts, notes, time.perf_counter() - t0, worst)
     _assert_clean(counts)
     assert not any(cls == "false_alarm?" for _, cls, _, _ in notes), notes
     if model_name == "exudyn":
