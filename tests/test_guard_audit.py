@@ -14,8 +14,9 @@ Independent check (`audit`), each with its stated tolerance:
 - end balance: total planar kinetic energy at the end <= at the start + ENERGY_TOL_J + ENERGY_TOL_REL x start;
 - impact rows: every row's dissipated energy >= -(ENERGY_TOL_J + ENERGY_TOL_REL x start);
 - overlap at rest: no two outlines (vehicles, barriers) overlap by more than OVERLAP_TOL: rectangles for the
-  planar models, for multibody and exudyn the plan shadow of their superellipsoid bodies (`rounded_outline`;
-  a vehicle ending tilted beyond TILT_MAX is left out: its shadow is another);
+  planar models; for multibody and exudyn the plan shadows of their superellipsoid bodies (`rounded_outline`)
+  by more than OVERLAP_TOL + the permanent crush the pair can keep (`crush_bound`; a vehicle ending tilted
+  beyond TILT_MAX is left out: its shadow is another);
 - rest: a vehicle reported at rest has end speed <= 0.1 m/s, and its trajectory's last speed <= 1 m/s;
   the end state matches the trajectory's last sample within 1 m / 1 m/s;
 - box: every trajectory sample within BOX m of the origin; no body below the road by more than 5 cm (z_min).
@@ -97,6 +98,25 @@ def barrier_rect(b) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ the audit
+def crush_bound(out, a, b=None) -> float:
+    """The deepest permanent crush [m] vehicles a and b (or a and a rigid barrier: b None) can keep together,
+    from Campbell's crash plot EBS = b0 + b1 C with the library's softest class line (side: b0 = 0.9 m/s,
+    b1 = (7.0 - 0.9) / 0.30 = 20.3 1/s; docs/physics.md §28): each vehicle's EBS is at most the pair's largest
+    closing speed over the run (its share of the dissipated energy is at most 1/2 mu v_rel^2, mu <= its
+    mass), so each keeps at most (v_rel - b0) / b1. The 3D models keep such crush (docs/physics.md §13a):
+    their undeformed bodies overlap by it at rest."""
+    b0, b1 = 0.9, (7.0 - 0.9) / 0.30
+    ta = out.trajectories.get(a.name)
+    tb = None if b is None else out.trajectories.get(b.name)
+    if ta is None or (b is not None and tb is None):
+        return 0.0
+    if b is None:
+        v = float(np.max(np.hypot(ta["vx"], ta["vy"])))
+        return max(v - b0, 0.0) / b1
+    v = float(np.max(np.hypot(np.subtract(ta["vx"], tb["vx"]), np.subtract(ta["vy"], tb["vy"]))))
+    return 2 * max(v - b0, 0.0) / b1
+
+
 def _energy(v, tr) -> tuple[np.ndarray, np.ndarray]:
     """(times, energy [J]) of one vehicle from its trajectory: planar, at the samples, 1/2 m v^2 + 1/2 Iz r^2;
     3D (the trajectory records z, roll and pitch), at the middle of each step, the rigid body's full energy
@@ -244,23 +264,25 @@ def audit(scene, out, rounded: bool, worst: dict | None = None) -> list[str]:
                         found.append(f"energy_free: {v.name} gains {rise[k] / 1e3:.1f} kJ touching nothing "
                                      f"(by t = {times[s + 1 + k]:.2f} s; tolerance {tol / 1e3:.1f} kJ)")
                         break
-    # overlap at rest (3D models: the upright bodies' plan shadows; a vehicle tilted beyond TILT_MAX has
-    # another shadow and is left out of this check)
+    # overlap at rest (3D models: the upright bodies' plan shadows, less the permanent crush the pair may
+    # keep, `crush_bound`; a vehicle tilted beyond TILT_MAX has another shadow and is left out of this check)
     tilted = [bool(rounded and v.name in out.trajectories and "roll" in out.trajectories[v.name]
                    and max(abs(math.remainder(float(out.trajectories[v.name][k][-1]), 2 * math.pi))
                            for k in ("roll", "pitch")) > TILT_MAX) for v in vs]
     shape = rounded_outline if rounded else vehicle_rect
     outlines = [shape(v, *rest[i]) for i, v in enumerate(vs)]
-    others = [(f"barrier {k}", barrier_rect(b)) for k, b in enumerate(scene.barriers)]
+    others = [(f"barrier {k}", barrier_rect(b), None) for k, b in enumerate(scene.barriers)]
     for i in range(len(vs)):
         if tilted[i]:
             continue
-        pairs = [(vs[j].name, outlines[j]) for j in range(i + 1, len(vs)) if not tilted[j]] + others
-        for name, outline in pairs:
+        pairs = [(vs[j].name, outlines[j], j) for j in range(i + 1, len(vs)) if not tilted[j]] + others
+        for name, outline, j in pairs:
             depth = sat_overlap(outlines[i], outline)
-            near("overlap", depth / OVERLAP_TOL)
-            if depth > OVERLAP_TOL:
-                found.append(f"overlap: {vs[i].name} and {name} end {depth:.2f} m into each other")
+            tol = OVERLAP_TOL + (crush_bound(out, vs[i], None if j is None else vs[j]) if rounded else 0.0)
+            near("overlap", depth / tol)
+            if depth > tol:
+                found.append(f"overlap: {vs[i].name} and {name} end {depth:.2f} m into each other "
+                             f"(tolerance {tol:.2f} m)")
     return found
 
 
@@ -355,6 +377,19 @@ def test_rounded_outline_against_the_superellipse():
     a = rounded_outline(v, 0.0, 0.0, 0.0)
     b = rounded_outline(v, 2.0 + 2.0 - 0.1, 0.0, math.pi)  # front to front: 2 + 2 m from CG to CG, less 0.1
     assert sat_overlap(a, b) == pytest.approx(0.1, abs=1e-3)  # (64 corners: faceted by ~0.01 mm)
+
+
+def test_crush_bound_from_campbells_side_line():
+    """A car at 15.6 m/s into a barrier may keep (15.6 - 0.9) / 20.33 = 0.72 m of crush; two cars closing at
+    20 m/s twice (20 - 0.9) / 20.33 = 1.88 m; a car at 0.5 m/s none."""
+    from types import SimpleNamespace
+    a, b = SimpleNamespace(name="A"), SimpleNamespace(name="B")
+    t = np.zeros(3)
+    out = SimpleNamespace(trajectories={"A": {"vx": t + [0, 15.6, 3], "vy": t}, "B": {"vx": t - [0, 4.4, 0], "vy": t}})
+    assert crush_bound(out, a) == pytest.approx(14.7 / 20.333, rel=1e-3)
+    assert crush_bound(out, a, b) == pytest.approx(2 * 19.1 / 20.333, rel=1e-3)
+    out.trajectories["A"]["vx"] = t + 0.5
+    assert crush_bound(out, a) == 0.0
 
 
 def test_audit_catches_broken_outcomes():
