@@ -111,13 +111,14 @@ Pairs = namedtuple("Pairs", "in_contact episode allowed radius awake pair_i pair
 # the states before the impulse being applied (before) and an empty impact row (no_row: a contact impulse's)
 Contacts = namedtuple("Contacts", "i k depth normal point poly n_poly before no_row")
 
-# The stages of the time loop are inlined into simulate_one by numba (inline="always"): as separate functions
-# LLVM inlined the then small simulate_one into simulate_many's parallel loop, and its loop strength reduction
-# recursed past the stack (segfault while compiling, numba 0.68 / llvmlite 0.50; NUMBA_OPT=0 compiled it).
+# The stages are inlined into simulate_one by numba (inline="always"), so that the compiled loop is one function as
+# before they were named: as separate functions, (1) LLVM inlined the then small simulate_one into simulate_many's
+# parallel loop and its loop strength reduction recursed past the stack (segfault while compiling, numba 0.68 /
+# llvmlite 0.50), (2) each call passing the working state's arrays made simulate_batch 2x slower (measured).
 
 
 # ---------------------------------------------------------------- the run's start
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _settings(cfg):
     """The run's settings (a layout.SETTINGS record) as a Settings tuple (read once; numba keeps its scalars in
     registers)."""
@@ -159,18 +160,19 @@ def _working_state(P, S, B):
 def _start_contacts(P, S, B, broad, pr):
     """Outlines that overlap at the start are in contact (a collision position): the projection leaves their
     start overlap (docs/physics.md §5)."""
-    nv, nk = pr.in_contact.shape
+    in_contact, radius, oa, ob, allowed = pr.in_contact, pr.radius, pr.oa, pr.ob, pr.allowed
+    nv, nk = in_contact.shape
     for i in range(nv):
         for k in range(i + 1, nk):
-            if broad and _circles_apart(S, B, pr.radius, i, k, nv):
+            if broad and _circles_apart(S, B, radius, i, k, nv):
                 continue
-            d0 = penetration(_outline(P, S, B, i, nv, pr.oa), _outline(P, S, B, k, nv, pr.ob))[0]
+            d0 = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
             if d0 > 0.0:
-                pr.in_contact[i, k] = True
-                pr.allowed[i, k] = d0
+                in_contact[i, k] = True
+                allowed[i, k] = d0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _max_road_friction(mu, zones):
     """The largest road friction anywhere (friction zones): it bounds the step and the stopping speed."""
     mu_max = mu
@@ -179,7 +181,7 @@ def _max_road_friction(mu, zones):
     return mu_max
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _come_to_rest(S, i, v_rest, sleeping, asleep):
     """Vehicle i, if slower than v_rest (speed, yaw rate), stops; with `sleeping` it sleeps until an impulse wakes
     it (kernel docstring). Returns whether it stopped."""
@@ -190,7 +192,7 @@ def _come_to_rest(S, i, v_rest, sleeping, asleep):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _record_contact_state(S, contact):
     """The vehicles' poses and speeds at the first impact: x, y, heading, speed."""
     for q in range(contact.shape[0]):
@@ -204,6 +206,7 @@ def _given_impact(P, S, B, cfg, contact, imp, diag, hit, asleep, pr, cl):
     the normal from vehicle given_i toward its partner's centre. It keeps its own row (the collision position's
     impulse as given); contact after it, where the pair's overlap deepens, opens an episode of its own.
     Returns (impacts recorded, status)."""
+    S_before, in_contact = cl.before, pr.in_contact
     nv = P.shape[0]
     i0, j = cfg.given_i, cfg.given_j
     px, py, th = cfg.given_x, cfg.given_y, cfg.given_plane
@@ -213,65 +216,69 @@ def _given_impact(P, S, B, cfg, contact, imp, diag, hit, asleep, pr, cl):
         nx, ny = -nx, -ny
     _record_contact_state(S, contact)
     diag[D_CONTACT_T] = 0.0
-    cl.before[:] = S
+    S_before[:] = S
     pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, cfg.restitution, cfg.impact_friction,
                                               cfg.law, imp[0])
     if kind < 0:
         return 0, STATUS_NOT_APPROACHING
-    _record_impact(imp, 0, 0.0, i0, j, nv, cl.before, S, pn, pt, kind, energy, px, py, nx, ny)
+    _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
     diag[D_E_IMPACT] += energy
     _struck(i0, j, nv, hit, asleep)
-    pr.in_contact[i0, j] = True
+    in_contact[i0, j] = True
     return 1, STATUS_OK
 
 
 # ---------------------------------------------------------------- free motion: the step
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _read_inputs(A, NA, t, i, dr):
     """Vehicle i's driver inputs' law at t (common/driver_inputs): wheel state, brake, steer, its next change,
     whether it ramps, and until when it holds."""
-    dr.mode[i], dr.brake[i], steer = driver_inputs(A[i], NA[i], t)
-    dr.change[i] = next_change(A[i], NA[i], t)
-    dr.ramp[i] = ramping(A[i], NA[i], t)
-    dr.held[i] = steady_next(A[i], NA[i], t)
-    if steer != dr.inp[i, IN_STEER]:
-        dr.inp[i, IN_STEER] = steer
-        dr.inp[i, IN_COS_STEER], dr.inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
+    law_mode, law_brake, law_change, law_ramp, held, inp = dr.mode, dr.brake, dr.change, dr.ramp, dr.held, dr.inp
+    law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
+    law_change[i] = next_change(A[i], NA[i], t)
+    law_ramp[i] = ramping(A[i], NA[i], t)
+    held[i] = steady_next(A[i], NA[i], t)
+    if steer != inp[i, IN_STEER]:
+        inp[i, IN_STEER] = steer
+        inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
                                                             else (1.0, 0.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _fine_step(P, S, A, NA, t, dt, coarse_dt, hit, zones, mu_max, na, pr, dr):
     """The fine step (kernel docstring): at most dt and 1 / the stiffest tyre-force decay rate of each awake
     vehicle's wheel state (planar_vehicle.stiffest_rate), and sets each awake vehicle's inputs for the step
     (dr.inp). Returns (h, the next change of a driver input's law, quiet: every moving vehicle runs straight
     with constant inputs, away from friction zones, too fast to stop within a coarse step)."""
+    inp, awake, held, law_change = dr.inp, pr.awake, dr.held, dr.change
+    law_ramp, law_mode, law_brake, rate_mode = dr.ramp, dr.mode, dr.brake, dr.rate_mode
+    rate_h, radius = dr.rate_h, pr.radius
     h = dt
     t_change = math.inf
     quiet = True
     zoned = zones[2].shape[0] > 0
     for a in range(na):
-        i = pr.awake[a]
-        if not ahead(t, dr.held[i]):  # the inputs' law changed (or changes continuously): read it again
+        i = awake[a]
+        if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
             _read_inputs(A, NA, t, i, dr)
-        t_change = min(t_change, dr.change[i])
-        if dr.ramp[i]:
+        t_change = min(t_change, law_change[i])
+        if law_ramp[i]:
             quiet = False
-        mode, brake, steer = effective_mode(dr.mode[i], hit[i]), dr.brake[i], dr.inp[i, IN_STEER]
-        dr.inp[i, IN_MODE], dr.inp[i, IN_BRAKE] = mode, brake
+        mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
+        inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
         if mode == ROLLING and brake > 0.0:
             mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
-        if mode != dr.rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
+        if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
             rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
-            dr.rate_mode[i], dr.rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
-        h = min(h, dr.rate_h[i])
+            rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
+        h = min(h, rate_h[i])
         c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
-        dr.inp[i, IN_COS_HEADING], dr.inp[i, IN_SIN_HEADING] = c, sn
+        inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
         lat = -sn * S[i, 3] + c * S[i, 4]
         speed = math.hypot(S[i, 3], S[i, 4])
         if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
             quiet = False
-        elif zoned and _near_zone(S, i, pr.radius[i] + speed * coarse_dt + PATCH, zones[3]):
+        elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
             quiet = False
         # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
         # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
@@ -280,16 +287,17 @@ def _fine_step(P, S, A, NA, t, dt, coarse_dt, hit, zones, mu_max, na, pr, dr):
     return h, t_change, quiet
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _coarse_step(S, B, coarse_dt, n_pairs, pr):
     """Straight running (constant forces, Heun exact): the coarse step, shortened so that no listed pair can
     close more than half its bounding circles' gap (a sleeping vehicle and a barrier: not listed, closing 0)."""
+    pair_i, pair_k, radius = pr.pair_i, pr.pair_k, pr.radius
     nv = S.shape[0]
     h_gap = coarse_dt
     for p in range(n_pairs):
-        i, k = pr.pair_i[p], pr.pair_k[p]
+        i, k = pair_i[p], pair_k[p]
         ckx, cky = _centre(S, B, k, nv)
-        gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - pr.radius[i] - pr.radius[k]
+        gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
         closing = math.hypot(S[i, 3], S[i, 4])
         if k < nv:
             closing += math.hypot(S[k, 3], S[k, 4])
@@ -311,14 +319,17 @@ def _step_size(P, S, B, A, NA, t, cfg, hit, zones, mu_max, na, n_pairs, pr, dr, 
     return min(h, cfg.duration - t, t_change - t)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _step(P, S, t, h, A, NA, hit, zones, mu, na, pr, m, dr):
     """The awake vehicles' Heun step from S at t over h into m.Snew (motion._heun, docs/physics.md §1-§2)."""
-    _heun(P, S, t, A, NA, hit, zones, m.wheel_reach, m.zcache, pr.awake, na, mu, m.acc, h, m.Snew, m.k1, m.k2, m.tmp,
-          dr.inp, dr.held)
+    Snew, wheel_reach, zcache, awake = m.Snew, m.wheel_reach, m.zcache, pr.awake
+    acc, k1, k2, tmp = m.acc, m.k1, m.k2, m.tmp
+    inp, held = dr.inp, dr.held
+    _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp,
+          inp, held)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _accept_step(S, Snew, awake, na):
     """The awake vehicles' states at the step's end become the current ones."""
     for a in range(na):
@@ -333,30 +344,34 @@ def _listed_pairs(S, Snew, B, broad, asleep, na, n_pairs, n_near, near_stale, pr
     """The pairs tested this step: with the broad phase, pairs with a static partner far away are left out
     (_near_pairs, rebuilt once an awake vehicle has moved REACH); a step longer than REACH tests every listed
     pair. Returns (pair_i, pair_k, count, n_near, near_stale)."""
+    pair_i, pair_k, awake, ref = pr.pair_i, pr.pair_k, pr.awake, pr.ref
+    radius, near_i, near_k, in_contact = pr.radius, pr.near_i, pr.near_k, pr.in_contact
+    episode, allowed = pr.episode, pr.allowed
     nv, nb = S.shape[0], B.shape[0]
-    li, lk, nl = pr.pair_i, pr.pair_k, n_pairs
+    li, lk, nl = pair_i, pair_k, n_pairs
     if broad and (na < nv or nb > 0):
-        if near_stale or _moved(S, Snew, pr.awake, na, pr.ref, REACH):
-            near_stale = _moved(S, Snew, pr.awake, na, S[:, 0:2], REACH)  # the step itself longer
+        if near_stale or _moved(S, Snew, awake, na, ref, REACH):
+            near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
             if not near_stale:
-                n_near = _near_pairs(S, B, pr.radius, asleep, pr.awake, na, pr.pair_i, pr.pair_k, n_pairs, pr.ref,
-                                     REACH, pr.near_i, pr.near_k, pr.in_contact, pr.episode, pr.allowed)
+                n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref,
+                                     REACH, near_i, near_k, in_contact, episode, allowed)
         if not near_stale:
-            li, lk, nl = pr.near_i, pr.near_k, n_near
+            li, lk, nl = near_i, near_k, n_near
     return li, lk, nl, n_near, near_stale
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bisect_step(P, S, B, A, NA, t, h, i, k, lo_d, hi_d, hit, zones, mu, na, pr, m, dr, diag):
     """The step length (bisection of h, at most 60 halvings) at whose end pair i, k overlaps by more than lo_d
     and at most hi_d; m.Snew holds the state there."""
+    Snew, oa, ob = m.Snew, pr.oa, pr.ob
     nv = S.shape[0]
     lo, hi = 0.0, h
     for _ in range(60):
         hm = 0.5 * (lo + hi)
         _step(P, S, t, hm, A, NA, hit, zones, mu, na, pr, m, dr)
         diag[D_BISECT] += 1
-        depth = penetration(_outline(P, m.Snew, B, i, nv, pr.oa), _outline(P, m.Snew, B, k, nv, pr.ob))[0]
+        depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
         if depth > hi_d:
             hi = hm
         elif depth <= lo_d:
@@ -372,21 +387,23 @@ def _locate_onset(P, S, B, A, NA, t, h, cfg, hit, zones, li, lk, nl, na, pr, m, 
     a touching pair whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
     rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN. Keeps each
     listed pair's overlap test of the step's end (pr.pen). Returns (h, whether the step was bisected)."""
+    pen, Snew, radius, oa = pr.pen, m.Snew, pr.radius, pr.oa
+    ob, in_contact, allowed, episode = pr.ob, pr.in_contact, pr.allowed, pr.episode
     nv = S.shape[0]
     bisected = False
     for p in range(nl):
         i, k = li[p], lk[p]
-        if cfg.broad_phase and _circles_apart(m.Snew, B, pr.radius, i, k, nv):
+        if cfg.broad_phase and _circles_apart(Snew, B, radius, i, k, nv):
             continue
         diag[D_NARROW] += 1
-        depth, nx, ny, _ = penetration(_outline(P, m.Snew, B, i, nv, pr.oa), _outline(P, m.Snew, B, k, nv, pr.ob))
-        pr.pen[p, 0], pr.pen[p, 1], pr.pen[p, 2] = depth, nx, ny
-        if pr.in_contact[i, k]:
-            if pr.allowed[i, k] > 0.0 or depth <= DEEPEN:
+        depth, nx, ny, _ = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))
+        pen[p, 0], pen[p, 1], pen[p, 2] = depth, nx, ny
+        if in_contact[i, k]:
+            if allowed[i, k] > 0.0 or depth <= DEEPEN:
                 continue
             lo_d, hi_d = CONTACT_SLOP, DEEPEN
         else:
-            if depth <= cfg.onset_tol or (pr.episode[i, k] >= 0 and depth <= CONTACT_SLOP):
+            if depth <= cfg.onset_tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
                 continue
             lo_d, hi_d = 0.0, cfg.onset_tol
         bisected = True
@@ -400,46 +417,50 @@ def _collect_contacts(P, S, B, broad, bisected, li, lk, nl, pr, cl, diag):
     """The step's contacts (cl: pair, depth, normal, overlap centroid and polygon): the listed pairs that
     overlap at the step's end beyond a collision position's start overlap. Updates which pairs touch, and ends
     the contact episode of a pair further apart than SEPARATION (docs/physics.md §5). Returns their count."""
+    radius, in_contact, episode, allowed = pr.radius, pr.in_contact, pr.episode, pr.allowed
+    oa, ob, pen, cl_m = pr.oa, pr.ob, pr.pen, cl.n_poly
+    cl_v, cl_i, cl_k, cl_d = cl.poly, cl.i, cl.k, cl.depth
+    cl_n, cl_p = cl.normal, cl.point
     nv = S.shape[0]
     nc = 0
     for p in range(nl):
         i, k = li[p], lk[p]
-        if broad and _circles_apart(S, B, pr.radius, i, k, nv):
-            pr.in_contact[i, k] = False
-            pr.episode[i, k] = -1
-            pr.allowed[i, k] = 0.0
+        if broad and _circles_apart(S, B, radius, i, k, nv):
+            in_contact[i, k] = False
+            episode[i, k] = -1
+            allowed[i, k] = 0.0
             continue
         if bisected:  # the step's end moved since the onset test
             diag[D_NARROW] += 1
-            depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, pr.oa), _outline(P, S, B, k, nv, pr.ob))
+            depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
         else:
-            depth, nx, ny = pr.pen[p, 0], pr.pen[p, 1], pr.pen[p, 2]
+            depth, nx, ny = pen[p, 0], pen[p, 1], pen[p, 2]
         if depth <= 0.0:
-            pr.in_contact[i, k] = False
-            pr.allowed[i, k] = 0.0
+            in_contact[i, k] = False
+            allowed[i, k] = 0.0
             if -depth > SEPARATION:
-                pr.episode[i, k] = -1
+                episode[i, k] = -1
             continue
-        pr.in_contact[i, k] = True
-        if depth <= pr.allowed[i, k] + CONTACT_SLOP and pr.allowed[i, k] > 0.0:
+        in_contact[i, k] = True
+        if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
             # a collision position's start overlap, not deepening: the given impulse resolved it
-            pr.allowed[i, k] = min(pr.allowed[i, k], depth)
+            allowed[i, k] = min(allowed[i, k], depth)
             continue
         diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
-        ci, ck = _outline(P, S, B, i, nv, pr.oa), _outline(P, S, B, k, nv, pr.ob)
+        ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
         px, py, area = overlap_centroid(ci, ck)
         if math.isnan(px):
             continue
         poly, npoly = clip_convex(ci, ck)
-        cl.n_poly[nc] = min(npoly, cl.poly.shape[1])
-        cl.poly[nc, :cl.n_poly[nc]] = poly[:cl.n_poly[nc]]
-        cl.i[nc], cl.k[nc], cl.depth[nc] = i, k, depth
-        cl.normal[nc, 0], cl.normal[nc, 1], cl.point[nc, 0], cl.point[nc, 1] = nx, ny, px, py
+        cl_m[nc] = min(npoly, cl_v.shape[1])
+        cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
+        cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
+        cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
         nc += 1
     return nc
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _approach(S, i, k, px, py, nx, ny, poly, n_poly, sustained):
     """The normal approach speed of i and k at (px, py), and in sustained contact the overlap's vertex that
     approaches fastest (rigid bodies: the normal velocity is linear over the overlap, so its extremes are at
@@ -459,17 +480,18 @@ def _approach(S, i, k, px, py, nx, ny, poly, n_poly, sustained):
     return approach, px, py
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _impact_point(P, S, B, cfg, i, k, px, py, nx, ny, approach, pr):
     """An impact's point (docs/physics.md §4): the middle of the contact zone the approach will crush within
     crush_time, or (point = "engagement") the overlap's centroid at engagement with its contact plane; the
     overlap's centroid where neither exists. Returns (px, py, nx, ny, engagement flag, engagement ratio)."""
+    oa, ob = pr.oa, pr.ob
     nv = S.shape[0]
     zx, zy, e_flag, e_ratio = math.nan, math.nan, 0, math.nan
     if cfg.engagement:
-        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx, ny, pr.oa, pr.ob)
+        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx, ny, oa, ob)
     if math.isnan(zx):
-        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, pr.oa), _outline(P, S, B, k, nv, pr.ob), nx, ny,
+        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob), nx, ny,
                                           cfg.crush_time * approach)
     if not math.isnan(zx):
         px, py = zx, zy
@@ -484,16 +506,19 @@ def _contact_impulses(P, S, B, cfg, t, n_imp, max_imp, nc, contact, imp, hit, as
     sweeps of sequential impulses (projected Gauss-Seidel): after the first sweep a pair is approaching again
     only through its neighbours' impulses of this instant, so its further impulses are plastic and booked into
     its row. Returns (impacts recorded, whether the impact cap stopped the run, whether a sleeper woke)."""
+    cl_i, cl_k, cl_n, episode = cl.i, cl.k, cl.normal, pr.episode
+    cl_p, cl_v, cl_m, S_before = cl.point, cl.poly, cl.n_poly, cl.before
+    no_row = cl.no_row
     nv = S.shape[0]
     woke = False
     for _ in range(MAX_SWEEPS if nc > 1 else 1):
         active = False
         for c in range(nc):
-            i, k = cl.i[c], cl.k[c]
-            nx, ny = cl.normal[c, 0], cl.normal[c, 1]
-            row = pr.episode[i, k]
+            i, k = cl_i[c], cl_k[c]
+            nx, ny = cl_n[c, 0], cl_n[c, 1]
+            row = episode[i, k]
             sustained = row >= 0 and imp[row, I_T] != t
-            approach, px, py = _approach(S, i, k, cl.point[c, 0], cl.point[c, 1], nx, ny, cl.poly[c], cl.n_poly[c],
+            approach, px, py = _approach(S, i, k, cl_p[c, 0], cl_p[c, 1], nx, ny, cl_v[c], cl_m[c],
                                          sustained)
             if approach <= V_EPS:
                 continue
@@ -504,8 +529,8 @@ def _contact_impulses(P, S, B, cfg, t, n_imp, max_imp, nc, contact, imp, hit, as
                     return n_imp, True, woke
                 px, py, nx, ny, e_flag, e_ratio = _impact_point(P, S, B, cfg, i, k, px, py, nx, ny, approach, pr)
             e_k = cfg.restitution if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
-            cl.before[:] = S
-            alt = imp[n_imp] if is_impact else cl.no_row  # (the impact's row: its slip-reversal check)
+            S_before[:] = S
+            alt = imp[n_imp] if is_impact else no_row  # (the impact's row: its slip-reversal check)
             pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, cfg.impact_friction,
                                                       cfg.law, alt)
             if kind < 0:
@@ -514,13 +539,13 @@ def _contact_impulses(P, S, B, cfg, t, n_imp, max_imp, nc, contact, imp, hit, as
             if is_impact:
                 if n_imp == 0:
                     diag[D_CONTACT_T] = t
-                    _record_contact_state(cl.before, contact)
-                _record_impact(imp, n_imp, t, i, k, nv, cl.before, S, pn, pt, kind, energy, px, py, nx, ny)
+                    _record_contact_state(S_before, contact)
+                _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
                 imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
-                pr.episode[i, k] = n_imp
+                episode[i, k] = n_imp
                 n_imp += 1
             else:
-                _merge_impact(imp, row, t, i, k, nv, cl.before, S, pn, pt, energy, nx, ny)
+                _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
                 diag[D_FOLLOW] += 1
             diag[D_E_IMPACT] += energy
             woke = woke or asleep[i] or (k < nv and asleep[k])
@@ -536,19 +561,20 @@ def _project_contacts(P, S, Snew, nc, asleep, near_stale, pr, cl, diag):
     approach at the end of a step but not the overlap gained within it (~ a h^2 / 2); each contact's overlap is
     projected down to CONTACT_SLOP (or a collision position's start overlap). Returns near_stale (a static
     partner moved)."""
+    cl_i, cl_k, cl_d, allowed, cl_n = cl.i, cl.k, cl.depth, pr.allowed, cl.normal
     nv = S.shape[0]
     for c in range(nc):
-        i, k, depth = cl.i[c], cl.k[c], cl.depth[c]
-        target = max(pr.allowed[i, k], CONTACT_SLOP)
+        i, k, depth = cl_i[c], cl_k[c], cl_d[c]
+        target = max(allowed[i, k], CONTACT_SLOP)
         if depth > target:
-            _project_apart(P, S, i, k, nv, cl.normal[c, 0], cl.normal[c, 1], depth - target)
+            _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
             diag[D_PROJECTED] += depth - target
             Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
             if k < nv:
                 Snew[k] = S[k]
                 near_stale = near_stale or asleep[k]
             near_stale = near_stale or asleep[i]
-        pr.allowed[i, k] = min(pr.allowed[i, k], depth)
+        allowed[i, k] = min(allowed[i, k], depth)
     return near_stale
 
 
@@ -558,9 +584,10 @@ def _rest(S, Snew, v_rest, sleeping, asleep, na, pr):
     """A vehicle that has (almost) stopped goes to sleep (kernel docstring); an impulse wakes it. Returns
     (some vehicle fell asleep, every vehicle sleeps, a state is NaN). A sleeping vehicle's state is only moved
     by the projection, finite: NaN can arise in awake ones."""
+    awake = pr.awake
     all_asleep, slept, nan = True, False, False
     for a in range(na):
-        i = pr.awake[a]
+        i = awake[a]
         if _come_to_rest(S, i, v_rest, sleeping, asleep) and sleeping:
             Snew[i] = S[i]
             slept = True
@@ -571,7 +598,7 @@ def _rest(S, Snew, v_rest, sleeping, asleep, na, pr):
     return slept, all_asleep, nan
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _record_state(traj, n_rec, t, S):
     """Trajectory sample n_rec: t and every vehicle's state. Returns the samples' count."""
     traj[n_rec, :, 0] = t
