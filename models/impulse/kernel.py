@@ -48,29 +48,6 @@ from crashlab.units import G
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
 from .impacts import _apply_impulse, _kinetic, _merge_impact, _record_impact, _struck
 from .layout import (
-    C_BROAD_PHASE,
-    C_COARSE_DT,
-    C_CRUSH_TIME,
-    C_DT,
-    C_DURATION,
-    C_E,
-    C_ENGAGE,
-    C_ENGAGE_DEPTH,
-    C_GIVEN,
-    C_GIVEN_I,
-    C_GIVEN_J,
-    C_LAW,
-    C_MAX_IMPACTS,
-    C_MU_IMP,
-    C_MU_ROAD,
-    C_ONSET_TOL,
-    C_PLANE,
-    C_PX,
-    C_PY,
-    C_REC_DT,
-    C_SLEEPING,
-    C_STOP_AT_REST,
-    C_V_REST,
     D_BISECT,
     D_COARSE,
     D_CONTACT_T,
@@ -108,6 +85,9 @@ from .pairs import _awake_sets, _moved, _near_pairs
 
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
 V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)
+# m/s: overlap vertices approaching within this of the fastest tie (_fastest_point): 1000x the round-off of a
+# point velocity of ~30 m/s, a physically negligible difference
+V_TIE = 1e-12
 CONTACT_SLOP = 0.002  # m: overlap tolerated in sustained contact (no bisection, no projection below it)
 SEPARATION = 0.05  # m: a pair further apart than this has ended its contact episode
 DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this within a step is bisected
@@ -117,16 +97,46 @@ REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left
 
 
 @njit(cache=True)
+def _normal_approach(S, i, k, nv, px, py, nx, ny):
+    """The speed at which k's point (px, py) approaches i's along the normal n."""
+    v1x, v1y = _point_velocity(S, i, nv, px, py)
+    v2x, v2y = _point_velocity(S, k, nv, px, py)
+    return -((v2x - v1x) * nx + (v2y - v1y) * ny)
+
+
+@njit(cache=True)
+def _fastest_point(S, i, k, nv, poly, n_poly, nx, ny, approach, px, py):
+    """Sustained contact (docs/physics.md §5): the point of the overlap that approaches fastest, from the overlap's
+    centroid (px, py) approaching at `approach` (rigid bodies: the normal velocity is linear over the overlap, so
+    its extremes are at vertices). Vertices within V_TIE of the fastest tie: the point is their mean (the centroid
+    where they tie with it: a pure translation), not the first in the polygon's order, which a reflected scene
+    reverses. Returns (approach, px, py)."""
+    fastest = approach
+    for q in range(n_poly):
+        fastest = max(fastest, _normal_approach(S, i, k, nv, poly[q, 0], poly[q, 1], nx, ny))
+    if fastest - approach <= V_TIE:
+        return approach, px, py
+    sx, sy, n = 0.0, 0.0, 0
+    for q in range(n_poly):
+        if _normal_approach(S, i, k, nv, poly[q, 0], poly[q, 1], nx, ny) >= fastest - V_TIE:
+            sx, sy, n = sx + poly[q, 0], sy + poly[q, 1], n + 1
+    if n == 1:
+        return fastest, sx, sy
+    return _normal_approach(S, i, k, nv, sx / n, sy / n, nx, ny), sx / n, sy / n
+
+
+@njit(cache=True)
 def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag):
     """Simulate one scene. P (nv, N_PARAMS), S0 (nv, 6) start states, B (nb, 5) barriers
-    (x, y, heading, half length, half width), A, NA the driver's action tables, zones the friction zones
-    (common/driver_inputs.pack_action_tables, pack_zones). Outputs are written into the arrays passed in."""
+    (x, y, heading, half length, half width), cfg the run's settings (a layout.SETTINGS record), A, NA the
+    driver's action tables, zones the friction zones (common/driver_inputs.pack_action_tables, pack_zones).
+    Outputs are written into the arrays passed in."""
     nv, nb = P.shape[0], B.shape[0]
     nk = nv + nb
-    mu, e, mu_imp, law = cfg[C_MU_ROAD], cfg[C_E], cfg[C_MU_IMP], int(cfg[C_LAW])
-    duration, dt, coarse_dt, rec_dt = cfg[C_DURATION], cfg[C_DT], cfg[C_COARSE_DT], cfg[C_REC_DT]
-    tol, v_rest, max_imp = cfg[C_ONSET_TOL], cfg[C_V_REST], min(int(cfg[C_MAX_IMPACTS]), imp.shape[0])
-    broad, sleeping = cfg[C_BROAD_PHASE] > 0.5, cfg[C_SLEEPING] > 0.5  # study switches (comparison scaling)
+    mu, e, mu_imp, law = cfg.road_friction, cfg.restitution, cfg.impact_friction, cfg.law
+    duration, dt, coarse_dt, rec_dt = cfg.duration, cfg.dt, cfg.coarse_dt, cfg.record_dt
+    tol, v_rest, max_imp = cfg.onset_tol, cfg.v_rest, min(cfg.max_impacts, imp.shape[0])
+    broad, sleeping = cfg.broad_phase, cfg.sleeping  # study switches (comparison scaling)
     S = S0.copy()
     no_alt = np.empty(0)
     Snew = np.empty_like(S)
@@ -201,9 +211,9 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     status = STATUS_OK
 
     # impact at t = 0 at a given point of impact and contact plane (PC-Crash style)
-    if cfg[C_GIVEN] > 0.5 and nk >= 2:
-        i0, j = int(cfg[C_GIVEN_I]), int(cfg[C_GIVEN_J])  # the pair touching at the point
-        px, py, th = cfg[C_PX], cfg[C_PY], cfg[C_PLANE]
+    if cfg.given and nk >= 2:
+        i0, j = cfg.given_i, cfg.given_j  # the pair touching at the point
+        px, py, th = cfg.given_x, cfg.given_y, cfg.given_plane
         nx, ny = math.sin(th), -math.cos(th)
         cjx, cjy = _centre(S, B, j, nv)
         if nx * (cjx - S[i0, 0]) + ny * (cjy - S[i0, 1]) < 0.0:
@@ -401,15 +411,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                 approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
                 row = episode[i, k]
                 if row >= 0 and imp[row, I_T] != t:
-                    # sustained contact: the overlap's vertex that approaches fastest (rigid bodies: the
-                    # normal velocity is linear over the overlap, so its extremes are at vertices)
-                    for q in range(cl_m[c]):
-                        qx, qy = cl_v[c, q, 0], cl_v[c, q, 1]
-                        v1x, v1y = _point_velocity(S, i, nv, qx, qy)
-                        v2x, v2y = _point_velocity(S, k, nv, qx, qy)
-                        aq = -((v2x - v1x) * nx + (v2y - v1y) * ny)
-                        if aq > approach:
-                            approach, px, py = aq, qx, qy
+                    approach, px, py = _fastest_point(S, i, k, nv, cl_v[c], cl_m[c], nx, ny, approach, px, py)
                 if approach <= V_EPS:
                     continue
                 is_impact = row < 0
@@ -421,13 +423,13 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                     # the point: the middle of the contact zone the approach will crush, or (point =
                     # "engagement") the overlap's centroid at engagement with its contact plane
                     zx, e_flag, e_ratio = math.nan, 0, math.nan
-                    if cfg[C_ENGAGE] > 0.5:
-                        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg[C_ENGAGE_DEPTH], nx,
+                    if cfg.engagement:
+                        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx,
                                                                       ny, oa, ob)
                     if math.isnan(zx):
                         zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
                                                           _outline(P, S, B, k, nv, ob),
-                                                          nx, ny, cfg[C_CRUSH_TIME] * approach)
+                                                          nx, ny, cfg.crush_time * approach)
                     if not math.isnan(zx):
                         px, py = zx, zy
                 e_k = e if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
@@ -493,7 +495,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         if slept:
             na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
             near_stale = True
-        if status == STATUS_NAN or (all_asleep and cfg[C_STOP_AT_REST] > 0.5):
+        if status == STATUS_NAN or (all_asleep and cfg.stop_at_rest):
             break
     if rec_dt > 0.0 and n_rec < traj.shape[0]:
         traj[n_rec, :, 0] = t

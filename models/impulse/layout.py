@@ -1,13 +1,28 @@
-"""The impulse kernel's array layouts (models/impulse/kernel.py): the configuration vector (C_*), the impact
-record (I_*, one row per impact), the diagnostics (D_*), a vehicle's driver inputs at a step's start (IN_*),
-the run's status codes and how an engagement point was placed (ENGAGE_*). model.py packs and reads them
-through the kernel (kernel re-exports every name)."""
+"""The impulse kernel's array layouts (models/impulse/kernel.py): the run's settings (SETTINGS), the impact record
+(I_*, one row per impact), the diagnostics (D_*), a vehicle's driver inputs at a step's start (IN_*), the run's
+status codes and how an engagement point was placed (ENGAGE_*). model.py packs and reads them."""
+import numpy as np
 
-# configuration vector
-(C_MU_ROAD, C_E, C_MU_IMP, C_LAW, C_DURATION, C_STOP_AT_REST, C_GIVEN, C_PX, C_PY, C_PLANE, C_DT,
- C_COARSE_DT, C_REC_DT, C_ONSET_TOL, C_V_REST, C_MAX_IMPACTS, C_GIVEN_I, C_GIVEN_J, C_CRUSH_TIME,
- C_BROAD_PHASE, C_SLEEPING, C_ENGAGE, C_ENGAGE_DEPTH) = range(23)
-N_CFG = 23  # C_ENGAGE: [impact] point = "engagement", C_ENGAGE_DEPTH its engagement_depth (_engagement)
+# the run's settings: one record per scene (a numpy structured scalar, a numba Record in the kernel), packed once by
+# model.pack, changed per variant by population.pack_variants; booleans are booleans, counts and indices integers
+SETTINGS = np.dtype([
+    ("road_friction", np.float64),  # mu of the road outside friction zones
+    ("restitution", np.float64),  # e of an impact (crashlab.restitution.kernel_value: or E_SPEED_LAW)
+    ("impact_friction", np.float64),  # the contact friction of impacts and contact impulses (§3)
+    ("law", np.int64),  # the impulse law (laws.py, model.LAWS)
+    ("duration", np.float64),
+    ("stop_at_rest", np.bool_),  # end the run once every vehicle sleeps
+    ("given", np.bool_),  # an impact at t = 0 at a given point and contact plane (PC-Crash style)
+    ("given_x", np.float64), ("given_y", np.float64), ("given_plane", np.float64),  # its point, plane angle
+    ("given_i", np.int64), ("given_j", np.int64),  # its pair (vehicle, vehicle or barrier index)
+    ("dt", np.float64), ("coarse_dt", np.float64), ("record_dt", np.float64),  # step sizes (kernel docstring)
+    ("onset_tol", np.float64),  # overlap at which contact onset's bisection stops
+    ("v_rest", np.float64),  # speed and yaw rate below which a vehicle is at rest
+    ("max_impacts", np.int64),  # the impact record's rows a run may fill
+    ("crush_time", np.float64),  # the point of impact: the zone crushed in this time (§4)
+    ("broad_phase", np.bool_), ("sleeping", np.bool_),  # study switches (comparison scaling)
+    ("engagement", np.bool_), ("engagement_depth", np.float64),  # [impact] point = "engagement" (§4)
+], align=True)
 # impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
 # summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
 # I_REVERSED: the slip stops and reverses on Routh's path (laws.checked_impulse); the impact's own impulse

@@ -151,25 +151,27 @@ class ImpulseModel(CollisionModel):
 
     # ------------------------------------------------------------------ packing
     def pack(self, scene):
-        """Arrays (P, S0, B, cfg, A, NA, zones) of one scene for the kernel (A, NA: the driver's action
-        tables, zones: the friction zones; common/driver_inputs)."""
+        """Arrays (P, S0, B, cfg, A, NA, zones) of one scene for the kernel (cfg: the run's settings, a
+        layout.SETTINGS record; A, NA: the driver's action tables, zones: the friction zones; common/driver_inputs)."""
         P = np.array([pack_vehicle(v.spec, v.wheels, v.steer) for v in scene.vehicles]).reshape(-1, N_PARAMS)
         S0 = np.array([[v.x, v.y, v.heading, v.speed * math.cos(v.heading), v.speed * math.sin(v.heading),
                         v.yaw_rate] for v in scene.vehicles])
         B = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in scene.barriers]).reshape(-1, 5)
-        cfg = np.zeros(L.N_CFG)
+        cfg = np.zeros(1, L.SETTINGS)[0]  # the run's settings (layout.SETTINGS): no given impact unless set
         imp = scene.impact
-        cfg[L.C_MU_ROAD], cfg[L.C_E], cfg[L.C_MU_IMP] = scene.road.friction, kernel_value(imp), imp.friction
-        cfg[L.C_LAW], cfg[L.C_DURATION], cfg[L.C_STOP_AT_REST] = LAWS[imp.law], scene.duration, scene.stop_at_rest
+        cfg["road_friction"], cfg["restitution"], cfg["impact_friction"] = scene.road.friction, kernel_value(imp), \
+            imp.friction
+        cfg["law"], cfg["duration"], cfg["stop_at_rest"] = LAWS[imp.law], scene.duration, scene.stop_at_rest
         if imp.point is not None:
-            cfg[L.C_GIVEN], cfg[L.C_PX], cfg[L.C_PY], cfg[L.C_PLANE] = 1.0, imp.point[0], imp.point[1], imp.plane_angle
-            cfg[L.C_GIVEN_I], cfg[L.C_GIVEN_J] = given_pair(scene)
-        cfg[L.C_DT], cfg[L.C_COARSE_DT], cfg[L.C_REC_DT] = self.dt, self.coarse_dt, self.record_dt
-        cfg[L.C_ONSET_TOL], cfg[L.C_V_REST] = self.onset_tol, self.v_rest
-        cfg[L.C_MAX_IMPACTS] = self.impact_cap(len(scene.vehicles))
-        cfg[L.C_CRUSH_TIME] = self.crush_time
-        cfg[L.C_ENGAGE], cfg[L.C_ENGAGE_DEPTH] = imp.engagement, imp.engagement_depth
-        cfg[L.C_BROAD_PHASE], cfg[L.C_SLEEPING] = self.options.broad_phase, self.options.sleeping
+            cfg["given"], cfg["given_x"], cfg["given_y"] = True, imp.point[0], imp.point[1]
+            cfg["given_plane"] = imp.plane_angle
+            cfg["given_i"], cfg["given_j"] = given_pair(scene)
+        cfg["dt"], cfg["coarse_dt"], cfg["record_dt"] = self.dt, self.coarse_dt, self.record_dt
+        cfg["onset_tol"], cfg["v_rest"] = self.onset_tol, self.v_rest
+        cfg["max_impacts"] = self.impact_cap(len(scene.vehicles))
+        cfg["crush_time"] = self.crush_time
+        cfg["engagement"], cfg["engagement_depth"] = imp.engagement, imp.engagement_depth
+        cfg["broad_phase"], cfg["sleeping"] = self.options.broad_phase, self.options.sleeping
         A, NA = pack_action_tables(scene.vehicles)
         return P, S0, B, cfg, A, NA, pack_zones(scene.road)
 

@@ -22,7 +22,7 @@ from . import kernel as K
 from . import layout as L
 
 _STATE = ("x", "y", "heading", "speed", "yaw_rate")
-_CFG = {"restitution": L.C_E, "friction": L.C_MU_IMP, "engagement_depth": L.C_ENGAGE_DEPTH}
+_SETTING = {"restitution": "restitution", "friction": "impact_friction", "engagement_depth": "engagement_depth"}
 
 
 def _direct(f) -> bool:
@@ -39,7 +39,7 @@ def pack_variants(model, scene, fs, values) -> tuple:
         return tuple(np.stack([p[k] for p in packs]) for k in range(6)) + \
             tuple(np.stack([p[6][k] for p in packs]) for k in range(4))
     P, S0, B, cfg, A, NA, zones = model.pack(scene)
-    P, S0, B, cfg, A, NA = (np.repeat(a[None], n, axis=0) for a in (P, S0, B, cfg, A, NA))
+    P, S0, B, cfg, A, NA = (np.repeat(np.asarray(a)[None], n, axis=0) for a in (P, S0, B, cfg, A, NA))
     ZC, ZS, ZMU, ZBOX = (np.repeat(a[None], n, axis=0) for a in zones)
     names = scene.vehicle_names
     cols = vehicle_columns(scene, fs, values, _STATE + ("mass", "yaw_inertia"))
@@ -48,11 +48,11 @@ def pack_variants(model, scene, fs, values) -> tuple:
         if f.kind == "spec":
             P[:, names.index(f.vehicle), P_MASS if f.quantity == "mass" else P_IZ] = v
         elif f.kind == "road":
-            cfg[:, L.C_MU_ROAD] = v
+            cfg["road_friction"] = v
         elif f.kind == "zone":
             ZMU[:, f.index] = v
         elif f.kind == "impact":
-            cfg[:, _CFG[f.quantity]] = v  # a number given replaces restitution = "speed" (fields.setter)
+            cfg[_SETTING[f.quantity]] = v  # a number given replaces restitution = "speed" (fields.setter)
     for i in {names.index(f.vehicle) for f in fs if f.kind == "vehicle"}:
         S0[:, i, 0], S0[:, i, 1], S0[:, i, 5] = cols["x"][:, i], cols["y"][:, i], cols["yaw_rate"][:, i]
         S0[:, i, 2] = cols["heading"][:, i]
