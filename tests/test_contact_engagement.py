@@ -116,3 +116,13 @@ def test_small_overlap_head_on_engages():
     assert abs(sum(q["dvx"] for q in rows)) < 1e-6 * 27.8 and abs(sum(q["dvy"] for q in rows)) < 1e-6 * 27.8
     assert _dv_first(out, "V1") == pytest.approx(dv_ref, rel=0.15)
     assert _dv_first(out, "V2") == pytest.approx(dv_ref, rel=0.15)
+
+
+def test_episode_records_are_sized_to_the_pairs_that_can_touch():
+    """64 records per pair that can touch (issue 27: a fixed 64 per run failed 5 of 30 random 3-5 car scenes of
+    the guard audit whose resting pairs touched again and again): 5 vehicles and a barrier have 10 + 5 pairs."""
+    from crashlab.models.common.contact_episodes import EPISODES_PER_PAIR, episode_capacity
+    assert EPISODES_PER_PAIR == 64
+    assert episode_capacity(2, 0) == 64 and episode_capacity(1, 0) == 64
+    assert episode_capacity(5, 1) == 64 * 15
+    assert episode_capacity(32, 0) == 64 * 496

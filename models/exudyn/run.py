@@ -115,7 +115,7 @@ class ExudynRun(StepLoads, DriverLoads, Records):
         self.contact = np.full((nv, 4), np.nan)
         self.contact_time = math.nan
         self.traj = [[] for _ in range(nv)]
-        self.IMP, self.n_episodes, self.intervals = np.zeros((EP.MAX_IMP, EP.N_IMP)), 0, []
+        self.IMP, self.n_episodes, self.intervals = np.zeros((EP.episode_capacity(nv, len(scene.barriers)), EP.N_IMP)), 0, []
         self.t_rec, self.t_still, self.nsteps = 0.0, None, 0
         self.max_onset = self.road_pen = 0.0
         self.s_cur, self.awake, self.iter = None, True, 0

@@ -24,7 +24,7 @@ from crashlab.models.common.contact_episodes import (
     I_MAXPEN,
     I_T0,
     I_T1,
-    MAX_IMP,
+    episode_capacity,
     N_IMP,
     contact_intervals,
     impact_rows,
@@ -264,7 +264,7 @@ class MultibodyModel(CollisionModel):
         head = np.array([vs.heading for vs in scene.vehicles])
         fz0, fz1 = np.zeros((nv, 4)), np.zeros((nv, 4))
         CT = contact_arrays(prep["CSH"], prep["PP"], BAR, nv)
-        IMP = np.zeros((MAX_IMP, N_IMP))
+        IMP = np.zeros((episode_capacity(nv, len(scene.barriers)), N_IMP))
         CONT = np.full((nv, 4), np.nan)
         I.simulate(Y, BODY, JNT, SPR, TYR, CT, prep["DV"], cfg, 2 * NW, traj, diag, head, fz0, fz1, True, IMP,
                    CONT, _road_arrays([v.mass for v in vehs]), prep["ASLEEP"])
@@ -296,7 +296,7 @@ class MultibodyModel(CollisionModel):
             e_end.append(self._energy(Y[v], BODY[v], SPR[v], TYR[v]))
             w_nc.append(float(Y[v, ny - 1]))
         balance = [(e_end[v] - e_start[v] - w_nc[v]) / max(abs(e_start[v]), 1.0) for v in range(nv)]
-        n_imp = min(int(diag[REC.D_NIMP]), MAX_IMP)
+        n_imp = min(int(diag[REC.D_NIMP]), len(IMP))
         diagnostics = {
             "steps": int(diag[REC.D_STEPS]), "rejected_steps": int(diag[REC.D_REJECTED]),
             "rhs_evaluations": int(diag[REC.D_NFEV]), "t_end": float(diag[REC.D_T_END]),
@@ -317,9 +317,9 @@ class MultibodyModel(CollisionModel):
             "broad_phase": dict(zip(("pair_evaluations", "removed_by_circle", "removed_by_height",
                                      "removed_by_obb", "narrow_phase"), CT[8].tolist())),
         }
-        if diag[REC.D_NIMP] > MAX_IMP:  # later episodes would be missing from the table and the guard
+        if diag[REC.D_NIMP] > len(IMP):  # later episodes would be missing from the table and the guard
             ok = False
-            warnings.append(f"more than {MAX_IMP} contact episodes: the run cannot report them all")
+            warnings.append(f"more than {len(IMP)} contact episodes: the run cannot report them all")
         heads = [(traj[:nr, v, REC.R_T].copy(), traj[:nr, v, REC.R_HEAD].copy()) for v in range(nv)]
         imp = IMP[:n_imp].copy()
         rows = impact_rows(names, BODY[:, :, 0].sum(1), imp, heads)
