@@ -125,9 +125,11 @@ def cmd_monte_carlo(args, scene, model):
     if not scene.uncertain:
         raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
                          "(field, distribution and its parameters); this scene has none")
-    result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
-                            progress=sys.stderr.isatty())
-    written = montecarlo.write(result, args.out) if args.out else []
+    from ..outdir import lock_out_dir
+    with lock_out_dir(args.out, "simulate --monte-carlo"):  # one run writes DIR at a time
+        result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
+                                progress=sys.stderr.isatty())
+        written = montecarlo.write(result, args.out) if args.out else []
     if args.json:
         print(json.dumps(result.to_json_dict(), indent=2))
     else:
