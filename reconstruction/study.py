@@ -301,9 +301,10 @@ def free_and_uncertain(path, spec: StudyFile, scene: Scene, scene_path) -> list[
         unit = f" {u.unit}" if u.unit not in ("", "-") else ""
         lo, hi = max(float(f.lower), u.lower), min(float(f.upper), u.upper)
         if not lo < hi:
-            raise InputError(path, f"free.{k}", f"{f.label} is also uncertain ({key}: {u.describe().split(': ', 1)[1]})"
-                             f" with no probability within its bounds [{f.lower:g}, {f.upper:g}]{unit}: crashlab infer's"
-                             " prior would be 0 everywhere; widen the bounds, move the distribution or drop one")
+            prior = u.describe().split(": ", 1)[1]
+            raise InputError(path, f"free.{k}", f"{f.label} is also uncertain ({key}: {prior}) with no probability "
+                             f"within its bounds [{f.lower:g}, {f.upper:g}]{unit}: crashlab infer's prior would be 0 "
+                             "everywhere; widen the bounds, move the distribution or drop one")
         notes.append(f"{f.label} is free (free.{k}, [{f.lower:g}, {f.upper:g}]{unit}) and uncertain ({key}): the "
                      f"search keeps the free bounds; crashlab infer takes {u.describe().split(': ', 1)[1]} as its "
                      "prior within them")

@@ -24,7 +24,8 @@ MONTECARLO_SIDE = REPO / "studies" / "montecarlo" / "side.toml"
 
 
 def uncertain_x(lower, upper, vehicle="V1"):
-    return f'\n[[uncertain]]\nfield = "vehicles.{vehicle}.x"\ndistribution = "uniform"\nlower = {lower}\nupper = {upper}\n'
+    return (f'\n[[uncertain]]\nfield = "vehicles.{vehicle}.x"\ndistribution = "uniform"\n'
+            f"lower = {lower}\nupper = {upper}\n")
 
 
 def with_uncertain(tmp_path, text, name="s.toml", base="case3"):

@@ -42,7 +42,8 @@ def infer_case(tmp_path):
                                           f'scene = "{(REPO / "studies" / "pc_crash" / "side.toml").as_posix()}"')
     head, _, tail = text.partition("[infer]")
     rest = tail[tail.index("\n[") :]  # the tables after [infer]
-    text = head + "[infer]\nwalkers = 12\nburn = 20\nsamples = 480\ncheckpoint_every = 5\ndraws_plotted = 0\nseed = 1\n" + rest
+    small = "walkers = 12\nburn = 20\nsamples = 480\ncheckpoint_every = 5\ndraws_plotted = 0\nseed = 1\n"
+    text = head + "[infer]\n" + small + rest
     path = tmp_path / "infer.toml"
     path.write_text(text)
     return [*CLI, "infer", str(path), "--no-progress"], "infer_checkpoint.pkl", "posterior.csv"
