@@ -33,6 +33,14 @@ reference to the module attribute (``ModuleFunction``), which pickles by name. M
 offspring one at a time through a generator, which pickles only between generations (when it is None),
 so a caller checkpoints MOEA/D at generation boundaries.
 
+Reproducible from the seed. Every random draw comes from the algorithm's ``random_state`` (seeded by
+``setup(seed=...)``, pickled with a checkpoint). pymoo 0.6.2's NSGA-III tournament
+(``nsga3.comp_by_cv_then_random``) breaks a tie of two equally infeasible candidates with ``compare(...,
+return_random_if_equal=True)`` without passing its random state on, so ``compare`` draws from a fresh unseeded
+generator: with many equal violations (a reconstruction's candidates without an impact all have G = 1) two
+runs with one seed diverged from the first offspring on (issue 27). NSGA-III is built here with
+``comp_by_cv_then_random`` below, the same rule drawing from the algorithm's random state.
+
 pymoo is imported only when a factory is called, so loading the entry points is cheap.
 """
 
@@ -108,6 +116,29 @@ def make_picklable(algorithm):
     return algorithm
 
 
+def comp_by_cv_then_random(pop, P, random_state=None, **kwargs):
+    """NSGA-III's binary tournament (pymoo's rule): the smaller constraint violation wins, a tie or two
+    feasible candidates are decided at random, by ``random_state``, the algorithm's seeded generator."""
+    import numpy as np
+
+    S = np.empty(len(P), dtype=int)
+    for i, (a, b) in enumerate(P):
+        cv_a, cv_b = pop[a].CV[0], pop[b].CV[0]
+        if (cv_a > 0.0 or cv_b > 0.0) and cv_a != cv_b:
+            S[i] = a if cv_a < cv_b else b
+        else:
+            S[i] = random_state.choice([a, b])
+    return S[:, None]
+
+
+def _seeded_defaults(name: str, options: dict) -> None:
+    """Operators replacing pymoo defaults that draw from an unseeded generator (module docstring)."""
+    if name == "nsga3" and "selection" not in options:
+        from pymoo.operators.selection.tournament import TournamentSelection
+
+        options["selection"] = TournamentSelection(func_comp=comp_by_cv_then_random)
+
+
 def algorithm_class(name: str) -> type:
     """The pymoo class registered under ``name``."""
     try:
@@ -174,6 +205,7 @@ def make_algorithm(name: str, /, **options):
     options.update(_operators(options))
     if uses_ref_dirs:
         _set_reference_directions(name, options)
+    _seeded_defaults(name, options)
     algorithm = make_picklable(cls(**options))
     algorithm.handles_constraints = ALGORITHMS[name][3]
     return algorithm

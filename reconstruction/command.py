@@ -14,6 +14,8 @@ from .study import load_study
 def run_cli(args) -> int:
     """args: the parsed `crashlab reconstruct` options (crashlab.cli). Bad input raises InputError."""
     study = load_study(args.study)
+    for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
+        print(f"crashlab: note: {args.study}: {note}", file=sys.stderr)
     if args.optimizer and args.optimizer not in available_optimizers():
         raise InputError(args.study, "--optimizer",
                          str(UnknownPluginError("optimizer", args.optimizer, available_optimizers())))

@@ -6,7 +6,14 @@ V1.actions.0.t, ...), numbers, + - * /, the comparisons < <= > >= == != (chained
 label is replaced by a placeholder name, and then walked with a whitelist of node kinds: anything else (a
 call, an attribute, a subscript, a string, `>>`, ...) is refused, nothing is ever evaluated by Python. The
 probability of a question is the share of the posterior's samples where it holds (its standard error:
-crashlab.reconstruction.infer_report).
+`answers` below, from the smallest effective sample size of the variables it reads).
+
+Division by zero. A divisor without variables that is 0 (`V1.speed / 0`, `V1.speed / (2 - 2)`) is refused
+when the study is loaded (InputError naming the key). A divisor that is 0 in some draws (`V1.speed /
+(V2.speed - 50)`) leaves the question undefined in those draws: its probability is the share among the draws
+where it is defined, and the answer says in how many it was not (`Answer.undefined`, `Answer.note`); in no
+draw is it defined: probability NaN with that note. Every value is checked, not only divisors: a non-finite
+sample or an overflow leaves the draw undefined the same way, never a quiet False of a NaN comparison.
 """
 from __future__ import annotations
 
@@ -30,15 +37,73 @@ _PLACEHOLDER = "_q{}_"
 
 
 @dataclass
+class Answer:
+    """A question's answer on the draws: its name (the study's `name`, else the expression) in every output."""
+    name: str
+    expr: str
+    probability: float  # share of the defined draws where it holds; NaN when none is defined
+    standard_error: float  # Monte Carlo: sqrt(p (1 - p) / ESS), ESS the smallest of its variables'
+    draws: int
+    undefined: int  # draws where a divisor is 0 or a value is not finite
+
+    @property
+    def note(self) -> str:
+        """'' or why some draws do not count, for the summary, the table and the report."""
+        if not self.undefined:
+            return ""
+        return (f"undefined in {self.undefined} of {self.draws} draws (a division by zero or a non-finite value), "
+                "not counted")
+
+
+@dataclass
 class Question:
     name: str
     expr: str
-    fn: object  # columns dict -> boolean array
+    fn: object  # columns dict -> (holds, defined): two boolean arrays
     names: tuple[str, ...]  # the labels it reads, sorted
 
+    def evaluate(self, columns: dict) -> tuple[np.ndarray, np.ndarray]:
+        """(holds, defined) per draw, both boolean arrays (module docstring)."""
+        n = len(next(iter(columns.values()))) if columns else 1
+        hold, defined = self.fn(columns)
+        return np.broadcast_to(np.asarray(hold, bool), (n,)), np.broadcast_to(np.asarray(defined, bool), (n,))
+
     def probability(self, columns: dict) -> float:
-        hold = np.asarray(self.fn(columns), bool)
-        return float(np.mean(hold)) if hold.size else math.nan
+        """The share of the defined draws where it holds (NaN: none defined)."""
+        hold, defined = self.evaluate(columns)
+        return float(np.mean(hold[defined])) if defined.any() else math.nan
+
+    def answer(self, columns: dict, ess: float | None = None) -> Answer:
+        hold, defined = self.evaluate(columns)
+        p = float(np.mean(hold[defined])) if defined.any() else math.nan
+        n_eff = max(float(ess if ess is not None else defined.sum()), 1.0)
+        se = math.sqrt(max(p * (1.0 - p), 0.0) / n_eff) if defined.any() else math.nan
+        return Answer(self.name, self.expr, p, se, int(hold.size), int((~defined).sum()))
+
+
+def answers(questions, labels, samples, ess) -> list[Answer]:
+    """Every question answered on `samples` (draws x variables, columns `labels`), its standard error from the
+    smallest effective sample size `ess` (per variable) of the variables it reads."""
+    cols = {lab: samples[:, j] for j, lab in enumerate(labels)}
+    return [q.answer(cols, min((ess[labels.index(n)] for n in q.names), default=len(samples)))
+            for q in questions]
+
+
+class _DivisionByZero(ValueError):
+    pass
+
+
+def _divide(a, b):
+    """a / b, NaN where b is 0 (the draw is undefined; module docstring), without numpy's warning."""
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return _finite(np.divide(a, b, out=np.full(a.shape, np.nan), where=b != 0))
+
+
+def _finite(x):
+    """x with its infinities (an overflow) as NaN: an undefined draw, as a division by zero."""
+    x = np.asarray(x, float)
+    return np.where(np.isinf(x), np.nan, x)
 
 
 def _refused(node) -> str:
@@ -61,6 +126,10 @@ class _Compiler:
             raise ValueError(f"'{word}' needs comparisons on both sides")
         return fn
 
+    def _reads(self, node) -> set:
+        """The labels an already compiled subtree reads."""
+        return {self.labels[x.id] for x in ast.walk(node) if isinstance(x, ast.Name) and x.id in self.labels}
+
     def num(self, node, word):
         kind, fn = self.node(node)
         if kind != "num":
@@ -73,31 +142,42 @@ class _Compiler:
             fns = [self.bool_(v, word) for v in n.values]
             join = operator.and_ if word == "and" else operator.or_
             def fn(d, fns=fns, join=join):
-                out = fns[0](d)
+                out, defined = fns[0](d)
                 for f in fns[1:]:
-                    out = join(out, f(d))
-                return out
+                    h, ok = f(d)
+                    out, defined = join(out, h), defined & ok
+                return out, defined
             return "bool", fn
         if isinstance(n, ast.UnaryOp) and isinstance(n.op, ast.Not):
             a = self.bool_(n.operand, "not")
-            return "bool", lambda d, a=a: ~a(d)
+            def negate(d, a=a):
+                h, ok = a(d)
+                return ~h, ok
+            return "bool", negate
         if isinstance(n, ast.UnaryOp) and isinstance(n.op, (ast.USub, ast.UAdd)):
             a = self.num(n.operand, "-" if isinstance(n.op, ast.USub) else "+")
             return ("num", (lambda d, a=a: -a(d)) if isinstance(n.op, ast.USub) else a)
         if isinstance(n, ast.BinOp) and type(n.op) in _ARITH:
             a, b, f = self.num(n.left, "arithmetic"), self.num(n.right, "arithmetic"), _ARITH[type(n.op)]
-            return "num", lambda d, f=f, a=a, b=b: f(a(d), b(d))
+            if f is np.divide:
+                if not self._reads(n.right) and np.all(b({}) == 0):  # a divisor without variables: known now
+                    raise _DivisionByZero(f"divides by zero (the divisor {ast.unparse(n.right)} is 0 whatever "
+                                          "the draw)")
+                return "num", lambda d, a=a, b=b: _divide(a(d), b(d))
+            return "num", lambda d, f=f, a=a, b=b: _finite(f(a(d), b(d)))
         if isinstance(n, ast.Compare) and all(type(o) in _COMPARE for o in n.ops):
             sides = [self.node(x) for x in (n.left, *n.comparators)]
             if any(k != "num" for k, _ in sides):
                 raise ValueError("comparisons compare numbers")
             parts = [(_COMPARE[type(o)], sides[i][1], sides[i + 1][1]) for i, o in enumerate(n.ops)]
             def fn(d, parts=parts):
-                out = None
+                out, defined = None, True
                 for f, a, b in parts:
-                    r = f(a(d), b(d))
+                    x, y = a(d), b(d)
+                    r = f(x, y)
                     out = r if out is None else out & r
-                return out
+                    defined = defined & np.isfinite(x) & np.isfinite(y)
+                return out, defined
             return "bool", fn
         if isinstance(n, ast.Constant) and type(n.value) in (int, float):
             v = float(n.value)
@@ -114,8 +194,9 @@ class _Compiler:
         raise ValueError(_refused(n))
 
 
-def parse_question(expr: str, names, source="<study>", key="questions.0.expr") -> Question:
-    """A Question over the variable labels `names`; InputError naming source and key if it does not parse."""
+def parse_question(expr: str, names, source="<study>", key="questions.0.expr", name: str | None = None) -> Question:
+    """A Question over the variable labels `names` (its `name`: the study's, default the expression);
+    InputError naming source and key if it does not parse or divides by a zero without variables."""
     labels = {_PLACEHOLDER.format(i): n for i, n in enumerate(names)}
     text = expr
     # longest label first, whole dotted names only (V1.speed is not a part of V1.speed2)
@@ -129,6 +210,8 @@ def parse_question(expr: str, names, source="<study>", key="questions.0.expr") -
             raise ValueError("not a comparison (e.g. V1.speed > 50)")
     except SyntaxError as err:
         raise InputError(source, key, f"{expr!r} does not parse: {err.msg}") from None
+    except _DivisionByZero as err:
+        raise InputError(source, key, f"{expr!r} {err}") from None
     except ValueError as err:
         raise InputError(source, key, f"{expr!r} does not parse: {err}") from None
-    return Question(expr, expr, fn, tuple(sorted(c.used)))
+    return Question(name or expr, expr, fn, tuple(sorted(c.used)))

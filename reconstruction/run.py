@@ -27,6 +27,7 @@ from pymoo.core.callback import Callback
 
 from crashlab.errors import InputError
 from crashlab.execution import Executor, WorkerStartError
+from crashlab.outdir import lock_out_dir
 
 from .html_report import write_reconstruction_report
 from .polish import polish_archive
@@ -172,7 +173,8 @@ def run_study(study, optimizer=None, workers=None, scheduler=None, out_dir=None,
               stop_after=None) -> ReconstructionResult | None:
     """Search, polish, and (with out_dir) write the outputs (Study.run)."""
     try:
-        return _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_after)
+        with lock_out_dir(out_dir, "reconstruct --resume" if resume else "reconstruct"):  # one writer per DIR
+            return _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_after)
     except WorkerStartError as err:
         raise InputError(study.path, "execution", str(err)) from None
 

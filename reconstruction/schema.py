@@ -371,4 +371,6 @@ class StudyFile(_Strict):
     uncertain: list[dict] = Field(default_factory=list,
                                   description="[[uncertain]] parameters: priors of crashlab infer; extra free "
                                   "variables of crashlab reconstruct within their support (uniform and "
-                                  "triangular: lower..upper; normal: mean +- 3 sd within its truncation)")
+                                  "triangular: lower..upper; normal: mean +- 3 sd within its truncation); on a "
+                                  "[[free]] variable's own field: infer's prior within the free bounds, which the "
+                                  "search keeps (reconstruct says so; refused when it has no probability there)")

@@ -75,6 +75,7 @@ class Study:
         self.evidence_set = evidence_set
         # the uncertain parameters the search takes as extra free variables (problem.UncertainVariable)
         self.uncertain = tuple(uncertain)
+        self.notes: list[str] = []  # said once when the study is run (free_and_uncertain)
 
     @property
     def variables(self) -> list:
@@ -241,8 +242,10 @@ def load_study(path) -> Study:
                              "is no rest pose (lengthen the scene's duration)")
     evidence_set, evidence, mode = build_evidence(path, spec, names, out,
                                                   specs={v.name: v.spec for v in scene.vehicles})
-    return Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None,
-                 uncertain_variables(path, spec, scene))
+    study = Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None,
+                  uncertain_variables(path, spec, scene))
+    study.notes = free_and_uncertain(path, spec, scene, scene_path)
+    return study
 
 
 def _checked_model(path, name: str, options: dict, key: str):
@@ -277,3 +280,33 @@ def uncertain_variables(path, spec: StudyFile, scene: Scene) -> list[UncertainVa
     by_path.update({u.field: u for u in declared})
     free = {f.path for f in spec.free}
     return [UncertainVariable.of(u) for p, u in by_path.items() if p not in free]
+
+
+def free_and_uncertain(path, spec: StudyFile, scene: Scene, scene_path) -> list[str]:
+    """A field both free (`[[free]]`) and uncertain (`[[uncertain]]` of the study or of its base scene's file):
+    its meaning, one note line each (reconstruct prints it): the free bounds are its range in both commands, the
+    search ignores the distribution, `crashlab infer` takes the distribution as its prior within the bounds
+    (posterior.py). Refused (InputError naming free.K and the uncertain entry) when the distribution has no
+    probability within the bounds: the prior would be 0 everywhere."""
+    entries = {}  # path -> (key, Uncertain), the study's entry winning as in uncertain_variables
+    for j, u in enumerate(getattr(scene, "uncertain", ()) or ()):
+        entries[u.field] = (f"uncertain.{j} of {Path(scene_path).name}", u)
+    for j, u in enumerate(uncertainty.parse(spec.uncertain, scene, path) if spec.uncertain else ()):
+        entries[u.field] = (f"uncertain.{j}", u)
+    notes = []
+    for k, f in enumerate(spec.free):
+        if f.path not in entries:
+            continue
+        key, u = entries[f.path]
+        unit = f" {u.unit}" if u.unit not in ("", "-") else ""
+        lo, hi = max(float(f.lower), u.lower), min(float(f.upper), u.upper)
+        if not lo < hi:
+            prior = u.describe().split(": ", 1)[1]
+            raise InputError(path, f"free.{k}", f"{f.label} is also uncertain ({key}: {prior}) with no probability "
+                             f"within its bounds [{f.lower:g}, {f.upper:g}]{unit}: crashlab infer's prior would be 0 "
+                             "everywhere; widen the bounds, move the distribution or drop one")
+        notes.append(f"{f.label} is free (free.{k}, [{f.lower:g}, {f.upper:g}]{unit}) and uncertain ({key}): the "
+                     f"search keeps the free bounds; crashlab infer takes {u.describe().split(': ', 1)[1]} as its "
+                     "prior within them")
+    return notes
+

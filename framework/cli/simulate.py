@@ -117,6 +117,67 @@ def loaded(model, scene) -> None:
         print(f"compiled the {model.name} model in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
 
 
+WARM_UP_S = 0.05  # s of the scene a timed run's worker simulates first, untimed: it loads or compiles the kernels
+
+
+def _timed_worker(conn, model_name: str, scene) -> None:
+    """The worker process of `simulate --timeout`: the model warmed up on the scene's first WARM_UP_S (as
+    `loaded` does), "ready", then the run, its Outcome (or the exception's one line) sent back."""
+    from ..execution.pool import _die_with_parent
+    from ..registry import get_model
+    _die_with_parent(conn.recv())
+    try:
+        model = get_model(model_name)
+        loaded(model, scene.replace(duration=min(scene.duration, WARM_UP_S)))
+        conn.send(("ready", None))
+        conn.send(("done", model.simulate(scene)))
+    except Exception as err:  # noqa: BLE001 - sent back as one line
+        conn.send(("error", f"{type(err).__name__}: {err}"))
+
+
+def timed_simulate(model_name: str, scene, timeout_s: float):
+    """The model's Outcome of the scene, run in a worker process that is killed when the run takes longer than
+    timeout_s (crashlab.execution's rule: Python cannot interrupt a compiled kernel, so the run is in its own
+    process; the first call's load or compile gets FIRST_CALL_GRACE_S, the run itself timeout_s). A run over
+    its time raises TimedOut; a worker that fails or dies, RuntimeError with the reason."""
+    import multiprocessing
+    import os
+
+    from ..execution.constants import FIRST_CALL_GRACE_S
+    ctx = multiprocessing.get_context("spawn")  # as crashlab.execution.pool: no fork after numba threads
+    conn, child = ctx.Pipe()
+    proc = ctx.Process(target=_timed_worker, args=(child, model_name, scene), daemon=True)
+    proc.start()
+    child.close()
+    conn.send(os.getpid())
+    try:
+        deadline = time.monotonic() + FIRST_CALL_GRACE_S + timeout_s
+        while True:
+            if not conn.poll(max(0.0, deadline - time.monotonic())):
+                raise TimedOut(model_name, timeout_s)
+            try:
+                kind, value = conn.recv()
+            except EOFError:  # the worker died (segfault, out of memory, killed)
+                proc.join(timeout=5.0)
+                raise RuntimeError(f"the run's worker process died (exit {proc.exitcode})") from None
+            if kind == "ready":
+                deadline = time.monotonic() + timeout_s
+            elif kind == "done":
+                return value
+            else:
+                raise RuntimeError(value)
+    finally:
+        if proc.is_alive():
+            proc.kill()
+        proc.join(timeout=5.0)
+        conn.close()
+
+
+class TimedOut(Exception):
+    def __init__(self, model_name: str, timeout_s: float):
+        super().__init__(f"model {model_name}: the run took longer than --timeout {timeout_s:g} s and was stopped")
+
+
 def cmd_monte_carlo(args, scene, model):
     """`simulate SCENE --monte-carlo N`: the scene's [[uncertain]] parameters drawn N times
     (crashlab.reconstruction.montecarlo)."""
@@ -134,9 +195,11 @@ def cmd_monte_carlo(args, scene, model):
     if not scene.uncertain:
         raise InputError(args.scene, "uncertain", "--monte-carlo needs [[uncertain]] parameters in the scene "
                          "(field, distribution and its parameters); this scene has none")
-    result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
-                            progress=sys.stderr.isatty())
-    written = montecarlo.write(result, args.out) if args.out else []
+    from ..outdir import lock_out_dir
+    with lock_out_dir(args.out, "simulate --monte-carlo"):  # one run writes DIR at a time
+        result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
+                                progress=sys.stderr.isatty())
+        written = montecarlo.write(result, args.out) if args.out else []
     if args.json:
         print(json.dumps(result.to_json_dict(), indent=2))
     else:
@@ -227,13 +290,28 @@ def cmd_simulate(args):
     refuse_other_kind(args.scene, "scene")
     scene = load_scene(args.scene)
     model = _get_model(args.model, args.scene)
+    timeout = getattr(args, "timeout", None)
+    if timeout is not None and not (math.isfinite(timeout) and timeout > 0):
+        raise InputError("command line", "--timeout", f"seconds, above 0, got {timeout}")
     if args.monte_carlo is not None:
+        if timeout is not None:
+            raise InputError("command line", "--timeout", "limits a single run, not --monte-carlo")
         return cmd_monte_carlo(args, scene, model)
     if args.seed is not None or args.out is not None:
         raise InputError("command line", "--seed" if args.seed is not None else "--out",
                          "only with --monte-carlo N")
-    loaded(model, scene)
-    out = model.simulate(scene)
+    if timeout is None:
+        loaded(model, scene)
+        out = model.simulate(scene)
+    else:
+        try:
+            out = timed_simulate(args.model, scene, timeout)
+        except TimedOut as err:
+            print(f"crashlab: simulation failed: {args.scene}: {err}", file=sys.stderr)
+            return 3
+        except RuntimeError as err:
+            print(f"crashlab: simulation failed: {args.scene}: model {args.model}: {err}", file=sys.stderr)
+            return 3
     written = []
     if args.csv:
         _write_csv(out, Path(args.csv), args.units)
