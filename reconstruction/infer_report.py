@@ -12,6 +12,8 @@ import numpy as np
 
 from crashlab.errors import InputError
 
+from .questions import answers
+
 # emcee's rule: tau is reliable from a chain of 50 tau; a burn-in of a few tau forgets the start
 TAU_RELIABLE = 50
 BURN_TAUS = 5
@@ -80,14 +82,10 @@ def chain_warnings(res) -> list[str]:
 
 
 def question_rows(post, res) -> list[tuple[str, float, float]]:
-    """(expression, probability, Monte Carlo standard error from the smallest ESS of its variables)."""
-    cols = {lab: res.samples[:, j] for j, lab in enumerate(res.labels)}
-    rows = []
-    for q in post.questions:
-        p = q.probability(cols)
-        ess = min((res.ess[res.labels.index(n)] for n in q.names), default=len(res.samples))
-        rows.append((q.expr, p, math.sqrt(max(p * (1 - p), 0.0) / max(ess, 1.0))))
-    return rows
+    """(the question's name (its expression where it has none) with the note of draws where it is undefined,
+    probability over the defined draws, Monte Carlo standard error from the smallest ESS of its variables)."""
+    return [(a.name + (f" ({a.note})" if a.note else ""), a.probability, a.standard_error)
+            for a in answers(post.questions, res.labels, res.samples, res.ess)]
 
 
 def best_draw(post, res):

@@ -114,9 +114,7 @@ class Posterior:
                 qf = QuestionFile.model_validate(q)
             except ValidationError as err:
                 raise pydantic_error(path, err, f"questions.{k}.", QuestionFile) from None
-            question = parse_question(qf.expr, self.labels, path, f"questions.{k}.expr")
-            question.name = qf.name or qf.expr
-            self.questions.append(question)
+            self.questions.append(parse_question(qf.expr, self.labels, path, f"questions.{k}.expr", name=qf.name))
         self.counterfactuals = counterfactual.parse(extras.get("counterfactuals", []), scene, path)
         self.evaluations = 0
 

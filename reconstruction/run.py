@@ -95,12 +95,11 @@ def load_checkpoint(ckpt: Path, fingerprint: dict, optimizer: str | None):
 
 
 def status(problem, hv_ref) -> str:
-    """One line of progress: evaluations, feasible share of the last generation, best objectives, HV."""
+    """One line of progress: evaluations, the feasible share of all of them (ok and within the constraints: the
+    summary's feasible_fraction, so the last line and the summary say the same), best objectives, HV."""
     from pymoo.indicators.hv import HV
-    G = problem.archive["G"][-1]
-    feas = np.all(G <= 0, axis=1)
     allF = np.concatenate(problem.archive["F"])
-    allfeas = np.all(np.concatenate(problem.archive["G"]) <= 0, axis=1)
+    allfeas = np.all(np.concatenate(problem.archive["G"]) <= 0, axis=1) & np.concatenate(problem.archive["ok"])
     evals = len(allF)
     if allfeas.any():
         best = allF[allfeas].min(axis=0)
@@ -109,7 +108,7 @@ def status(problem, hv_ref) -> str:
     else:
         hv, best_s = 0.0, "-"
     unit = "m" if getattr(problem, "evidence_set", None) is None else "sigma"  # the misfit is normalised
-    return f"evals {evals} feasible {feas.mean():.0%} best [{best_s}] {unit} HV {hv:.2f}"
+    return f"evals {evals} feasible {allfeas.mean():.1%} best [{best_s}] {unit} HV {hv:.2f}"
 
 
 class _Stopped(Exception):

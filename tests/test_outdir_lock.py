@@ -129,12 +129,8 @@ def test_monte_carlo_out_refused_on_a_live_folder(tmp_path, holder):
     assert_one_error_line(res, tmp_path / "mc", "--out", [f"pid {proc.pid}"])
 
 
-# the commands whose lock the command line takes (framework/cli/main.py, the lead's wiring: main() holds
-# lock_out_dir(args.out, command) around args.fn(args)); strict: the marker goes when the wiring is in
-WIRED_IN_MAIN = pytest.mark.xfail(strict=True, reason="lock taken in framework/cli/main.py (lead's wiring)")
-
-
-@WIRED_IN_MAIN
+# the commands whose lock the command line takes (framework/cli/main.py: main() holds lock_out_dir(args.out,
+# command) around the command)
 @pytest.mark.parametrize("argv", [["infer", "s.toml"], ["avoid", "s.toml"], ["study", "stability", "--quick"]],
                          ids=["infer", "avoid", "study"])
 def test_other_commands_refused_on_a_live_folder(tmp_path, holder, monkeypatch, capsys, argv):

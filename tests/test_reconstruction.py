@@ -568,3 +568,14 @@ def test_a_free_engagement_depth_is_checked_against_its_scene_range():
     assert FreeVariable(field="engagement_depth", lower=0.2, upper=0.8).path == "impact.engagement_depth"
     with pytest.raises(ValidationError, match=r"lower = 0 is outside \[0.001, .*\] m for engagement_depth"):
         FreeVariable(field="engagement_depth", lower=0.0, upper=0.8)
+
+
+def test_progress_and_summary_say_the_same_feasible_share(serial_run):
+    """Issue 26 item 2: the progress line's feasible share is the summary's (every evaluation, ok and within
+    the constraints), not the last generation's alone; counted here from the archive."""
+    from crashlab.reconstruction.run import status
+    problem = serial_run.problem
+    arch = problem.archive_arrays()
+    share = float((np.all(arch["G"] <= 0, axis=1) & arch["ok"]).mean())
+    assert serial_run.feasible_fraction == pytest.approx(share)
+    assert f"feasible {share:.1%} " in status(problem, 10.0)

@@ -226,6 +226,9 @@ def build_parser():
     s.add_argument("--seed", type=int, default=None, help="--monte-carlo: seed of the draws (default: 1)")
     s.add_argument("--out", default=None, metavar="DIR", help="--monte-carlo: write montecarlo.csv, summary.csv "
                    "and montecarlo.png here (default: print the summary only)")
+    s.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help="fail a run longer than SECONDS (exit 3): the run in a worker process, stopped when it "
+                   "overruns (default: no limit)")
     _table_options(s, "print every column of the impact table (default: the columns that fit 100)")
     s.set_defaults(fn=cmd_simulate)
     c = command("compare", "compare models with each other and with the scene's published results")
@@ -319,7 +322,9 @@ def build_parser():
 def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
-        return args.fn(args)
+        from ..outdir import lock_out_dir
+        with lock_out_dir(getattr(args, "out", None), args.command):  # one writer per --out folder
+            return args.fn(args)
     except InputError as err:
         print(f"crashlab: error: {err}", file=sys.stderr)
         return 2
