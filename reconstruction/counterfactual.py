@@ -95,8 +95,27 @@ def parse(raw, scene, path) -> list[Counterfactual]:
             raise InputError(path, key, "a counterfactual changes something: give set, shift or scale")
         if len({f.path for _, f, _ in changes}) < len(changes):
             raise InputError(path, key, "a field changed twice")
-        out.append(Counterfactual(cf.name, tuple(changes), cf.keep))
+        made = Counterfactual(cf.name, tuple(changes), cf.keep)
+        _check_start_apart(made, scene, path, key)
+        out.append(made)
     return out
+
+
+def _check_start_apart(cf: Counterfactual, scene, path, key) -> None:
+    """InputError naming the change when the counterfactual, applied to the scene's own values, puts two
+    outlines (or a vehicle and a barrier) into an overlap at the start that the scene does not have."""
+    from crashlab.scene import start_overlaps
+    fs, V = changed_values(cf, scene, [], np.zeros((1, 0)))
+    try:
+        moved = fields.set_fields(scene, fs, V[0])
+    except ValueError as err:  # a shift or scale taking a value out of its range
+        raise InputError(path, key, str(err)) from None
+    new = sorted(set(start_overlaps(moved)) - set(start_overlaps(scene)))
+    if new:
+        a, b = new[0]
+        how, f, _ = next((c for c in cf.changes if getattr(c[1], "vehicle", None) in (a, b)), cf.changes[0])
+        raise InputError(path, f"{key}.{how}.{f.path}", f"moves the start of {a} into an overlap with {b}; a "
+                         "counterfactual changes what happened before the crash, not where the cars stood apart")
 
 
 def changed_values(cf: Counterfactual, scene, var_fields, X, contact_t=None) -> tuple[list, np.ndarray]:

@@ -101,6 +101,9 @@ def test_arrival_moves_the_start_so_the_car_arrives_when_it_did(scene):
     ({"name": "x"}, "counterfactuals.0"),
     ({"name": "x", "sett": {"vehicles.V1.speed": 50.0}}, "counterfactuals.0.sett"),
     ({"name": "x", "shift": {"vehicles.V1.actions.3.t": -0.5}}, "counterfactuals.0.shift.vehicles.V1.actions.3.t"),
+    # V1 moved onto V2, standing across its lane GAP ahead: an overlap at the start (issue 28 item 4)
+    ({"name": "x", "shift": {"vehicles.V1.x": GAP + 1.0}}, "counterfactuals.0.shift.vehicles.V1.x"),
+    ({"name": "x", "set": {"vehicles.V2.x": 1.0}}, "counterfactuals.0.set.vehicles.V2.x"),
 ])
 def test_bad_counterfactuals_name_the_key(scene, entry, key):
     with pytest.raises(InputError) as err:
