@@ -22,7 +22,10 @@ def test_side_collision_reads_twelve_for_the_striking_car_and_nine_for_the_car_s
     assert first.loc["V1", "pdof_clock"] == 12 and first.loc["V2", "pdof_clock"] == 9
     res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml")],
                          capture_output=True, text=True)
-    assert "delta_v [km/h]" in res.stdout and "pdof_clock [h]" in res.stdout
+    assert "delta_v [km/h]" in res.stdout and "pdof [deg]" in res.stdout  # the table within 100 columns
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(PC_CRASH / "side.toml"), "--wide"],
+                         capture_output=True, text=True)
+    assert "pdof_clock [h]" in res.stdout  # every column with --wide
 
 
 def test_simulate_csv_exports_the_trajectories_and_impacts(tmp_path):
