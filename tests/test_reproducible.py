@@ -106,7 +106,8 @@ def test_one_seed_one_run_and_another_seed_another(name):
     assert not (X1.shape == X3.shape and np.array_equal(X1, X3))
 
 
-@pytest.mark.parametrize("optimizer", OPTIMIZERS)
+@pytest.mark.parametrize("optimizer", [o if o == "nsga3" else pytest.param(o, marks=pytest.mark.slow)
+                                       for o in OPTIMIZERS])  # nsga3's was not reproducible (default run); all: slow
 def test_a_study_run_twice_gives_the_same_pareto_set(tmp_path, optimizer, unseeded_draws):
     """Case 3 (some candidates have no impact: tied violations), 20 x 8 and a polish, through Study.run: the
     same seed gives the same archive and pareto.csv, seed + 1 another archive, and no draw is unseeded (with
