@@ -38,13 +38,16 @@ def wheel_force(vwx, vwy, normal, mu, mode, brake, f_rr, c_alpha):
         s = math.sqrt(vwx * vwx + vwy * vwy + V_REG * V_REG)
         return -fmax * vwx / s, -fmax * vwy / s
     alpha = math.atan2(vwy, max(abs(vwx), V_LOW))
-    fy = -fmax * math.tanh(c_alpha * alpha / fmax)
+    x = c_alpha * alpha / fmax
+    fy = -fmax * math.tanh(x)
+    # the friction left beside fy, sqrt(fmax^2 - fy^2), as fmax / cosh(x): the difference of squares loses every
+    # digit where fy saturates (docs/physics.md §2a); cosh's argument capped below its overflow
+    left = fmax / math.cosh(min(abs(x), 700.0))
     if mode == BRAKED:
-        fx = -math.sqrt(max(fmax * fmax - fy * fy, 0.0)) * math.tanh(vwx / V_REG)
-        return fx, fy
+        return -left * math.tanh(vwx / V_REG), fy
     retard = f_rr * normal
     if brake > 0.0:
-        retard = max(retard, brake * math.sqrt(max(fmax * fmax - fy * fy, 0.0)))
+        retard = max(retard, brake * left)
     fx = -retard * math.tanh(vwx / V_REG)
     if abs(fx) + abs(fy) < fmax * (1.0 - 1e-12):  # inside the friction circle: hypot(fx, fy) <= |fx| + |fy|
         return fx, fy
