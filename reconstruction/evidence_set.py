@@ -87,7 +87,7 @@ def polyline_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 
 def _one(outcome) -> Population:
-    return Population.of_outcomes([outcome], outcome.names, np.full((1, len(outcome.names)), np.nan))
+    return Population.of_outcomes([outcome], outcome.names)
 
 
 def first_impact_point(outcome) -> tuple[float, float]:
@@ -164,7 +164,7 @@ class EvidenceSet:
     def residuals(self, outcomes) -> np.ndarray:
         """(n, m) normalised residuals (simulated - measured) / sigma of a batch of Outcomes, columns as
         `labels`; a row of NaN for a candidate that cannot be scored (module docstring)."""
-        pop = Population.of_outcomes(outcomes, self.names, np.full((len(outcomes), len(self.names)), np.nan))
+        pop = Population.of_outcomes(outcomes, self.names)
         return self._residuals(pop, outcomes)
 
     def population_residuals(self, pop) -> np.ndarray:
