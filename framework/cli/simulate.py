@@ -85,7 +85,7 @@ def refuse_other_kind(path, expected: str) -> None:
     """InputError when the file is of the other kind than the command takes: a study (it names its scene and
     has [[free]] or [evidence]) given where a scene is expected, or a scene (it has [[vehicles]] and names
     no scene) given where a study is."""
-    from ..vehicle import read_toml
+    from ..input_files import read_toml
     data = read_toml(Path(path), "scene" if expected == "scene" else "study")
     if expected == "scene" and "vehicles" not in data and {"scene", "free", "evidence"} & set(data):
         raise InputError(path, "(top level)", "this is a study file (it names a scene and what to search): run it "
