@@ -122,15 +122,17 @@ class Population:
 
     # -------------------------------------------------------------- from Outcomes
     @classmethod
-    def of_outcomes(cls, outcomes, names, masses, scorer=None) -> Population:
+    def of_outcomes(cls, outcomes, names, masses=None, scorer=None) -> Population:
         """The population of Outcomes (or exceptions in their place; the base class's route over
         simulate_batch, and any model's): an exception, None or a failed Outcome fails its row with the
-        reason; a non-finite rest pose fails. masses (N, nv) [kg] the variants' masses. With a scorer
+        reason; a non-finite rest pose fails. masses (N, nv) [kg] the variants' masses (None: NaN, left to the
+        caller: CollisionModel.simulate_population's wrapper fills them from the rows). With a scorer
         (crashlab.execution), its numbers of the outcomes."""
         n, nv = len(outcomes), len(names)
         k = 0 if scorer is None else int(scorer.n_residuals)
         pop = cls.empty(n, names, "", k)
-        pop.mass[:] = masses
+        if masses is not None:
+            pop.mass[:] = masses
         for r, o in enumerate(outcomes):
             if isinstance(o, BaseException):
                 pop.reason[r] = exception_reason(o)

@@ -9,10 +9,7 @@ together after the single fields.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
-import tomllib
-import typing
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Literal
@@ -21,8 +18,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .errors import InputError
 from .file_numbers import Real, bounded
+from .input_files import pydantic_error, read_toml, schema_in  # noqa: F401 - schema_in: see below
 from .structure import STRUCTURE_SIDES, StructureSection, structure_of
-from .units import split_unit
+
+# read_toml, pydantic_error and schema_in live in crashlab.input_files; they are importable from here too for
+# the modules that still import them from crashlab.vehicle (file_units, scene_file, uncertainty, the study)
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
@@ -248,127 +248,6 @@ def _deep_merge(base: dict, update: dict) -> dict:
     for k, v in update.items():
         out[k] = _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
     return out
-
-
-def read_toml(path: Path, what: str = "file") -> dict:
-    """A TOML file as a dict; anything that keeps it from being read is an InputError naming the file: not
-    found, a path the system refuses (too long: a name of more than 255 bytes), malformed, not UTF-8, an
-    integer of more than Python's 4,300 digits, arrays or tables nested deeper than Python's recursion
-    allows (the line and its key named)."""
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(path, what, "file not found") from None
-    except tomllib.TOMLDecodeError as err:
-        raise InputError(path, "(syntax)", f"malformed TOML: {err}") from None
-    except UnicodeDecodeError:
-        raise InputError(path, "(encoding)", "not a UTF-8 text file") from None
-    except OSError as err:
-        raise InputError(path, what, err.strerror or str(err)) from None
-    except ValueError:  # int(): more digits than sys.get_int_max_str_digits()
-        raise InputError(path, _line_key(path, rf"[0-9_]{{{_INT_DIGITS_MAX},}}"),
-                         f"an integer of more than {_INT_DIGITS_MAX:,} digits") from None
-    except RecursionError:
-        raise InputError(path, _line_key(path, r"(?:[\[{]\s*){100,}"),
-                         "arrays or tables nested too deep (hundreds of levels)") from None
-
-
-# pydantic's error types of a violated bound (ge, gt, le, lt)
-BOUND_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
-_INT_DIGITS_MAX = 4300  # Python's default int <-> str conversion limit (sys.get_int_max_str_digits)
-
-
-def _line_key(path, pattern: str) -> str:
-    """'KEY (line N)' of the first line of the file matching `pattern`, for a refusal that tomllib does not
-    locate; "(syntax)" when none does."""
-    import re
-    try:
-        text = Path(path).read_text(encoding="utf-8", errors="replace")
-    except OSError:
-        return "(syntax)"
-    for n, line in enumerate(text.splitlines(), 1):
-        if re.search(pattern, line):
-            key = line.split("=", 1)[0].strip() if "=" in line else ""
-            return f"{key} (line {n})" if key and len(key) < 80 else f"(line {n})"
-    return "(syntax)"
-
-
-def _shown(value) -> str:
-    """A short one-line rendering of a bad input value, in TOML spelling for booleans."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def schema_in(annotation):
-    """The pydantic model an annotation holds (itself, or inside list[...], dict[..., ...], X | None, tuple[...]),
-    or None."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = schema_in(arg)
-        if found is not None:
-            return found
-    return None
-
-
-def _field_at(schema, part):
-    """The pydantic field named (or aliased) `part` of `schema`, or None."""
-    if schema is None:
-        return None
-    return schema.model_fields.get(part) or next((f for f in schema.model_fields.values() if f.alias == part), None)
-
-
-def keys_at(schema, loc) -> list[str]:
-    """The keys the table at `loc` (a pydantic error's location, list indices included) of a file with the
-    pydantic schema `schema` accepts; [] where unknown."""
-    for part in loc:
-        if isinstance(part, int) or schema is None:
-            continue
-        field = _field_at(schema, part)
-        schema = None if field is None else schema_in(field.annotation)
-    if schema is None:
-        return []
-    return [f.alias or name for name, f in schema.model_fields.items()]
-
-
-def unit_at(schema, loc) -> str:
-    """The unit of the key at `loc` of a file with the pydantic schema `schema`, as its description states it
-    (crashlab.units.split_unit); "" where unknown or unitless."""
-    keys = [p for p in loc if not isinstance(p, int)]
-    if not keys:
-        return ""
-    for part in keys[:-1]:
-        field = _field_at(schema, part)
-        schema = None if field is None else schema_in(field.annotation)
-    field = _field_at(schema, keys[-1])
-    unit = split_unit(field.description)[0] if field is not None else ""
-    return "" if unit == "-" else unit
-
-
-def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) -> InputError:
-    """The first validation error as one InputError line (file, dotted key, problem); with the file's pydantic
-    `schema`, an unknown key gets the nearest known one ("did you mean").)"""
-    first = err.errors()[0]
-    key = ".".join(str(p) for p in first["loc"]) or "(top level)"
-    msg = first["msg"].removeprefix("Value error, ")
-    if first["type"] == "extra_forbidden":
-        msg = "unknown key"
-        close = difflib.get_close_matches(str(first["loc"][-1]), keys_at(schema, first["loc"][:-1]), n=1)
-        if close:
-            msg += f"; did you mean {close[0]!r}?"
-    elif first["type"] == "missing":
-        msg = "missing key"
-    elif first["type"] == "string_pattern_mismatch":
-        msg = "no control characters (line breaks, tabs) allowed"
-    elif first["type"].endswith("_type") or first["type"] in ("finite_number", "bool_parsing"):
-        msg += f", got {_shown(first.get('input'))}"
-    elif first["type"] in BOUND_ERRORS:  # the bound in the key's unit, and what the file gave
-        unit = unit_at(schema, first["loc"])
-        msg = f"{msg}{' ' + unit if unit else ''}, got {_shown(first.get('input'))}"
-    return InputError(file, prefix + key, msg)
 
 
 def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None) -> VehicleFile:

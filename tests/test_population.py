@@ -225,3 +225,17 @@ def test_the_executor_sends_the_scene_and_blocks_of_rows_to_its_workers(model, b
     np.testing.assert_array_equal(there.rest, here.rest)
     np.testing.assert_array_equal(there.ok, here.ok)
     np.testing.assert_array_equal(there.delta_v, here.delta_v)
+
+
+@pytest.mark.parametrize("model_name", ["impulse", "pymunk"])  # its own population; the base class's route
+def test_the_population_masses_are_the_rows_masses_also_of_a_row_that_fails(model_name):
+    """pop.mass [kg] is each variant's mass: the row's value where the mass is a field, the scene's vehicle
+    mass where not, also for a row that is no valid scene (20 kg, below crashlab.vehicle.MASS_RANGE)."""
+    from crashlab.registry import get_model
+    scene = crashlab.load_scene(SIDE)
+    values = np.array([[1100.0, 50.0], [20.0, 50.0], [1500.0, 45.0]])
+    pop = get_model(model_name).simulate_population(scene, ["vehicles.V1.mass", "vehicles.V2.speed"], values,
+                                                    invalid="fail")
+    assert list(pop.ok) == [True, False, True]
+    want = np.column_stack([values[:, 0], np.full(3, scene.vehicles[1].spec.mass)])
+    np.testing.assert_array_equal(pop.mass, want)

@@ -300,15 +300,15 @@ def test_a_sandwiched_car_is_no_energy_creating_impact():
 def test_an_energy_creating_sandwich_still_fails(monkeypatch):
     """The same scene with the contacts' restitution forced to 1.6 (an engine that creates energy): the
     island's books show it and the guard fails the run."""
-    from crashlab.models.pymunk import model as pm
+    from crashlab.models.pymunk.contacts import Contacts
 
-    pre_solve = pm._Run._pre_solve
+    pre_solve = Contacts._pre_solve
 
     def bouncy(self, arb, space, data):
         pre_solve(self, arb, space, data)
         arb.restitution = 1.6
 
-    monkeypatch.setattr(pm._Run, "_pre_solve", bouncy)
+    monkeypatch.setattr(Contacts, "_pre_solve", bouncy)
     out = model(ground_forces=False).simulate(sandwich_scene())
     assert out.diagnostics.energy_end > out.diagnostics.energy_start
     assert not out.outcome_ok and "impact_energy" in out.violations

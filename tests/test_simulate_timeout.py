@@ -15,6 +15,7 @@ from crashlab.models.pymunk import PymunkModel
 REPO = Path(__file__).resolve().parent.parent
 SIDE = REPO / "studies" / "pc_crash" / "side.toml"
 cli_main = importlib.import_module("crashlab.cli.main")
+COMPILE_NOTICE = ("compiling the ", "compiled the ")  # crashlab.cli.simulate.announce_compile's two lines
 
 
 class SleepingPymunk(PymunkModel):
@@ -37,6 +38,7 @@ def test_a_run_over_its_time_is_stopped_exit_3_one_line(capsys):
     assert run(["--model", model], 2.0) == 3
     err = capsys.readouterr().err.strip().splitlines()
     print("\n" + "\n".join(err))
+    err = [line for line in err if not line.startswith(COMPILE_NOTICE)]  # a cold numba cache announces itself
     assert err == [f"crashlab: simulation failed: {SIDE}: model {model}: the run took longer than --timeout 2 s "
                    "and was stopped"]
 
@@ -63,3 +65,18 @@ def test_timeout_with_monte_carlo_is_refused():
     from crashlab.errors import InputError
     with pytest.raises(InputError, match=r"--timeout: limits a single run, not --monte-carlo"):
         run(["--model", "pymunk", "--monte-carlo", "2"], 5.0)
+
+
+def test_the_worker_says_ready_once_before_the_run_and_returns_its_outcome():
+    """crashlab.execution.simulate_with_timeout itself: on_ready is called once, when the warm-up has ended and
+    before the run's Outcome comes back, and the Outcome is the in-process one (rest poses equal)."""
+    from crashlab.execution import simulate_with_timeout
+    from crashlab.scene_file import load_scene
+    scene = load_scene(SIDE)
+    events = []
+    out = simulate_with_timeout("pymunk", scene, 300.0, on_ready=lambda: events.append("ready"))
+    events.append("done")
+    assert events == ["ready", "done"]
+    assert out.outcome_ok
+    plain = PymunkModel().simulate(scene)
+    assert out.rest.equals(plain.rest)

@@ -85,7 +85,7 @@ def refuse_other_kind(path, expected: str) -> None:
     """InputError when the file is of the other kind than the command takes: a study (it names its scene and
     has [[free]] or [evidence]) given where a scene is expected, or a scene (it has [[vehicles]] and names
     no scene) given where a study is."""
-    from ..vehicle import read_toml
+    from ..input_files import read_toml
     data = read_toml(Path(path), "scene" if expected == "scene" else "study")
     if expected == "scene" and "vehicles" not in data and {"scene", "free", "evidence"} & set(data):
         raise InputError(path, "(top level)", "this is a study file (it names a scene and what to search): run it "
@@ -96,86 +96,37 @@ def refuse_other_kind(path, expected: str) -> None:
                          "(docs/tutorial.md)")
 
 
+def announce_compile(model):
+    """Announce on stderr a model's cold compile (the first use of its numba kernels after installing or
+    updating crashlab) before it starts; returns what announces its time after it, or None when nothing
+    compiles cold."""
+    if model.compiles is None:
+        return None
+    from .. import numba_cache
+    if numba_cache.is_cached(model.compiles):
+        return None
+    print(f"compiling the {model.name} model once (first use after an install or update: about 30 s; "
+          "later runs load it)", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+
+    def compiled():
+        print(f"compiled the {model.name} model in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    return compiled
+
+
 def loaded(model, scene) -> None:
     """Run the model once on the scene, untimed, so that the run that follows times the simulation alone: a
-    model with numba kernels (CollisionModel.compiles) loads or compiles them on its first call; a cold
-    compile (the first use after installing or updating crashlab) is announced on stderr before it starts,
-    and its time after."""
+    model with numba kernels (CollisionModel.compiles) loads or compiles them on its first call (a cold
+    compile announced, announce_compile)."""
     if model.compiles is None:
         return
-    from .. import numba_cache
-    cold = not numba_cache.is_cached(model.compiles)
-    if cold:
-        print(f"compiling the {model.name} model once (first use after an install or update: about 30 s; "
-              "later runs load it)", file=sys.stderr, flush=True)
-    t0 = time.perf_counter()
+    compiled = announce_compile(model)
     try:
         model.simulate(scene)
     except Exception:  # noqa: BLE001 - the timed run that follows meets it and reports it
         pass
-    if cold:
-        print(f"compiled the {model.name} model in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
-
-
-WARM_UP_S = 0.05  # s of the scene a timed run's worker simulates first, untimed: it loads or compiles the kernels
-
-
-def _timed_worker(conn, model_name: str, scene) -> None:
-    """The worker process of `simulate --timeout`: the model warmed up on the scene's first WARM_UP_S (as
-    `loaded` does), "ready", then the run, its Outcome (or the exception's one line) sent back."""
-    from ..execution.pool import _die_with_parent
-    from ..registry import get_model
-    _die_with_parent(conn.recv())
-    try:
-        model = get_model(model_name)
-        loaded(model, scene.replace(duration=min(scene.duration, WARM_UP_S)))
-        conn.send(("ready", None))
-        conn.send(("done", model.simulate(scene)))
-    except Exception as err:  # noqa: BLE001 - sent back as one line
-        conn.send(("error", f"{type(err).__name__}: {err}"))
-
-
-def timed_simulate(model_name: str, scene, timeout_s: float):
-    """The model's Outcome of the scene, run in a worker process that is killed when the run takes longer than
-    timeout_s (crashlab.execution's rule: Python cannot interrupt a compiled kernel, so the run is in its own
-    process; the first call's load or compile gets FIRST_CALL_GRACE_S, the run itself timeout_s). A run over
-    its time raises TimedOut; a worker that fails or dies, RuntimeError with the reason."""
-    import multiprocessing
-    import os
-
-    from ..execution.constants import FIRST_CALL_GRACE_S
-    ctx = multiprocessing.get_context("spawn")  # as crashlab.execution.pool: no fork after numba threads
-    conn, child = ctx.Pipe()
-    proc = ctx.Process(target=_timed_worker, args=(child, model_name, scene), daemon=True)
-    proc.start()
-    child.close()
-    conn.send(os.getpid())
-    try:
-        deadline = time.monotonic() + FIRST_CALL_GRACE_S + timeout_s
-        while True:
-            if not conn.poll(max(0.0, deadline - time.monotonic())):
-                raise TimedOut(model_name, timeout_s)
-            try:
-                kind, value = conn.recv()
-            except EOFError:  # the worker died (segfault, out of memory, killed)
-                proc.join(timeout=5.0)
-                raise RuntimeError(f"the run's worker process died (exit {proc.exitcode})") from None
-            if kind == "ready":
-                deadline = time.monotonic() + timeout_s
-            elif kind == "done":
-                return value
-            else:
-                raise RuntimeError(value)
-    finally:
-        if proc.is_alive():
-            proc.kill()
-        proc.join(timeout=5.0)
-        conn.close()
-
-
-class TimedOut(Exception):
-    def __init__(self, model_name: str, timeout_s: float):
-        super().__init__(f"model {model_name}: the run took longer than --timeout {timeout_s:g} s and was stopped")
+    if compiled:
+        compiled()
 
 
 def cmd_monte_carlo(args, scene, model):
@@ -304,10 +255,12 @@ def cmd_simulate(args):
         loaded(model, scene)
         out = model.simulate(scene)
     else:
-        try:
-            out = timed_simulate(args.model, scene, timeout)
-        except TimedOut as err:
-            print(f"crashlab: simulation failed: {args.scene}: {err}", file=sys.stderr)
+        from ..execution import TimedOut, simulate_with_timeout
+        try:  # in a worker process that is killed when it overruns; it warms the model up first
+            out = simulate_with_timeout(args.model, scene, timeout, on_ready=announce_compile(model))
+        except TimedOut:
+            print(f"crashlab: simulation failed: {args.scene}: model {args.model}: the run took longer than "
+                  f"--timeout {timeout:g} s and was stopped", file=sys.stderr)
             return 3
         except RuntimeError as err:
             print(f"crashlab: simulation failed: {args.scene}: model {args.model}: {err}", file=sys.stderr)

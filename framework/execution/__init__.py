@@ -29,6 +29,8 @@ dropped and nothing stops the run:
     worker process is also killed by the kernel when the process that started it dies, even by SIGKILL
     (prctl PR_SET_PDEATHSIG; elsewhere a watchdog thread polls the parent). Dask's local cluster stops
     its workers when it closes, and they exit when the pipe to their parent closes (distributed.process).
+One scene with a time limit (`crashlab simulate --timeout`): `simulate_with_timeout` (execution.timed), the
+same rule for a single run, which returns the Outcome itself.
 With `timeout_s` None or 0 the serial backend simulates in this process (exceptions still fail single
 evaluations; a hang then hangs the run).
 
@@ -44,7 +46,8 @@ from .evaluate import empty_population, evaluate_in_process, evaluate_variants
 from .executor import Executor
 from .models import model_for, model_instance
 from .pool import WorkerPool, WorkerStartError
+from .timed import TimedOut, simulate_with_timeout
 
-__all__ = ["DEFAULT_TIMEOUT_S", "FIRST_CALL_GRACE_S", "Executor", "Population", "Variants", "WorkerPool",
-           "WorkerStartError", "empty_population", "evaluate_in_process", "evaluate_variants", "model_for",
-           "model_instance"]
+__all__ = ["DEFAULT_TIMEOUT_S", "FIRST_CALL_GRACE_S", "Executor", "Population", "TimedOut", "Variants",
+           "WorkerPool", "WorkerStartError", "empty_population", "evaluate_in_process", "evaluate_variants",
+           "model_for", "model_instance", "simulate_with_timeout"]

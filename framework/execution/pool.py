@@ -21,7 +21,7 @@ class WorkerStartError(RuntimeError):
 START_FAILURES = 3  # consecutive workers that die before their first evaluation: the pool gives up
 
 
-def _die_with_parent(parent_pid: int) -> None:
+def die_with_parent(parent_pid: int) -> None:
     """Make this process end when its parent does, whatever kills the parent."""
     if sys.platform.startswith("linux"):
         try:
@@ -44,7 +44,7 @@ def _die_with_parent(parent_pid: int) -> None:
 def _worker_main(conn, parent_pid: int, single_thread: bool) -> None:
     """Loop of a worker process: tasks (id, model, options, scenes, split, scorer) in, messages out:
     ("start", id, k0, m) before evaluating scenes k0..k0+m, ("done", id, k0, Population) after."""
-    _die_with_parent(parent_pid)
+    die_with_parent(parent_pid)
     if single_thread:
         _single_thread()
     while True:

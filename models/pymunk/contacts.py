@@ -1,0 +1,171 @@
+"""The contacts of a pymunk run (docs/physics.md §18): Chipmunk's collision callbacks open a contact episode
+per pair at `begin` and close it at `separate` (one impact row each), set the pair's restitution and friction
+on the arbiter every pre-solve, and each step's contact velocity jumps and the kinetic energy the contact
+impulses removed are booked to the open episodes."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from crashlab.restitution import restitution_at
+
+
+class Episode:
+    """One contact episode of a pair (vehicle i, vehicle or barrier k)."""
+
+    __slots__ = ("dv", "e", "energy", "i", "j", "k", "plane", "px", "py", "t", "t_end", "weight")
+
+    def __init__(self, t, i, k, px, py, plane, e):
+        self.t, self.i, self.k, self.px, self.py, self.plane = t, i, k, px, py, plane
+        self.e = e  # the episode's restitution (the scene's, or its law at the first contact's closing speed)
+        self.t_end = t  # end of the last step with a contact impulse
+        self.dv = np.zeros((2, 3))  # contact velocity jump of i and (if a vehicle) k: vx, vy, r
+        self.energy = 0.0  # kinetic energy removed by the contact impulses [J]
+        self.weight = 0.0  # impulse of this step [N s], to share a vehicle's yaw jump between contacts
+        self.j = np.zeros(2)  # impulse of this step on vehicle i [N s, global] (on k: -j)
+
+
+def contact_islands(episodes, nv):
+    """The contact islands of a step: (sorted vehicles, their episodes) per group of vehicles joined by
+    vehicle-vehicle contacts (a barrier is static: it joins nothing)."""
+    root = list(range(nv))
+
+    def find(a):
+        while root[a] != a:
+            root[a] = root[root[a]]
+            a = root[a]
+        return a
+
+    for ep in episodes:
+        if ep.k < nv:
+            root[find(ep.k)] = find(ep.i)
+    groups: dict = {}
+    for ep in episodes:
+        groups.setdefault(find(ep.i), []).append(ep)
+    return [(sorted({q for ep in eps for q in (ep.i, ep.k) if q < nv}), eps) for eps in groups.values()]
+
+
+def step_energy(S1, jump, mass, iz, vehicles):
+    """Kinetic energy the contact impulses added this step (negative: dissipated)."""
+    de = 0.0
+    for q in vehicles:
+        v, dv = S1[q, 3:6], jump[q]
+        w = v - dv
+        de += (0.5 * mass[q] * (v[0] ** 2 + v[1] ** 2 - w[0] ** 2 - w[1] ** 2)
+               + 0.5 * iz[q] * (v[2] ** 2 - w[2] ** 2))
+    return de
+
+
+class Contacts:
+    """The contact bookkeeping of one run: the callbacks of its pymunk space (`attach`) and the episodes.
+
+    bodies: the vehicles' pymunk bodies, in scene order; owner: pymunk shape -> vehicle index (a barrier:
+    the number of vehicles + its index); impact: the scene's [impact]; dt: the engine's step. The run sets
+    `t`, the time at the start of the step the engine takes next."""
+
+    def __init__(self, bodies, owner, impact, dt: float):
+        self.bodies, self.owner, self.impact, self.dt = bodies, owner, impact, dt
+        self.nv = len(bodies)
+        self.t = 0.0
+        self.open = {}  # (i, k) -> open Episode
+        self.episodes = []
+        self.touching = np.zeros(self.nv, bool)
+        self.hit = np.zeros(self.nv, bool)
+        self.contact = np.full((self.nv, 4), np.nan)
+        self.contact_t = math.nan
+        self.max_depth = 0.0
+        self.law_warnings = []  # restitution = "speed" outside its data (crashlab.restitution.range_warning)
+
+    def attach(self, space) -> None:
+        """Chipmunk calls this bookkeeping for every pair of shapes of the space."""
+        space.on_collision(begin=self._begin, pre_solve=self._pre_solve, post_solve=self._post_solve,
+                           separate=self._separate)
+
+    def _pair(self, arb):
+        a, b = arb.shapes
+        i, k = self.owner[a], self.owner[b]
+        return (i, k, 1.0) if i < k else (k, i, -1.0)
+
+    def _begin(self, arb, space, data):
+        i, k, sgn = self._pair(arb)
+        if math.isnan(self.contact_t):
+            self.contact_t = self.t + self.dt
+            for q, body in enumerate(self.bodies):  # positions at touch, velocities before the impulses
+                v = body.velocity
+                self.contact[q] = (body.position.x, body.position.y, body.angle, math.hypot(v.x, v.y))
+        cps = arb.contact_point_set
+        pts = cps.points
+        px = sum(0.5 * (p.point_a.x + p.point_b.x) for p in pts) / max(len(pts), 1)
+        py = sum(0.5 * (p.point_a.y + p.point_b.y) for p in pts) / max(len(pts), 1)
+        nx, ny = sgn * cps.normal.x, sgn * cps.normal.y  # from i to k
+        # restitution of the episode: the scene's, or its law at the normal closing speed of the first
+        # contact (docs/physics.md §13b), kept for the whole episode (Chipmunk re-reads it every step)
+        vi = self.bodies[i].velocity_at_world_point((px, py))
+        vk = tuple(self.bodies[k].velocity_at_world_point((px, py))) if k < self.nv else (0.0, 0.0)
+        e, why = restitution_at(max(-((vk[0] - vi.x) * nx + (vk[1] - vi.y) * ny), 0.0), self.impact)
+        if why:
+            self.law_warnings.append(why)
+        ep = Episode(self.t + self.dt, i, k, px, py, math.atan2(nx, -ny), e)
+        self.open[(i, k)] = ep
+        self.episodes.append(ep)
+        for q in (i, k):
+            if q < self.nv and not self.hit[q]:
+                self.hit[q] = True  # locked_after_impact wheels lock from here (driver_inputs.effective_mode)
+
+    def _pre_solve(self, arb, space, data):
+        imp = self.impact
+        i, k, _ = self._pair(arb)
+        ep = self.open.get((i, k))
+        # exactly the pair's values, not a product of per-shape ones
+        arb.restitution = imp.restitution if ep is None else ep.e
+        arb.friction = imp.friction
+        for q in (i, k):
+            if q < self.nv:
+                self.touching[q] = True
+        for p in arb.contact_point_set.points:
+            self.max_depth = max(self.max_depth, -p.distance)
+
+    def _post_solve(self, arb, space, data):
+        i, k, sgn = self._pair(arb)
+        ep = self.open.get((i, k))
+        if ep is not None:
+            j = arb.total_impulse  # the impulse on the body of arb.shapes[0]
+            ep.weight += math.hypot(j.x, j.y)
+            ep.j[0] += sgn * j.x
+            ep.j[1] += sgn * j.y
+            if j.x != 0.0 or j.y != 0.0:
+                ep.t_end = self.t + self.dt
+
+    def _separate(self, arb, space, data):
+        i, k, _ = self._pair(arb)
+        self.open.pop((i, k), None)
+
+    def book(self, S1, jump, mass, iz):
+        """Share each vehicle's contact jump of this step among its contact episodes: the velocity jump
+        exactly, from each contact's impulse (so every episode exchanges momentum, m1 dv1 + m2 dv2 = 0, also
+        when a car touches two others at once); the yaw-rate jump by impulse share. The energy is booked per
+        contact island (the vehicles in touch with each other this step): the kinetic energy the island's
+        contact impulses removed, shared among its episodes by impulse. A pair's own share is no dissipation
+        measure when three touch (a car pressed between two others passes energy on from one to the
+        other: per vehicle shares read as energy created while the island's total falls; issue 27)."""
+        active = list(self.open.values())  # an episode that separated this step had no impulse in it
+        if not active:
+            return
+        for q in range(self.nv):
+            mine = [(ep, 0 if ep.i == q else 1) for ep in active if ep.i == q or ep.k == q]
+            if not mine:
+                continue
+            total = sum(ep.weight for ep, _ in mine)
+            for ep, side in mine:
+                share = ep.weight / total if total > 0 else 1.0 / len(mine)
+                if len(mine) == 1:
+                    ep.dv[side] += jump[q]
+                else:
+                    ep.dv[side, 0:2] += (1.0 if side == 0 else -1.0) * ep.j / mass[q]
+                    ep.dv[side, 2] += share * jump[q, 2]
+        for members, eps in contact_islands(active, self.nv):
+            de = step_energy(S1, jump, mass, iz, members)
+            total = sum(ep.weight for ep in eps)
+            for ep in eps:
+                ep.energy -= (ep.weight / total if total > 0 else 1.0 / len(eps)) * de
