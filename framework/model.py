@@ -109,8 +109,10 @@ _WRAPS = {"simulate": lambda fn: _guarded(fn, guard.check),
 
 
 def _put_rows(pop: Population, rows, part: Population) -> None:
+    """The model's results for the rows (the masses are the wrapper's, from the rows)."""
     for name in ARRAYS:
-        getattr(pop, name)[rows] = getattr(part, name)
+        if name != "mass":
+            getattr(pop, name)[rows] = getattr(part, name)
 
 
 def simulate_each(model, scenes, batch: bool = True) -> list:
@@ -198,8 +200,7 @@ class CollisionModel(abc.ABC):
         Population; the base class's wrapper does the checks, the guard and the rest. This base
         implementation builds a scene per row and runs `simulate_batch` (a plugin works unchanged)."""
         scenes = Variants(scene, tuple(fields), values).scenes()
-        masses = scene_fields.vehicle_columns(scene, fields, values, ("mass",))["mass"]
-        return Population.of_outcomes(simulate_each(self, scenes), scene.vehicle_names, masses)
+        return Population.of_outcomes(simulate_each(self, scenes), scene.vehicle_names)
 
     simulate_population = _GuardedMethod("simulate_population", simulate_population, _guarded_population)
 
