@@ -59,7 +59,8 @@ V_EPS = 0.01        # m/s: smooths V_ref = max(|V_x|, |V_c|) at standstill
 DELTA_RAMP = 1e-3   # m: radial damping fades in over the first mm of deflection (no jump at touchdown)
 TAU_AIR = 0.01      # s: relaxation of the slip states (tread deflection) of a wheel off the road
 V_BRAKE = 0.05      # m/s: the brake-fraction force reaches its full value above this speed (tanh)
-SAT_BAND = 0.05     # the slip states stop growing once S_c exceeds 3 mu F_z by this fraction
+SAT_BAND = 0.05     # the tread damping fades out over this fraction beyond full sliding (S_c > 3 mu F_z)
+SAT_GROW = 0.25     # the slip states stop growing once S_c exceeds 3 mu F_z by this fraction (issue 25)
 
 
 @njit(cache=True)
@@ -115,12 +116,13 @@ def tyre(Tw, A, R, V, W, Q, s, a, mu, friction_on, damping_on, dslip, brake=0.0)
     fz = max(fz, 0.0)
     ks, ka = Tw[T_KS], Tw[T_KA]
     fmax = mu * fz * friction_on
-    # saturation: the tread deflection cannot grow beyond full sliding (keeps the direction)
+    # saturation: the tread deflection cannot grow beyond full sliding (keeps the direction); the band SAT_GROW
+    # sets how stiff this stop is (1.5 / SAT_GROW x the direction's relaxation; README "Tyre", issue 25)
     X, Y = ks * s, ka * a
     sc = math.sqrt(X * X + Y * Y)
     lim = 3.0 * fmax
     if sc > lim and sc > 0.0:
-        z = 1.0 if lim <= 0.0 else min(1.0, (sc / lim - 1.0) / SAT_BAND)
+        z = 1.0 if lim <= 0.0 else min(1.0, (sc / lim - 1.0) / SAT_GROW)
         f = z * z * (3.0 - 2.0 * z)
         rd = (X * ks * ds + Y * ka * da) / sc
         if rd > 0.0:
