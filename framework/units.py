@@ -55,6 +55,10 @@ _PINT_SI = {"m": "meter", "km/h": "kilometer/hour", "kg": "kilogram", "kg m^2": 
             "N/m": "newton/meter", "N/m^2": "newton/meter**2", "N s/m": "newton*second/meter",
             "N/rad": "newton/radian", "m/deg": "meter/degree", "J": "joule", "m/s": "meter/second"}
 UNIT_SYSTEMS = ("si", "us")
+# a column or key named with its unit as a suffix ("distance_m", "speed_kmh"): the suffix of each unit with a US
+# form, and of that US form ("distance_ft", "speed_mph")
+SUFFIXES = {"m": ("m", "ft"), "km/h": ("kmh", "mph"), "kg": ("kg", "lb"), "J": ("J", "ftlbf"), "N": ("N", "lbf"),
+            "m/s": ("ms", "fts")}
 
 
 @functools.cache
