@@ -36,6 +36,8 @@ def run_cli(args) -> int:
         out = json_in(res.to_json_dict(), args.units)
         if refined is not None:
             out["refine"] = refined.to_json_dict()  # (file units: crashlab.reconstruction.refine)
+            if args.units == "us":
+                out["refine"]["units"] = "file units: m, km/h, deg"
         print(json.dumps(out, indent=2))
         return _no_feasible(args, res)
     import pandas as pd
@@ -50,8 +52,13 @@ def run_cli(args) -> int:
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
     if refined is not None:
-        print(refined.summary_line(study.variables, wrote=bool(args.out)))
+        print(refined.summary_line(study.variables, wrote=bool(args.out)) + _in_file_units(args.units))
     return _no_feasible(args, res)
+
+
+def _in_file_units(system: str) -> str:
+    """What a refine line adds with --units us: its numbers (crashlab.reconstruction.refine) are in file units."""
+    return " (refine's numbers in file units: m, km/h, deg)" if system == "us" else ""
 
 
 def _three_decimals(v: float) -> str:
@@ -94,7 +101,7 @@ def cmd_infer(args) -> int:
     print(f"{len(res.samples)} samples, {res.evaluations} model evaluations, {res.wall_time_s:.1f} s, "
           f"outputs in {args.out}")
     if res.refine is not None:
-        print(res.refine.summary_line(post.study.variables, wrote=True))
+        print(res.refine.summary_line(post.study.variables, wrote=True) + _in_file_units(args.units))
     if res.counterfactuals:
         from . import counterfactual
         for line in counterfactual.summary_lines(res.counterfactuals, args.units):

@@ -345,8 +345,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                   "(residual / sigma)^2 over all items, each once (crashlab.reconstruction.evidence).", ""]
     if study.spec.evidence.twin:
         lines += ["Twin experiment: the evidence is the model's own run of the base scene, whose start is the "
-                  "truth: " + ", ".join(f"{f.label} = {value_in(v, units[f.label], system):.3f} "
-                                        f"{unit_in(units[f.label], system)}".rstrip()
+                  "truth: " + ", ".join(f"{f.label} = {value_in(v, units[f.label], system):.3f}"
+                                        + (f" {unit_in(units[f.label], system)}" if system == "us" else "")
                                         for f, v in zip(problem.free, problem.base_values()))
                   + ("" if study.spec.evidence.noise_seed is None else
                      f"; Gaussian noise with the given sigmas added (noise_seed {study.spec.evidence.noise_seed})"),
