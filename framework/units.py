@@ -68,9 +68,14 @@ def us_factor(unit: str) -> float:
     "m" (1 ft = 0.3048 m), 1.609344 for "km/h"; 1.0 for a unit without a US counterpart (deg, s, -)."""
     if unit not in US_UNITS:
         return 1.0
-    import pint  # only where US units are asked for (its registry takes a fraction of a second to build)
-    registry = pint.UnitRegistry()
-    return float(registry.Quantity(1.0, US_UNITS[unit][1]).to(_PINT_SI[unit]).magnitude)
+    return float(_pint_registry().Quantity(1.0, US_UNITS[unit][1]).to(_PINT_SI[unit]).magnitude)
+
+
+@functools.cache
+def _pint_registry():
+    """pint's unit registry, built once and only where US units are asked for (building it takes about 0.5 s)."""
+    import pint
+    return pint.UnitRegistry()
 
 
 def us_unit(unit: str) -> str:

@@ -201,10 +201,23 @@ def _check_free_driver_fields(path, free, scene) -> None:
                                      f"reach past action {j + 1}: keep the actions in time order")
 
 
+US_NOTE = "(units = \"us\": the file's numbers are read into the units said here)"
+
+
 def load_study(path) -> Study:
-    """The study in a TOML file, checked; InputError (file, key, problem) when it is not right."""
+    """The study in a TOML file, checked; InputError (file, key, problem) when it is not right (for a file
+    written in US units, its own lines say that their numbers are in file units: US_NOTE)."""
     path = Path(path)
     data = in_file_units(read_toml(path, "study"), path)  # a study written in ft, mph, lb: read once, here
+    try:
+        return _load_study(path, data)
+    except InputError as err:
+        if data.get("units") != "us" or str(err.file) != str(path):
+            raise
+        raise InputError(err.file, err.key, f"{err.problem} {US_NOTE}") from None
+
+
+def _load_study(path: Path, data: dict) -> Study:
     try:
         spec = StudyFile.model_validate(data)
     except ValidationError as err:

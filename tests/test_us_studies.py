@@ -314,3 +314,17 @@ def test_monte_carlo_prints_and_writes_us_units(tmp_path, capsys):
     row = next(r for r in js["summary"] if r["quantity"] == "delta_v")
     ref = next(r for r in result.to_json_dict()["summary"] if r["quantity"] == "delta_v")
     assert row["median"] == pytest.approx(ref["median"] / MPH, rel=1e-5) and row["unit"] == "mph"
+
+
+def test_a_bound_out_of_range_in_a_us_study_is_one_line_in_file_units(twins, tmp_path, capsys):
+    """300 mph is 482.8 km/h, above a speed's 400 km/h: the line names the key, the value as read and says so."""
+    text = re.sub(r"upper = 37\.28[0-9]*", "upper = 300.0", twins[1].read_text(), count=1)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    assert main(["reconstruct", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{bad}: free.0: upper = 482.803 is outside [0, 400] km/h" in err
+    assert 'units = "us"' in err
+    bad.write_text(twins[0].read_text().replace('name = "US study twin"', 'units = "imperial"\nname = "x"'))
+    assert main(["reconstruct", str(bad)]) == 2
+    assert f"{bad}: units: units = 'imperial': give one of 'si', 'us'" in capsys.readouterr().err
