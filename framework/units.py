@@ -170,7 +170,8 @@ def table_in(df, system: str):
 
 def table_from_shown(df):
     """A CSV written by frame_in read back into file units: a column "name [ft]" (a US unit in brackets) becomes
-    "name" in its file unit; other columns as they are."""
+    "name" in its file unit; other columns as they are (a unit suffix, "distance_ft", is not read back: the
+    tables read again, posterior.csv, name their columns by variable labels)."""
     df = df.copy()
     names = {}
     for c in df.columns:

@@ -328,3 +328,25 @@ def test_a_bound_out_of_range_in_a_us_study_is_one_line_in_file_units(twins, tmp
     bad.write_text(twins[0].read_text().replace('name = "US study twin"', 'units = "imperial"\nname = "x"'))
     assert main(["reconstruct", str(bad)]) == 2
     assert f"{bad}: units: units = 'imperial': give one of 'si', 'us'" in capsys.readouterr().err
+
+
+def test_one_units_map_names_columns_and_keys_by_pattern():
+    """crashlab.units' shown units: a pattern of the units map (`<word>`: any text) gives a column's or a key's
+    unit; a column is converted and named with its US unit (a header's bracket, a unit suffix, else appended);
+    a CSV written so is read back into file units."""
+    from crashlab.units import frame_in, json_in, table_from_shown, unit_of
+    units = {"d_<source>_m": "m, distance", "<vehicle>.delta_v": "km/h", "mass": "kg", "t": "s"}
+    assert [unit_of(k, units) for k in ("d_pc_crash_m", "V1.delta_v", "mass", "t", "d_pc_deg")] == \
+        ["m", "km/h", "kg", "s", ""]
+    df = pd.DataFrame({"d_pc_m": [3.048], "V1.delta_v": [16.09344], "mass": [453.59237], "t": [1.5],
+                       "x [m]": [0.3048], "distance_m": [30.48]})
+    shown = frame_in(df, "us", units | {"distance_m": "m"})
+    assert list(shown.columns) == ["d_pc_ft", "V1.delta_v [mph]", "mass [lb]", "t", "x [ft]", "distance_ft"]
+    close(shown.iloc[0].to_numpy(), [10.0, 10.0, 1000.0, 1.5, 1.0, 100.0], 1e-12)
+    assert frame_in(df, "si", units) is df
+    back = table_from_shown(shown)
+    assert list(back.columns) == ["d_pc_ft", "V1.delta_v", "mass", "t", "x", "distance_ft"]  # (brackets only)
+    close(back[["V1.delta_v", "mass", "x"]].iloc[0].to_numpy(), [16.09344, 453.59237, 0.3048], 1e-12)
+    doc = json_in({"comparison": [{"d_pc_m": 3.048, "d_pc_deg": 2.0}], "units": units}, "us")
+    assert doc["comparison"][0] == pytest.approx({"d_pc_m": 10.0, "d_pc_deg": 2.0}, rel=1e-12)
+    assert doc["units"]["d_<source>_m"] == "ft, distance"
