@@ -26,18 +26,18 @@ def system_of(data: dict, file) -> str:
     return system
 
 
-def _scaled(value, factor: float):
+def scaled(value, factor: float):
     """A number or a (nested) list of numbers times factor; anything else (a word, a boolean) as it is."""
     if isinstance(value, bool) or factor == 1.0:
         return value
     if isinstance(value, (int, float)):
         return value * factor
     if isinstance(value, list):
-        return [_scaled(v, factor) for v in value]
+        return [scaled(v, factor) for v in value]
     return value
 
 
-def _field_unit(path) -> str:
+def field_unit(path) -> str:
     """The file unit of a crashlab.fields path ("" when the path is no field: the schema's checks name it)."""
     try:
         return fields.parse(path).unit
@@ -62,9 +62,9 @@ def from_us(data, schema, nested: dict | None = None):
         if inner is not None:
             out[key] = _tables(value, inner, nested)
         elif key in FIELD_VALUE_KEYS and isinstance(data.get("field"), str):
-            out[key] = _scaled(value, us_factor(_field_unit(data["field"])))
+            out[key] = scaled(value, us_factor(field_unit(data["field"])))
         else:
-            out[key] = _scaled(value, us_factor(split_unit(field.description)[0]))
+            out[key] = scaled(value, us_factor(split_unit(field.description)[0]))
     return out
 
 

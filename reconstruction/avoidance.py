@@ -10,10 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
+from crashlab.units import frame_in, unit_in, value_in
+
 TIME_DISTANCE_CAPTION = ("each vehicle's distance to the point of impact along its CG path (positive: still to go) and "
                          "speed against time; dashed: the impacts; the numbers in time_distance.csv.")
 TOP_VIEW_DRAWS = 3  # draws shown with and without each change
 TOP_VIEW_COUNTERFACTUALS = 3  # counterfactuals shown beside the draws as they are
+TIME_DISTANCE_UNITS = {"t": "s", "s": "m", "speed": "km/h", "to_impact": "m"}  # time_distance's columns
 
 
 # ---------------------------------------------------------------- time-distance
@@ -40,8 +43,9 @@ def time_distance(outcome):
     return pd.concat(frames, ignore_index=True)
 
 
-def time_distance_figure(table, outcome, path: Path, title: str) -> None:
-    """Distance to the point of impact and speed against time, one colour per vehicle; dashed: the impacts."""
+def time_distance_figure(table, outcome, path: Path, title: str, system: str = "si") -> None:
+    """Distance to the point of impact and speed against time, one colour per vehicle; dashed: the impacts;
+    in US units (ft, mph) with system "us"."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -51,14 +55,14 @@ def time_distance_figure(table, outcome, path: Path, title: str) -> None:
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     for i, (name, part) in enumerate(table.groupby("vehicle", sort=False)):
         c = colours[i % len(colours)]
-        top.plot(part["t"], part["to_impact"], color=c, label=name)
-        bottom.plot(part["t"], part["speed"], color=c, label=name)
+        top.plot(part["t"], value_in(part["to_impact"], "m", system), color=c, label=name)
+        bottom.plot(part["t"], value_in(part["speed"], "km/h", system), color=c, label=name)
     for t in sorted({r["t"] for r in outcome.impact_rows}):
         for ax in (top, bottom):
             ax.axvline(t, color="grey", ls="--", lw=0.8)
     top.axhline(0.0, color="black", lw=0.5)
-    top.set_ylabel("distance to the point of impact [m]")
-    bottom.set_ylabel("speed [km/h]")
+    top.set_ylabel(f"distance to the point of impact [{unit_in('m', system)}]")
+    bottom.set_ylabel(f"speed [{unit_in('km/h', system)}]")
     bottom.set_xlabel("time [s]")
     top.legend(loc="best", fontsize=8)
     top.set_title(title)
@@ -67,17 +71,19 @@ def time_distance_figure(table, outcome, path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def write_time_distance(outcome, out_dir: Path, title: str) -> tuple[str | None, list[str]]:
-    """out_dir/time_distance.csv and time_distance.png of a run: (the figure's name or None, notes)."""
+def write_time_distance(outcome, out_dir: Path, title: str, system: str = "si") -> tuple[str | None, list[str]]:
+    """out_dir/time_distance.csv and time_distance.png of a run: (the figure's name or None, notes); in US units
+    with system "us" (the converted columns named with their unit: "speed [mph]")."""
     import matplotlib.pyplot as plt
     notes = []
     try:
         table = time_distance(outcome)
-        table.to_csv(Path(out_dir) / "time_distance.csv", index=False, float_format="%.4f")
+        frame_in(table, system, TIME_DISTANCE_UNITS).to_csv(Path(out_dir) / "time_distance.csv", index=False,
+                                                            float_format="%.4f")
     except ValueError as err:
         return None, [f"time_distance.csv not written: {err}."]
     try:
-        time_distance_figure(table, outcome, Path(out_dir) / "time_distance.png", title)
+        time_distance_figure(table, outcome, Path(out_dir) / "time_distance.png", title, system)
         return "time_distance.png", notes
     except Exception as err:  # noqa: BLE001 - the table stands without the figure
         return None, [f"time_distance.png could not be drawn ({type(err).__name__} in the plotting library)."]
@@ -86,7 +92,7 @@ def write_time_distance(outcome, out_dir: Path, title: str) -> tuple[str | None,
 
 
 # ---------------------------------------------------------------- the counterfactuals' figures
-def impact_speed_figure(answers, names, path: Path) -> None:
+def impact_speed_figure(answers, names, path: Path, system: str = "si") -> None:
     """Histograms of each vehicle's speed at first contact [km/h]: the posterior's draws beside each
     counterfactual's (answers: counterfactual.Answer, the posterior first, filled grey), each labelled with its share of
     draws that still touch."""
@@ -96,14 +102,14 @@ def impact_speed_figure(answers, names, path: Path) -> None:
     fig, axes = plt.subplots(1, len(names), figsize=(4.5 * len(names), 3.6), squeeze=False)
     hits = [a.pop.ok & (a.pop.n_impacts > 0) for a in answers]
     for i, (ax, name) in enumerate(zip(axes[0], names)):
-        values = [a.pop.contact[h, i, 3] * 3.6 for a, h in zip(answers, hits)]
+        values = [value_in(a.pop.contact[h, i, 3] * 3.6, "km/h", system) for a, h in zip(answers, hits)]
         finite = np.concatenate([v[np.isfinite(v)] for v in values] + [np.zeros(0)])
         bins = np.linspace(finite.min(), finite.max() + 1e-9, 31) if len(finite) else 10
         for k, (a, h, v) in enumerate(zip(answers, hits, values)):
             style = dict(histtype="stepfilled", color="0.75") if k == 0 else dict(histtype="step", lw=1.5)
             ax.hist(v[np.isfinite(v)], bins=bins, label=f"{a.name}: touch in {int(h.sum())} of "
                     f"{int(a.pop.ok.sum())}", **style)
-        ax.set_xlabel(f"{name}: speed at first contact [km/h]")
+        ax.set_xlabel(f"{name}: speed at first contact [{unit_in('km/h', system)}]")
         ax.set_ylabel("draws")
         ax.legend(loc="best", fontsize=7)
     fig.suptitle("Impact speed: the posterior's draws and each counterfactual's")
@@ -112,7 +118,7 @@ def impact_speed_figure(answers, names, path: Path) -> None:
     plt.close(fig)
 
 
-def top_views_figure(answers, path: Path, n: int = TOP_VIEW_DRAWS) -> int:
+def top_views_figure(answers, path: Path, n: int = TOP_VIEW_DRAWS, system: str = "si") -> int:
     """Top views of n draws (rows) as they are and with each change (columns, at most
     TOP_VIEW_COUNTERFACTUALS): CG paths, outlines at the start (dotted), at first contact or, without one, at
     the closest approach (dashed) and at the end (solid). Returns the number of draws drawn."""
@@ -153,8 +159,8 @@ def top_views_figure(answers, path: Path, n: int = TOP_VIEW_DRAWS) -> int:
                     ax.plot(poly[:, 0], poly[:, 1], style, color=col, lw=1.0)
             ax.set_aspect("equal")
             ax.tick_params(labelsize=6)
-            what = "touch" if hit else f"miss by {a.miss_distance[k]:.2f} m" if np.isfinite(a.miss_distance[k]) \
-                else "miss"
+            what = "touch" if hit else (f"miss by {value_in(a.miss_distance[k], 'm', system):.2f} "
+                                        f"{unit_in('m', system)}") if np.isfinite(a.miss_distance[k]) else "miss"
             ax.set_title(f"{a.name}, draw {int(k)}: {what}", fontsize=8)
     fig.suptitle("Draws as they are and with each change: start dotted, contact or closest approach dashed, end "
                  "solid", fontsize=9)
@@ -164,15 +170,16 @@ def top_views_figure(answers, path: Path, n: int = TOP_VIEW_DRAWS) -> int:
     return len(rows)
 
 
-def write_counterfactual_figures(answers, names, out_dir: Path) -> tuple[list, list[str]]:
-    """counterfactual_impact_speed.png and counterfactual_top_views.png: ([(file name, caption)], notes)."""
+def write_counterfactual_figures(answers, names, out_dir: Path, system: str = "si") -> tuple[list, list[str]]:
+    """counterfactual_impact_speed.png and counterfactual_top_views.png: ([(file name, caption)], notes); in US
+    units with system "us"."""
     import matplotlib.pyplot as plt
     figures, notes = [], []
     for name, draw, caption in (
-            ("counterfactual_impact_speed.png", lambda p: impact_speed_figure(answers, names, p),
+            ("counterfactual_impact_speed.png", lambda p: impact_speed_figure(answers, names, p, system),
              "each vehicle's speed at first contact in the draws that still touch: the posterior's beside each "
              "counterfactual's (the legend gives how many of the draws touch)."),
-            ("counterfactual_top_views.png", lambda p: top_views_figure(answers, p),
+            ("counterfactual_top_views.png", lambda p: top_views_figure(answers, p, system=system),
              "a few draws (rows) as they are and with each change (columns): CG paths, outlines at the start "
              "dotted, at first contact or the closest approach dashed, at the end solid.")):
         try:

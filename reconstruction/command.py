@@ -1,19 +1,29 @@
-"""`crashlab reconstruct STUDY`: load, run, print the Pareto set (or the JSON result) and a summary line."""
+"""The reconstruction's commands: `crashlab reconstruct STUDY` (load, run, print the Pareto set or the JSON result
+and a summary line), `crashlab infer STUDY --out DIR` (the posterior: crashlab.reconstruction.infer) and
+`crashlab avoid STUDY --out DIR` (the counterfactuals on an infer run's draws). `--units us` shows every printed
+table, CSV file, JSON and report in US units (crashlab.units, shown units: Study.shown_units); the computation
+stays in file units."""
 from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
+
+import numpy as np
 
 from crashlab.errors import EXIT_NO_FEASIBLE, InputError
 from crashlab.registry import UnknownPluginError, available_optimizers
+from crashlab.units import json_in, table_in, unit_in, value_in
 
 from .problem import variable_unit
+from .schema import SEED_MAX
 from .study import load_study
 
 
 def run_cli(args) -> int:
     """args: the parsed `crashlab reconstruct` options (crashlab.cli). Bad input raises InputError."""
     study = load_study(args.study)
+    study.shown_units = args.units
     for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
         print(f"crashlab: note: {args.study}: {note}", file=sys.stderr)
     if args.optimizer and args.optimizer not in available_optimizers():
@@ -23,9 +33,11 @@ def run_cli(args) -> int:
                     out_dir=args.out, resume=args.resume, progress=not (args.json or args.no_progress))
     refined = getattr(res, "refine", None)
     if args.json:
-        out = res.to_json_dict()
+        out = json_in(res.to_json_dict(), args.units)
         if refined is not None:
-            out["refine"] = refined.to_json_dict()
+            out["refine"] = refined.to_json_dict()  # (file units: crashlab.reconstruction.refine)
+            if args.units == "us":
+                out["refine"]["units"] = "file units: m, km/h, deg"
         print(json.dumps(out, indent=2))
         return _no_feasible(args, res)
     import pandas as pd
@@ -35,13 +47,18 @@ def run_cli(args) -> int:
         f_unit = "m" if study.mode == "thesis" else "sigma"  # misfit: residuals in their sigmas
         units = {f.label: variable_unit(f) for f in study.variables} | {c: f_unit for c in cols if c.startswith("f_")}
         header = {c: f"{c} [{units.get(c, 'deg')}]" if units.get(c, "deg") else c for c in cols}
-        print(res.pareto[cols].rename(columns=header).to_string(index=False) if len(res.pareto)
-              else "no feasible solution")
+        print(table_in(res.pareto[cols].rename(columns=header), args.units).to_string(index=False)
+              if len(res.pareto) else "no feasible solution")
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
     if refined is not None:
-        print(refined.summary_line(study.variables, wrote=bool(args.out)))
+        print(refined.summary_line(study.variables, wrote=bool(args.out)) + _in_file_units(args.units))
     return _no_feasible(args, res)
+
+
+def _in_file_units(system: str) -> str:
+    """What a refine line adds with --units us: its numbers (crashlab.reconstruction.refine) are in file units."""
+    return " (refine's numbers in file units: m, km/h, deg)" if system == "us" else ""
 
 
 def _three_decimals(v: float) -> str:
@@ -58,3 +75,78 @@ def _no_feasible(args, res) -> int:
           f"start overlap and ended at rest ({res.failed} failed; their reasons in failures.csv and report.html "
           "with --out)", file=sys.stderr)
     return EXIT_NO_FEASIBLE
+
+
+def cmd_infer(args) -> int:
+    """`crashlab infer` (its options: crashlab.cli): the posterior (crashlab.reconstruction.infer.run_posterior),
+    a line per variable (median, 90 % interval, ESS) in the shown units; bad input raises InputError (the CLI
+    prints its one line and exits 2), no draw that explains the evidence exits EXIT_NO_FEASIBLE."""
+    from .infer import run_posterior
+    from .infer_report import chain_warnings
+    from .posterior import load_posterior
+    post = load_posterior(args.study)
+    post.study.shown_units = args.units
+    if args.samples is not None and not 10 <= args.samples <= 10_000_000:
+        raise InputError(args.study, "--samples", f"{args.samples} is outside [10, 10000000]")
+    if args.seed is not None and not 0 <= args.seed <= SEED_MAX:
+        raise InputError(args.study, "--seed", f"{args.seed} is outside [0, {SEED_MAX}]")
+    res = run_posterior(post, args.out, args.samples, args.seed, args.resume, args.workers,
+                        progress=not getattr(args, "no_progress", False))
+    lo, med, hi = res.interval()
+    for j, v in enumerate(post.variables):
+        unit = unit_in(v.unit, args.units)
+        lab = f"{v.label} [{unit}]" if unit and unit != "-" else v.label
+        lo_j, med_j, hi_j = (value_in(q[j], v.unit, args.units) for q in (lo, med, hi))
+        print(f"{lab:24s} {med_j:10.3f}  90 % [{lo_j:.3f}, {hi_j:.3f}]  ESS {res.ess[j]:.0f}")
+    print(f"{len(res.samples)} samples, {res.evaluations} model evaluations, {res.wall_time_s:.1f} s, "
+          f"outputs in {args.out}")
+    if res.refine is not None:
+        print(res.refine.summary_line(post.study.variables, wrote=True) + _in_file_units(args.units))
+    if res.counterfactuals:
+        from . import counterfactual
+        for line in counterfactual.summary_lines(res.counterfactuals, args.units):
+            print(line)
+    for w in chain_warnings(res):  # (summary.md has them too)
+        print("warning: " + w.removeprefix("**Warning**: "), file=sys.stderr)
+    if not np.isfinite(res.log_likelihood).any():
+        print(f"crashlab: no feasible solution: {args.study}: no draw explains the evidence (every log-posterior "
+              "is -inf: no contact, a failed run or a vehicle moving at the end; see summary.md)", file=sys.stderr)
+        return EXIT_NO_FEASIBLE
+    return 0
+
+
+def cmd_avoid(args) -> int:
+    """`crashlab avoid STUDY --out DIR`: the study's [[counterfactuals]] answered on DIR/posterior.csv, the draws
+    of an earlier `crashlab infer STUDY --out DIR` (in either units: a column named with a US unit is read back
+    into file units; crashlab.reconstruction.counterfactual): DIR/counterfactuals.csv and its figures
+    (crashlab.reconstruction.avoidance), a line each on the terminal, in the shown units."""
+    import pandas as pd
+
+    from crashlab.units import table_from_shown
+
+    from . import counterfactual
+    from .avoidance import write_counterfactual_figures
+    from .posterior import load_posterior
+    post = load_posterior(args.study)
+    post.study.shown_units = args.units
+    if not post.counterfactuals:
+        raise InputError(args.study, "counterfactuals", "the study has no [[counterfactuals]] to answer")
+    path = Path(args.out) / "posterior.csv"
+    try:
+        table = table_from_shown(pd.read_csv(path))
+    except (OSError, ValueError) as err:
+        raise InputError(path, "--out", f"no posterior to read ({err}); run crashlab infer STUDY --out DIR first") \
+            from None
+    missing = [lab for lab in post.labels if lab not in table.columns]
+    if missing:
+        raise InputError(path, missing[0], "a variable of the study is not in this posterior (another study?)")
+    answers = counterfactual.run(post, table[post.labels].to_numpy(float), args.out)
+    for line in counterfactual.summary_lines([a.row for a in answers], args.units):
+        print(line)
+    figures, notes = write_counterfactual_figures(answers, post.study.scene.vehicle_names, args.out, args.units)
+    for note in notes:
+        print("warning: " + note, file=sys.stderr)
+    for name, _ in figures:
+        print(f"wrote {path.parent / name}", file=sys.stderr)
+    print(f"wrote {path.parent / 'counterfactuals.csv'}", file=sys.stderr)
+    return 0

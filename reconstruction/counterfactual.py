@@ -35,13 +35,16 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from crashlab import fields
 from crashlab.errors import InputError
-from crashlab.units import ms_to_kmh
+from crashlab.units import frame_in, ms_to_kmh, unit_in, value_in
 
 MAX_DRAWS = 2000  # draws re-simulated per counterfactual (a random subsample of the kept ones beyond this)
 MISS_DRAWS = 200  # draws without contact run again with trajectories for the miss distance and time gap
 GRID_DT = 0.01  # s: the common time grid on which the outlines are compared (linear between recorded samples)
 CROSSING_STRIDE = 5  # grid steps between the path samples searched for the crossing point
 QUANTILES = (0.05, 0.5, 0.95)
+# the units of counterfactuals.csv's columns (crashlab.units, shown units; the rest are counts and shares)
+ROW_UNITS = {"<vehicle>.impact_speed_<q>": "km/h", "<vehicle>.delta_v_<q>": "km/h", "miss_distance_<q>": "m",
+             "time_gap_<q>": "s"}
 
 
 class CounterfactualFile(BaseModel):
@@ -330,17 +333,27 @@ def _row(name, scene, pop) -> dict:
     return row
 
 
-def summary_lines(rows) -> list[str]:
-    """One line per row of `answer`, for the terminal and summary.md."""
+def write_csv(rows, path, system: str = "si") -> None:
+    """counterfactuals.csv: one row per counterfactual (`answer`'s rows), in US units with system "us"."""
+    import pandas as pd
+    frame_in(pd.DataFrame(rows), system, ROW_UNITS).to_csv(path, index=False)
+
+
+def summary_lines(rows, system: str = "si") -> list[str]:
+    """One line per row of `answer`, for the terminal and summary.md; speeds and distances in US units with
+    system "us"."""
     out = []
+    kmh, m = unit_in("km/h", system), unit_in("m", system)
     for r in rows:
+        r = {k: value_in(v, "km/h", system) if k.endswith(".impact_speed_50") else
+             value_in(v, "m", system) if k.startswith("miss_distance_") else v for k, v in r.items()}
         speeds = ", ".join(f"{k.split('.')[0]} {r[k]:.1f}" for k in r if k.endswith(".impact_speed_50")
                            and math.isfinite(r[k]))
         out.append(f"{r['name']}: avoided in {100 * r['p_avoided']:.1f} % of {r['draws'] - r['failed']} draws "
                    f"(90 % {100 * r['p_avoided_5']:.1f}-{100 * r['p_avoided_95']:.1f} %)"
-                   + (f"; where they still touch, median impact speed {speeds} km/h" if speeds else "")
-                   + (f"; where they do not, the outlines {r['miss_distance_50']:.2f} m apart at the closest "
-                      f"(median; 5-95 % {r['miss_distance_5']:.2f}-{r['miss_distance_95']:.2f} m)"
+                   + (f"; where they still touch, median impact speed {speeds} {kmh}" if speeds else "")
+                   + (f"; where they do not, the outlines {r['miss_distance_50']:.2f} {m} apart at the closest "
+                      f"(median; 5-95 % {r['miss_distance_5']:.2f}-{r['miss_distance_95']:.2f} {m})"
                       if math.isfinite(r.get("miss_distance_50", math.nan)) else "")
                    + (f", time gap at the crossing point {r['time_gap_50']:+.2f} s (5-95 % "
                       f"{r['time_gap_5']:+.2f} to {r['time_gap_95']:+.2f} s)"
@@ -352,14 +365,12 @@ def summary_lines(rows) -> list[str]:
 def run(post, samples, out_dir=None) -> list[Answer]:
     """The posterior's counterfactuals (post: a Posterior with counterfactuals) answered on its kept samples
     (file units, the posterior's variables as columns) with the study's model; with out_dir,
-    counterfactuals.csv (one row per counterfactual, the draws as they are first: `crashlab avoid`; `crashlab
-    infer` writes it with its other outputs)."""
-    import pandas as pd
-
+    counterfactuals.csv (one row per counterfactual, the draws as they are first, in the study's shown units:
+    `crashlab avoid`; `crashlab infer` writes it with its other outputs)."""
     from crashlab.execution import model_for
     spec = post.study.spec
     out = answers(model_for(spec.model, spec.model_options), post.study.scene, post.fields, samples,
                   post.counterfactuals)
     if out_dir is not None:
-        pd.DataFrame([a.row for a in out]).to_csv(Path(out_dir) / "counterfactuals.csv", index=False)
+        write_csv([a.row for a in out], Path(out_dir) / "counterfactuals.csv", post.study.shown_units)
     return out

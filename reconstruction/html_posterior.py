@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from crashlab.units import unit_in, value_in
+
 from .html_page import Table, figure_of, num, write_report_page
 from .html_report import animation_context
 from .html_sections import _options, case_context, evidence_context, refine_context, scene_context, solution_context
@@ -20,20 +22,23 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
     `best` (scene, outcome: the draw of largest log-likelihood); questions: (question, probability, standard
     error) rows; counterfactuals: counterfactual.answer's rows, counterfactual_figures their [(file name,
     caption)]."""
+    from .infer_report import prior_text, shown_row
     out_dir = Path(out_dir)
     study, s = post.study, post.settings
+    system = study.shown_units  # every number on the page in these units (crashlab.units, shown units)
     run = (f"sampler {res.sampler} ({res.walkers} walkers, {res.iterations} iterations of which {res.burn} burn-in "
            f"discarded, thinned by {res.thin}, seed {s.seed}): {len(res.samples)} samples from {res.evaluations} "
            f"model evaluations in {res.wall_time_s:.1f} s; mean acceptance {res.acceptance:.2f}")
-    lo, med, hi = res.interval()
-    truth = res.truth
+    lo, med, hi = (shown_row(post, q, system) for q in res.interval())
+    truth = None if res.truth is None else shown_row(post, res.truth, system)
     head = ["variable", "unit", "prior", "lower", "upper", "median", "5 %", "95 %", "tau [it]", "ESS"]
     if truth is not None:
         head += ["truth (twin)", "inside"]
     rows = []
     for j, v in enumerate(post.variables):
-        r = [v.label, v.unit, v.describe_prior(), num(v.lower), num(v.upper), num(med[j]), num(lo[j]), num(hi[j]),
-             num(res.tau[j], 1), num(res.ess[j], 0)]
+        r = [v.label, unit_in(v.unit, system), prior_text(v, system), num(value_in(v.lower, v.unit, system)),
+             num(value_in(v.upper, v.unit, system)), num(med[j]), num(lo[j]), num(hi[j]), num(res.tau[j], 1),
+             num(res.ess[j], 0)]
         if truth is not None:
             r += [num(truth[j]), "yes" if lo[j] <= truth[j] <= hi[j] else "**NO**"]
         rows.append(r)
@@ -44,12 +49,13 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
     if counterfactuals:
         names = post.study.scene.vehicle_names
         ctable = Table(["counterfactual", "draws", "failed", "avoided", "90 % interval"]
-                       + [f"{n} impact speed, median [km/h]" for n in names]
-                       + ["miss distance, median (5-95 %) [m]", "time gap, median (5-95 %) [s]"],
+                       + [f"{n} impact speed, median [{unit_in('km/h', system)}]" for n in names]
+                       + [f"miss distance, median (5-95 %) [{unit_in('m', system)}]", "time gap, median (5-95 %) [s]"],
                        [[r["name"], str(r["draws"]), str(r["failed"]), num(r["p_avoided"]),
                          f"{num(r['p_avoided_5'])}-{num(r['p_avoided_95'])}"]
-                        + [num(r[f"{n}.impact_speed_50"], 1) for n in names]
-                        + [_median_range(r, "miss_distance", 2), _median_range(r, "time_gap", 2)]
+                        + [num(value_in(r[f"{n}.impact_speed_50"], "km/h", system), 1) for n in names]
+                        + [_median_range(r, "miss_distance", 2, value_in(1.0, "m", system)),
+                           _median_range(r, "time_gap", 2)]
                         for r in counterfactuals], "counterfactuals")
     corner = figure_of(out_dir / "corner.png", "the posterior's one- and two-variable marginals (each axis in its "
                        "variable's unit); dashed: 5, 50 and 95 % quantiles"
@@ -60,9 +66,10 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
         solution = solution_context(
             "The median draw", f"The posterior draw nearest the median of every variable (draw {k} of "
             "posterior.csv; distance in units of each variable's 90 % interval), simulated again with "
-            f"`{study.spec.model}`: " + ", ".join(f"{lab} = {res.samples[k, j]:.3f}" for j, lab in
-                                                  enumerate(res.labels)) + ".",
-            outcome, out_dir, list(median_figures))
+            f"`{study.spec.model}`: " + ", ".join(f"{v.label} = {x:.3f} {unit_in(v.unit, system)}".rstrip(" -")
+                                                  for v, x in zip(post.variables, shown_row(post, res.samples[k],
+                                                                                            system))) + ".",
+            outcome, out_dir, list(median_figures), system)
     tops = (figure_of(out_dir / "posterior_top_view.png", "rest outlines and CG paths of posterior draws over the "
                       "measured rest poses (thick).") if s.draws_plotted else None)
     return write_report_page("posterior.html", out_dir, f"Posterior: {study.spec.name or post.path.name}",
@@ -75,12 +82,15 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
                  counterfactual_figures=[figure_of(out_dir / f, c) for f, c in counterfactual_figures],
                  corner=corner, solution=solution, tops=tops,
                  animation=animation_context(best, out_dir, "the posterior draw of largest log-likelihood"),
-                 refine=refine_context(out_dir, getattr(res, "refine", None), study.evidence), notes=list(notes))
+                 refine=refine_context(out_dir, getattr(res, "refine", None), study.evidence, system),
+                 notes=list(notes))
 
 
-def _median_range(row, what, digits) -> str:
-    """"median (5 % to 95 %)" of counterfactual row's `what`; empty when not measured."""
+def _median_range(row, what, digits, scale: float = 1.0) -> str:
+    """"median (5 % to 95 %)" of counterfactual row's `what` (times scale: a unit shown); empty when not
+    measured."""
     m = row.get(f"{what}_50", math.nan)
     if not math.isfinite(m):
         return ""
-    return f"{num(m, digits)} ({num(row[f'{what}_5'], digits)} to {num(row[f'{what}_95'], digits)})"
+    return (f"{num(m * scale, digits)} ({num(row[f'{what}_5'] * scale, digits)} to "
+            f"{num(row[f'{what}_95'] * scale, digits)})")

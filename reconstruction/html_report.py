@@ -24,6 +24,7 @@ from pathlib import Path
 from markupsafe import Markup
 
 from crashlab.errors import InputError
+from crashlab.units import frame_in, shown_name, unit_in, value_in
 
 from .avoidance import TIME_DISTANCE_CAPTION
 from .html_page import REPORT_NAME, Table, figure_of, macro, num, write_report_page  # noqa: F401 (crashlab.cli: REPORT_NAME)
@@ -157,12 +158,14 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
     near: the near-optimal table (its variable ranges
     shown), tol its bound; warnings: lines shown highlighted under the Pareto set; failure_reasons: {reason:
     count} of the failed evaluations."""
+    from .report import pareto_units
     out_dir = Path(out_dir)
     problem, info, spec = result.problem, result.algorithm_info, study.spec
+    system = study.shown_units  # every number on the page in these units (crashlab.units, shown units)
     opt = spec.optimizer
     truth = problem.base_values() if spec.evidence.twin else None
     sigma = problem.evidence_set is not None
-    funit = "sigma" if sigma else "m"
+    funit = "sigma" if sigma else unit_in("m", system)
     run = (f"{result.evaluations} evaluations (search {info['search_evaluations']}, least-squares polish "
            f"{info['polish_evaluations']} of a budget of {info['polish_budget']}), failed {result.failed}, "
            f"feasible fraction {result.feasible_fraction:.1%}, wall time {result.wall_time_s:.1f} s")
@@ -172,25 +175,32 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
                                    f"{info.get('generations', opt.generations)} generations, seed {opt.seed}; "
                                    f"options: {_options(opt.options)}",
                  "mode": study.mode, "run": run,
-                 "mode_text": f", heading_weight {problem.heading_weight:g} m/deg" if study.mode == "thesis" else ""}
+                 "mode_text": f", heading_weight {value_in(problem.heading_weight, 'm/deg', system):g} "
+                              f"{unit_in('m/deg', system)}" if study.mode == "thesis" else ""}
     evaluations, evaluations_note = evaluations_table(problem, failure_reasons, result.evaluations)
-    pareto = result.pareto
+    units = pareto_units(problem)
+    pareto = frame_in(result.pareto, system, units)
     names = list(problem.objective_names)
-    free = [f.label for f in problem.free]
+    free = [shown_name(f.label, units[f.label], system) for f in problem.free]
     pareto_intro = (f"The rows of pareto.csv, in its order, its columns in tables of at most {PARETO_COLUMNS_MAX}: "
-                    f"free variables (file units), objectives f_<vehicle> [{funit}], dheading_<vehicle> (simulated "
+                    f"free variables ({'file units' if system != 'us' else 'US units'}), objectives f_<vehicle> "
+                    f"[{funit}], dheading_<vehicle> (simulated "
                     "minus measured rest heading [deg], wrapped to -180..180; empty where none was measured), "
                     + ("the misfit of every evidence item [sigma] and the log-likelihood, " if sigma else "")
-                    + "rest poses and the state at first contact (m, deg, km/h). Row 0 is the chosen solution "
+                    + "rest poses and the state at first contact ("
+                    + ", ".join(unit_in(u, system) for u in ("m", "deg", "km/h")) + "). Row 0 is the chosen solution "
                     "above and is animated below.")
     objectives_figure = (figure_of(out_dir / "objectives.png", f"every feasible evaluation (grey) and the "
                                    f"non-dominated ones (red), objectives [{funit}].") if len(names) >= 2 else None)
     near_ctx = None
     if near is not None:
-        near_ctx = {"tol": f"{tol:g} {funit}", "count": len(near), "table": None, "figure": None}
+        near_ctx = {"tol": f"{value_in(tol, 'm' if not sigma else '', system):g} {funit}", "count": len(near),
+                    "table": None, "figure": None}
         if len(near):
             near_ctx["table"] = Table(["variable", "unit", "min", "max"],
-                                      [[f.label, variable_unit(f), num(near[f.label].min()), num(near[f.label].max())]
+                                      [[f.label, unit_in(variable_unit(f), system),
+                                        num(value_in(near[f.label].min(), variable_unit(f), system)),
+                                        num(value_in(near[f.label].max(), variable_unit(f), system))]
                                        for f in problem.free], "near", (0, 1))
             if near_figure:
                 near_ctx["figure"] = figure_of(out_dir / near_figure, "the first two free variables of these "
@@ -203,17 +213,18 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
             "time.", best[1], out_dir,
             ([(time_figure, "speed, distance travelled along the CG path and heading (continuous) against time; "
                "dashed: the impacts.")] if time_figure else [])
-            + ([(time_distance_figure, TIME_DISTANCE_CAPTION)] if time_distance_figure else []))
+            + ([(time_distance_figure, TIME_DISTANCE_CAPTION)] if time_distance_figure else []), system)
     return write_report_page("reconstruction.html", out_dir, f"Reconstruction: {spec.name or study.path.stem}",
                  case=case_context(spec), study=study_ctx, evaluations=evaluations,
-                 evaluations_note=evaluations_note, free=free_table(problem.free, truth), scene=scene_context(study),
+                 evaluations_note=evaluations_note, free=free_table(problem.free, truth, system),
+                 scene=scene_context(study),
                  evidence=evidence_context(study), solution=solution, n_pareto=len(pareto),
                  pareto_intro=pareto_intro, warnings=list(warnings),
                  pareto_html=pareto_table_html(pareto, free) if len(pareto) else "",
                  objectives_figure=objectives_figure, near=near_ctx,
                  tops=[figure_of(out_dir / f, c) for f, c in figures],
                  animation=animation_context(best, out_dir, "Pareto row 0 (the smallest sum of objectives)"),
-                 refine=refine_context(out_dir, getattr(result, "refine", None), study.evidence),
+                 refine=refine_context(out_dir, getattr(result, "refine", None), study.evidence, system),
                  notes=list(notes))
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from crashlab.units import wrap_deg
+from crashlab.units import unit_in, value_in, wrap_deg
 
 from .evidence import UNITS
 from .html_page import Solution, Table, figure_of, macro, num
@@ -27,12 +27,17 @@ def case_context(spec):
 
 
 def scene_context(study) -> dict:
-    scene = study.scene
+    """The base scene: its vehicles' data and start states, road and impact, in the study's shown units."""
+    scene, system = study.scene, study.shown_units
     rows = []
+
+    def shown(value, unit, digits):
+        return num(value_in(value, unit, system), digits)
     for v in scene.vehicles:
         s = v.spec
-        rows.append([v.name, getattr(s, "name", "") or "", num(s.mass, 0), num(s.length, 2), num(s.width, 2),
-                     num(v.x, 2), num(v.y, 2), num(math.degrees(v.heading), 1), num(v.speed * 3.6, 1), v.wheels])
+        rows.append([v.name, getattr(s, "name", "") or "", shown(s.mass, "kg", 0), shown(s.length, "m", 2),
+                     shown(s.width, "m", 2), shown(v.x, "m", 2), shown(v.y, "m", 2), num(math.degrees(v.heading), 1),
+                     shown(v.speed * 3.6, "km/h", 1), v.wheels])
     imp = scene.impact
     road = scene.road
     extra = (f"road friction {road.friction:g}" + (f", {len(road.zones)} friction zone(s)" if road.zones else "")
@@ -40,24 +45,28 @@ def scene_context(study) -> dict:
              + (f", {len(scene.barriers)} barrier(s)" if scene.barriers else "")
              + "; impact restitution " + ("of the closing speed (\"speed\")" if imp.restitution_law == "speed"
                                            else f"{imp.restitution:g}") + f", friction {imp.friction:g}"
-             + ("" if imp.point is None else f", point of impact given at ({imp.point[0]:.2f}, {imp.point[1]:.2f}) m")
+             + ("" if imp.point is None else f", point of impact given at ({value_in(imp.point[0], 'm', system):.2f}, "
+                f"{value_in(imp.point[1], 'm', system):.2f}) {unit_in('m', system)}")
              + f"; duration {scene.duration:g} s")
     return {"name": scene.name, "source": scene.source, "extra": extra,
-            "table": Table(["vehicle", "data", "mass [kg]", "length [m]", "width [m]", "x [m]", "y [m]",
-                            "heading [deg]", "speed [km/h]", "wheels"], rows, "scene", (0, 1, 9))}
+            "table": Table(["vehicle", "data", f"mass [{unit_in('kg', system)}]", f"length [{unit_in('m', system)}]",
+                            f"width [{unit_in('m', system)}]", f"x [{unit_in('m', system)}]",
+                            f"y [{unit_in('m', system)}]", "heading [deg]", f"speed [{unit_in('km/h', system)}]",
+                            "wheels"], rows, "scene", (0, 1, 9))}
 
 
 def _options(d: dict) -> str:
     return ", ".join(f"{k} = {v}" for k, v in d.items()) if d else "defaults"
 
 
-def free_table(variables, truth=None) -> Table:
-    """The searched variables (label, unit, bounds; the twin's truth)."""
+def free_table(variables, truth=None, system: str = "si") -> Table:
+    """The searched variables (label, unit, bounds; the twin's truth), in `system`'s units."""
     rows = []
     for j, f in enumerate(variables):
-        row = [f.label, variable_unit(f), num(f.lower), num(f.upper)]
+        u = variable_unit(f)
+        row = [f.label, unit_in(u, system), num(value_in(f.lower, u, system)), num(value_in(f.upper, u, system))]
         if truth is not None:
-            row.append(num(truth[j]) if j < len(truth) else "")
+            row.append(num(value_in(truth[j], u, system)) if j < len(truth) else "")
         rows.append(row)
     head = ["free variable", "unit", "lower", "upper"] + (["truth (twin)"] if truth is not None else [])
     return Table(head, rows, "free", (0, 1))
@@ -65,26 +74,31 @@ def free_table(variables, truth=None) -> Table:
 
 def evidence_context(study) -> dict:
     """The evidence as the objectives use it: measured rest poses (thesis objective, no sigmas), or every
-    item with its value and standard deviation (misfit objective)."""
+    item with its value and standard deviation (misfit objective), in the study's shown units."""
+    system = study.shown_units
+    m = unit_in("m", system)
     es = study.evidence_set
     ev = study.spec.evidence
     twin = ("Twin experiment: the evidence is the model's own run of the base scene"
             + ("" if ev.noise_seed is None else f", with Gaussian noise of the given sigmas (noise_seed "
                f"{ev.noise_seed})") + ".") if ev.twin else ""
     if es is None:
-        rows = [[n, num(x), num(y), "not measured" if h is None else num(h, 2)]
-                for n, (x, y, h) in study.evidence.items()]
+        rows = [[n, num(value_in(x, "m", system)), num(value_in(y, "m", system)),
+                 "not measured" if h is None else num(h, 2)] for n, (x, y, h) in study.evidence.items()]
         return {"twin": twin, "intro": "Measured rest poses (the thesis objective: f_<vehicle> = |r - r*| + "
-                "heading_weight |dpsi| [m]; no standard deviations).",
-                "table": Table(["vehicle", "x [m]", "y [m]", "heading [deg]"], rows, "evidence")}
+                f"heading_weight |dpsi| [{m}]; no standard deviations).",
+                "table": Table(["vehicle", f"x [{m}]", f"y [{m}]", "heading [deg]"], rows, "evidence")}
     rows = []
     for it in es.items:
         if it.kind == "marks":
-            pts = ", ".join(f"({x:.2f}, {y:.2f})" for x, y in it.points)
-            rows.append([it.label, ", ".join(it.vehicles), "CG path through", pts, num(it.sigmas[0]), "m"])
+            pts = ", ".join(f"({value_in(x, 'm', system):.2f}, {value_in(y, 'm', system):.2f})" for x, y in it.points)
+            rows.append([it.label, ", ".join(it.vehicles), "CG path through", pts,
+                         num(value_in(it.sigmas[0], "m", system)), m])
             continue
         for c, v, s in zip(it.components, it.values, it.sigmas):
-            rows.append([it.label, ", ".join(it.vehicles), c, num(v), num(s), UNITS.get(c, "")])
+            u = UNITS.get(c, "")
+            rows.append([it.label, ", ".join(it.vehicles), c, num(value_in(v, u, system)), num(value_in(s, u, system)),
+                         unit_in(u, system)])
     return {"twin": twin, "intro": "Every item with its standard deviation (sigma). Objectives: f_<vehicle> = "
             "sqrt(sum (residual / sigma)^2) over the items that concern the vehicle [sigma]; log-likelihood = -0.5 "
             "sum (residual / sigma)^2 over all items, each once.",
@@ -119,8 +133,16 @@ def speed_at_impact(outcome, i: int, t_impact: float) -> float:
     return math.nan if k < 0 else float(math.hypot(tr["vx"][k], tr["vy"][k])) * 3.6
 
 
-def impact_table(outcome, table_id: str = "impacts") -> Table | None:
-    """The impact table of a run (IMPACT_NOTE), sorted by time; None when nothing touched."""
+# the impact table's column as shown in US units: (header, unit of the value given, digits)
+IMPACT_US = {"speed at impact [km/h]": ("speed at impact [mph]", "km/h", 1),
+             "delta-V [km/h]": ("delta-V [mph]", "km/h", 1), "EES [km/h]": ("EES [mph]", "km/h", 1),
+             "energy dissipated [kJ]": ("energy dissipated [ft-lbf]", "J", 0),
+             "of it this vehicle's [kJ]": ("of it this vehicle's [ft-lbf]", "J", 0)}
+
+
+def impact_table(outcome, table_id: str = "impacts", system: str = "si") -> Table | None:
+    """The impact table of a run (IMPACT_NOTE), sorted by time; None when nothing touched. In US units with
+    system "us" (IMPACT_US: the energies in ft-lbf)."""
     if not outcome.outcome_ok or not outcome.impact_rows:
         return None
     df = outcome.impacts
@@ -133,22 +155,33 @@ def impact_table(outcome, table_id: str = "impacts") -> Table | None:
                   "delta-V [km/h]": r["delta_v"], "EES [km/h]": r["ees"], "PDOF [deg]": r["pdof"],
                   "PDOF [clock]": r["pdof_clock"], "energy dissipated [kJ]": r["energy"] / 1e3,
                   "of it this vehicle's [kJ]": r["crush_energy"] / 1e3}
-        rows.append([r["vehicle"], r["other"]] + [num(v, IMPACT_DIGITS[k]) for k, v in values.items()])
-    return Table(["vehicle", "other"] + list(IMPACT_DIGITS), rows, table_id, (0, 1))
+        rows.append([r["vehicle"], r["other"]] + [_impact_cell(k, v, system) for k, v in values.items()])
+    head = [IMPACT_US[k][0] if system == "us" and k in IMPACT_US else k for k in IMPACT_DIGITS]
+    return Table(["vehicle", "other"] + head, rows, table_id, (0, 1))
 
 
-def solution_context(title, intro, outcome, out_dir, figures) -> Solution | None:
-    """The chosen solution's section: its impact table and figures [(file name in out_dir, caption)]."""
+def _impact_cell(header: str, value, system: str) -> str:
+    """An impact table's cell: IMPACT_DIGITS of the SI value, or its US value (IMPACT_US)."""
+    if system != "us" or header not in IMPACT_US:
+        return num(value, IMPACT_DIGITS[header])
+    _, unit, digits = IMPACT_US[header]
+    return num(value_in(value * (1e3 if unit == "J" else 1.0), unit, system), digits)  # (kJ -> J)
+
+
+def solution_context(title, intro, outcome, out_dir, figures, system: str = "si") -> Solution | None:
+    """The chosen solution's section: its impact table (in `system`'s units) and figures [(file name in out_dir,
+    caption)]."""
     if outcome is None:
         return None
-    return Solution(title, intro, impact_table(outcome), IMPACT_NOTE,
+    return Solution(title, intro, impact_table(outcome, system=system), IMPACT_NOTE,
                     [figure_of(Path(out_dir) / f, c) for f, c in figures])
 
 
 # ---------------------------------------------------------------- refine
-def spread_table(refined, evidence: dict) -> Table | None:
+def spread_table(refined, evidence: dict, system: str = "si") -> Table | None:
     """The spread between the search model and the refine model (a [refine]'s RefineResult): per candidate and
-    vehicle, both models' rest poses at the same start, the distance between them and the heading difference."""
+    vehicle, both models' rest poses at the same start, the distance between them and the heading difference;
+    lengths in `system`'s units."""
     t = getattr(refined, "table", None)
     if t is None or not len(t):
         return None
@@ -160,28 +193,34 @@ def spread_table(refined, evidence: dict) -> Table | None:
         for n in names:
             ha, hb = r[f"search_rest_{n}_heading"], r[f"refine_rest_{n}_heading"]
             m = evidence.get(n)
+
+            def length(v):
+                return num(value_in(v, "m", system), 2)
             rows.append([str(int(r["candidate"])), str(r["row"]), n,
-                         num(r[f"search_rest_{n}_x"], 2), num(r[f"search_rest_{n}_y"], 2), num(ha, 1),
-                         num(r[f"refine_rest_{n}_x"], 2), num(r[f"refine_rest_{n}_y"], 2), num(hb, 1),
-                         num(r[f"model_gap_{n}"], 2), num(wrap_deg(hb - ha) if np.isfinite(ha - hb) else math.nan, 1),
-                         "" if m is None else f"{m[0]:.2f}, {m[1]:.2f}" + ("" if m[2] is None else f", {m[2]:.1f}")])
-    head = ["candidate", "row", "vehicle", f"{a} x [m]", f"{a} y [m]", f"{a} heading [deg]", f"{b} x [m]",
-            f"{b} y [m]", f"{b} heading [deg]", "distance apart [m]", f"heading {b} - {a} [deg]",
-            "measured x, y [m], heading [deg]"]
+                         length(r[f"search_rest_{n}_x"]), length(r[f"search_rest_{n}_y"]), num(ha, 1),
+                         length(r[f"refine_rest_{n}_x"]), length(r[f"refine_rest_{n}_y"]), num(hb, 1),
+                         length(r[f"model_gap_{n}"]), num(wrap_deg(hb - ha) if np.isfinite(ha - hb) else math.nan, 1),
+                         "" if m is None else f"{length(m[0])}, {length(m[1])}" + ("" if m[2] is None else
+                                                                                 f", {m[2]:.1f}")])
+    u = unit_in("m", system)
+    head = ["candidate", "row", "vehicle", f"{a} x [{u}]", f"{a} y [{u}]", f"{a} heading [deg]", f"{b} x [{u}]",
+            f"{b} y [{u}]", f"{b} heading [deg]", f"distance apart [{u}]", f"heading {b} - {a} [deg]",
+            f"measured x, y [{u}], heading [deg]"]
     return Table(head, rows, "spread", (2, 11))
 
 
-def refine_context(out_dir: Path, refined=None, evidence=None) -> dict | None:
+def refine_context(out_dir: Path, refined=None, evidence=None, system: str = "si") -> dict | None:
     """The spread between the models (refined: the RefineResult, when there is one), DIR/refine.md (as text)
     and DIR/refine.csv (as a table); None when there is none of them (the report is written once, after the
     refine step)."""
     md, csv = Path(out_dir) / "refine.md", Path(out_dir) / "refine.csv"
-    ctx = {"spread": spread_table(refined, evidence or {}) if refined is not None else None, "md": None,
+    ctx = {"spread": spread_table(refined, evidence or {}, system) if refined is not None else None, "md": None,
            "csv": None, "error": None, "spread_intro": ""}
     if ctx["spread"] is not None:
         t = refined.table
         gaps = [c for c in t.columns if c.startswith("model_gap_")]
-        worst = ", ".join(f"{c[len('model_gap_'):]} {t[c].max():.2f} m" for c in gaps if np.isfinite(t[c]).any())
+        worst = ", ".join(f"{c[len('model_gap_'):]} {value_in(t[c].max(), 'm', system):.2f} {unit_in('m', system)}"
+                          for c in gaps if np.isfinite(t[c]).any())
         ctx["spread_intro"] = (f"Each candidate ({refined.source}, best first) simulated with both models from the "
                                f"same start: `{refined.search_model}` (the search's) and `{refined.model}` (the "
                                f"refine model). The models' rest positions lie at most {worst or '-'} apart over "

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from crashlab.errors import InputError
+from crashlab.units import frame_in, length_axes_in, uncertain_text, unit_in, value_in
 
 from .questions import answers
 
@@ -19,16 +20,40 @@ TAU_RELIABLE = 50
 BURN_TAUS = 5
 
 
+def variable_units(post) -> dict:
+    """The units map (crashlab.units, shown units) of posterior.csv: each variable's file unit by its label."""
+    return {v.label: v.unit for v in post.variables}
+
+
 def write_posterior_csv(post, res, path: Path) -> None:
+    """posterior.csv: a row per kept sample, a column per variable, log_likelihood; in the study's shown units
+    (US: "V1.speed [mph]", read back by `crashlab avoid`)."""
     import pandas as pd
     df = pd.DataFrame(res.samples, columns=res.labels)
     df["log_likelihood"] = res.log_likelihood
-    df.to_csv(path, index=False, float_format="%.6g")
+    frame_in(df, post.study.shown_units, variable_units(post)).to_csv(path, index=False, float_format="%.6g")
+
+
+def shown_row(post, values, system: str) -> np.ndarray:
+    """One value per variable (file units) in `system`'s units."""
+    return np.array([value_in(x, v.unit, system) for x, v in zip(values, post.variables)])
+
+
+def prior_text(v, system: str) -> str:
+    """A variable's prior (posterior.Variable.describe_prior) with its numbers in `system`'s units."""
+    if system != "us":
+        return v.describe_prior()
+    lo, hi = value_in(v.lower, v.unit, system), value_in(v.upper, v.unit, system)
+    if v.prior is None:
+        return f"flat on [{lo:g}, {hi:g}]"
+    return uncertain_text(v.prior, system).split(": ", 1)[1] + (f", within [{lo:g}, {hi:g}]" if v.free else "")
 
 
 def summary_lines(post, res) -> list[str]:
-    lo, med, hi = res.interval()
-    truth = res.truth
+    """summary.md's lines, in the study's shown units (crashlab.units)."""
+    system = post.study.shown_units
+    lo, med, hi = (shown_row(post, q, system) for q in res.interval())
+    truth = None if res.truth is None else shown_row(post, res.truth, system)
     lines = [f"# Posterior: {post.study.spec.name or post.path.name}", "",
              f"Study `{post.path.name}`, model `{post.study.spec.model}`, sampler {res.sampler} "
              f"({res.walkers} walkers, {res.iterations} iterations of which {res.burn} burn-in discarded, "
@@ -42,7 +67,8 @@ def summary_lines(post, res) -> list[str]:
         sep += "---|---|"
     lines += [head, sep]
     for j, v in enumerate(post.variables):
-        row = (f"| {v.label} | {v.unit} | {v.describe_prior()} | {med[j]:.3f} | {lo[j]:.3f} | {hi[j]:.3f} | "
+        row = (f"| {v.label} | {unit_in(v.unit, system)} | {prior_text(v, system)} | {med[j]:.3f} | {lo[j]:.3f} | "
+               f"{hi[j]:.3f} | "
                f"{res.tau[j]:.1f} | {res.ess[j]:.0f} |")
         if truth is not None:
             row += f" {truth[j]:.3f} | {'yes' if lo[j] <= truth[j] <= hi[j] else 'NO'} |"
@@ -57,12 +83,16 @@ def summary_lines(post, res) -> list[str]:
         from .counterfactual import summary_lines as counterfactual_lines
         lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
                   "with the change (docs/physics.md §29; every number in counterfactuals.csv):", ""]
-        lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals)]
-    lines += ["", "## Evidence", ""] + [f"- {s}" for s in post.study.evidence_set.describe()]
+        lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals, system)]
+    lines += ["", "## Evidence", ""] + (["As the evidence reads it, in file units (report.html gives it in US "
+                                         "units):", ""] if system == "us" else [])
+    lines += [f"- {s}" for s in post.study.evidence_set.describe()]
     lines += ["", "Likelihood: Gaussian in the normalised residuals (crashlab.reconstruction.evidence); priors "
               "as in the table; a start that overlaps, misses or fails has probability 0 "
               "(crashlab.reconstruction.infer).", "",
-              "Files: posterior.csv (a row per sample, a column per variable in file units, log_likelihood), "
+              "Files: posterior.csv (a row per sample, a column per variable "
+              + ("in file units" if system != "us" else "in US units, each named with its unit")
+              + ", log_likelihood), "
               "corner.png, posterior_top_view.png; all of it with the figures embedded: report.html."]
     return lines
 
@@ -83,9 +113,12 @@ def chain_warnings(res) -> list[str]:
 
 def question_rows(post, res) -> list[tuple[str, float, float]]:
     """(the question's name (its expression where it has none) with the note of draws where it is undefined,
-    probability over the defined draws, Monte Carlo standard error from the smallest ESS of its variables)."""
+    probability over the defined draws, Monte Carlo standard error from the smallest ESS of its variables). A
+    question's numbers are in the study file's units: a study written in US units asks of draws in US units."""
+    samples = np.array([shown_row(post, row, post.study.spec.units) for row in res.samples]) \
+        if post.study.spec.units == "us" else res.samples
     return [(a.name + (f" ({a.note})" if a.note else ""), a.probability, a.standard_error)
-            for a in answers(post.questions, res.labels, res.samples, res.ess)]
+            for a in answers(post.questions, res.labels, samples, res.ess)]
 
 
 def best_draw(post, res):
@@ -144,19 +177,23 @@ def median_draw(post, res, out: Path):
     return (scene, outcome, k), figures, notes
 
 
-def corner_plot(res, path: Path, units=None) -> None:
+def corner_plot(res, path: Path, units=None, system: str = "si") -> None:
+    """The corner plot of the samples, axes labelled with their units (US units with system "us")."""
     import matplotlib
     matplotlib.use("Agg")
     import corner
     import matplotlib.pyplot as plt
-    samples = res.samples
+    units = units or [""] * len(res.labels)
+    samples = np.column_stack([value_in(res.samples[:, j], u, system) for j, u in enumerate(units)]) \
+        if len(res.samples) else res.samples
+    truths = None if res.truth is None else [value_in(t, u, system) for t, u in zip(res.truth, units)]
     # corner refuses a variable with no spread (e.g. every draw at one bound): give it a hair of one
     span = np.ptp(samples, axis=0)
     if np.any(span == 0):
         samples = samples + np.where(span == 0, 1e-9, 0.0) * np.arange(len(samples))[:, None] / len(samples)
-    labels = [f"{lab} [{u}]" if u else lab for lab, u in zip(res.labels, units or [""] * len(res.labels))]
+    labels = [f"{lab} [{unit_in(u, system)}]" if u else lab for lab, u in zip(res.labels, units)]
     fig = corner.corner(samples, labels=labels, titles=list(res.labels),  # axes with units, short titles
-                        truths=None if res.truth is None else list(res.truth),
+                        truths=truths,
                         quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".2f")
     fig.savefig(path, dpi=80)
     plt.close(fig)
@@ -214,6 +251,7 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+    length_axes_in(ax, post.study.shown_units)
     ax.set_title(f"{drawn} posterior draws: rest outlines and CG paths")
     scale_bar(ax)
     ax.legend(loc="best", fontsize=8)
@@ -230,10 +268,10 @@ def write_outputs(post, res, out: Path) -> dict:
     try:
         write_posterior_csv(post, res, out / "posterior.csv")
         if res.counterfactuals:
-            import pandas as pd
-            pd.DataFrame(res.counterfactuals).to_csv(out / "counterfactuals.csv", index=False)
+            from .counterfactual import write_csv
+            write_csv(res.counterfactuals, out / "counterfactuals.csv", post.study.shown_units)
         (out / "summary.md").write_text("\n".join(summary_lines(post, res)) + "\n")
-        corner_plot(res, out / "corner.png", [v.unit for v in post.variables])
+        corner_plot(res, out / "corner.png", [v.unit for v in post.variables], post.study.shown_units)
         if post.settings.draws_plotted:
             top_view_draws(post, res, out / "posterior_top_view.png", post.settings.draws_plotted)
         notes = []
@@ -251,7 +289,7 @@ def write_outputs(post, res, out: Path) -> dict:
         if median is not None:  # the avoidance diagram of the median draw (docs/physics.md §29)
             from .avoidance import TIME_DISTANCE_CAPTION, write_time_distance
             name, more = write_time_distance(median[1], out, "Median draw: distance to the point of impact and "
-                                             "speed against time")
+                                             "speed against time", post.study.shown_units)
             notes += more
             if name:
                 median_figures = list(median_figures) + [(name, TIME_DISTANCE_CAPTION)]
@@ -259,7 +297,7 @@ def write_outputs(post, res, out: Path) -> dict:
         if res.answers:
             from .avoidance import write_counterfactual_figures
             counterfactual_figures, more = write_counterfactual_figures(res.answers, post.study.scene.vehicle_names,
-                                                                        out)
+                                                                        out, post.study.shown_units)
             notes += more
         return dict(warnings=chain_warnings(res), best=best, notes=notes, median=median,
                     median_figures=median_figures, questions=question_rows(post, res) if post.questions else [],

@@ -28,11 +28,12 @@ from crashlab.execution import evaluate_variants
 from crashlab.outcome import Outcome
 from crashlab.population import Population, Variants
 from crashlab.scene import Scene
-from crashlab.units import ms_to_kmh
+from crashlab.units import frame_in, length_axes_in, ms_to_kmh, uncertain_text, unit_in, value_in
 
 BATCH = 5000  # draws per simulate_population call (a block of the progress bar)
 QUANTILES = (0.05, 0.5, 0.95)
 PER_VEHICLE = ("x", "y", "heading", "delta_v", "ok")
+SUMMARY_UNITS = {"x": "m", "y": "m", "heading": "deg", "delta_v": "km/h"}  # file units of summary()'s quantities
 
 
 @dataclasses.dataclass
@@ -81,15 +82,30 @@ class MonteCarloResult:
                 rows.append({"vehicle": n, "quantity": q, "median": p50, "p5": p5, "p95": p95, "draws": len(vals)})
         return pd.DataFrame(rows)
 
-    def to_json_dict(self) -> dict:
+    def table_units(self) -> dict:
+        """The units map (crashlab.units, shown units) of the table of draws (montecarlo.csv)."""
+        from crashlab import fields
+        return {e.field: fields.parse(e.field).unit for e in self.scene.uncertain} | {
+            "<vehicle>.x": "m", "<vehicle>.y": "m", "<vehicle>.heading": "deg", "<vehicle>.delta_v": "km/h"}
+
+    def shown_summary(self, system: str = "si"):
+        """summary() in `system`'s units, with the unit of each row (column "unit")."""
+        s = self.summary()
+        units = s["quantity"].map(SUMMARY_UNITS)
+        for c in ("median", "p5", "p95"):
+            s[c] = [value_in(v, u, system) for v, u in zip(s[c], units)]
+        return s.assign(unit=[unit_in(u, system) for u in units])
+
+    def to_json_dict(self, system: str = "si") -> dict:
+        """The summary as JSON, every number in `system`'s units (each summary row says its unit)."""
         def num(v):
             return None if not math.isfinite(v) else round(float(v), 6)
         return {"scene": self.scene.name, "model": self.model, "draws": self.n, "seed": self.seed,
                 "failed": int((~self.table["ok"]).sum()), "failure_reasons": self.failure_reasons(),
                 "no_contact": int(self.table["no_contact"].sum()),
-                "uncertain": [e.describe() for e in self.scene.uncertain],
+                "uncertain": [uncertain_text(e, system) for e in self.scene.uncertain],
                 "summary": [{k: (num(v) if isinstance(v, float) else v) for k, v in r.items()}
-                            for r in self.summary().to_dict(orient="records")],
+                            for r in self.shown_summary(system).to_dict(orient="records")],
                 "wall_time_s": round(self.wall_time_s, 3), "simulation_time_s": round(self.sim_time_s, 3)}
 
 
@@ -164,15 +180,17 @@ def _simulate(model, draws: Variants) -> Population:
 
 
 # ---------------------------------------------------------------- output
-def write(result: MonteCarloResult, out_dir) -> list[Path]:
-    """DIR/montecarlo.csv, DIR/montecarlo.png (rest clouds and delta-V histograms), DIR/summary.csv."""
+def write(result: MonteCarloResult, out_dir, system: str = "si") -> list[Path]:
+    """DIR/montecarlo.csv, DIR/montecarlo.png (rest clouds and delta-V histograms), DIR/summary.csv; in US units
+    with system "us" (montecarlo.csv's converted columns named with their unit, summary.csv with a unit column)."""
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "montecarlo.csv", out / "summary.csv", out / "montecarlo.png"]
-        result.table.to_csv(paths[0], index=False, float_format="%.6g")
-        result.summary().to_csv(paths[1], index=False, float_format="%.6g")
-        figure(result, paths[2])
+        frame_in(result.table, system, result.table_units()).to_csv(paths[0], index=False, float_format="%.6g")
+        (result.summary() if system == "si" else result.shown_summary(system)).to_csv(paths[1], index=False,
+                                                                                      float_format="%.6g")
+        figure(result, paths[2], system)
     except OSError as err:
         raise InputError(out_dir, "--out", err.strerror or str(err)) from None
     return paths
@@ -193,7 +211,7 @@ def _ellipse(ax, xy, colour, share=0.90):
     ax.add_patch(Ellipse(xy.mean(axis=0), h, w, angle=ang, fill=False, color=colour, lw=1.5, ls="--"))
 
 
-def figure(result: MonteCarloResult, path) -> None:
+def figure(result: MonteCarloResult, path, system: str = "si") -> None:
     """Left: top view with the nominal start (dotted) and rest (solid) outlines, each vehicle's cloud of
     rest positions (CG), its 90 % covariance ellipse (dashed) and its 5-95 % ranges in x and y around the
     median (cross). Right: the delta-V histogram of each vehicle (median and 5-95 % marked)."""
@@ -233,6 +251,7 @@ def figure(result: MonteCarloResult, path) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+    length_axes_in(ax, system)
     failed = result.n - len(ok)
     ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed\n"
                  "rest CG clouds, 90 % ellipses (dashed), median with 5-95 % (cross)", fontsize=9)
@@ -240,22 +259,22 @@ def figure(result: MonteCarloResult, path) -> None:
     ax.grid(alpha=0.3)
     for i, n in enumerate(names):
         h = fig.add_subplot(gs[i, 1])
-        vals = ok[f"{n}.delta_v"].to_numpy()
+        vals = value_in(ok[f"{n}.delta_v"].to_numpy(), "km/h", system)
         c = colours[i % len(colours)]
         if len(vals):
             h.hist(vals, bins=40, color=c, alpha=0.7)
             for q, ls in zip(np.quantile(vals, QUANTILES), (":", "-", ":")):
                 h.axvline(q, color="k", ls=ls, lw=1)
         h.set_title(f"{n}: delta-V in its first impact", fontsize=9)
-        h.set_xlabel("delta-V [km/h]")
+        h.set_xlabel(f"delta-V [{unit_in('km/h', system)}]")
         h.set_ylabel("draws")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def print_summary(result: MonteCarloResult, file=None) -> None:
-    """The per-vehicle medians and 5-95 % ranges, the failed draws and their reasons."""
+def print_summary(result: MonteCarloResult, file=None, system: str = "si") -> None:
+    """The per-vehicle medians and 5-95 % ranges (in `system`'s units), the failed draws and their reasons."""
     import sys
     file = file or sys.stdout
     tab = result.table
@@ -264,14 +283,14 @@ def print_summary(result: MonteCarloResult, file=None) -> None:
           f"{result.wall_time_s:.2f} s ({result.sim_time_s:.2f} s simulating)", file=file)
     print("uncertain parameters:", file=file)
     for e in result.scene.uncertain:
-        print(f"  {e.describe()}", file=file)
+        print(f"  {uncertain_text(e, system)}", file=file)
     print(f"rest pose and delta-V over the {result.n - nfail} draws that did not fail: median [5 %, 95 %]", file=file)
-    s = result.summary()
-    units = {"x": "m", "y": "m", "heading": "deg (continuous: turns since the start count)", "delta_v": "km/h"}
+    s = result.shown_summary(system)
     for n in result.names:
         parts = []
         for _, r in s[s.vehicle == n].iterrows():
-            parts.append(f"{r.quantity} {r['median']:.2f} [{r.p5:.2f}, {r.p95:.2f}] {units[r.quantity]}")
+            unit = r.unit + (" (continuous: turns since the start count)" if r.quantity == "heading" else "")
+            parts.append(f"{r.quantity} {r['median']:.2f} [{r.p5:.2f}, {r.p95:.2f}] {unit}")
         print(f"  {n}: " + "; ".join(parts), file=file)
     nc = int(tab["no_contact"].sum())
     if nc:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from crashlab.units import ms_to_kmh, rad_to_deg, wrap_deg
+from crashlab.units import frame_in, ms_to_kmh, rad_to_deg, unit_in, value_in, wrap_deg
 
 from .evidence import log_likelihood_of
 
@@ -31,6 +31,8 @@ class ReconstructionResult:
         self.problem, self.algorithm_info = problem, algorithm_info
 
     def to_json_dict(self) -> dict:
+        """The result as JSON, with its "units" map (pareto_units and the rest poses' keys: shown_units.json_in
+        shows it in US units)."""
         p = self.problem
 
         def num(v):
@@ -49,7 +51,20 @@ class ReconstructionResult:
         reasons = failure_counts(arch["reason"][~arch["ok"]]) if len(arch["X"]) else {}
         return {"pareto": items, "evaluations": self.evaluations, "failed": self.failed,
                 "failure_reasons": reasons, "feasible_fraction": self.feasible_fraction,
-                "wall_time_s": round(self.wall_time_s, 3), **self.algorithm_info}
+                "wall_time_s": round(self.wall_time_s, 3), **self.algorithm_info,
+                "units": pareto_units(p) | {"x": "m", "y": "m", "heading": "deg", "dheading": "deg",
+                                            "wall_time_s": "s"}}
+
+
+def pareto_units(problem) -> dict:
+    """The units map (crashlab.cli.shown_units) of pareto.csv, near_optimal.csv and failures.csv: each variable's
+    file unit by its label, the objectives' (objective_unit), the rest poses and the state at first contact."""
+    from .problem import variable_unit
+    return {f.label: variable_unit(f) for f in problem.free} | {
+        "f_<vehicle>": objective_unit(problem), "dheading_<vehicle>": "deg", "misfit_<item>": "sigma",
+        "rest_<vehicle>_x": "m", "rest_<vehicle>_y": "m", "rest_<vehicle>_heading": "deg",
+        "contact_<vehicle>_x": "m", "contact_<vehicle>_y": "m", "contact_<vehicle>_heading": "deg",
+        "contact_<vehicle>_speed": "km/h"}
 
 
 def failure_counts(reasons) -> dict:
@@ -110,15 +125,16 @@ def misfit_columns(problem) -> list[str]:
     return [f"misfit_{it.label}" for it in problem.evidence_set.items] if problem.evidence_set is not None else []
 
 
-def write_failures(problem, arch: dict, path: Path, n_search: int):
+def write_failures(problem, arch: dict, path: Path, n_search: int, system: str = "si"):
     """failures.csv: one row per failed evaluation: its index, phase (search/polish), free variables
-    (file units) and the reason. Written (with its header) also when nothing failed."""
+    (file units, or US units with system "us") and the reason. Written (with its header) also when nothing
+    failed."""
     bad = np.flatnonzero(~arch["ok"]) if len(arch["X"]) else np.empty(0, int)
     table = pd.DataFrame({"evaluation": bad, "phase": np.where(bad < n_search, "search", "polish")})
     for c, f in enumerate(problem.free):
         table[f.label] = arch["X"][bad, c] if len(bad) else []
     table["reason"] = arch["reason"][bad] if len(bad) else []
-    table.to_csv(path, index=False)
+    frame_in(table, system, pareto_units(problem)).to_csv(path, index=False)
 
 
 def near_optimal_table(problem, arch: dict, tol: float) -> pd.DataFrame:
@@ -166,27 +182,28 @@ def objective_unit(problem) -> str:
     return "m" if problem.evidence_set is None else "sigma"
 
 
-def _objectives_figure(problem, arch, pareto, path, plt) -> str | None:
+def _objectives_figure(problem, arch, pareto, path, plt, system: str = "si") -> str | None:
     """Every feasible evaluation's first two objectives (grey) and the non-dominated ones (red); log axes where
     every value shown is positive, else linear (a perfect fit has objective 0, which no log axis shows).
     Returns why it is not drawn (no feasible evaluation), or None."""
     names = list(problem.objective_names)
     feas = np.all(arch["G"] <= 0, axis=1) & arch["ok"] if len(arch["X"]) else np.zeros(0, bool)
-    F = arch["F"][feas] if feas.any() else np.empty((0, len(names)))
+    unit = objective_unit(problem)
+    F = value_in(arch["F"][feas] if feas.any() else np.empty((0, len(names))), unit, system)
     if not len(F):
         return "no feasible evaluation to draw: " + infeasible_sentence(evaluation_counts(problem, arch))
     fig, ax = plt.subplots(figsize=(6, 5))
     ax.scatter(F[:, 0], F[:, 1], s=6, color="0.6", label="dominated / evaluated")
     if len(pareto):
-        ax.scatter(pareto[f"f_{names[0]}"], pareto[f"f_{names[1]}"], s=24, color="C3", label="non-dominated")
+        ax.scatter(value_in(pareto[f"f_{names[0]}"], unit, system), value_in(pareto[f"f_{names[1]}"], unit, system),
+                   s=24, color="C3", label="non-dominated")
     shown = F[:, :2][np.isfinite(F[:, :2]).all(axis=1)]
     log = len(shown) > 0 and bool(np.all(shown > 0))
     if log:
         ax.set_xscale("log")
         ax.set_yscale("log")
-    unit = objective_unit(problem)
-    ax.set_xlabel(f"f_{names[0]} [{unit}]" + ("" if log else " (linear: an objective is 0)"))
-    ax.set_ylabel(f"f_{names[1]} [{unit}]")
+    ax.set_xlabel(f"f_{names[0]} [{unit_in(unit, system)}]" + ("" if log else " (linear: an objective is 0)"))
+    ax.set_ylabel(f"f_{names[1]} [{unit_in(unit, system)}]")
     ax.legend()
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
@@ -194,18 +211,19 @@ def _objectives_figure(problem, arch, pareto, path, plt) -> str | None:
     return None
 
 
-def _near_optimal_figure(problem, near, path, plt) -> str:
+def _near_optimal_figure(problem, near, path, plt, system: str = "si") -> str:
     """The first two free variables of the near-optimal starts (with their units), coloured by their largest
-    objective (m, or sigma for the normalised misfit)."""
+    objective (m, or sigma for the normalised misfit); in US units with system "us"."""
     from .problem import variable_unit
     fa, fb = problem.free[0], problem.free[1]
     a, b = fa.label, fb.label
-    worst = near[[c for c in near.columns if c.startswith("f_")]].max(axis=1)
+    ua, ub, uf = variable_unit(fa), variable_unit(fb), objective_unit(problem)
+    worst = value_in(near[[c for c in near.columns if c.startswith("f_")]].max(axis=1), uf, system)
     fig, ax = plt.subplots(figsize=(6, 5))
-    sc = ax.scatter(near[a], near[b], c=worst, s=12, cmap="viridis")
-    fig.colorbar(sc, ax=ax, label=f"largest objective [{objective_unit(problem)}]")
-    ax.set_xlabel(f"{a} [{variable_unit(fa)}]")
-    ax.set_ylabel(f"{b} [{variable_unit(fb)}]")
+    sc = ax.scatter(value_in(near[a], ua, system), value_in(near[b], ub, system), c=worst, s=12, cmap="viridis")
+    fig.colorbar(sc, ax=ax, label=f"largest objective [{unit_in(uf, system)}]")
+    ax.set_xlabel(f"{a} [{unit_in(ua, system)}]")
+    ax.set_ylabel(f"{b} [{unit_in(ub, system)}]")
     ax.set_title("starts that explain the evidence equally well")
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -232,13 +250,15 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     from crashlab.tools.plotting import time_histories, top_view
     problem = result.problem
     info = result.algorithm_info
-    result.pareto.to_csv(out_dir / "pareto.csv", index=False)
-    write_failures(problem, arch, out_dir / "failures.csv", info["search_evaluations"])
+    system = study.shown_units  # the units every table, CSV file and figure here shows (crashlab.units)
+    units = pareto_units(problem)
+    frame_in(result.pareto, system, units).to_csv(out_dir / "pareto.csv", index=False)
+    write_failures(problem, arch, out_dir / "failures.csv", info["search_evaluations"], system)
     names = list(problem.objective_names)
     notes = []
     if len(names) >= 2:
         try:
-            why = _objectives_figure(problem, arch, result.pareto, out_dir / "objectives.png", plt)
+            why = _objectives_figure(problem, arch, result.pareto, out_dir / "objectives.png", plt, system)
             if why:
                 notes.append(f"objectives.png not drawn: {why}")
         except Exception as err:  # noqa: BLE001 - the search's result is in the tables already
@@ -247,10 +267,10 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             plt.close("all")
     tol = study.spec.objective.near_optimal_tol(study.mode)
     near = near_optimal_table(problem, arch, tol)
-    near.to_csv(out_dir / "near_optimal.csv", index=False)
+    frame_in(near, system, units).to_csv(out_dir / "near_optimal.csv", index=False)
     if len(near) and len(problem.free) >= 2:
         try:
-            figures_near = _near_optimal_figure(problem, near, out_dir / "near_optimal.png", plt)
+            figures_near = _near_optimal_figure(problem, near, out_dir / "near_optimal.png", plt, system)
         except Exception as err:  # noqa: BLE001
             figures_near = None
             notes.append(drawing_failed("near_optimal.png", err))
@@ -286,7 +306,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                 plt.close("all")
             from .avoidance import write_time_distance  # the avoidance diagram (docs/physics.md §29)
             time_distance_figure, more = write_time_distance(outcome, out_dir, "Pareto row 0: distance to the "
-                                                             "point of impact and speed against time")
+                                                             "point of impact and speed against time", system)
             notes += more
         try:
             top_view(scene, outcome, out_dir / f"solution_{k}.png",
@@ -310,20 +330,26 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     for key in ("sigma_share", "repaired"):
         if key in info:
             lines.append(f"- {key}: {info[key]}")
+    length = unit_in("m", system)
     if problem.evidence_set is None:
-        lines += ["", "Evidence (measured rest poses): " + "; ".join(
-            f"{n} ({x:.2f}, {y:.2f}" + (f", {h:.1f} deg)" if h is not None else ", heading not measured)")
+        lines += ["", f"Evidence (measured rest poses, {length}): " + "; ".join(
+            f"{n} ({value_in(x, 'm', system):.2f}, {value_in(y, 'm', system):.2f}"
+            + (f", {h:.1f} deg)" if h is not None else ", heading not measured)")
             for n, (x, y, h) in problem.evidence.items()), "",
-            "Objectives (thesis): f_<vehicle> = |r - r*| + heading_weight |dpsi| [m].", ""]
+            f"Objectives (thesis): f_<vehicle> = |r - r*| + heading_weight |dpsi| [{length}].", ""]
     else:
-        lines += ["", "Evidence, each with its standard deviation:", ""]
+        lines += ["", "Evidence, each with its standard deviation" + (" (as the evidence reads it: file units; "
+                                                                    "report.html gives it in US units)"
+                                                                    if system == "us" else "") + ":", ""]
         lines += [f"- {line}" for line in problem.evidence_set.describe()]
         lines += ["", "Objectives (normalised misfit): f_<vehicle> = sqrt(sum (residual / sigma)^2) over the items "
                   "that concern the vehicle (the point of impact: every vehicle); log_likelihood = -0.5 sum "
                   "(residual / sigma)^2 over all items, each once (crashlab.reconstruction.evidence).", ""]
     if study.spec.evidence.twin:
         lines += ["Twin experiment: the evidence is the model's own run of the base scene, whose start is the "
-                  "truth: " + ", ".join(f"{f.label} = {v:.3f}" for f, v in zip(problem.free, problem.base_values()))
+                  "truth: " + ", ".join(f"{f.label} = {value_in(v, units[f.label], system):.3f}"
+                                        + (f" {unit_in(units[f.label], system)}" if system == "us" else "")
+                                        for f, v in zip(problem.free, problem.base_values()))
                   + ("" if study.spec.evidence.noise_seed is None else
                      f"; Gaussian noise with the given sigmas added (noise_seed {study.spec.evidence.noise_seed})"),
                   ""]
@@ -332,7 +358,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     if measured_h:
         lines += ["dheading_<vehicle>: simulated minus measured rest heading [deg], wrapped to -180..180; " +
                   ("in the objectives divided by sigma_heading." if problem.evidence_set is not None else
-                   f"weighted {hw:g} m/deg in the objectives." if hw else
+                   f"weighted {value_in(hw, 'm/deg', system):g} {unit_in('m/deg', system)} in the objectives."
+                   if hw else
                    "**not part of the objectives** (heading_weight = 0): a small f_ does not mean the "
                    "headings match."), ""]
     warnings = []
@@ -344,8 +371,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             warnings.append(f"**Warning: the first solution's rest headings are off the measured ones: "
                             f"{', '.join(off)}.**")
             lines += [warnings[-1], ""]
-        show = result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names] +
-                             [f"dheading_{n}" for n in measured_h]].head(15)
+        show = frame_in(result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names] +
+                                      [f"dheading_{n}" for n in measured_h]].head(15), system, units)
         lines.append(show.to_markdown(index=False, floatfmt=".3f"))
         if problem.evidence_set is not None:
             mcols = misfit_columns(problem)
@@ -357,17 +384,19 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                       .to_markdown(floatfmt=".3f")]
     else:
         lines.append("No feasible solution.")
-    unit = " m" if problem.evidence_set is None else " (normalised misfit, sigmas)"
-    lines += ["", f"## Starts that explain the evidence within {tol:g}{unit} ({len(near)} evaluated)", ""]
+    unit = f" {length}" if problem.evidence_set is None else " (normalised misfit, sigmas)"
+    shown_tol = value_in(tol, objective_unit(problem), system)
+    lines += ["", f"## Starts that explain the evidence within {shown_tol:g}{unit} ({len(near)} evaluated)", ""]
     if len(near):
         cols = [f.label for f in problem.free]
-        lines += [f"Every objective at most {tol:g}{unit} (`[objective] near_optimal`); all in near_optimal.csv"
+        shown_near = frame_in(near[cols], system, units)
+        lines += [f"Every objective at most {shown_tol:g}{unit} (`[objective] near_optimal`); all in near_optimal.csv"
                   + (", the first two free variables in near_optimal.png" if figures_near else "") +
                   ". The evidence cannot tell these starts apart; their range is only what the search tried, at "
                   "least what the evidence leaves open, not an uncertainty interval (that is the posterior: "
                   "crashlab infer).", "",
-                  pd.DataFrame({"variable": cols, "min": near[cols].min().to_numpy(),
-                                "max": near[cols].max().to_numpy()}).to_markdown(index=False, floatfmt=".3f")]
+                  pd.DataFrame({"variable": list(shown_near.columns), "min": shown_near.min().to_numpy(),
+                                "max": shown_near.max().to_numpy()}).to_markdown(index=False, floatfmt=".3f")]
     else:
         lines.append("None: no evaluated start explains every vehicle's rest pose that well.")
     if figures:

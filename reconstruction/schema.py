@@ -180,7 +180,7 @@ class MarkEvidence(_Strict):
     may leave the points out: then n_points points of the run's own CG path, evenly spaced in time."""
     vehicle: str = Field(description="the name of the vehicle that left the mark")
     points: list[Point] | None = Field(default=None, min_length=2, max_length=MARK_POINTS_MAX,
-                                       description=f"at least 2 points [x, y] (m), at most {MARK_POINTS_MAX}")
+                                       description=f"m; at least 2 points [x, y], at most {MARK_POINTS_MAX}")
     sigma: Real = Field(gt=0, le=SIGMA_POSITION_MAX, description=f"m; (0, {SIGMA_POSITION_MAX:g}]")
     n_points: Int | None = Field(default=None, ge=2, le=MARK_POINTS_MAX,
                                  description=f"twin only: points taken from the run's CG path; [2, {MARK_POINTS_MAX}]")
@@ -340,6 +340,11 @@ class CaseSection(_Strict):
 
 class StudyFile(_Strict):
     """A study: the base scene, the free variables searched, the evidence, the objective and the budget."""
+    units: Literal["si", "us"] = Field(default="si", description="the file's units: \"si\" (m, km/h, kg as every "
+                                       "key's unit says) or \"us\" (ft, mph, lb: the US unit column; a [[free]] "
+                                       "or [[uncertain]] table's numbers and a counterfactual's set and shift in "
+                                       "their field's, a question's numbers in the variables' US units); the base "
+                                       "scene says its own")
     name: str = Field(default="", description="title of the study in outputs")
     case: CaseSection | None = Field(default=None, description="[case]: case id, analyst, date, notes, "
                                      "assumptions and limitations, shown first in report.html")
@@ -374,3 +379,62 @@ class StudyFile(_Strict):
                                   "triangular: lower..upper; normal: mean +- 3 sd within its truncation); on a "
                                   "[[free]] variable's own field: infer's prior within the free bounds, which the "
                                   "search keeps (reconstruct says so; refused when it has no probability there)")
+
+
+def in_file_units(data, path) -> dict:
+    """A study file's table with every number in its file unit: as it is, or for a file that says
+    units = "us" read from ft, mph, lb (crashlab.file_units: each key's unit is its description's, the US unit
+    column of docs/reference.md). A [[free]] table's bounds take its field's unit, a counterfactual's set and
+    shift values theirs (scale is a factor); hv_reference and near_optimal are lengths with the thesis
+    objective only (the misfit's are sigmas)."""
+    from crashlab.file_units import field_unit, from_us, scaled, system_of
+    from crashlab.uncertainty import UncertainFile
+    from crashlab.units import us_factor
+    if system_of(data, path) != "us":
+        return data
+    raw = {k: v for k, v in data.items() if k not in ("free", "counterfactuals", "objective")}
+    out = from_us(raw, StudyFile, {"uncertain": UncertainFile})
+    if "free" in data:
+        out["free"] = [_free_from_us(f) for f in data["free"]] if isinstance(data["free"], list) else data["free"]
+    if "counterfactuals" in data:
+        cfs = data["counterfactuals"]
+        out["counterfactuals"] = [{k: ({p: scaled(v, us_factor(field_unit(p))) for p, v in t.items()}
+                                       if k in ("set", "shift") and isinstance(t, dict) else t)
+                                   for k, t in cf.items()} if isinstance(cf, dict) else cf for cf in cfs] \
+            if isinstance(cfs, list) else cfs
+    if "objective" in data:
+        out["objective"] = _objective_from_us(data["objective"], out.get("evidence"))
+    return out
+
+
+def _free_from_us(entry):
+    """A [[free]] table's lower and upper from its field's US unit (the field as crashlab.fields reads it)."""
+    from crashlab.file_units import field_unit, scaled
+    from crashlab.units import us_factor
+    if not isinstance(entry, dict) or not isinstance(entry.get("field"), str):
+        return entry  # the schema's check names what is wrong
+    try:
+        unit = field_unit(study_path(entry.get("vehicle"), entry["field"]))
+    except (ValueError, KeyError, TypeError):
+        return entry
+    return {k: scaled(v, us_factor(unit)) if k in ("lower", "upper") else v for k, v in entry.items()}
+
+
+def _objective_from_us(objective, evidence):
+    """[objective] from US units: heading_weight ft/deg; hv_reference and near_optimal ft with the thesis
+    objective (ObjectiveSection.mode, its default read from the evidence), sigmas with the misfit."""
+    from pydantic import ValidationError
+
+    from crashlab.file_units import scaled
+    from crashlab.units import us_factor
+    if not isinstance(objective, dict):
+        return objective
+    mode = objective.get("mode")
+    if mode is None:
+        try:
+            mode = "misfit" if Evidence.model_validate(evidence or {}).has_uncertainty else "thesis"
+        except ValidationError:
+            mode = "misfit"  # the study's check names the evidence's problem
+    lengths = ("hv_reference", "near_optimal") if mode == "thesis" else ()
+    return {k: scaled(v, us_factor("m/deg")) if k == "heading_weight" else
+            scaled(v, us_factor("m")) if k in lengths else v for k, v in objective.items()}

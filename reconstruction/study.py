@@ -47,7 +47,7 @@ from .infer_settings import InferSection
 from .problem import ReconstructionProblem, UncertainVariable
 from .repair import CollisionRepair
 from .run import run_study
-from .schema import StudyFile
+from .schema import StudyFile, in_file_units
 
 
 def _canonical(obj) -> str:
@@ -76,6 +76,9 @@ class Study:
         # the uncertain parameters the search takes as extra free variables (problem.UncertainVariable)
         self.uncertain = tuple(uncertain)
         self.notes: list[str] = []  # said once when the study is run (free_and_uncertain)
+        # the units of every table, CSV file, figure and report its runs write: "si" (file units) or "us" (ft, mph,
+        # lb; crashlab.units, shown units); the command line's --units sets it, the computation never reads it
+        self.shown_units = "si"
 
     @property
     def variables(self) -> list:
@@ -97,8 +100,9 @@ class Study:
         """What a result depends on, part by part (crashlab.reconstruction.run, "Resume"): part -> digest."""
         # [refine] runs after the search and the posterior and changes neither
         study = self.spec.model_dump(exclude={"execution": {"backend", "workers", "scheduler"}, "refine": True,
-                                              "case": True, "counterfactuals": True})
-        # (the case's description changes no result; the counterfactuals run after the search and the posterior)
+                                              "case": True, "counterfactuals": True, "units": True})
+        # (the case's description changes no result; the counterfactuals run after the search and the posterior;
+        # the numbers are in file units whatever units the file was written in)
         scene = dataclasses.asdict(self.scene)
         for key in ("source", "references"):
             scene.pop(key, None)
@@ -197,10 +201,23 @@ def _check_free_driver_fields(path, free, scene) -> None:
                                      f"reach past action {j + 1}: keep the actions in time order")
 
 
+US_NOTE = "(units = \"us\": the file's numbers are read into the units said here)"
+
+
 def load_study(path) -> Study:
-    """The study in a TOML file, checked; InputError (file, key, problem) when it is not right."""
+    """The study in a TOML file, checked; InputError (file, key, problem) when it is not right (for a file
+    written in US units, its own lines say that their numbers are in file units: US_NOTE)."""
     path = Path(path)
-    data = read_toml(path, "study")
+    data = in_file_units(read_toml(path, "study"), path)  # a study written in ft, mph, lb: read once, here
+    try:
+        return _load_study(path, data)
+    except InputError as err:
+        if data.get("units") != "us" or str(err.file) != str(path):
+            raise
+        raise InputError(err.file, err.key, f"{err.problem} {US_NOTE}") from None
+
+
+def _load_study(path: Path, data: dict) -> Study:
     try:
         spec = StudyFile.model_validate(data)
     except ValidationError as err:

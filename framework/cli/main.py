@@ -144,13 +144,13 @@ def cmd_reconstruct(args):
 
 
 def cmd_infer(args):
-    from crashlab.reconstruction.infer import cmd_infer as run
+    from crashlab.reconstruction.command import cmd_infer as run
     refuse_other_kind(args.study, "study")
     return _with_pdf(run, args)
 
 
 def cmd_avoid(args):
-    from crashlab.reconstruction.infer import cmd_avoid as run
+    from crashlab.reconstruction.command import cmd_avoid as run
     refuse_other_kind(args.study, "study")
     return run(args)
 
@@ -185,9 +185,15 @@ def _run_options(parser) -> None:
 def _table_options(parser, wide: str) -> None:
     """--wide (what it adds: `wide`) and --units of a command that prints tables."""
     parser.add_argument("--wide", action="store_true", help=wide)
+    _units_option(parser)
+
+
+def _units_option(parser) -> None:
+    """--units of a command that prints tables or writes files: what it shows, never what it computes."""
     parser.add_argument("--units", choices=("si", "us"), default="si",
-                        help="units of the printed tables and JSON: si (m, km/h, kg, J) or us (ft, mph, lb, ft-lbf); "
-                        "a scene file says its own with units = \"us\"")
+                        help="units of every printed table, JSON, CSV file, figure and report: si (m, km/h, kg, J) "
+                        "or us (ft, mph, lb, ft-lbf); degrees and seconds as they are; a scene or study file says "
+                        "its own with units = \"us\"")
 
 
 def build_parser():
@@ -282,12 +288,14 @@ def build_parser():
     inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
     inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
     _run_options(inf)
+    _units_option(inf)
     inf.set_defaults(fn=cmd_infer)
     av = command("avoid", "would it have been avoided: the study's [[counterfactuals]] answered on the draws of an "
                  "earlier `crashlab infer STUDY --out DIR`")
     av.add_argument("study", help="study TOML file with [[counterfactuals]]")
     av.add_argument("--out", required=True, metavar="DIR", help="the infer run's output folder (posterior.csv); "
                     "counterfactuals.csv is written there")
+    _units_option(av)
     av.set_defaults(fn=cmd_avoid)
     r = command("reconstruct", "search the pre-impact conditions that explain the evidence")
     r.add_argument("study", help="study TOML file (docs/reference.md)")
@@ -302,6 +310,7 @@ def build_parser():
                    help="write the Pareto set, report and figures here (default: print only)")
     r.add_argument("--json", action="store_true", help="print the result as JSON")
     _run_options(r)
+    _units_option(r)
     r.set_defaults(fn=cmd_reconstruct)
     sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
                  "validation, the PC-Crash cases with every impulse law")

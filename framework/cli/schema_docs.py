@@ -301,9 +301,13 @@ def reference_markdown(roots: dict) -> str:
            "a key you choose (a vehicle's name, a reference source). Range: `[lo, hi]` closed, `(lo, hi]` open "
            "at lo. Numbers are finite; true/false are not numbers; unknown keys are refused unless said "
            "otherwise. `crashlab schema scene|study|vehicle` prints the JSON Schema of each file for editors. "
-           "A scene file with `units = \"us\"` gives its numbers in the US unit column (ft, mph, lb; a "
-           "[[uncertain]] table's numbers in its field's), read into the unit column before any check; ranges "
-           "and defaults are in the unit column. Study files and vehicle files are read in the unit column.",
+           "A scene or study file with `units = \"us\"` gives its numbers in the US unit column (ft, mph, lb; "
+           "an [[uncertain]] or [[free]] table's numbers and a counterfactual's set and shift values in their "
+           "field's US unit; with the thesis objective hv_reference and near_optimal in ft, with the misfit in "
+           "sigmas; a question's numbers in the variables' US units), read into the unit column before any check; "
+           "ranges and defaults are in the unit column. A study's base scene says its own units; model_options "
+           "are in the units `crashlab models --options` gives. Vehicle files are read in the unit column. "
+           "`--units us` shows what a command prints and writes in the US units; the files it reads keep theirs.",
            ""]
     for kind, (model, extras) in roots.items():
         out += [f"## {TITLES.get(kind, kind)}", ""]
