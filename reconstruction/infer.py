@@ -41,12 +41,12 @@ from pathlib import Path
 
 import numpy as np
 
-from crashlab.errors import EXIT_NO_FEASIBLE, InputError
+from crashlab.errors import InputError
 from crashlab.execution import Executor
 
-from .posterior import Posterior, load_posterior
+from .posterior import Posterior
 from .run import read_checkpoint
-from .schema import SEED_MAX, WORKERS_MAX
+from .schema import WORKERS_MAX
 
 CHECKPOINT_FORMAT = "crashlab posterior checkpoint 1"
 
@@ -247,67 +247,4 @@ def _run_zeus(post, nw, total, s, stream, t0):
     return chain, lps, 1.0, post.evaluations
 
 
-# ---------------------------------------------------------------- command line
-def cmd_infer(args) -> int:
-    """`crashlab infer` (its options: crashlab.cli): bad input raises InputError (the CLI prints its one line
-    and exits 2)."""
-    post = load_posterior(args.study)
-    if args.samples is not None and not 10 <= args.samples <= 10_000_000:
-        raise InputError(args.study, "--samples", f"{args.samples} is outside [10, 10000000]")
-    if args.seed is not None and not 0 <= args.seed <= SEED_MAX:
-        raise InputError(args.study, "--seed", f"{args.seed} is outside [0, {SEED_MAX}]")
-    res = run_posterior(post, args.out, args.samples, args.seed, args.resume, args.workers,
-                        progress=not getattr(args, "no_progress", False))
-    lo, med, hi = res.interval()
-    for j, lab in enumerate(res.labels):
-        print(f"{lab:24s} {med[j]:10.3f}  90 % [{lo[j]:.3f}, {hi[j]:.3f}]  ESS {res.ess[j]:.0f}")
-    print(f"{len(res.samples)} samples, {res.evaluations} model evaluations, {res.wall_time_s:.1f} s, "
-          f"outputs in {args.out}")
-    if res.refine is not None:
-        print(res.refine.summary_line(post.study.variables, wrote=True))
-    if res.counterfactuals:
-        from . import counterfactual
-        for line in counterfactual.summary_lines(res.counterfactuals):
-            print(line)
-    from .infer_report import chain_warnings
-    for w in chain_warnings(res):  # (summary.md has them too)
-        print("warning: " + w.removeprefix("**Warning**: "), file=sys.stderr)
-    if not np.isfinite(res.log_likelihood).any():
-        print(f"crashlab: no feasible solution: {args.study}: no draw explains the evidence (every log-posterior "
-              "is -inf: no contact, a failed run or a vehicle moving at the end; see summary.md)", file=sys.stderr)
-        return EXIT_NO_FEASIBLE
-    return 0
-
-
-__all__ = ["CHECKPOINT_FORMAT", "PosteriorResult", "cmd_avoid", "cmd_infer", "run_posterior"]
-
-
-def cmd_avoid(args) -> int:
-    """`crashlab avoid STUDY --out DIR`: the study's [[counterfactuals]] answered on DIR/posterior.csv, the draws
-    of an earlier `crashlab infer STUDY --out DIR` (crashlab.reconstruction.counterfactual): DIR/counterfactuals.csv
-    and its figures (crashlab.reconstruction.avoidance), a line each on the terminal."""
-    import pandas as pd
-    post = load_posterior(args.study)
-    if not post.counterfactuals:
-        raise InputError(args.study, "counterfactuals", "the study has no [[counterfactuals]] to answer")
-    path = Path(args.out) / "posterior.csv"
-    try:
-        table = pd.read_csv(path)
-    except (OSError, ValueError) as err:
-        raise InputError(path, "--out", f"no posterior to read ({err}); run crashlab infer STUDY --out DIR first") \
-            from None
-    missing = [lab for lab in post.labels if lab not in table.columns]
-    if missing:
-        raise InputError(path, missing[0], "a variable of the study is not in this posterior (another study?)")
-    from . import counterfactual
-    answers = counterfactual.run(post, table[post.labels].to_numpy(float), args.out)
-    for line in counterfactual.summary_lines([a.row for a in answers]):
-        print(line)
-    from .avoidance import write_counterfactual_figures
-    figures, notes = write_counterfactual_figures(answers, post.study.scene.vehicle_names, args.out)
-    for note in notes:
-        print("warning: " + note, file=sys.stderr)
-    for name, _ in figures:
-        print(f"wrote {path.parent / name}", file=sys.stderr)
-    print(f"wrote {path.parent / 'counterfactuals.csv'}", file=sys.stderr)
-    return 0
+__all__ = ["CHECKPOINT_FORMAT", "PosteriorResult", "run_posterior"]

@@ -57,7 +57,7 @@ class ReconstructionResult:
 
 
 def pareto_units(problem) -> dict:
-    """The units map (crashlab.cli.shown_units) of pareto.csv, near_optimal.csv and failures.csv: each variable's
+    """The units map (crashlab.units, shown units) of pareto.csv, near_optimal.csv and failures.csv: each variable's
     file unit by its label, the objectives' (objective_unit), the rest poses and the state at first contact."""
     from .problem import variable_unit
     return {f.label: variable_unit(f) for f in problem.free} | {

@@ -7,6 +7,7 @@ The twin and the expected columns are written here with the exact definitions (1
 1609.344 m, 1 lb = 0.45359237 kg; NIST SP 811), independent of the pint conversion the code uses."""
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -314,6 +315,20 @@ def test_monte_carlo_prints_and_writes_us_units(tmp_path, capsys):
     row = next(r for r in js["summary"] if r["quantity"] == "delta_v")
     ref = next(r for r in result.to_json_dict()["summary"] if r["quantity"] == "delta_v")
     assert row["median"] == pytest.approx(ref["median"] / MPH, rel=1e-5) and row["unit"] == "mph"
+
+
+def test_simulate_monte_carlo_passes_units_us_to_its_files_and_json(tmp_path, capsys):
+    """The command line's --units reaches the Monte Carlo's CSV, summary and JSON (not only the module)."""
+    side = str(REPO / "studies" / "montecarlo" / "side.toml")
+    assert main(["simulate", side, "--monte-carlo", "6", "--seed", "3", "--units", "us", "--out",
+                 str(tmp_path / "us")]) == 0
+    printed = capsys.readouterr().out
+    assert "mph" in printed and " km/h" not in printed
+    columns = pd.read_csv(tmp_path / "us" / "montecarlo.csv").columns
+    assert "V1.delta_v [mph]" in columns and "V1.x [ft]" in columns and "V1.delta_v" not in columns
+    assert main(["simulate", side, "--monte-carlo", "6", "--seed", "3", "--units", "us", "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert next(r for r in js["summary"] if r["quantity"] == "delta_v")["unit"] == "mph"
 
 
 def test_a_bound_out_of_range_in_a_us_study_is_one_line_in_file_units(twins, tmp_path, capsys):

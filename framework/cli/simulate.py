@@ -11,7 +11,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..registry import UnknownPluginError
 from ..units import wrap_deg
-from .shown_units import json_in, table_in
+from ..units import json_in, table_in
 
 
 def _num(v):
@@ -150,11 +150,11 @@ def cmd_monte_carlo(args, scene, model):
     with lock_out_dir(args.out, "simulate --monte-carlo"):  # one run writes DIR at a time
         result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
                                 progress=sys.stderr.isatty())
-        written = montecarlo.write(result, args.out) if args.out else []
+        written = montecarlo.write(result, args.out, args.units) if args.out else []
     if args.json:
-        print(json.dumps(result.to_json_dict(), indent=2))
+        print(json.dumps(result.to_json_dict(args.units), indent=2))
     else:
-        montecarlo.print_summary(result)
+        montecarlo.print_summary(result, system=args.units)
         if written:
             print("wrote " + ", ".join(str(p) for p in written))
         else:
