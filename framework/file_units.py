@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from . import fields
 from .errors import InputError
+from .input_files import schema_in
 from .units import UNIT_SYSTEMS, split_unit, us_factor
-from .vehicle import schema_in
 
 UNITS_KEY = "units"
 # keys whose values are in the unit of the field the same table names (`field = "vehicles.V1.speed"`)

@@ -12,9 +12,10 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, WrapValidator
 
 from . import uncertainty
-from .file_units import from_us, system_of
 from .errors import InputError
 from .file_numbers import Real
+from .file_units import from_us, system_of
+from .input_files import pydantic_error, read_toml
 from .restitution import SPEED
 from .scene import (
     ANGLE_MAX,
@@ -44,7 +45,7 @@ from .scene import (
     start_overlaps,
 )
 from .units import deg_to_rad, kmh_to_ms
-from .vehicle import VehicleFile, load_vehicle, pydantic_error, read_toml
+from .vehicle import VehicleFile, load_vehicle
 
 Position = Annotated[Real, Field(ge=-POSITION_MAX, le=POSITION_MAX,
                                  description=f"m; |value| <= {POSITION_MAX:g}")]

@@ -36,8 +36,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from . import fields
 from .errors import InputError
 from .file_numbers import Real
+from .input_files import pydantic_error
 from .scene import Scene
-from .vehicle import pydantic_error
 
 DISTRIBUTIONS = {"uniform": ("lower", "upper"), "normal": ("mean", "sd"), "triangular": ("lower", "mode", "upper")}
 OPTIONAL = {"normal": ("lower", "upper")}  # truncation of a normal

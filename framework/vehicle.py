@@ -18,11 +18,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .errors import InputError
 from .file_numbers import Real, bounded
-from .input_files import pydantic_error, read_toml, schema_in  # noqa: F401 - schema_in: see below
+from .input_files import pydantic_error, read_toml
 from .structure import STRUCTURE_SIDES, StructureSection, structure_of
-
-# read_toml, pydantic_error and schema_in live in crashlab.input_files; they are importable from here too for
-# the modules that still import them from crashlab.vehicle (file_units, scene_file, uncertainty, the study)
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane

@@ -69,7 +69,7 @@ class Counterfactual:
 
 def parse(raw, scene, path) -> list[Counterfactual]:
     """The study's [[counterfactuals]] checked against the scene; InputError naming the key."""
-    from crashlab.vehicle import pydantic_error
+    from crashlab.input_files import pydantic_error
     if not isinstance(raw, list):
         raise InputError(path, "counterfactuals", "a list of tables ([[counterfactuals]] name = ..., set = {...})")
     out = []

@@ -31,7 +31,7 @@ from typing_extensions import Annotated
 
 from crashlab import fields, uncertainty
 from crashlab.errors import InputError
-from crashlab.vehicle import pydantic_error
+from crashlab.input_files import pydantic_error
 
 from . import counterfactual
 from .evidence import log_likelihood_of

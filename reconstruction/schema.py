@@ -2,7 +2,7 @@
 
 Every section is a strict pydantic model: unknown keys, NaN, inf and booleans for numbers are refused,
 and every bound is in the field's description, so an error names the key and the allowed range
-(crashlab.vehicle.pydantic_error). Ranges are those of a scene file (crashlab.scene) where they describe
+(crashlab.input_files.pydantic_error). Ranges are those of a scene file (crashlab.scene) where they describe
 the same thing.
 """
 from __future__ import annotations

@@ -26,6 +26,7 @@ from pydantic import ValidationError
 
 from crashlab import uncertainty
 from crashlab.errors import InputError
+from crashlab.input_files import pydantic_error, read_toml
 from crashlab.options import OptionError
 from crashlab.population import outcome_reason
 from crashlab.registry import (
@@ -39,7 +40,6 @@ from crashlab.registry import (
 from crashlab.scene import Scene
 from crashlab.scene_file import load_scene
 from crashlab.units import ms_to_kmh
-from crashlab.vehicle import pydantic_error, read_toml
 from crashlab.version import package_version
 
 from .evidence import build_evidence

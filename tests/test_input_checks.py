@@ -271,7 +271,8 @@ def test_on_ice_the_vehicles_keep_moving(make_scene, model, wheels):
 @pytest.mark.parametrize("extra, key, expected", [
     ("steer = 200.0", "vehicles.V1.steer", "less than or equal to 45 deg, got 200.0"),
     ("heading = 1e308", "vehicles.V1.heading", " deg, got 1e+308"),
-    ("[vehicles.overrides]\nyaw_inertia = -5.0", "vehicles.V1.overrides.yaw_inertia", "greater than 0 kg m^2, got -5.0"),
+    ("[vehicles.overrides]\nyaw_inertia = -5.0", "vehicles.V1.overrides.yaw_inertia",
+     "greater than 0 kg m^2, got -5.0"),
     ("[vehicles.overrides]\nwheelbase = -1.0", "vehicles.V1.overrides.wheelbase", "greater than 0 m, got -1.0"),
 ])
 def test_a_range_error_gives_the_bound_in_the_keys_unit(tmp_path, capsys, extra, key, expected):

@@ -1,6 +1,6 @@
 """Inputs that gave tracebacks in issue 27's fuzz: each is refused with one line naming the file and the
-key, exit 2 (crashlab.vehicle.read_toml, load_vehicle, the study's scene path, [infer] under `reconstruct`,
-an unreachable Dask scheduler)."""
+key, exit 2 (crashlab.input_files.read_toml, crashlab.vehicle.load_vehicle, the study's scene path, [infer]
+under `reconstruct`, an unreachable Dask scheduler)."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -7,8 +7,9 @@ from pathlib import Path
 
 from ..damage import check_profile, format_report, pair_report, report
 from ..errors import InputError
+from ..input_files import read_toml
 from ..scene_file import load_scene
-from ..vehicle import VehicleSpec, load_vehicle, read_toml
+from ..vehicle import VehicleSpec, load_vehicle
 
 
 def parse_profile(text: str, key: str = "--profile", where: str = "command line") -> list[float]:

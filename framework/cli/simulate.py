@@ -10,8 +10,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..registry import UnknownPluginError
-from ..units import wrap_deg
-from ..units import json_in, table_in
+from ..units import json_in, table_in, wrap_deg
 
 
 def _num(v):

@@ -4,8 +4,9 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+from ..input_files import read_toml
 from ..structure import Structure
-from ..vehicle import VEHICLE_CLASSES, library, load_vehicle, read_toml
+from ..vehicle import VEHICLE_CLASSES, library, load_vehicle
 
 
 def library_table() -> list[dict]:

@@ -24,9 +24,9 @@ from crashlab.models.common.contact_episodes import (
     I_MAXPEN,
     I_T0,
     I_T1,
-    episode_capacity,
     N_IMP,
     contact_intervals,
+    episode_capacity,
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code

@@ -1,4 +1,5 @@
-"""Where the multibody side collision's time goes (issue 25 item 4): `python tests/benchmarks/profile_multibody_side.py`.
+"""Where the multibody side collision's time goes (issue 25 item 4):
+`python tests/benchmarks/profile_multibody_side.py`.
 
 Prints (1) the run's counts (steps and rejected steps per phase, right-hand-side and narrow-phase evaluations),
 (2) the per-call cost of the parts of one evaluation in compiled loops (min of 7 repeats, process CPU) on the
