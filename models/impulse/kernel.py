@@ -105,20 +105,22 @@ def _normal_approach(S, i, k, nv, px, py, nx, ny):
 
 
 @njit(cache=True)
-def _fastest_point(S, i, k, nv, poly, n_poly, nx, ny, approach, px, py):
+def _fastest_point(S, i, k, nv, poly, n_poly, nx, ny, approach, px, py, speeds):
     """Sustained contact (docs/physics.md §5): the point of the overlap that approaches fastest, from the overlap's
     centroid (px, py) approaching at `approach` (rigid bodies: the normal velocity is linear over the overlap, so
     its extremes are at vertices). Vertices within V_TIE of the fastest tie: the point is their mean (the centroid
     where they tie with it: a pure translation), not the first in the polygon's order, which a reflected scene
-    reverses. Returns (approach, px, py)."""
+    reverses. Each vertex's approach is evaluated once, into the scratch `speeds` (>= n_poly). Returns (approach,
+    px, py)."""
     fastest = approach
     for q in range(n_poly):
-        fastest = max(fastest, _normal_approach(S, i, k, nv, poly[q, 0], poly[q, 1], nx, ny))
+        speeds[q] = _normal_approach(S, i, k, nv, poly[q, 0], poly[q, 1], nx, ny)
+        fastest = max(fastest, speeds[q])
     if fastest - approach <= V_TIE:
         return approach, px, py
     sx, sy, n = 0.0, 0.0, 0
     for q in range(n_poly):
-        if _normal_approach(S, i, k, nv, poly[q, 0], poly[q, 1], nx, ny) >= fastest - V_TIE:
+        if speeds[q] >= fastest - V_TIE:
             sx, sy, n = sx + poly[q, 0], sy + poly[q, 1], n + 1
     if n == 1:
         return fastest, sx, sy
@@ -160,6 +162,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     cl_p = np.empty((nv * nk, 2))
     cl_v = np.empty((nv * nk, 8, 2))  # and the overlap polygon's vertices
     cl_m = np.zeros(nv * nk, np.int64)
+    speeds = np.empty(cl_v.shape[1])  # the approach of each overlap vertex (_fastest_point)
     oa, ob = np.empty((4, 2)), np.empty((4, 2))  # the outlines of the pair under test (_outline)
     pen = np.empty((nv * nk, 3))  # each listed pair's overlap test at the step's end: depth, normal
     awake = np.empty(nv, np.int64)  # the awake vehicles and the pairs with an awake member (_awake_sets)
@@ -406,12 +409,11 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             for c in range(nc):
                 i, k = cl_i[c], cl_k[c]
                 nx, ny, px, py = cl_n[c, 0], cl_n[c, 1], cl_p[c, 0], cl_p[c, 1]
-                v1x, v1y = _point_velocity(S, i, nv, px, py)
-                v2x, v2y = _point_velocity(S, k, nv, px, py)
-                approach = -((v2x - v1x) * nx + (v2y - v1y) * ny)
+                approach = _normal_approach(S, i, k, nv, px, py, nx, ny)
                 row = episode[i, k]
                 if row >= 0 and imp[row, I_T] != t:
-                    approach, px, py = _fastest_point(S, i, k, nv, cl_v[c], cl_m[c], nx, ny, approach, px, py)
+                    approach, px, py = _fastest_point(S, i, k, nv, cl_v[c], cl_m[c], nx, ny, approach, px, py,
+                                                      speeds)
                 if approach <= V_EPS:
                     continue
                 is_impact = row < 0
