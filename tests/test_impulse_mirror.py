@@ -16,9 +16,8 @@ force (models/common/planar_vehicle.wheel_force) amplified that 1e8-fold: its br
 beside the lateral one, sqrt(fmax^2 - fy^2), is a difference of squares that loses every digit where the
 lateral force saturates (tanh(C alpha / fmax) -> 1). The two runs' step sequences were identical up to 7.69 s
 (they diverge there only because their states already differed). The well-conditioned form of the same law,
-fmax / cosh(C alpha / fmax), keeps the 1e-16 difference at 1e-11 (every run within MIRROR_TOL, measured 3.6e-10):
-a change of models/common/planar_vehicle.py, outside this module's owner; the tests that need it are marked
-xfail(strict) with NEEDS_WELL_CONDITIONED_BRAKE until it lands (then remove the marks)."""
+fmax / cosh(C alpha / fmax) (docs/physics.md §2a), keeps the 1e-16 difference at 1e-11: every run within
+MIRROR_TOL (measured 3.6e-10)."""
 from __future__ import annotations
 
 import dataclasses
@@ -32,16 +31,13 @@ from crashlab.tools.stress import VEHICLES, WHEEL_STATES, crash_scene, random_sc
 LAWS = ("kudlich-slibar", "brach", "routh")
 MIRROR_TOL = 1e-9  # relative to max(1, |value|) (m, rad, m/s, rad/s, J)
 # end velocities of a vehicle still moving at the end (a rolling car): its yaw rate and lateral speed are round-off
-# that coarse steps amplify (Heun beyond its stability limit on those modes, kernel docstring) until the step
+# that coarse steps amplify (Heun beyond its stability limit on those modes) until the step
 # policy's 1e-9 thresholds return to fine steps, so they end anywhere below ~1e-8
 FINAL_TOL = 1e-8
 SUSTAINED_TOL = MIRROR_TOL  # measured 2.3e-10 (routh), 6.4e-6 before the tie rule (module docstring)
-# random scenes without sustained contact before the braked wheel's well-conditioned force (module docstring):
-# measured up to 1.6e-8; the engagement runs: up to 1.04e-9 (a rolling car's end yaw rate, FINAL_TOL)
+# the engagement runs (test_engagement_point_and_plane_are_mirrored): measured up to 1.04e-9, a rolling car's end
+# yaw rate (FINAL_TOL)
 RANDOM_TOL = 1e-7
-NEEDS_WELL_CONDITIONED_BRAKE = pytest.mark.xfail(
-    strict=True, reason="needs the braked wheel's force as fmax / cosh(C alpha / fmax) in "
-    "models/common/planar_vehicle.wheel_force (module docstring); remove this mark when it lands")
 
 
 def mirrored(scene):
@@ -122,10 +118,11 @@ def axis_scenes(n, seed):
     return out
 
 
-@pytest.fixture(scope="module")
-def mirror_runs(impulse_model):
-    """200 seeded crashes, 100 of crashlab.stress.random_scenes (any angle, barriers) and 100 axis_scenes, each
-    law: (law, scene index, mirror_error, sustained contact) per run."""
+def test_mirrored_random_scenes_give_mirrored_results(impulse_model):
+    """Issue 23's "200 mirrored random scenes: identical magnitudes to 1e-9": 200 seeded crashes, 100 of
+    crashlab.stress.random_scenes (any angle, barriers) and 100 axis_scenes, each law: the reflected scene's outcome
+    is the reflected outcome, every one of the 600 runs within MIRROR_TOL, with and without sustained contact
+    (module docstring: 1.6e-8 in 3 runs before the braked wheel's well-conditioned force)."""
     scenes = random_scenes(100, seed=7) + axis_scenes(100, seed=3)
     runs = []
     for law in LAWS:
@@ -134,36 +131,19 @@ def mirror_runs(impulse_model):
         mirr = impulse_model.simulate_batch([mirrored(s) for s in base])
         runs += [(law, n, mirror_error(a, b), any(r["contact_impulses"] > 0 for r in a.impact_rows))
                  for n, (a, b) in enumerate(zip(outs, mirr))]
-    return runs
+    for sustained in (True, False):
+        errs = [err for _, _, err, sus in runs if sus == sustained]
+        print(f"{len(errs)} runs {'with' if sustained else 'without'} sustained contact: largest mirror "
+              f"difference {max(errs):.2e}")
+    bad = [(law, n, f"{err:.2e}") for law, n, err, _ in runs if not err <= MIRROR_TOL]
+    assert not bad, f"{len(bad)} of {len(runs)} runs beyond {MIRROR_TOL:g}: {bad}"
 
 
-def test_mirrored_random_scenes_give_mirrored_results(mirror_runs):
-    """The 600 runs of mirror_runs: the reflected scene's outcome is the reflected outcome; with sustained
-    contact to MIRROR_TOL, the others to RANDOM_TOL, 90 % of them to MIRROR_TOL (module docstring)."""
-    sustained = [r for r in mirror_runs if r[3]]
-    other = [r for r in mirror_runs if not r[3]]
-    print(f"{len(sustained)} runs with sustained contact, largest mirror difference "
-          f"{max(r[2] for r in sustained):.2e}; {len(other)} without, largest {max(r[2] for r in other):.2e}, "
-          f"{sum(r[2] <= MIRROR_TOL for r in other)} within {MIRROR_TOL:g}")
-    assert max(r[2] for r in sustained) <= SUSTAINED_TOL
-    assert max(r[2] for r in other) <= RANDOM_TOL
-    assert sum(r[2] <= MIRROR_TOL for r in other) >= 0.9 * len(other)
-
-
-@NEEDS_WELL_CONDITIONED_BRAKE
-def test_every_mirrored_random_scene_within_mirror_tol(mirror_runs):
-    """Issue 23's "200 mirrored random scenes: identical magnitudes to 1e-9": every one of the 600 runs within
-    MIRROR_TOL, with and without sustained contact (measured 3.6e-10 with the braked wheel's well-conditioned
-    force; 1.6e-8 in 3 runs without it)."""
-    bad = [(law, n, f"{err:.2e}") for law, n, err, _ in mirror_runs if not err <= MIRROR_TOL]
-    assert not bad, f"{len(bad)} of {len(mirror_runs)} runs beyond {MIRROR_TOL:g}: {bad}"
-
-
-@NEEDS_WELL_CONDITIONED_BRAKE
 def test_spinning_braked_car_gives_the_mirrored_result(impulse_model):
     """axis_scenes(100, seed=3)[98] (module docstring): a 2,955 kg saloon at 191 km/h into a standing 896 kg one
     with braked wheels, which spins away at 0.8 rad/s sliding at ~45 deg; 1,200 steps later its rest pose
-    differed by 1.6e-8 m from the reflected run's, under every law. Now within MIRROR_TOL."""
+    differed by 1.6e-8 m from the reflected run's, under every law (the braked wheel's force, module docstring).
+    Now within MIRROR_TOL."""
     scene = axis_scenes(100, seed=3)[98]
     assert scene.vehicles[1].wheels == "braked"
     for law in LAWS:
@@ -177,12 +157,11 @@ def tanh_decimal(x):
     return (e - 1) / (e + 1)
 
 
-@NEEDS_WELL_CONDITIONED_BRAKE
 @pytest.mark.parametrize("mode", ["braked", "rolling, brake 1, no rolling resistance"])
 def test_braking_force_beside_a_saturated_lateral_force_keeps_its_digits(mode):
     """The braking force of a braked wheel (and of a rolling one braking with the whole friction left) is the
     friction left beside the lateral force, sqrt(fmax^2 - fy^2) with fy = fmax tanh(C alpha / fmax)
-    (docs/physics.md §2; the rolling resistance, which would take over where the remainder is small, set to 0):
+    (docs/physics.md §2a; the rolling resistance, which would take over where the remainder is small, set to 0):
     against that law evaluated in 50-digit decimals (the slip angle alpha as the law
     computes it), over slip angles 0-89 deg, to 1e-13 fmax. The difference of squares in doubles is off by up to
     ~1e-8 fmax where the lateral force saturates (the cause of the mirrored runs' 1.6e-8, module docstring)."""
