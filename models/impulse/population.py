@@ -85,7 +85,7 @@ def population_of(model, names, mass, rest, final, contact, imp, diag) -> Popula
     pop.reason[~ok] = [texts[s] for s in status[~ok]]
     n_imp = diag[:, L.D_IMPACTS].astype(int)
     imp = imp[:, :max(int(n_imp.max(initial=0)), 1)]  # the records in use
-    pop.ok[:], pop.mass[:], pop.n_impacts[:] = ok, mass, n_imp
+    pop.ok[:], pop.n_impacts[:] = ok, n_imp  # (pop.mass: the simulate_population wrapper's)
     good = np.flatnonzero(ok)
     pop.rest[good], pop.final[good], pop.contact[good] = rest[good], final[good], contact[good]
     pop.rest_speed[good] = np.hypot(final[good, :, 0], final[good, :, 1])
