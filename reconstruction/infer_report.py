@@ -158,14 +158,16 @@ def median_draw(post, res, out: Path):
     scene = post.setter(res.samples[k])
     outcome = model_for(post.study.spec.model, post.study.spec.model_options).simulate(scene)
     figures, notes = [], []
+    system = post.study.shown_units  # the figures' axes in the shown units (crashlab.units)
     import matplotlib.pyplot as plt
     for name, draw, caption in (
             ("median_draw_time.png", lambda p: time_histories(scene, outcome, p, title="Median draw: speed, "
-                                                              "distance travelled and heading against time"),
+                                                              "distance travelled and heading against time",
+                                                              system=system),
              "speed, distance travelled along the CG path and heading (continuous) against time; dashed: the "
              "impacts."),
             ("median_draw.png", lambda p: top_view(scene, outcome, p, title="Median draw",
-                                                   measured=post.study.evidence),
+                                                   measured=post.study.evidence, system=system),
              "start dotted, first contact dashed, rest solid, measured rest pose thick and pale.")):
         try:
             draw(out / name)
@@ -253,7 +255,7 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
     ax.set_ylabel("y [m]")
     length_axes_in(ax, post.study.shown_units)
     ax.set_title(f"{drawn} posterior draws: rest outlines and CG paths")
-    scale_bar(ax)
+    scale_bar(ax, post.study.shown_units)
     ax.legend(loc="best", fontsize=8)
     fig.savefig(path, dpi=90)
     plt.close(fig)
