@@ -84,9 +84,8 @@ def summary_lines(post, res) -> list[str]:
         lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
                   "with the change (docs/physics.md §29; every number in counterfactuals.csv):", ""]
         lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals, system)]
-    lines += ["", "## Evidence", ""] + (["As the evidence reads it, in file units (report.html gives it in US "
-                                         "units):", ""] if system == "us" else [])
-    lines += [f"- {s}" for s in post.study.evidence_set.describe()]
+    lines += ["", "## Evidence", ""]
+    lines += [f"- {s}" for s in post.study.evidence_set.describe(system)]
     lines += ["", "Likelihood: Gaussian in the normalised residuals (crashlab.reconstruction.evidence); priors "
               "as in the table; a start that overlaps, misses or fails has probability 0 "
               "(crashlab.reconstruction.infer).", "",

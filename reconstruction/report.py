@@ -339,10 +339,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             for n, (x, y, h) in problem.evidence.items()), "",
             f"Objectives (thesis): f_<vehicle> = |r - r*| + heading_weight |dpsi| [{length}].", ""]
     else:
-        lines += ["", "Evidence, each with its standard deviation" + (" (as the evidence reads it: file units; "
-                                                                    "report.html gives it in US units)"
-                                                                    if system == "us" else "") + ":", ""]
-        lines += [f"- {line}" for line in problem.evidence_set.describe()]
+        lines += ["", "Evidence, each with its standard deviation:", ""]
+        lines += [f"- {line}" for line in problem.evidence_set.describe(system)]
         lines += ["", "Objectives (normalised misfit): f_<vehicle> = sqrt(sum (residual / sigma)^2) over the items "
                   "that concern the vehicle (the point of impact: every vehicle); log_likelihood = -0.5 sum "
                   "(residual / sigma)^2 over all items, each once (crashlab.reconstruction.evidence).", ""]

@@ -155,7 +155,7 @@ def labels_of(fig):
     return [(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes]
 
 
-def test_reconstruct_and_infer_draw_their_figures_in_us_units(us_study, saved, tmp_path):
+def test_reconstruct_and_infer_draw_their_figures_and_evidence_in_us_units(us_study, saved, tmp_path):
     from crashlab.cli.main import main
     for command in ("reconstruct", "infer"):
         with contextlib.redirect_stdout(io.StringIO()):
@@ -165,3 +165,7 @@ def test_reconstruct_and_infer_draw_their_figures_in_us_units(us_study, saved, t
         assert_top_view_in_feet(saved[name].axes[0])
     for name in ("solution_0_time.png", "median_draw_time.png"):
         assert [y for _, y in labels_of(saved[name])] == ["speed [mph]", "distance travelled [ft]", "heading [deg]"]
+    # summary.md's evidence lines in US units too (EvidenceSet.describe; tests/test_us_evidence.py)
+    for command in ("reconstruct", "infer"):
+        summary = (tmp_path / command / "summary.md").read_text()
+        assert "file units" not in summary and f"- rest.V1: x = {6.66 / FT:.2f} ± {0.3 / FT:.3g} ft" in summary
