@@ -70,6 +70,7 @@ from .base import (
     reference_poses,
     timed,
     valid_setting,
+    write_table,
 )
 
 SCENES = {
@@ -276,21 +277,22 @@ def plot(df: pd.DataFrame, conv: pd.DataFrame, scene_key: str, path: Path) -> Pa
     return path
 
 
-def write(df: pd.DataFrame, conv: pd.DataFrame, out: Path) -> Path:
+def write(df: pd.DataFrame, conv: pd.DataFrame, out: Path, system: str = "si") -> Path:
+    """workprecision.csv and workprecision_converged.csv in `system`'s units (base.write_table: error_m ->
+    error_ft in "us"), a figure per scene; the CSV's path."""
     out = Path(out)
-    path = out / "workprecision.csv"
-    df.to_csv(path, index=False)
-    conv.to_csv(out / "workprecision_converged.csv", index=False)
+    path = write_table(df, out / "workprecision.csv", system)
+    write_table(conv, out / "workprecision_converged.csv", system)
     for key in df.scene.unique():
         plot(df, conv, key, out / f"workprecision_{key}.png")
     return path
 
 
-def run(models: list[str], out: Path, quick: bool = False) -> Path:
+def run(models: list[str], out: Path, quick: bool = False, system: str = "si") -> Path:
     """`crashlab study workprecision`: the sweep of every model's accuracy knobs; returns the CSV path."""
     check_knobs(models)
     out = output_dir(out)
     scenes = QUICK_SCENES if quick else tuple(SCENES)
     df, conv = study(models, scenes, QUICK_FACTORS if quick else FACTORS,
                      QUICK_REPEATS if quick else REPEATS, log=lambda msg: print(msg, flush=True))
-    return write(df, conv, out)
+    return write(df, conv, out, system)
