@@ -127,3 +127,47 @@ def test_the_study_command_passes_its_units(tmp_path, monkeypatch):
         assert main(["study", "pc_crash", "--models", "impulse", "--units", "us", "--out", str(tmp_path)]) == 0
         assert main(["study", "pc_crash", "--models", "impulse", "--out", str(tmp_path)]) == 0
     assert seen == ["us", "si"]
+
+
+@pytest.fixture
+def saved(monkeypatch):
+    """{file name: figure} of every figure saved while the test runs."""
+    from pathlib import Path
+
+    from matplotlib.figure import Figure
+    figures = {}
+    real = Figure.savefig
+
+    def savefig(fig, path, *a, **k):
+        figures[Path(str(path)).name] = fig
+        return real(fig, path, *a, **k)
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    return figures
+
+
+def test_the_studies_figures_in_us_units(tmp_path, saved):
+    """The work-precision diagram's error in ft, the stability heat map's speed bins and the validation
+    figure's delta-V in mph (the values on the axes, not only their labels)."""
+    df = pd.DataFrame({"model": "impulse", "scene": "side", "setting": ['{}', '{"dt": 0.004}'],
+                       "wall_time_s": [1e-3, 5e-4], "error_m": [0.01, 0.04], "error_deg": 0.1,
+                       "error_kind": "numerical", "knob": ["", "dt"], "is_default": [True, False], "ok": True})
+    conv = pd.DataFrame({"model": ["impulse"], "scene": ["side"], "wall_time_s": [2e-3], "converged_check_m": [0.001]})
+    workprecision.plot(df, conv, "side", tmp_path / "wp.png", "us")
+    ax = saved["wp.png"].axes[0]
+    assert ax.get_ylabel().endswith("[ft]")
+    assert sorted(ax.get_lines()[0].get_ydata()) == pytest.approx([0.01 / FT, 0.04 / FT], rel=1e-12)
+    st = pd.DataFrame({"model": "impulse", "setting": "{}", "speed_kmh": [30.0, 120.0], "angle_deg": [10.0, 90.0],
+                       "ok": [True, False]})
+    stability.heatmap(st, "impulse", tmp_path / "st.png", "us")
+    ax = saved["st.png"].axes[0]
+    assert ax.get_ylabel() == "speed of V1 [mph]"
+    assert np.allclose(ax.get_yticks(), np.asarray(stability.SPEED_BINS) / MPH, rtol=1e-12)
+    rows = [{"ok": True, "kind": "crash test", "quantity": next(iter(validation.DV_QUANTITIES)), "test": "t",
+             "model": "impulse", "law": "-", "contact": "found", "restitution": "0.1", "published": 40.0,
+             "simulated": 42.0, "error": 2.0, "unit": "km/h"}]
+    from crashlab.comparison.base import shown_rows
+    validation.write_figure(shown_rows(rows, "us"), tmp_path / "v.png", "mph")
+    ax = saved["v.png"].axes[0]
+    assert ax.get_xlabel() == "measured delta-V [mph]" and ax.get_ylabel() == "simulated delta-V [mph]"
+    points = [c.get_offsets() for c in ax.collections if len(c.get_offsets())]
+    assert any(np.allclose(p, [[40.0 / MPH, 42.0 / MPH]]) for p in points)
