@@ -15,9 +15,55 @@ from crashlab.registry import MODELS, UnknownPluginError, available_models, load
 from crashlab.scene import Scene
 from crashlab.scene_file import load_scene
 from crashlab.tools import examples
-from crashlab.units import wrap_deg
+from crashlab.units import US_UNITS, frame_in, shown_name, unit_in, unit_of, value_in, wrap_deg
 
 STUDIES_DIR = examples.root()  # the bundled studies/ (package data crashlab.examples)
+
+
+# ---------------------------------------------------------------- shown units (`crashlab study --units`)
+# The units map (crashlab.units) of every study's CSV columns: by their unit suffix ("error_m", "d_pc_crash_m",
+# "speed_kmh"), and the few named without one; a table with a "unit" column (validation.csv) gives the unit of
+# its ROW_UNIT_COLUMNS row by row. Degrees, seconds and counts stay as they are.
+STUDY_UNITS = {"<quantity>_m": "m", "<quantity>_kmh": "km/h", "x": "m", "y": "m", "engagement_depth": "m",
+               "delta_v": "km/h", "dvx": "km/h", "dvy": "km/h"}
+ROW_UNIT_COLUMNS = ("published", "simulated", "error")
+
+
+def shown_column(name: str, system: str) -> str:
+    """A study column's name as shown in `system` ("error_m" -> "error_ft" in "us")."""
+    return shown_name(name, unit_of(name, STUDY_UNITS), system)
+
+
+def shown_rows(rows: list[dict], system: str) -> list[dict]:
+    """Rows (dicts) of a study table with a "unit" column as shown in `system`: ROW_UNIT_COLUMNS of a row whose
+    unit has a US form converted and its unit said (names kept); the rows themselves in "si"."""
+    if system != "us":
+        return rows
+    out = []
+    for r in rows:
+        unit = r.get("unit", "")
+        if unit in US_UNITS:
+            r = {**r, **{c: value_in(r[c], unit, system) for c in ROW_UNIT_COLUMNS if c in r},
+                 "unit": unit_in(unit, system)}
+        out.append(r)
+    return out
+
+
+def shown_table(df, system: str):
+    """A study's table (a pandas DataFrame) as shown in `system`: each column with a unit (STUDY_UNITS)
+    converted and renamed (crashlab.units.frame_in), a "unit" column's rows by their unit (shown_rows)."""
+    if system != "us":
+        return df
+    import pandas as pd
+    if "unit" in df.columns:
+        df = pd.DataFrame(shown_rows(df.to_dict(orient="records"), system), columns=df.columns)
+    return frame_in(df, system, STUDY_UNITS)
+
+
+def write_table(df, path, system: str = "si") -> Path:
+    """A study's CSV file in `system`'s units (shown_table); its path."""
+    shown_table(df, system).to_csv(path, index=False)
+    return Path(path)
 
 
 def resolve_models(spec: str | None) -> list[str]:

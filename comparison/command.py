@@ -1,4 +1,4 @@
-"""`crashlab study NAME [--models a,b] [--quick] --out DIR`."""
+"""`crashlab study NAME [--models a,b] [--quick] [--units si|us] --out DIR`."""
 from __future__ import annotations
 
 import importlib
@@ -18,9 +18,9 @@ def run_cli(args) -> int:
     out = output_dir(args.out)
     for name in names:
         module = importlib.import_module(f"crashlab.comparison.{name}")
-        path = module.run(models, out, quick=args.quick)
+        path = module.run(models, out, quick=args.quick, system=args.units)  # CSV, markdown, figures shown
         print(f"{name}: {path}")
     if args.name == "all":
         from .report import write_report
-        print(f"report: {write_report(out)}")
+        print(f"report: {write_report(out, system=args.units)}")
     return 0

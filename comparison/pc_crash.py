@@ -17,12 +17,15 @@ A run that fails gives rows with ok False and NaN numbers; the study goes on.
 """
 from __future__ import annotations
 
-import csv
 import math
 import time
 from pathlib import Path
 
-from .base import STUDIES_DIR
+import pandas as pd
+
+from crashlab.units import unit_in, value_in
+
+from .base import STUDIES_DIR, shown_table
 from .validation import IMPACT_LAWS, LAW_MODELS, variant_scene
 
 PC_CRASH_DIR = STUDIES_DIR / "pc_crash"
@@ -103,38 +106,41 @@ def _fmt(x, nd=2) -> str:
     return "" if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else f"{x:.{nd}f}"
 
 
-def write_csv(rows: list[dict], path: Path) -> Path:
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
-        w.writeheader()
-        w.writerows(rows)
+def write_csv(rows: list[dict], path: Path, system: str = "si") -> Path:
+    """pc_crash.csv (COLUMNS) in `system`'s units (base.write_table: x, y, distances and delta-V in ft and mph
+    in "us", each column named with its unit)."""
+    shown_table(pd.DataFrame(rows, columns=COLUMNS), system).to_csv(path, index=False, na_rep="nan")
     return path
 
 
-def markdown(rows: list[dict]) -> str:
-    """A table per case: one line per (model, law, contact), both vehicles side by side."""
+def markdown(rows: list[dict], system: str = "si") -> str:
+    """A table per case: one line per (model, law, contact), both vehicles side by side, in `system`'s units."""
+    m, kmh = unit_in("m", system), unit_in("km/h", system)
+    rows = [{**r, **{k: value_in(r[k], u, system) for k, u in (("d_pc_crash_m", "m"), ("delta_v", "km/h"),
+                                                                 ("engagement_depth", "m"))}} for r in rows]
     lines = ["# PC-Crash cases: every model, impulse law and point-of-impact placement", "",
-             "Rest-pose distance [m] and heading difference [deg] to PC-Crash's (thesis Tables 3.10, 3.12, 3.14), "
-             "delta-V [km/h] of each vehicle (sum of its impact rows), the impacts' kinds and whether any impact "
-             "was flagged slip_reversed (the slip stops and reverses: kudlich-slibar and brach are outside "
+             f"Rest-pose distance [{m}] and heading difference [deg] to PC-Crash's (thesis Tables 3.10, 3.12, "
+             f"3.14), delta-V [{kmh}] of each vehicle (sum of its impact rows), the impacts' kinds and whether any "
+             "impact was flagged slip_reversed (the slip stops and reverses: kudlich-slibar and brach are outside "
              "their assumptions there, docs/physics.md §3). contact: \"found\" = the model's own contact "
              "(impulse: contact-zone point), \"engagement d\" = [impact] point = \"engagement\" with "
-             "engagement_depth d [m]. One parameter set for the three cases (the scene files); nothing tuned.", ""]
+             f"engagement_depth d [{m}]. One parameter set for the three cases (the scene files); nothing tuned.",
+             ""]
     keyed = {}
     for r in rows:
         key = (r["case"], r["model"], r["law"], r["contact"], r["engagement_depth"])
         keyed.setdefault(key, []).append(r)
     for case in dict.fromkeys(r["case"] for r in rows):
         lines += [f"## {case}", "",
-                  "| model | law | contact | V1 dist m | V1 dhead deg | V2 dist m | V2 dhead deg | dV V1 km/h | "
-                  "dV V2 km/h | kinds | slip_reversed | ok |",
+                  f"| model | law | contact | V1 dist {m} | V1 dhead deg | V2 dist {m} | V2 dhead deg | "
+                  f"dV V1 {kmh} | dV V2 {kmh} | kinds | slip_reversed | ok |",
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---|---|---|"]
         for key, rs in keyed.items():
             if key[0] != case:
                 continue
             by = {r["vehicle"]: r for r in rs}
             v1, v2 = (by.get(n, {}) for n in ("V1", "V2"))
-            contact = key[3] if key[3] != "engagement" else f"engagement {key[4]:g}"
+            contact = key[3] if key[3] != "engagement" else f"engagement {rs[0]['engagement_depth']:.3g}"
             kinds = ";".join(dict.fromkeys(k for r in rs for k in str(r["kinds"]).split(";") if k))
             lines.append(f"| {key[1]} | {key[2]} | {contact} | {_fmt(v1.get('d_pc_crash_m'))} | "
                          f"{_fmt(v1.get('d_pc_crash_deg'), 1)} | {_fmt(v2.get('d_pc_crash_m'))} | "
@@ -145,15 +151,16 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def run(models: list[str], out: Path, quick: bool = False, cases=CASES) -> Path:
-    """Every model on every case in its variants; writes DIR/pc_crash.csv and DIR/pc_crash.md and returns
-    the CSV path."""
+def run(models: list[str], out: Path, quick: bool = False, cases=CASES, system: str = "si") -> Path:
+    """Every model on every case in its variants; writes DIR/pc_crash.csv and DIR/pc_crash.md (in `system`'s
+    units) and returns the CSV path."""
     from .base import output_dir
     out = output_dir(out)
     t0 = time.perf_counter()
     rows = []
     for case in cases:
         rows += scene_rows(case, PC_CRASH_DIR / f"{case}.toml", models, quick)
-    path = write_csv(rows, out / "pc_crash.csv")
-    (out / "pc_crash.md").write_text(markdown(rows) + f"\nWall time of the study: {time.perf_counter() - t0:.1f} s.\n")
+    path = write_csv(rows, out / "pc_crash.csv", system)
+    wall = time.perf_counter() - t0
+    (out / "pc_crash.md").write_text(markdown(rows, system) + f"\nWall time of the study: {wall:.1f} s.\n")
     return path

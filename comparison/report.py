@@ -14,19 +14,22 @@ from pathlib import Path
 import pandas as pd
 
 from . import STUDIES
+from .base import shown_column
+
+# Each summary reads the CSV as written, in the units its columns name (`--units`: base.shown_column).
 
 
-def _workprecision(df: pd.DataFrame) -> pd.DataFrame:
+def _workprecision(df: pd.DataFrame, system: str = "si") -> pd.DataFrame:
     """Each model's default setting per scene: wall time and errors (numerical and against references)."""
     if "is_default" in df:
         df = df[df["is_default"].astype(bool)]
     else:
         df = df[df["setting"] == "{}"]
-    return df.pivot_table(index=["model", "scene"], columns="error_kind", values=["wall_time_s", "error_m"],
-                          aggfunc="first")
+    return df.pivot_table(index=["model", "scene"], columns="error_kind",
+                          values=["wall_time_s", shown_column("error_m", system)], aggfunc="first")
 
 
-def _stability(df: pd.DataFrame) -> pd.DataFrame:
+def _stability(df: pd.DataFrame, system: str = "si") -> pd.DataFrame:
     """Runs and the share not ok per model and setting, with the violation kinds seen."""
     def kinds(v):
         seen = sorted({k for x in v.dropna() for k in str(x).split("|") if k})
@@ -36,20 +39,21 @@ def _stability(df: pd.DataFrame) -> pd.DataFrame:
                          "violations": g["violation"].apply(kinds)})
 
 
-def _scaling(df: pd.DataFrame) -> pd.DataFrame:
+def _scaling(df: pd.DataFrame, system: str = "si") -> pd.DataFrame:
     """Wall time per simulation [s] against the number of vehicles, per model and variant."""
     return df.pivot_table(index=["model", "variant"], columns="n_vehicles", values="wall_time_s", aggfunc="median")
 
 
-def _validation(df: pd.DataFrame) -> pd.DataFrame:
-    return df[["model", "test", "quantity", "published", "simulated", "error"]]
+def _validation(df: pd.DataFrame, system: str = "si") -> pd.DataFrame:
+    return df[["model", "test", "quantity", "unit", "published", "simulated", "error"]]
 
 
-def _pc_crash(df: pd.DataFrame) -> pd.DataFrame:
-    """Rest-pose distance to PC-Crash [m] per case and variant, both vehicles."""
-    df = df.assign(engagement_depth=df.engagement_depth.fillna(0.0))
-    return df.pivot_table(index=["model", "law", "contact", "engagement_depth"], columns=["case", "vehicle"],
-                          values="d_pc_crash_m")
+def _pc_crash(df: pd.DataFrame, system: str = "si") -> pd.DataFrame:
+    """Rest-pose distance to PC-Crash [m, or ft] per case and variant, both vehicles."""
+    depth = shown_column("engagement_depth", system)
+    df = df.assign(**{depth: df[depth].fillna(0.0)})
+    return df.pivot_table(index=["model", "law", "contact", depth], columns=["case", "vehicle"],
+                          values=[shown_column("d_pc_crash_m", system)])  # a list: the heading names the unit
 
 
 SUMMARIES = {"workprecision": _workprecision, "stability": _stability, "scaling": _scaling,
@@ -71,8 +75,9 @@ def _figure(path: Path) -> str:
             f"<figcaption>{html.escape(path.name)}</figcaption></figure>")
 
 
-def write_report(out: Path, studies=STUDIES) -> Path:
-    """DIR/report.html from the CSVs and figures the studies wrote into `out`."""
+def write_report(out: Path, studies=STUDIES, system: str = "si") -> Path:
+    """DIR/report.html from the CSVs and figures the studies wrote into `out` (in `system`'s units, as the
+    studies wrote them)."""
     parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>crashlab comparison studies</title>",
              "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
              "font-size:13px}td,th{border:1px solid #bbb;padding:2px 6px}img{max-width:100%}</style></head><body>",
@@ -85,7 +90,7 @@ def write_report(out: Path, studies=STUDIES) -> Path:
             continue
         df = pd.read_csv(csv)
         try:
-            table = SUMMARIES[name](df)
+            table = SUMMARIES[name](df, system)
         except (KeyError, ValueError, TypeError) as err:  # a CSV without the contract columns
             table = df.head(50)
             parts.append(f"<p><em>summary not available ({html.escape(str(err))}); first rows:</em></p>")

@@ -299,7 +299,9 @@ def figure(df: pd.DataFrame, path: Path) -> Path:
 
 
 # ---------------------------------------------------------------- the study
-def run(models: list[str], out, quick: bool) -> Path:
+def run(models: list[str], out, quick: bool, system: str = "si") -> Path:
+    """scaling.csv, scaling_ratio.csv, scaling_import.csv and scaling.png; the CSV's path. Its numbers are
+    times and counts: the same in every `system`."""
     out = output_dir(out)
     rows = []
     for name in models:

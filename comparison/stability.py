@@ -55,8 +55,9 @@ from crashlab.options import accuracy_knobs, describe
 from crashlab.registry import get_model
 from crashlab.scene import WHEEL_STATES
 from crashlab.tools.stress import crash_scene as stress_scene  # the placement `crashlab stress` uses
+from crashlab.units import unit_in, value_in
 
-from .base import knob_values, model_schema, output_dir
+from .base import knob_values, model_schema, output_dir, write_table
 
 SPEED = (5.0, 200.0)  # km/h, V1
 V2_SHARE = 0.5  # V2's speed over V1's
@@ -275,8 +276,9 @@ def summary_table(df):
     return pd.DataFrame(rows)
 
 
-def heatmap(df, name: str, path: Path) -> Path:
-    """Speed x angle bins at the default setting, colour = share of runs not ok, count in each cell."""
+def heatmap(df, name: str, path: Path, system: str = "si") -> Path:
+    """Speed x angle bins at the default setting, colour = share of runs not ok, count in each cell; the speed
+    axis in `system`'s unit (km/h, or mph in "us": the bins' edges converted)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -290,17 +292,18 @@ def heatmap(df, name: str, path: Path) -> Path:
     share = np.where(total > 0, bad / np.maximum(total, 1), np.nan)
     fig, ax = plt.subplots(figsize=(5.5, 4.2))
     cmap = plt.get_cmap("Reds").with_extremes(bad="0.85")
-    im = ax.pcolormesh(ANGLE_BINS, SPEED_BINS, np.ma.masked_invalid(share), cmap=cmap, vmin=0, vmax=1)
+    speed_bins = value_in(np.asarray(SPEED_BINS, dtype=float), "km/h", system)
+    im = ax.pcolormesh(ANGLE_BINS, speed_bins, np.ma.masked_invalid(share), cmap=cmap, vmin=0, vmax=1)
     for a in range(ns):
         for b in range(na):
             if total[a, b]:
-                ax.text((ANGLE_BINS[b] + ANGLE_BINS[b + 1]) / 2, (SPEED_BINS[a] + SPEED_BINS[a + 1]) / 2,
+                ax.text((ANGLE_BINS[b] + ANGLE_BINS[b + 1]) / 2, (speed_bins[a] + speed_bins[a + 1]) / 2,
                         f"{int(bad[a, b])}/{int(total[a, b])}", ha="center", va="center", fontsize=9,
                         color="white" if share[a, b] > 0.5 else "black")
     ax.set_xlabel("impact angle [deg] (0 rear-end, 180 head-on)")
-    ax.set_ylabel("speed of V1 [km/h]")
+    ax.set_ylabel(f"speed of V1 [{unit_in('km/h', system)}]")
     ax.set_xticks(ANGLE_BINS)
-    ax.set_yticks(SPEED_BINS)
+    ax.set_yticks(speed_bins, [f"{v:.3g}" for v in speed_bins])
     ax.set_title(f"{name} at its default: runs not ok ({int((~g.ok).sum())} of {len(g)})")
     fig.colorbar(im, ax=ax, label="share not ok")
     fig.tight_layout()
@@ -320,23 +323,23 @@ def _describe(row) -> str:
             f"median {row.median_wall_time_s:.3g} s/run; {step}")
 
 
-def study(models, out, runs, all_knobs: bool, factors=FACTORS, seed: int = 0, log=print) -> Path:
-    """Measure, write stability.csv, the heat maps and the summaries into `out`; returns the CSV's path."""
+def study(models, out, runs, all_knobs: bool, factors=FACTORS, seed: int = 0, log=print, system: str = "si") -> Path:
+    """Measure, write stability.csv (in `system`'s units: base.write_table, speed_kmh -> speed_mph and
+    offset_m -> offset_ft in "us"), the heat maps and the summaries into `out`; returns the CSV's path."""
     out = output_dir(out)
     df = measure(models, runs, all_knobs, factors, seed, log)
-    path = out / "stability.csv"
-    df.to_csv(path, index=False)
+    path = write_table(df, out / "stability.csv", system)
     settings_table(df).to_csv(out / "stability_settings.csv", index=False)
     summary = summary_table(df)
     summary.to_csv(out / "stability_summary.csv", index=False)
     for m in models:
-        heatmap(df, m, out / f"stability_{m}.png")
+        heatmap(df, m, out / f"stability_{m}.png", system)
     log("stability summary (default settings):")
     for row in summary.itertuples():
         log(_describe(row))
     return path
 
 
-def run(models: list[str], out: Path, quick: bool) -> Path:
+def run(models: list[str], out: Path, quick: bool, system: str = "si") -> Path:
     return study(models, out, lambda m: runs_for(m, quick), all_knobs=not quick,
-                 factors=FACTORS if quick else FULL_FACTORS)
+                 factors=FACTORS if quick else FULL_FACTORS, system=system)

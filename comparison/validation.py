@@ -42,7 +42,9 @@ import tomllib
 import typing
 from pathlib import Path
 
-from .base import STUDIES_DIR
+from crashlab.units import unit_in
+
+from .base import STUDIES_DIR, shown_rows
 
 VALIDATION_DIR = STUDIES_DIR / "validation"
 TESTS_FILE = VALIDATION_DIR / "published" / "tests.toml"
@@ -238,11 +240,13 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
     return rows
 
 
-def write_csv(rows: list[dict], path: Path) -> Path:
+def write_csv(rows: list[dict], path: Path, system: str = "si") -> Path:
+    """validation.csv, each row's published, simulated and error in `system`'s unit (base.shown_rows: its unit
+    column says which)."""
     with open(path, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
-        for r in rows:
+        for r in shown_rows(rows, system):
             w.writerow({**r, **{k: repr(float(r[k])) for k in ("published", "simulated", "error", "error_pct")}})
     return path
 
@@ -334,9 +338,9 @@ def write_markdown(rows: list[dict], path: Path, wall_time_s: float | None = Non
     return path
 
 
-def write_figure(rows: list[dict], path: Path) -> Path | None:
-    """Simulated against measured delta-V of every crash test (every model and variant), with the 1:1 line
-    and a +-10 % band; None when there is no such row."""
+def write_figure(rows: list[dict], path: Path, unit: str = "km/h") -> Path | None:
+    """Simulated against measured delta-V of every crash test (every model and variant; the rows' values in
+    `unit`), with the 1:1 line and a +-10 % band; None when there is no such row."""
     pts = [r for r in rows if r["ok"] and r["kind"] == "crash test" and r["quantity"] in DV_QUANTITIES]
     if not pts:
         return None
@@ -369,8 +373,8 @@ def write_figure(rows: list[dict], path: Path) -> Path | None:
     ax.set_xlim(0, top)
     ax.set_ylim(0, top)
     ax.set_aspect("equal")
-    ax.set_xlabel("measured delta-V [km/h]")
-    ax.set_ylabel("simulated delta-V [km/h]")
+    ax.set_xlabel(f"measured delta-V [{unit}]")
+    ax.set_ylabel(f"simulated delta-V [{unit}]")
     ax.set_title("Validation: simulated against measured delta-V (each vehicle of each crash test)")
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
@@ -379,15 +383,18 @@ def write_figure(rows: list[dict], path: Path) -> Path | None:
     return path
 
 
-def run(models: list[str], out: Path, quick: bool = False, tests: list[dict] | None = None) -> Path:
+def run(models: list[str], out: Path, quick: bool = False, tests: list[dict] | None = None,
+        system: str = "si") -> Path:
     """Every model on every test (quick: all tests for impulse and pymunk, QUICK_TESTS for the others),
-    each in its variants (runs); writes DIR/validation.csv, DIR/validation.md and DIR/validation_dv.png and
-    returns the CSV path."""
+    each in its variants (runs); writes DIR/validation.csv, DIR/validation.md and DIR/validation_dv.png (in
+    `system`'s units: each row's published, simulated and error by its unit, base.shown_rows) and returns the
+    CSV path."""
     from .base import output_dir
     out = output_dir(out)
     t0 = time.perf_counter()
     rows = validation_rows(models, quick=quick, tests=tests)
-    path = write_csv(rows, out / "validation.csv")
-    write_figure(rows, out / FIGURE)
-    write_markdown(rows, out / "validation.md", time.perf_counter() - t0)
+    path = write_csv(rows, out / "validation.csv", system)
+    shown = shown_rows(rows, system)
+    write_figure(shown, out / FIGURE, unit_in("km/h", system))
+    write_markdown(shown, out / "validation.md", time.perf_counter() - t0)
     return path

@@ -59,6 +59,7 @@ import pandas as pd
 from crashlab.errors import InputError
 from crashlab.options import accuracy_knobs
 from crashlab.registry import get_model
+from crashlab.units import unit_in, value_in
 
 from .base import (
     bundled_scene,
@@ -70,6 +71,7 @@ from .base import (
     reference_poses,
     timed,
     valid_setting,
+    write_table,
 )
 
 SCENES = {
@@ -222,8 +224,12 @@ def study(models, scene_keys, factors=FACTORS, repeats: int = REPEATS, knobs=Non
 
 
 # ----------------------------------------------------------------------------------- outputs
-def plot(df: pd.DataFrame, conv: pd.DataFrame, scene_key: str, path: Path) -> Path:
-    """The work-precision diagram of one scene: log wall time against log numerical error."""
+def plot(df: pd.DataFrame, conv: pd.DataFrame, scene_key: str, path: Path, system: str = "si") -> Path:
+    """The work-precision diagram of one scene: log wall time against log numerical error (in m, or ft with
+    system "us")."""
+    # the errors in the shown unit (the columns keep their names here)
+    df = df.assign(error_m=value_in(df.error_m, "m", system))
+    conv = conv.assign(converged_check_m=value_in(conv.converged_check_m, "m", system))
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -264,7 +270,7 @@ def plot(df: pd.DataFrame, conv: pd.DataFrame, scene_key: str, path: Path) -> Pa
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time per simulation [s]")
-    ax.set_ylabel("numerical error: largest rest-position distance\nto the converged result [m]")
+    ax.set_ylabel(f"numerical error: largest rest-position distance\nto the converged result [{unit_in('m', system)}]")
     ax.set_title(f"work-precision: {scene_key}. Star: default; x: the converged run's check (one step finer), "
                  "open: error below it, drawn at it", fontsize=8)
     ax.grid(alpha=0.3, which="both")
@@ -276,21 +282,22 @@ def plot(df: pd.DataFrame, conv: pd.DataFrame, scene_key: str, path: Path) -> Pa
     return path
 
 
-def write(df: pd.DataFrame, conv: pd.DataFrame, out: Path) -> Path:
+def write(df: pd.DataFrame, conv: pd.DataFrame, out: Path, system: str = "si") -> Path:
+    """workprecision.csv and workprecision_converged.csv in `system`'s units (base.write_table: error_m ->
+    error_ft in "us"), a figure per scene; the CSV's path."""
     out = Path(out)
-    path = out / "workprecision.csv"
-    df.to_csv(path, index=False)
-    conv.to_csv(out / "workprecision_converged.csv", index=False)
+    path = write_table(df, out / "workprecision.csv", system)
+    write_table(conv, out / "workprecision_converged.csv", system)
     for key in df.scene.unique():
-        plot(df, conv, key, out / f"workprecision_{key}.png")
+        plot(df, conv, key, out / f"workprecision_{key}.png", system)
     return path
 
 
-def run(models: list[str], out: Path, quick: bool = False) -> Path:
+def run(models: list[str], out: Path, quick: bool = False, system: str = "si") -> Path:
     """`crashlab study workprecision`: the sweep of every model's accuracy knobs; returns the CSV path."""
     check_knobs(models)
     out = output_dir(out)
     scenes = QUICK_SCENES if quick else tuple(SCENES)
     df, conv = study(models, scenes, QUICK_FACTORS if quick else FACTORS,
                      QUICK_REPEATS if quick else REPEATS, log=lambda msg: print(msg, flush=True))
-    return write(df, conv, out)
+    return write(df, conv, out, system)

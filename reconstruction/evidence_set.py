@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from crashlab.population import Population
-from crashlab.units import ms_to_kmh, wrap_deg
+from crashlab.units import ms_to_kmh, unit_in, value_in, wrap_deg
 
 # units of the residual components (file units), for the tables that list the evidence
 UNITS = {"x": "m", "y": "m", "heading": "deg", "speed_at_impact": "km/h", "delta_v": "km/h", "ees": "km/h"}
@@ -217,17 +217,24 @@ class EvidenceSet:
             cols.append(np.sqrt(np.sum(R[:, use] ** 2, axis=1)))
         return np.column_stack(cols)
 
-    def describe(self) -> list[str]:
-        """One line per item, for summary.md."""
+    def describe(self, system: str = "si") -> list[str]:
+        """One line per item, for summary.md, its values and sigmas in `system`'s units (crashlab.units: "us"
+        gives ft and mph). A damage item's detail (the CRASH3 computation) is said in the SI units it was
+        computed in, each number with its unit."""
         lines = []
+        m = unit_in("m", system)
         for it in self.items:
             if it.kind == "marks":
-                pts = ", ".join(f"({x:.2f}, {y:.2f})" for x, y in it.points)
-                lines.append(f"{it.label}: {it.vehicles[0]}'s CG path within {it.sigmas[0]:g} m of {pts}")
+                pts = ", ".join(f"({value_in(x, 'm', system):.2f}, {value_in(y, 'm', system):.2f})"
+                                for x, y in it.points)
+                lines.append(f"{it.label}: {it.vehicles[0]}'s CG path within {value_in(it.sigmas[0], 'm', system):g}"
+                             f" {m} of {pts} {m}")
                 continue
-            lines.append(f"{it.label}: " + ", ".join(f"{c} = {v:.2f} ± {s:.3g} {UNITS[c]}"
+            detail = it.detail and (f"computed in SI: {it.detail}" if system == "us" else it.detail)
+            lines.append(f"{it.label}: " + ", ".join(f"{c} = {value_in(v, UNITS[c], system):.2f} ± "
+                                                      f"{value_in(s, UNITS[c], system):.3g} {unit_in(UNITS[c], system)}"
                                                       for c, v, s in zip(it.components, it.values, it.sigmas))
-                         + (f" ({it.detail})" if it.detail else ""))
+                         + (f" ({detail})" if detail else ""))
         return lines
 
 

@@ -84,9 +84,8 @@ def summary_lines(post, res) -> list[str]:
         lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
                   "with the change (docs/physics.md §29; every number in counterfactuals.csv):", ""]
         lines += [f"- {line}" for line in counterfactual_lines(res.counterfactuals, system)]
-    lines += ["", "## Evidence", ""] + (["As the evidence reads it, in file units (report.html gives it in US "
-                                         "units):", ""] if system == "us" else [])
-    lines += [f"- {s}" for s in post.study.evidence_set.describe()]
+    lines += ["", "## Evidence", ""]
+    lines += [f"- {s}" for s in post.study.evidence_set.describe(system)]
     lines += ["", "Likelihood: Gaussian in the normalised residuals (crashlab.reconstruction.evidence); priors "
               "as in the table; a start that overlaps, misses or fails has probability 0 "
               "(crashlab.reconstruction.infer).", "",
@@ -158,14 +157,16 @@ def median_draw(post, res, out: Path):
     scene = post.setter(res.samples[k])
     outcome = model_for(post.study.spec.model, post.study.spec.model_options).simulate(scene)
     figures, notes = [], []
+    system = post.study.shown_units  # the figures' axes in the shown units (crashlab.units)
     import matplotlib.pyplot as plt
     for name, draw, caption in (
             ("median_draw_time.png", lambda p: time_histories(scene, outcome, p, title="Median draw: speed, "
-                                                              "distance travelled and heading against time"),
+                                                              "distance travelled and heading against time",
+                                                              system=system),
              "speed, distance travelled along the CG path and heading (continuous) against time; dashed: the "
              "impacts."),
             ("median_draw.png", lambda p: top_view(scene, outcome, p, title="Median draw",
-                                                   measured=post.study.evidence),
+                                                   measured=post.study.evidence, system=system),
              "start dotted, first contact dashed, rest solid, measured rest pose thick and pale.")):
         try:
             draw(out / name)
@@ -253,7 +254,7 @@ def top_view_draws(post, res, path: Path, n: int, seed: int = 0) -> int:
     ax.set_ylabel("y [m]")
     length_axes_in(ax, post.study.shown_units)
     ax.set_title(f"{drawn} posterior draws: rest outlines and CG paths")
-    scale_bar(ax)
+    scale_bar(ax, post.study.shown_units)
     ax.legend(loc="best", fontsize=8)
     fig.savefig(path, dpi=90)
     plt.close(fig)

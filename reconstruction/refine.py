@@ -22,7 +22,9 @@ Outputs (out_dir): refine.csv, a row per candidate:
   search_sumsq, refine_sumsq_start, refine_sumsq, search_sumsq_refined   the same as sums of squared residuals
   model_gap_<V>                                    m, rest positions of the two models at the candidate apart
   search_rest_<V>_x|y|heading, refine_rest_<V>_..., refined_rest_<V>_...  rest poses (m, deg)
-and refine.md, the two models side by side. A failed or infeasible evaluation has empty objectives.
+and refine.md, the two models side by side. A failed or infeasible evaluation has empty objectives. Both files
+are in the study's shown units (Study.shown_units, `--units`: crashlab.units, refine_units names each column's
+unit; the sums of squares stay in the residuals' own units); the RefineResult's table stays in file units.
 """
 from __future__ import annotations
 
@@ -36,7 +38,7 @@ import pandas as pd
 
 from crashlab.errors import InputError
 from crashlab.execution import Executor
-from crashlab.units import rad_to_deg
+from crashlab.units import frame_in, rad_to_deg, unit_in, unit_of, value_in
 
 from .polish import polish, repaired_residuals, spaced_starts
 
@@ -58,14 +60,21 @@ class RefineResult:
                 "wall_time_s": round(self.wall_time_s, 3), "source": self.source,
                 "candidates": self.table.replace({np.nan: None}).to_dict(orient="records")}
 
-    def summary_line(self, variables, wrote: bool) -> str:
-        """One line for the command line: how far the best candidate moved and its fit under this model."""
+    def summary_line(self, variables, wrote: bool, system: str = "si") -> str:
+        """One line for the command line: how far the best candidate moved (in `system`'s units, each move
+        with its unit) and its fit under this model."""
         if not len(self.table):
             return f"refine with {self.model}: no candidate (no feasible solution)"
         best = self.table.iloc[0]
+        from .problem import variable_unit
+
+        def moved(f):
+            unit = variable_unit(f)
+            shown = unit_in(unit, system)
+            return f"{f.label} {value_in(best[f'moved_{f.label}'], unit, system):+.3f}" + (
+                f" {shown}" if shown and shown != "-" else "")
         return (f"refine with {self.model}: {self.evaluations} evaluations of {self.budget}, "
-                f"{self.wall_time_s:.1f} s; best candidate moved "
-                + ", ".join(f"{f.label} {best[f'moved_{f.label}']:+.3f}" for f in variables)
+                f"{self.wall_time_s:.1f} s; best candidate moved " + ", ".join(moved(f) for f in variables)
                 + f"; sum of squared residuals under {self.model} {best['refine_sumsq_start']:.4g} -> "
                 f"{best['refine_sumsq']:.4g}" + (" (refine.csv, refine.md)" if wrote else ""))
 
@@ -227,15 +236,39 @@ def _fmt(v, spec=".3f") -> str:
     return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) else format(v, spec)
 
 
+def refine_units(problem) -> dict:
+    """The units map (crashlab.units) of refine.csv: each variable's file unit (its value, refined value and
+    move), the objectives' (m for the thesis objective, sigma for the misfit), the rest poses and the models'
+    gap; the sums of squares have none (their residuals mix units)."""
+    from .problem import variable_unit
+    units = {}
+    for f in problem.free:
+        units |= dict.fromkeys((f.label, f"refined_{f.label}", f"moved_{f.label}"), variable_unit(f))
+    f_unit = "m" if problem.evidence_set is None else "sigma"
+    return units | dict.fromkeys(("search_f_<n>", "refine_f_<n>_start", "refine_f_<n>", "search_f_<n>_refined"),
+                                 f_unit) | {
+        "model_gap_<vehicle>": "m", "<pre>_rest_<vehicle>_x": "m", "<pre>_rest_<vehicle>_y": "m",
+        "<pre>_rest_<vehicle>_heading": "deg"}
+
+
 def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
-    """refine.csv (module docstring) and refine.md: the two models side by side."""
+    """refine.csv (module docstring) and refine.md: the two models side by side, in the study's shown units
+    (Study.shown_units)."""
+    system = getattr(study, "shown_units", "si")
+    units = refine_units(problem)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        result.table.to_csv(out_dir / "refine.csv", index=False)
+        frame_in(result.table, system, units).to_csv(out_dir / "refine.csv", index=False)
     except OSError as err:
         raise InputError(out_dir, "--out", err.strerror or str(err)) from None
-    t, a, b = result.table, result.search_model, result.model
-    unit = "m" if problem.evidence_set is None else "sigmas (normalised misfit)"
+    # the table's numbers as shown (its column names kept: the text below finds them by name)
+    t = result.table.copy()
+    for c in t.columns:
+        if unit_of(c, units):
+            t[c] = value_in(t[c], unit_of(c, units), system)
+    a, b = result.search_model, result.model
+    m = unit_in("m", system)
+    unit = m if problem.evidence_set is None else "sigmas (normalised misfit)"
     names = list(problem.objective_names)
     lines = [f"# Second opinion: {a} searched, {b} checks", "",
              f"- study `{study.path}`; candidates: {len(t)} of the {result.source}, best first, one per basin "
@@ -245,12 +278,17 @@ def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
              f"{result.search_evaluations} evaluations; wall time {result.wall_time_s:.1f} s", "",
              f"Objectives f_<vehicle> in {unit}; sumsq: the sum of squared residuals, what the polish minimises "
              "(the refined point is the best one the polish evaluated, else the candidate itself). moved_norm: the "
-             "move over the search bounds (normalised decision space). All columns: refine.csv.", ""]
+             "move over the search bounds (normalised decision space). All columns: refine.csv"
+             + (" (lengths in ft, speeds in mph; the sums of squares in the residuals' file units, m and deg)"
+                if system == "us" else "") + ".", ""]
     if not len(t):
         lines.append("No candidates: nothing to refine.")
     else:
         best = t.iloc[0]
-        moves = ", ".join(f"{lab} {best[lab]:.2f} -> {best[f'refined_{lab}']:.2f}" for lab in problem.labels)
+        moves = ", ".join(f"{lab} {best[lab]:.2f} -> {best[f'refined_{lab}']:.2f}"
+                          + (f" {unit_in(unit_of(lab, units), system)}" if unit_of(lab, units) not in ("", "-")
+                             else "")
+                          for lab in problem.labels)
         lines += [f"**The best candidate under {b}:** at the {a} answer the objectives are "
                   + ", ".join(f"f_{n} {_fmt(best[f'search_f_{n}'])} ({a}) / {_fmt(best[f'refine_f_{n}_start'])} "
                               f"({b})" for n in names)
@@ -259,7 +297,8 @@ def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
                   + f" ({b}), " + ", ".join(f"f_{n} {_fmt(best[f'search_f_{n}_refined'])}" for n in names)
                   + f" ({a} at the refined point).", "",
                   "## How the answer moves", ""]
-        move = pd.DataFrame([{"candidate": int(r.candidate), "variable": lab, f"{a} answer": r[lab],
+        move = pd.DataFrame([{"candidate": int(r.candidate), "variable": lab,
+                              "unit": unit_in(unit_of(lab, units), system) or "-", f"{a} answer": r[lab],
                               f"{b} answer": r[f"refined_{lab}"], "moved": r[f"moved_{lab}"]}
                              for _, r in t.iterrows() for lab in problem.labels])
         lines += [move.to_markdown(index=False, floatfmt=".3f"), "", "## Objectives under both models", "",
@@ -272,20 +311,20 @@ def write_refine(study, problem, result: RefineResult, out_dir: Path) -> None:
         cols.update({"refine_sumsq_start": f"sumsq {b}", "refine_sumsq": f"sumsq {b} refined"})
         lines += [t[list(cols)].rename(columns=cols).to_markdown(index=False, floatfmt=".3f"), "",
                   "## Rest poses", "",
-                  f"x, y [m], heading [deg] at the {a} answer under each model (gap: their rest positions apart "
-                  f"[m]), and under {b} at its own answer.", ""]
+                  f"x, y [{m}], heading [deg] at the {a} answer under each model (gap: their rest positions "
+                  f"apart [{m}]), and under {b} at its own answer.", ""]
         rest = []
         for _, r in t.iterrows():
             for v in problem.names:
-                m = problem.evidence.get(v)
+                ev = problem.evidence.get(v)
                 rest.append({"candidate": int(r.candidate), "vehicle": v,
-                             "measured": "-" if m is None else f"{m[0]:.2f}, {m[1]:.2f}" + (
-                                 "" if m[2] is None else f", {m[2]:.1f}"),
+                             "measured": "-" if ev is None else f"{value_in(ev[0], 'm', system):.2f}, "
+                             f"{value_in(ev[1], 'm', system):.2f}" + ("" if ev[2] is None else f", {ev[2]:.1f}"),
                              a: ", ".join(_fmt(r[f"search_rest_{v}_{q}"], ".2f" if q != "heading" else ".1f")
                                           for q in ("x", "y", "heading")),
                              b: ", ".join(_fmt(r[f"refine_rest_{v}_{q}"], ".2f" if q != "heading" else ".1f")
                                           for q in ("x", "y", "heading")),
-                             "gap [m]": r[f"model_gap_{v}"],
+                             f"gap [{m}]": r[f"model_gap_{v}"],
                              f"{b} refined": ", ".join(_fmt(r[f"refined_rest_{v}_{q}"], ".2f" if q != "heading"
                                                             else ".1f") for q in ("x", "y", "heading"))})
         lines.append(pd.DataFrame(rest).to_markdown(index=False, floatfmt=".3f"))

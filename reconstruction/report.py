@@ -298,7 +298,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             best = (scene, outcome)
             try:
                 time_histories(scene, outcome, out_dir / "solution_0_time.png",
-                               title="Pareto row 0: speed, distance travelled and heading against time")
+                               title="Pareto row 0: speed, distance travelled and heading against time",
+                               system=system)
                 time_figure = "solution_0_time.png"
             except Exception as err:  # noqa: BLE001
                 notes.append(drawing_failed("solution_0_time.png", err))
@@ -310,7 +311,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             notes += more
         try:
             top_view(scene, outcome, out_dir / f"solution_{k}.png",
-                     title=f"Pareto solution {k}", measured=problem.evidence)
+                     title=f"Pareto solution {k}", measured=problem.evidence, system=system)
             figures.append(f"solution_{k}.png")
         except Exception as err:  # noqa: BLE001
             notes.append(drawing_failed(f"solution_{k}.png", err))
@@ -338,10 +339,8 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             for n, (x, y, h) in problem.evidence.items()), "",
             f"Objectives (thesis): f_<vehicle> = |r - r*| + heading_weight |dpsi| [{length}].", ""]
     else:
-        lines += ["", "Evidence, each with its standard deviation" + (" (as the evidence reads it: file units; "
-                                                                    "report.html gives it in US units)"
-                                                                    if system == "us" else "") + ":", ""]
-        lines += [f"- {line}" for line in problem.evidence_set.describe()]
+        lines += ["", "Evidence, each with its standard deviation:", ""]
+        lines += [f"- {line}" for line in problem.evidence_set.describe(system)]
         lines += ["", "Objectives (normalised misfit): f_<vehicle> = sqrt(sum (residual / sigma)^2) over the items "
                   "that concern the vehicle (the point of impact: every vehicle); log_likelihood = -0.5 sum "
                   "(residual / sigma)^2 over all items, each once (crashlab.reconstruction.evidence).", ""]

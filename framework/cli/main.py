@@ -318,6 +318,7 @@ def build_parser():
     sd.add_argument("--models", default=None, help="comma-separated model names (default: every registered model)")
     sd.add_argument("--quick", action="store_true", help="a small configuration (minutes, not hours)")
     sd.add_argument("--out", required=True, metavar="DIR", help="folder for the CSV files and figures; required")
+    _units_option(sd)
     sd.set_defaults(fn=cmd_study)
     sc = command("schema", "print the JSON Schema of a scene, study or vehicle file (for editors' completion and "
                  "checking), or with --markdown the reference of every key (docs/reference.md)")

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..scene import vehicle_outline
+from ..units import length_axes_in
 
 FORMATS = (".gif", ".mp4")
 FLASH_S = 0.2  # s of simulated time an impact stays flashed (at least one frame: see animation_times)
@@ -121,10 +122,11 @@ def _canvas_pillow_writer(fps):
 
 
 def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0, max_frames: int = 300,
-                    dpi: int = 80, title: str | None = None) -> Path:
+                    dpi: int = 80, title: str | None = None, system: str = "si") -> Path:
     """Write the animation of `outcome` (the result of simulating `scene`) to `path` (.gif, or .mp4 with
     ffmpeg on PATH) and return the path. One frame per entry of animation_times(outcome, fps, speed,
-    max_frames), played at `fps`; `dpi` sets the pixel size (80: about 690 x 480 px). Raises
+    max_frames), played at `fps`; `dpi` sets the pixel size (80: about 690 x 480 px); `system` "us": the axes
+    and the scale bar in ft (the drawing stays in m: crashlab.units.length_axes_in). Raises
     crashlab.InputError for a bad extension or a missing ffmpeg, ValueError when the outcome has no
     trajectories (a batch run records none)."""
     path = check_animation_path(path)
@@ -154,6 +156,7 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+    length_axes_in(ax, system)
     ax.grid(alpha=0.3)
     ax.set_title(title or f"{scene.name} ({outcome.model})", fontsize=10)
 
@@ -189,7 +192,7 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
         handles.append(Line2D([], [], ls="", marker="*", color="k", mfc="yellow", ms=10, label="impact"))
     ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     fig.tight_layout()
-    scale_bar(ax)  # after the layout: the bar sits on the final limits
+    scale_bar(ax, system)  # after the layout: the bar sits on the final limits
     frame_step = times[1] - times[0]
     moving = [a for _, outline, path_line, arrow, _ in vehicles for a in (path_line, outline, arrow)]
     moving += [a for _, star, text in stars for a in (star, text)] + [stamp]

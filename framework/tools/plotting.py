@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import barrier_outline, vehicle_outline
-from ..units import deg_to_rad, wrap_deg
+from ..units import deg_to_rad, length_axes_in, ms_to_kmh, unit_in, us_factor, value_in, wrap_deg
 
 
 def _arrow(ax, x, y, h, length, colour, **kw):
@@ -79,12 +79,21 @@ def _action_marks(ax, v, tr, colour):
                     fontsize=7, color=colour)
 
 
-def top_view(scene, outcome, path, title=None, measured=None):
+def pose_text(outcome, i: int, system: str = "si") -> str:
+    """'rest' or 'end pose (moving N km/h)' for vehicle i (Outcome.pose_label), the speed in `system`'s unit."""
+    if outcome.at_rest_mask[i]:
+        return "rest"
+    return f"end pose (moving {value_in(ms_to_kmh(outcome.end_speed_si[i]), 'km/h', system):.1f} " \
+           f"{unit_in('km/h', system)})"
+
+
+def top_view(scene, outcome, path, title=None, measured=None, system: str = "si"):
     """Outlines at start (dotted), at first contact (dashed) and at the end (solid: 'rest', or 'end pose
     (moving N km/h)' for a vehicle still moving), CG paths, and a heading arrow on every pose, one colour
     per vehicle. `measured`: optional {vehicle: (x, y, heading_deg or None)}, the evidence, drawn thick
     and pale in the vehicle's colour with its heading arrow (a cross where no heading was measured);
-    the legend gives simulated and measured end headings."""
+    the legend gives simulated and measured end headings. `system` "us": axes, scale bar and labels in ft and
+    mph (the drawing stays in m: crashlab.units.length_axes_in)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -102,7 +111,7 @@ def top_view(scene, outcome, path, title=None, measured=None):
         r = outcome.rest_si[i]
         if outcome.outcome_ok and np.all(np.isfinite(r)):
             heading = wrap_deg(np.degrees(r[2]))  # the wrapped pose (-180, 180]; the turn is in the tables
-            poses.append(((r[0], r[1], r[2]), "-", f"{outcome.pose_label(i)}, heading {heading:.1f} deg"))
+            poses.append(((r[0], r[1], r[2]), "-", f"{pose_text(outcome, i, system)}, heading {heading:.1f} deg"))
         for (x, y, h), ls, label in poses:
             poly = vehicle_outline(v, x, y, h)
             poly = np.vstack([poly, poly[:1]])
@@ -124,18 +133,25 @@ def top_view(scene, outcome, path, title=None, measured=None):
                     label=f"{v.name} measured, heading {mh_w:.1f} deg")
             _arrow(ax, mx, my, deg_to_rad(mh), arrow_len, c, lw=3, alpha=0.45)
     draw_barriers(ax, scene.barriers)
-    point_of_impact(ax, outcome)
+    point_of_impact(ax, outcome, system)
+    length_axes(ax, system)
     _finish(fig, ax, title or f"{scene.name} ({outcome.model})", path)
 
 
-def _finish(fig, ax, title, path):
-    """Axes in metres at equal scale, the title, a scale bar, the legend beside the drawing (never over it);
-    saved and closed."""
-    ax.set_aspect("equal")
+def length_axes(ax, system: str = "si"):
+    """A top view's axes: x, y in m (ticks and labels in ft with system "us": crashlab.units.length_axes_in)
+    and a scale bar of a round length in the same unit."""
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+    length_axes_in(ax, system)
+    scale_bar(ax, system)
+
+
+def _finish(fig, ax, title, path):
+    """Equal scale, the title, the legend beside the drawing (never over it); saved and closed (the axes'
+    labels and scale bar: length_axes)."""
+    ax.set_aspect("equal")
     ax.set_title(title)
-    scale_bar(ax)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -144,38 +160,43 @@ def _finish(fig, ax, title, path):
     plt.close(fig)
 
 
-def point_of_impact(ax, outcome):
-    """The first impact's point (a star) and its contact plane (a line through it, 2 m long)."""
+def point_of_impact(ax, outcome, system: str = "si"):
+    """The first impact's point (a star, its coordinates in `system`'s length unit) and its contact plane (a
+    line through it, 2 m long)."""
     rows = outcome.impact_rows if outcome.outcome_ok else []
     if not rows:
         return
     r = min(rows, key=lambda row: row["t"])
     px, py, th = r["point_x"], r["point_y"], r.get("plane_angle", np.nan)
     ax.plot([px], [py], "*", color="k", ms=12, mfc="yellow", zorder=5,
-            label=f"point of impact ({px:.2f}, {py:.2f}) m, t = {r['t']:.3f} s")
+            label=f"point of impact ({value_in(px, 'm', system):.2f}, {value_in(py, 'm', system):.2f}) "
+                  f"{unit_in('m', system)}, t = {r['t']:.3f} s")
     if np.isfinite(th):
         ax.plot([px - np.cos(th), px + np.cos(th)], [py - np.sin(th), py + np.sin(th)], "-", color="k", lw=1.2,
                 zorder=5, label="contact plane")
 
 
-def scale_bar(ax):
-    """A scale bar of a round length (1, 2, 5 x 10^k m, about a fifth of the view) in the lower left."""
+def scale_bar(ax, system: str = "si"):
+    """A scale bar of a round length (1, 2, 5 x 10^k m, or ft with system "us", about a fifth of the view) in
+    the lower left of a drawing in m."""
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
-    target = (x1 - x0) / 5.0
+    per_unit = us_factor("m") if system == "us" else 1.0  # m per shown length unit
+    target = (x1 - x0) / 5.0 / per_unit
     k = 10.0 ** np.floor(np.log10(target))
     length = max(m * k for m in (1, 2, 5) if m * k <= target)
     bx, by = x0 + 0.04 * (x1 - x0), y0 + 0.05 * (y1 - y0)
-    ax.plot([bx, bx + length], [by, by], "-", color="k", lw=3, solid_capstyle="butt", zorder=6)
-    ax.text(bx + length / 2, by + 0.015 * (y1 - y0), f"{length:g} m", ha="center", va="bottom", fontsize=8,
-            zorder=6)
+    ax.plot([bx, bx + length * per_unit], [by, by], "-", color="k", lw=3, solid_capstyle="butt", zorder=6)
+    ax.text(bx + length * per_unit / 2, by + 0.015 * (y1 - y0), f"{length:g} {unit_in('m', system)}", ha="center",
+            va="bottom", fontsize=8, zorder=6)
 
 
-def compare_view(scene, outcomes: dict, path, title=None):
+def compare_view(scene, outcomes: dict, path, title=None, system: str = "si"):
     """Every model's run in one top view (`crashlab compare --plot`): one colour per model, one line style
     per vehicle; start outlines grey and dotted, CG paths, end outlines with heading arrows in the model's
     colour (a failed run: its path up to where it stopped, no end pose), each reference's published rest
-    poses thick and pale grey with heading arrows; zones, barriers, scale bar, the legend beside the drawing."""
+    poses thick and pale grey with heading arrows; zones, barriers, scale bar, the legend beside the drawing;
+    `system` "us": axes, scale bar and labels in ft and mph."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -206,7 +227,7 @@ def compare_view(scene, outcomes: dict, path, title=None):
             poly = vehicle_outline(v, *r)
             poly = np.vstack([poly, poly[:1]])
             ax.plot(poly[:, 0], poly[:, 1], ls, color=c, lw=1.6,
-                    label=f"{label} {out.pose_label(i)}, heading {wrap_deg(np.degrees(r[2])):.1f} deg")
+                    label=f"{label} {pose_text(out, i, system)}, heading {wrap_deg(np.degrees(r[2])):.1f} deg")
             _arrow(ax, r[0], r[1], r[2], 0.8 * v.spec.cg_to_front, c)
     greys = ["0.2", "0.5", "0.7"]
     by_name = {v.name: v for v in scene.vehicles}
@@ -222,6 +243,7 @@ def compare_view(scene, outcomes: dict, path, title=None):
             ax.plot(poly[:, 0], poly[:, 1], "-", color=g, lw=3, alpha=0.45,
                     label=f"{src}: {name}, heading {wrap_deg(ref['heading']):.1f} deg")
             _arrow(ax, ref["x"], ref["y"], h, 0.8 * v.spec.cg_to_front, g, lw=3, alpha=0.5)
+    length_axes(ax, system)
     _finish(fig, ax, title or f"{scene.name}: " + ", ".join(outcomes), path)
 
 
@@ -231,10 +253,11 @@ def distance_travelled(x, y) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))]) if len(x) else np.empty(0)
 
 
-def time_histories(scene, outcome, path, title=None):
+def time_histories(scene, outcome, path, title=None, system: str = "si"):
     """Speed [km/h], distance travelled [m] and heading [deg, continuous] of every vehicle's CG against time
     [s], from the outcome's recorded trajectories, one colour per vehicle as in the top views; each impact a
-    vertical line. Raises ValueError when the outcome recorded no trajectories (a batch run)."""
+    vertical line. `system` "us": speed in mph, distance in ft (crashlab.units.value_in). Raises ValueError
+    when the outcome recorded no trajectories (a batch run)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -249,16 +272,17 @@ def time_histories(scene, outcome, path, title=None):
         if t is None or not len(t["t"]):
             continue
         c = colours[i % len(colours)]
-        axes[0].plot(t["t"], np.hypot(t["vx"], t["vy"]) * 3.6, color=c, label=v.name)
-        axes[1].plot(t["t"], distance_travelled(t["x"], t["y"]), color=c, label=v.name)
+        speed = value_in(ms_to_kmh(np.hypot(t["vx"], t["vy"])), "km/h", system)
+        axes[0].plot(t["t"], speed, color=c, label=v.name)
+        axes[1].plot(t["t"], value_in(distance_travelled(t["x"], t["y"]), "m", system), color=c, label=v.name)
         axes[2].plot(t["t"], np.degrees(np.asarray(t["heading"], dtype=float)), color=c, label=v.name)
     times = sorted({round(r["t"], 9) for r in outcome.impact_rows}) if outcome.outcome_ok else []
     for ax in axes:
         for k, ti in enumerate(times):
             ax.axvline(ti, color="k", lw=0.8, ls="--", label="impact" if k == 0 and ax is axes[0] else None)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("speed [km/h]")
-    axes[1].set_ylabel("distance travelled [m]")
+    axes[0].set_ylabel(f"speed [{unit_in('km/h', system)}]")
+    axes[1].set_ylabel(f"distance travelled [{unit_in('m', system)}]")
     axes[2].set_ylabel("heading [deg]")
     axes[2].set_xlabel("t [s]")
     axes[0].legend(fontsize=8, loc="upper right")
