@@ -52,13 +52,8 @@ def run_cli(args) -> int:
     print(f"evaluations {res.evaluations}, failed {res.failed}, feasible {res.feasible_fraction:.1%}, "
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
     if refined is not None:
-        print(refined.summary_line(study.variables, wrote=bool(args.out)) + _in_file_units(args.units))
+        print(refined.summary_line(study.variables, wrote=bool(args.out), system=args.units))
     return _no_feasible(args, res)
-
-
-def _in_file_units(system: str) -> str:
-    """What a refine line adds with --units us: its numbers (crashlab.reconstruction.refine) are in file units."""
-    return " (refine's numbers in file units: m, km/h, deg)" if system == "us" else ""
 
 
 def _three_decimals(v: float) -> str:
@@ -101,7 +96,7 @@ def cmd_infer(args) -> int:
     print(f"{len(res.samples)} samples, {res.evaluations} model evaluations, {res.wall_time_s:.1f} s, "
           f"outputs in {args.out}")
     if res.refine is not None:
-        print(res.refine.summary_line(post.study.variables, wrote=True) + _in_file_units(args.units))
+        print(res.refine.summary_line(post.study.variables, wrote=True, system=args.units))
     if res.counterfactuals:
         from . import counterfactual
         for line in counterfactual.summary_lines(res.counterfactuals, args.units):

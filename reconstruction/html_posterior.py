@@ -81,7 +81,8 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
                  warnings=list(warnings), questions=qtable, counterfactuals=ctable,
                  counterfactual_figures=[figure_of(out_dir / f, c) for f, c in counterfactual_figures],
                  corner=corner, solution=solution, tops=tops,
-                 animation=animation_context(best, out_dir, "the posterior draw of largest log-likelihood"),
+                 animation=animation_context(best, out_dir, "the posterior draw of largest log-likelihood",
+                                             system),
                  refine=refine_context(out_dir, getattr(res, "refine", None), study.evidence, system),
                  notes=list(notes))
 

@@ -49,13 +49,13 @@ PARETO_COLUMNS_MAX = 12  # data columns per Pareto table (besides "row"): an A4 
 
 
 # ---------------------------------------------------------------- animation
-def _animate(scene, outcome, path: Path, fps: int) -> Path:
+def _animate(scene, outcome, path: Path, fps: int, system: str = "si") -> Path:
     """crashlab.tools.animation.write_animation, imported here so that a crashlab without it still reports."""
     from crashlab.tools.animation import write_animation
-    return Path(write_animation(scene, outcome, path, fps=fps))
+    return Path(write_animation(scene, outcome, path, fps=fps, system=system))
 
 
-def animation_context(best, out_dir: Path, what: str) -> dict:
+def animation_context(best, out_dir: Path, what: str, system: str = "si") -> dict:
     """best: (scene, outcome) or None. The GIF is written beside the page (ANIMATION_NAME) and embedded;
     "animation unavailable" with the reason when crashlab.tools.animation is missing or fails."""
     ctx = {"what": what, "figure": None, "css": "muted", "text": ""}
@@ -63,7 +63,7 @@ def animation_context(best, out_dir: Path, what: str) -> dict:
         return ctx | {"text": "animation unavailable: no solution to animate."}
     scene, outcome = best
     try:
-        path = _animate(scene, outcome, Path(out_dir) / ANIMATION_NAME, ANIMATION_FPS)
+        path = _animate(scene, outcome, Path(out_dir) / ANIMATION_NAME, ANIMATION_FPS, system)
     except ImportError as err:
         return ctx | {"text": f"animation unavailable: crashlab.tools.animation cannot be imported ({err})."}
     except Exception as err:  # noqa: BLE001 - the tables and figures stand without it
@@ -223,7 +223,7 @@ def write_reconstruction_report(study, result, out_dir, figures, near_figure=Non
                  pareto_html=pareto_table_html(pareto, free) if len(pareto) else "",
                  objectives_figure=objectives_figure, near=near_ctx,
                  tops=[figure_of(out_dir / f, c) for f, c in figures],
-                 animation=animation_context(best, out_dir, "Pareto row 0 (the smallest sum of objectives)"),
+                 animation=animation_context(best, out_dir, "Pareto row 0 (the smallest sum of objectives)", system),
                  refine=refine_context(out_dir, getattr(result, "refine", None), study.evidence, system),
                  notes=list(notes))
 

@@ -31,7 +31,7 @@ class ReconstructionResult:
         self.problem, self.algorithm_info = problem, algorithm_info
 
     def to_json_dict(self) -> dict:
-        """The result as JSON, with its "units" map (pareto_units and the rest poses' keys: shown_units.json_in
+        """The result as JSON, with its "units" map (pareto_units and the rest poses' keys: crashlab.units.json_in
         shows it in US units)."""
         p = self.problem
 

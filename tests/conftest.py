@@ -67,7 +67,7 @@ backend = "serial"
 timeout_s = 0
 """
 
-def two_frame_gif(scene, outcome, path, fps):
+def two_frame_gif(scene, outcome, path, fps, system="si"):
     """Stands in for crashlab.tools.animation in report.html (the animation itself: tests/test_animation.py)."""
     from PIL import Image
     frames = [Image.new("P", (8, 8), c) for c in (0, 1)]

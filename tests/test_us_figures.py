@@ -155,12 +155,33 @@ def labels_of(fig):
     return [(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes]
 
 
-def test_reconstruct_and_infer_draw_their_figures_and_evidence_in_us_units(us_study, saved, tmp_path):
+def test_simulate_and_compare_plot_in_us_units(saved, tmp_path):
+    """The command line's --units reaches simulate --plot and compare --plot (not only the plotting functions)."""
     from crashlab.cli.main import main
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["simulate", str(TUTORIAL), "--units", "us", "--plot", str(tmp_path / "one.png")]) == 0
+        assert main(["compare", str(TUTORIAL), "--models", "impulse,pymunk", "--units", "us", "--plot",
+                     str(tmp_path / "two.png")]) == 0
+    assert_top_view_in_feet(saved["one.png"].axes[0])
+    assert_top_view_in_feet(saved["two.png"].axes[0])
+
+
+def test_reconstruct_and_infer_draw_their_figures_and_evidence_in_us_units(us_study, saved, tmp_path, monkeypatch):
+    from conftest import two_frame_gif
+
+    from crashlab.cli.main import main
+    from crashlab.reconstruction import html_report
+    animated = []  # report.html's animation in the shown units too
+
+    def animate(scene, outcome, path, fps, system="si"):
+        animated.append(system)
+        return two_frame_gif(scene, outcome, path, fps, system)
+    monkeypatch.setattr(html_report, "_animate", animate)
     for command in ("reconstruct", "infer"):
         with contextlib.redirect_stdout(io.StringIO()):
             assert main([command, str(us_study), "--no-progress", "--units", "us", "--out",
                          str(tmp_path / command)]) == 0
+    assert animated == ["us", "us"]
     for name in ("solution_0.png", "median_draw.png"):
         assert_top_view_in_feet(saved[name].axes[0])
     for name in ("solution_0_time.png", "median_draw_time.png"):

@@ -271,7 +271,7 @@ def cmd_simulate(args):
     if args.plot:
         from ..tools.plotting import top_view
         try:
-            top_view(scene, out, args.plot)
+            top_view(scene, out, args.plot, system=args.units)
         except (OSError, ValueError) as err:
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
         written.append(args.plot)
@@ -281,7 +281,8 @@ def cmd_simulate(args):
     if animate and out.trajectories:
         from ..tools.animation import write_animation
         try:
-            write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion)
+            write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion,
+                            system=args.units)
         except (OSError, ValueError) as err:
             raise InputError(str(animate), "--animate", str(err).splitlines()[0]) from None
         written.append(animate)
@@ -336,7 +337,7 @@ def cmd_compare(args):
     if args.plot:
         from ..tools.plotting import compare_view
         try:
-            compare_view(scene, outcomes, args.plot)
+            compare_view(scene, outcomes, args.plot, system=args.units)
         except (OSError, ValueError) as err:
             raise InputError(args.plot, "--plot", str(err).splitlines()[0]) from None
         print(f"wrote {args.plot}", file=sys.stderr)
