@@ -133,7 +133,7 @@ def evaluations_table(problem, failure_reasons=None, evaluations=None) -> tuple[
     """Every evaluation counted by what became of it: feasible, infeasible (vehicles overlapping at the start,
     no contact) and failed runs by reason (failure_reasons: {reason: count}, crashlab.reconstruction.report
     .failure_counts); and a sentence saying what the counts mean."""
-    from .report import evaluation_counts
+    from .problem import evaluation_counts
     counts = evaluation_counts(problem)
     total = counts["total"] or int(evaluations or 0)
     reasons = dict(failure_reasons or {})

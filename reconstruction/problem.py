@@ -58,6 +58,37 @@ def variable_label(path: str) -> str:
     return path[len("vehicles."):] if path.startswith("vehicles.") else path
 
 
+def objective_unit(problem) -> str:
+    """The objectives' unit: m (thesis objective) or sigma (the normalised misfit: residuals in their sigmas)."""
+    return "m" if problem.evidence_set is None else "sigma"
+
+
+def evaluation_counts(problem, arch: dict | None = None) -> dict:
+    """Every evaluation in the problem's archive by what became of it: total, feasible (run ok, no overlap at
+    the start, a collision), overlap (run ok, vehicles overlapping at the start), no_contact (run ok, no
+    impact), failed (the run failed: its reason in the archive). An overlapping start without contact counts
+    as overlap."""
+    arch = problem.archive_arrays() if arch is None else arch
+    n = len(arch["X"])
+    if not n:
+        return {"total": 0, "feasible": 0, "overlap": 0, "no_contact": 0, "failed": 0}
+    ok, G = arch["ok"].astype(bool), np.atleast_2d(arch["G"])
+    overlap = ok & (G[:, 0] > 0)
+    no_contact = ok & ~overlap & (G[:, 1] > 0)
+    return {"total": int(n), "feasible": int((ok & np.all(G <= 0, axis=1)).sum()), "overlap": int(overlap.sum()),
+            "no_contact": int(no_contact.sum()), "failed": int((~ok).sum())}
+
+
+def infeasible_sentence(counts: dict) -> str:
+    """Why evaluations were not feasible, in words (evaluation_counts)."""
+    parts = [f"{counts['overlap']} had the vehicles overlapping at the start" if counts["overlap"] else "",
+             f"{counts['no_contact']} made no contact" if counts["no_contact"] else "",
+             f"{counts['failed']} failed (failures.csv gives each reason)" if counts["failed"] else ""]
+    parts = [p for p in parts if p]
+    return (f"{counts['feasible']} of {counts['total']} evaluations feasible"
+            + (": of the others " + ", ".join(parts) if parts else "") + ".")
+
+
 def variable_unit(var) -> str:
     """A searched variable's file unit (km/h, m, deg, ...): a study's FreeVariable (vehicle, field) or an
     UncertainVariable (its fields path); "" where it has none."""

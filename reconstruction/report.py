@@ -16,6 +16,8 @@ import pandas as pd
 from crashlab.units import frame_in, ms_to_kmh, rad_to_deg, unit_in, value_in, wrap_deg
 
 from .evidence import log_likelihood_of
+from .problem import evaluation_counts, infeasible_sentence, objective_unit
+from .search_figures import near_optimal_figure, objectives_figure
 
 DUPLICATE_TOL = 1e-6  # Pareto rows whose every free variable lies this close (share of its bound width) are one
 HEADING_WARN_DEG = 15.0  # deg: a rest heading this far off is plain on any site sketch or photo
@@ -151,86 +153,6 @@ def near_optimal_table(problem, arch: dict, tol: float) -> pd.DataFrame:
     return table.iloc[np.argsort(arch["F"][good].max(axis=1), kind="stable")].reset_index(drop=True)
 
 
-def evaluation_counts(problem, arch: dict | None = None) -> dict:
-    """Every evaluation in the problem's archive by what became of it: total, feasible (run ok, no overlap at
-    the start, a collision), overlap (run ok, vehicles overlapping at the start), no_contact (run ok, no
-    impact), failed (the run failed: its reason in the archive). An overlapping start without contact counts
-    as overlap."""
-    arch = problem.archive_arrays() if arch is None else arch
-    n = len(arch["X"])
-    if not n:
-        return {"total": 0, "feasible": 0, "overlap": 0, "no_contact": 0, "failed": 0}
-    ok, G = arch["ok"].astype(bool), np.atleast_2d(arch["G"])
-    overlap = ok & (G[:, 0] > 0)
-    no_contact = ok & ~overlap & (G[:, 1] > 0)
-    return {"total": int(n), "feasible": int((ok & np.all(G <= 0, axis=1)).sum()), "overlap": int(overlap.sum()),
-            "no_contact": int(no_contact.sum()), "failed": int((~ok).sum())}
-
-
-def infeasible_sentence(counts: dict) -> str:
-    """Why evaluations were not feasible, in words (evaluation_counts)."""
-    parts = [f"{counts['overlap']} had the vehicles overlapping at the start" if counts["overlap"] else "",
-             f"{counts['no_contact']} made no contact" if counts["no_contact"] else "",
-             f"{counts['failed']} failed (failures.csv gives each reason)" if counts["failed"] else ""]
-    parts = [p for p in parts if p]
-    return (f"{counts['feasible']} of {counts['total']} evaluations feasible"
-            + (": of the others " + ", ".join(parts) if parts else "") + ".")
-
-
-def objective_unit(problem) -> str:
-    """The objectives' unit: m (thesis objective) or sigma (the normalised misfit: residuals in their sigmas)."""
-    return "m" if problem.evidence_set is None else "sigma"
-
-
-def _objectives_figure(problem, arch, pareto, path, plt, system: str = "si") -> str | None:
-    """Every feasible evaluation's first two objectives (grey) and the non-dominated ones (red); log axes where
-    every value shown is positive, else linear (a perfect fit has objective 0, which no log axis shows).
-    Returns why it is not drawn (no feasible evaluation), or None."""
-    names = list(problem.objective_names)
-    feas = np.all(arch["G"] <= 0, axis=1) & arch["ok"] if len(arch["X"]) else np.zeros(0, bool)
-    unit = objective_unit(problem)
-    F = value_in(arch["F"][feas] if feas.any() else np.empty((0, len(names))), unit, system)
-    if not len(F):
-        return "no feasible evaluation to draw: " + infeasible_sentence(evaluation_counts(problem, arch))
-    fig, ax = plt.subplots(figsize=(6, 5))
-    ax.scatter(F[:, 0], F[:, 1], s=6, color="0.6", label="dominated / evaluated")
-    if len(pareto):
-        ax.scatter(value_in(pareto[f"f_{names[0]}"], unit, system), value_in(pareto[f"f_{names[1]}"], unit, system),
-                   s=24, color="C3", label="non-dominated")
-    shown = F[:, :2][np.isfinite(F[:, :2]).all(axis=1)]
-    log = len(shown) > 0 and bool(np.all(shown > 0))
-    if log:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-    ax.set_xlabel(f"f_{names[0]} [{unit_in(unit, system)}]" + ("" if log else " (linear: an objective is 0)"))
-    ax.set_ylabel(f"f_{names[1]} [{unit_in(unit, system)}]")
-    ax.legend()
-    ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    return None
-
-
-def _near_optimal_figure(problem, near, path, plt, system: str = "si") -> str:
-    """The first two free variables of the near-optimal starts (with their units), coloured by their largest
-    objective (m, or sigma for the normalised misfit); in US units with system "us"."""
-    from .problem import variable_unit
-    fa, fb = problem.free[0], problem.free[1]
-    a, b = fa.label, fb.label
-    ua, ub, uf = variable_unit(fa), variable_unit(fb), objective_unit(problem)
-    worst = value_in(near[[c for c in near.columns if c.startswith("f_")]].max(axis=1), uf, system)
-    fig, ax = plt.subplots(figsize=(6, 5))
-    sc = ax.scatter(value_in(near[a], ua, system), value_in(near[b], ub, system), c=worst, s=12, cmap="viridis")
-    fig.colorbar(sc, ax=ax, label=f"largest objective [{unit_in(uf, system)}]")
-    ax.set_xlabel(f"{a} [{unit_in(ua, system)}]")
-    ax.set_ylabel(f"{b} [{unit_in(ub, system)}]")
-    ax.set_title("starts that explain the evidence equally well")
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    return path.name
-
-
 def drawing_failed(name: str, err: Exception) -> str:
     """A note for a figure that could not be drawn: what and the kind of error, not the library's message."""
     return (f"{name} could not be drawn ({type(err).__name__} in the plotting library); the tables and CSV "
@@ -258,7 +180,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     notes = []
     if len(names) >= 2:
         try:
-            why = _objectives_figure(problem, arch, result.pareto, out_dir / "objectives.png", plt, system)
+            why = objectives_figure(problem, arch, result.pareto, out_dir / "objectives.png", plt, system)
             if why:
                 notes.append(f"objectives.png not drawn: {why}")
         except Exception as err:  # noqa: BLE001 - the search's result is in the tables already
@@ -270,7 +192,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     frame_in(near, system, units).to_csv(out_dir / "near_optimal.csv", index=False)
     if len(near) and len(problem.free) >= 2:
         try:
-            figures_near = _near_optimal_figure(problem, near, out_dir / "near_optimal.png", plt, system)
+            figures_near = near_optimal_figure(problem, near, out_dir / "near_optimal.png", plt, system)
         except Exception as err:  # noqa: BLE001
             figures_near = None
             notes.append(drawing_failed("near_optimal.png", err))

@@ -47,7 +47,8 @@ from .infer_settings import InferSection
 from .problem import ReconstructionProblem, UncertainVariable
 from .repair import CollisionRepair
 from .run import run_study
-from .schema import StudyFile, in_file_units
+from .schema import StudyFile
+from .study_units import in_file_units
 
 
 def _canonical(obj) -> str:

@@ -461,25 +461,26 @@ def test_objectives_figure_takes_zero_objectives_and_says_why_none_is_feasible(t
 
     import matplotlib.pyplot as plt
 
-    from crashlab.reconstruction import report
+    from crashlab.reconstruction import search_figures
+    from crashlab.reconstruction.problem import evaluation_counts
     problem = SimpleNamespace(objective_names=["V1", "V2"], evidence_set=None)
     F = np.array([[0.0, 0.0], [0.5, 2.0], [1.0, 0.1]])
     arch = {"X": np.zeros((5, 1)), "F": np.vstack([F, [[9, 9], [9, 9]]]), "ok": np.array([1, 1, 1, 1, 0], bool),
             "G": np.array([[0, 0], [0, 0], [0, 0], [0.3, 0], [1, 1]], float), "reason": np.array([""] * 4 + ["x"])}
     pareto = pd.DataFrame({"f_V1": [0.0], "f_V2": [0.0]})
-    assert report._objectives_figure(problem, arch, pareto, tmp_path / "o.png", plt) is None
+    assert search_figures.objectives_figure(problem, arch, pareto, tmp_path / "o.png", plt) is None
     ax = plt.gcf().axes[0]
     assert ax.get_xscale() == "linear" and ax.get_xlabel().startswith("f_V1 [m]") and ax.get_ylabel() == "f_V2 [m]"
     plt.close("all")
     arch_pos = dict(arch, F=arch["F"] + 0.1)
-    report._objectives_figure(problem, arch_pos, pareto + 0.1, tmp_path / "o.png", plt)
+    search_figures.objectives_figure(problem, arch_pos, pareto + 0.1, tmp_path / "o.png", plt)
     assert plt.gcf().axes[0].get_xscale() == "log"
     plt.close("all")
     none = dict(arch, ok=np.array([1, 1, 0, 0, 0], bool), G=np.array([[0.2, 0], [0, 1], [0, 0], [0, 0], [1, 1]]))
-    why = report._objectives_figure(problem, none, pareto.iloc[:0], tmp_path / "n.png", plt)
+    why = search_figures.objectives_figure(problem, none, pareto.iloc[:0], tmp_path / "n.png", plt)
     assert why == ("no feasible evaluation to draw: 0 of 5 evaluations feasible: of the others 1 had the vehicles "
                    "overlapping at the start, 1 made no contact, 3 failed (failures.csv gives each reason).")
-    assert report.evaluation_counts(problem, none) == {"total": 5, "feasible": 0, "overlap": 1, "no_contact": 1,
+    assert evaluation_counts(problem, none) == {"total": 5, "feasible": 0, "overlap": 1, "no_contact": 1,
                                                        "failed": 3}
 
 
@@ -490,14 +491,14 @@ def test_near_optimal_figure_is_in_sigma_with_units(tmp_path):
 
     import matplotlib.pyplot as plt
 
-    from crashlab.reconstruction import report
+    from crashlab.reconstruction import search_figures
     from crashlab.reconstruction.schema import FreeVariable
     free = [FreeVariable(vehicle="V1", field="speed", lower=30, upper=70),
             FreeVariable(vehicle="V2", field="y", lower=-3, upper=3)]
     near = pd.DataFrame({"V1.speed": [40.0, 41.0], "V2.y": [0.1, 0.2], "f_V1": [0.5, 0.9], "f_V2": [0.2, 1.0]})
     for evidence_set, unit in ((object(), "sigma"), (None, "m")):
-        report._near_optimal_figure(SimpleNamespace(free=free, evidence_set=evidence_set), near, tmp_path / "n.png",
-                                    plt)
+        search_figures.near_optimal_figure(SimpleNamespace(free=free, evidence_set=evidence_set), near,
+                                           tmp_path / "n.png", plt)
         ax, bar = plt.gcf().axes
         assert bar.get_ylabel() == f"largest objective [{unit}]"
         assert (ax.get_xlabel(), ax.get_ylabel()) == ("V1.speed [km/h]", "V2.y [m]")
