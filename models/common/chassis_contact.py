@@ -25,8 +25,11 @@ general 3D tool and its tests).
 
 Engagement (structure law, §13a): from the first touch the normal is the bisector of the two struck faces'
 outward normals (crush_structure.engagement_normal; a barrier's face alone), turning with the vehicles, and the
-crush is the two shapes' projection overlap along it counted from the episode's first touch (PST[:, S_C0]); the
-point is the middle of the engaged zone. The gap search above still decides whether the shapes overlap at all.
+crush is the two shapes' projection overlap along it counted from the episode's first touch (PST[:, S_C0]), at
+least their overlap -g, and kept continuous within an episode (S_CI, S_CR, S_CM); the point lies on the line of
+action of that crush's gradient, midway between the two support points across the normal, so that the force does
+no work around a closed path ("Work of the engaged force"). The gap search above still decides whether the shapes
+overlap at all.
 
 Generic law. Force on vehicle i (the body 1 of the pair, d points from i to j), penetration delta = -g > 0,
 delta_dot = (v_i(M) - v_j(M)).d (> 0 approaching):
@@ -84,12 +87,19 @@ S_E, S_VCLOSE = 23, 24
 # (face_normal_angle; latched with the sides), and the crush offset along their engagement normal at the first
 # touch (-1: not engaged, the minimum-translation normal is used)
 S_FACE_I, S_FACE_J, S_C0 = 25, 26, 27
-N_PST = 28
+# the crush of an open episode kept continuous (structure law, §13a "Work of the engaged force"): S_CI the crush at
+# the last accepted evaluation, S_CR the geometric measure there and S_CM which one (2 the engagement normal's, 1 the
+# minimum-translation overlap, 0 none yet: the geometric crush is used); an evaluation adds the measure's change
+# since, none where the measure has switched (contact_episodes.track_peak keeps them)
+S_CI, S_CR, S_CM = 28, 29, 30
+N_PST = 31
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
 (G_FN, G_DEL, G_FX, G_FY, G_FZ, G_POW, G_PX, G_PY, G_TH, G_DDOT, G_CRUSH, G_WIDTH) = range(12)
-N_PSG = 12
+# structure law: the geometric crush measure of the evaluation and which one (S_CR, S_CM)
+G_RAW, G_MEAS = 12, 13
+N_PSG = 14
 # broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
 # by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
 B_PAIRS, B_CIRCLE, B_HEIGHT, B_OBB, B_NARROW = range(5)
@@ -227,7 +237,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
         if cfg_law == LAW_STRUCTURE:
             # §13a: struck sides and faces latched until the contact opens (a contact on other faces forgets the
             # crush)
-            if PST[p, S_ACT] == 0.0:
+            # (a crushed pair keeps them while its shapes still overlap: the crushed zones are still the ones in
+            # touch; re-chosen once the shapes have separated, g >= 0)
+            if PST[p, S_ACT] == 0.0 and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
                 xl = A1[0, 0] * (M[0] - rc1[0]) + A1[1, 0] * (M[1] - rc1[1]) + A1[2, 0] * (M[2] - rc1[2])
                 yl = A1[0, 1] * (M[0] - rc1[0]) + A1[1, 1] * (M[1] - rc1[1]) + A1[2, 1] * (M[2] - rc1[2])
                 si = side_code(xl, yl, sh1[0], sh1[1])
@@ -244,22 +256,29 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             # §13a engagement: the normal of the struck faces (turning with the vehicles), the crush counted along
             # it from the episode's first touch (S_C0 set until the contact opens, then held)
             e0, e1, ok = engagement_normal(PST[p, S_FACE_I], PST[p, S_FACE_J], A1, A2, k2 == 1)
+            measure = 1.0
             if ok:
                 top = support_value_body(0, e0, e1, 0.0, sh1, rc1, A1)
                 bot = -support_value_body(k2, -e0, -e1, 0.0, sh2, rc2, A2)
                 if PST[p, S_ACT] == 0.0:
                     PST[p, S_C0] = top - bot + g if e0 * d0 + e1 * d1 > 0.0 else -1.0
-                if PST[p, S_C0] >= 0.0:
+                measure = 2.0 if PST[p, S_C0] >= 0.0 else 1.0
+                if PST[p, S_C0] >= 0.0 and top - bot - PST[p, S_C0] >= -g:
+                    # engaged: the crush along the struck faces' normal; at least the overlap -g (below, where the
+                    # overlap has grown across it: the shapes are not let through each other without a force)
                     crush = top - bot - PST[p, S_C0]
                     d0, d1 = e0, e1
                     psg[p, G_TH] = math.atan2(e1, e0)
-                    # the point: the middle of the engaged zone (across the normal: the overlap of the shadows;
-                    # along it: between the two bodies' faces)
-                    hp = min(support_value_body(0, -e1, e0, 0.0, sh1, rc1, A1),
-                             support_value_body(k2, -e1, e0, 0.0, sh2, rc2, A2))
-                    hm = min(support_value_body(0, e1, -e0, 0.0, sh1, rc1, A1),
-                             support_value_body(k2, e1, -e0, 0.0, sh2, rc2, A2))
-                    mt, md = 0.5 * (hp - hm), 0.5 * (top + bot)
+                    # the point: across the normal, midway between the two bodies' support points along it (their
+                    # deepest points), the line of action of the crush's gradient (§13a, "Work of the engaged
+                    # force": the force does no work around a closed path); along it, midway between the faces
+                    Q1 = support_global(e0, e1, 0.0, sh1, rc1, A1)
+                    if k2 == 0:
+                        Q2 = support_global(-e0, -e1, 0.0, sh2, rc2, A2)
+                        mt = 0.5 * (-e1 * (Q1[0] + Q2[0]) + e0 * (Q1[1] + Q2[1]))
+                    else:  # a rigid box does not turn: the line through the vehicle's deepest point
+                        mt = -e1 * Q1[0] + e0 * Q1[1]
+                    md = 0.5 * (top + bot)
                     M = (-mt * e1 + md * e0, mt * e0 + md * e1, M[2])
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
         a2 = (M[0] - r2[0], M[1] - r2[1], M[2] - r2[2])
@@ -281,6 +300,12 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                     PST[p, S_VCLOSE] = max(dd, 0.0)
                     PST[p, S_E] = min(max(speed_restitution(dd), E_LO), E_HI)
                 e = PST[p, S_E]
+            # §13a, work of the engaged force: in an open episode the crush is continuous where the measure switches
+            # (the engagement normal lost or regained): the crush at the last accepted evaluation plus the change
+            # of the measure since, none where it has switched
+            psg[p, G_RAW], psg[p, G_MEAS] = crush, measure
+            if PST[p, S_ACT] > 0.0 and PST[p, S_CM] > 0.0:
+                crush = PST[p, S_CI] + (crush - PST[p, S_CR] if measure == PST[p, S_CM] else 0.0)
             psg[p, G_CRUSH] = crush
             # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
             # episode) exceeds the permanent set: an engaged episode does not chatter between the two measures

@@ -22,14 +22,19 @@ from .chassis_contact import (
     G_DEL,
     G_FN,
     G_FX,
+    G_MEAS,
     G_POW,
     G_PX,
     G_PY,
+    G_RAW,
     G_TH,
     P_I,
     P_J,
     S_ACT,
+    S_CI,
+    S_CM,
     S_CMAX,
+    S_CR,
     S_DD0,
     S_JX,
     S_MAXPEN,
@@ -81,10 +86,21 @@ def accumulate(PST, p, w, out):
 
 
 @njit(cache=True)
+def sync_crush(PST, p, out):
+    """The continuous crush's reference (docs/physics.md §13a): the crush of the accepted evaluation `out`, its
+    geometric measure and which one it is (a pair the broad phase left out is not measured: kept)."""
+    if out[G_MEAS] == 0.0:
+        return
+    PST[p, S_CI], PST[p, S_CR], PST[p, S_CM] = out[G_CRUSH], out[G_RAW], out[G_MEAS]
+
+
+@njit(cache=True)
 def track_peak(PST, p, out):
     """Keep the peak normal force (with the point and normal angle there) and the largest penetration (the
     overlap of the undeformed shapes, the total crush); in contact, the pair's largest crush S_CMAX (the
-    structure law's memory, §13a: updated only here, at accepted evaluations)."""
+    structure law's memory, §13a: updated only here, at accepted evaluations); the continuous crush's reference
+    (sync_crush: the models call this for the stages of an accepted step in order, the step's end last)."""
+    sync_crush(PST, p, out)
     if out[G_FN] > PST[p, S_PEAK]:
         PST[p, S_PEAK] = out[G_FN]
         PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH] = out[G_PX], out[G_PY], out[G_TH]
