@@ -255,12 +255,14 @@ def _scene_additions(doc: dict):
 
 
 def _tiny_study(doc: dict, path: Path, polish: int) -> dict:
-    """The study with a tiny budget (one generation of 4, polish 0 or 4 evaluations), evaluated in this
-    process, its scene as an absolute path."""
+    """The study with a tiny budget (one generation of 4, polish 0 or 4 evaluations, a [refine] of 2
+    evaluations), evaluated in this process, its scene as an absolute path."""
     d = copy.deepcopy(doc)
     d["scene"] = (path.parent / d["scene"]).resolve().as_posix()
     d.setdefault("optimizer", {}).update(pop_size=4, generations=1)
     d["polish"] = {"evaluations": polish}
+    if isinstance(d.get("refine"), dict):  # a multibody refine polishes for a minute: the input's check is the case
+        d["refine"]["evaluations"] = 2
     # evaluations in this process (no worker process per run); the child's per-case limit catches hangs
     d.setdefault("execution", {})["timeout_s"] = 0.0
     return d
