@@ -25,6 +25,8 @@ STUDY = """{units}
 name = "US study twin"
 scene = "{scene}"
 model = "impulse"
+free = [{{vehicle = "V1", field = "speed", lower = {v_lo}, upper = {v_hi}}},
+        {{vehicle = "V2", field = "x", lower = {x_lo}, upper = {x_hi}}}]
 
 [optimizer]
 name = "nsga2"
@@ -32,29 +34,9 @@ pop_size = 8
 generations = 2
 seed = 1
 
-[[free]]
-vehicle = "V1"
-field = "speed"
-lower = {v_lo}
-upper = {v_hi}
-
-[[free]]
-vehicle = "V2"
-field = "x"
-lower = {x_lo}
-upper = {x_hi}
-
-[evidence.rest.V1]
-x = {r1x}
-y = {r1y}
-heading = 26.0
-sigma_xy = {sxy}
-sigma_heading = 5.0
-
-[evidence.rest.V2]
-x = {r2x}
-y = {r2y}
-sigma_xy = {sxy}
+[evidence.rest]
+V1 = {{x = {r1x}, y = {r1y}, heading = 26.0, sigma_xy = {sxy}, sigma_heading = 5.0}}
+V2 = {{x = {r2x}, y = {r2y}, sigma_xy = {sxy}}}
 
 [evidence.impact]
 x = {ix}

@@ -176,10 +176,11 @@ def cmd_schema(args):
 
 
 def _run_options(parser) -> None:
-    """--no-progress and --pdf of a command that runs a search or a sampler and writes a report."""
+    """--no-progress, --pdf and --units of a command that runs a search or a sampler and writes a report."""
     parser.add_argument("--no-progress", action="store_true", help="no progress line")
     parser.add_argument("--pdf", action="store_true", help="with --out: also print DIR/report.html to DIR/report.pdf "
                         "(A4; needs WeasyPrint: pip install \"crashlab[pdf]\")")
+    _units_option(parser)
 
 
 def _table_options(parser, wide: str) -> None:
@@ -288,7 +289,6 @@ def build_parser():
     inf.add_argument("--resume", action="store_true", help="continue from DIR's checkpoint")
     inf.add_argument("--workers", type=int, default=None, help="worker processes (default: the study's [execution])")
     _run_options(inf)
-    _units_option(inf)
     inf.set_defaults(fn=cmd_infer)
     av = command("avoid", "would it have been avoided: the study's [[counterfactuals]] answered on the draws of an "
                  "earlier `crashlab infer STUDY --out DIR`")
@@ -310,7 +310,6 @@ def build_parser():
                    help="write the Pareto set, report and figures here (default: print only)")
     r.add_argument("--json", action="store_true", help="print the result as JSON")
     _run_options(r)
-    _units_option(r)
     r.set_defaults(fn=cmd_reconstruct)
     sd = command("study", "comparison studies of the models: run time against error, stability, scaling, "
                  "validation, the PC-Crash cases with every impulse law")
