@@ -292,7 +292,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
         if cfg_law == LAW_STRUCTURE:
             ci = P_STR_I + 3 * int(PST[p, S_SIDE_I])
             cj = P_STR_J + 3 * int(PST[p, S_SIDE_J])
-            a1s, b1s, a2s, b2s = PP[p, ci], PP[p, ci + 1], PP[p, cj], PP[p, cj + 1]
+            b1s, b2s = PP[p, ci + 1], PP[p, cj + 1]
             cm = PST[p, S_CMAX]
             e = cfg_e
             if cfg_e < 0.0:  # the law at the closing speed where this crush began (§13b)
@@ -309,7 +309,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             psg[p, G_CRUSH] = crush
             # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
             # episode) exceeds the permanent set: an engaged episode does not chatter between the two measures
-            cp = permanent_crush(cm, e, a1s, b1s, a2s, b2s)
+            cp = permanent_crush(cm, e)
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue
@@ -324,7 +324,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 w = min(w, PP[p, cj + 2])
             w = max(w, 0.0)
             psg[p, G_WIDTH] = w
-            fn = w * structure_force(crush, cm, e, a1s, b1s, a2s, b2s)
+            fn = w * structure_force(crush, cm, e, b1s, b2s)
         else:
             if g >= 0.0:
                 continue
