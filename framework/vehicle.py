@@ -52,8 +52,8 @@ class MultibodyChassis(_MultibodyPart):
                                                    "(convex)")
     structure_bottom: Real | None = bounded(
         0.0, 5.0, "m, height above the road of the body structure's lowest point (bumper, sill, skirt), static: the "
-        "contact superellipsoid reaches down to it, its top kept (default: its own bottom, at most 0.45 m)", lo_open=True,
-        default=None)
+        "contact superellipsoid reaches down to it, its top kept (default: its own bottom, at most 0.45 m)",
+        lo_open=True, default=None)
     mass: Real | None = bounded(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
     inertia: Positive3 | None = Field(None, description="kg m^2: Ixx, Iyy, Izz; each in (0, 1e7]")
 
