@@ -1,6 +1,6 @@
 """Vehicle contact of the 3D models (multibody's numba time loop, exudyn's loads): chassis superellipsoids
 against each other and against rigid box barriers; continuous normal force, by default from the vehicles'
-crush structures (docs/physics.md §13a, crush_structure.py: CRASH3 A + B C per unit of engaged width, the
+crush structures (docs/physics.md §13a, crush_structure.py: the CRASH3 line B C per unit of engaged width, the
 struck sides in series, unloading to the restitution, crush memory per pair), else the generic Hertz-type
 force with hysteresis damping (LAW_GENERIC, below); friction.
 Also the packing of the contact arrays both models hand to `contacts`
