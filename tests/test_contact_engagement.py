@@ -126,3 +126,27 @@ def test_episode_records_are_sized_to_the_pairs_that_can_touch():
     assert episode_capacity(2, 0) == 64 and episode_capacity(1, 0) == 64
     assert episode_capacity(5, 1) == 64 * 15
     assert episode_capacity(32, 0) == 64 * 496
+
+
+def test_crush_is_never_below_the_shapes_overlap():
+    """An open episode whose continuous crush lags its measure (the crush held at a measure switch, docs/physics.md
+    §13a) still counts at least the shapes' overlap -g: before, the crush stayed below the permanent set and the
+    pair sank into each other with no force (audit seed 4 in multibody: 0.33 m). The overlap -g is read here from
+    the generic law's evaluation of the same state (its penetration is -g)."""
+    x0 = _first_touch()
+    CT = _arrays()
+    _evaluate(_state(x0), CT)
+    PST = CT[5]
+    PST[0, C.S_ACT] = 1.0
+    PST[0, C.S_CMAX] = 0.1                                         # crushed 0.1 m before
+    PST[0, C.S_CI], PST[0, C.S_CR], PST[0, C.S_CM] = 0.05, 0.5, 2.0  # continuous crush 0.45 m below its measure
+    out, FX = _evaluate(_state(x0 - 0.3), CT)
+    GT = _arrays()
+    CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG, FXg, BPC = GT
+    C.contacts(_state(x0 - 0.3), 7, CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG[0], FXg, BPC, 1.5, 0.0, 0.3, 0.0,
+               FRICTION_V0, FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_GENERIC), 0.1)
+    overlap = PSG[0, 0, C.G_DEL]  # the rounded shapes' smallest overlap, sideways here
+    assert 0.0 < overlap < 0.3    # (the continuous crush: 0.05 + 0.3 - 0.5 = -0.15 m)
+    assert out[C.G_CRUSH] == pytest.approx(overlap, rel=1e-12)
+    # loading beyond the 0.1 m memory: two equal fronts in series, w B C / 2 along the overlap's normal
+    assert math.hypot(FX[0, 0], FX[0, 1]) == pytest.approx(out[C.G_WIDTH] * 0.5 * B * overlap, rel=1e-6)
