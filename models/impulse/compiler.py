@@ -5,11 +5,13 @@ numba inlines a function declared inline="always" at the IR level by assigning e
 callee's (`S_1 = S`) and running the callee's body on those. An array variable holds a reference: each such copy
 costs a reference count up and down (an atomic NRT_incref, NRT_decref) every time the stage runs, which LLVM's
 reference-count pruning leaves in place across the stage's loops (measured: about 320 of them in simulate_one, the
-kernel 20-30 % slower). In SSA form (numba's ReconstructSSA, before type inference) every variable has one
-definition, so a copy `a = b` of an array of the same type can be dropped and every use of a read as b: the
-compiled arithmetic is unchanged (results bit for bit), only the reference counts go.
+kernel 23-33 % slower). After numba's ReconstructSSA (before type inference) most variables have one definition; a
+copy `a = b` of an array of the same type, both defined once, that comes before every read of a can be dropped and
+each read of a made a read of b: the compiled arithmetic is unchanged (results bit for bit), only the reference
+counts go.
 """
 from numba.core import ir, ir_utils, types
+from numba.core.analysis import compute_cfg_from_blocks
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 from numba.core.compiler_machinery import FunctionPass, register_pass
 from numba.core.typed_passes import NopythonTypeInference
@@ -17,8 +19,9 @@ from numba.core.typed_passes import NopythonTypeInference
 
 @register_pass(mutates_CFG=False, analysis_only=False)
 class ElideArrayCopies(FunctionPass):
-    """Drop each copy `a = b` between two arrays of the same type that are each defined once (SSA form) and read b
-    wherever a was read."""
+    """Drop each copy `a = b` between two arrays of the same type that are each defined once (SSA form), where the
+    copy comes before every read of a (it dominates them: b cannot have changed in between), and read b wherever a
+    was read."""
 
     _name = "elide_array_copies"
 
@@ -27,18 +30,23 @@ class ElideArrayCopies(FunctionPass):
 
     def run_pass(self, state):
         blocks, typemap = state.func_ir.blocks, state.typemap
-        n_defs = {}
-        for block in blocks.values():
-            for stmt in block.body:
+        n_defs, uses = {}, {}
+        for label, block in blocks.items():
+            for index, stmt in enumerate(block.body):
                 if isinstance(stmt, ir.Assign):
                     n_defs[stmt.target.name] = n_defs.get(stmt.target.name, 0) + 1
+                for var in stmt.list_vars():
+                    uses.setdefault(var.name, []).append((label, index))
+        dominators = compute_cfg_from_blocks(blocks).dominators()
         copies = {}
-        for block in blocks.values():
-            for stmt in block.body:
+        for label, block in blocks.items():
+            for index, stmt in enumerate(block.body):
                 if (isinstance(stmt, ir.Assign) and isinstance(stmt.value, ir.Var)
                         and n_defs[stmt.target.name] == 1 and n_defs.get(stmt.value.name, 0) == 1
                         and isinstance(typemap[stmt.target.name], types.Array)
-                        and typemap[stmt.target.name] == typemap[stmt.value.name]):
+                        and typemap[stmt.target.name] == typemap[stmt.value.name]
+                        and all(label in dominators[at] and (at != label or i > index)  # read after the copy only
+                                for at, i in uses[stmt.target.name] if (at, i) != (label, index))):
                     copies[stmt.target.name] = stmt.value
         if not copies:
             return False
