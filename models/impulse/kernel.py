@@ -15,7 +15,7 @@ scenes runs in parallel with `prange`. Step-size policy:
   * the run ends when every vehicle sleeps (stop_at_rest) or at `duration`.
 Contact onset is located by bisection of the step until the outlines overlap by at most `onset_tol`.
 
-Contact episodes (the model docstring argues the choice): a pair's touch after being apart by more than
+Contact episodes (episode.py; the model docstring argues the choice): a pair's touch after being apart by more than
 SEPARATION is an impact (restitution e, a row of the impact table); until the pair is that far apart
 again, every step in which the outlines overlap and approach gets plastic (e = 0) Coulomb-limited
 contact impulses, booked into that impact's row, and a position projection keeps the overlap below
