@@ -8,11 +8,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 from numba.core import ir, types
-from numba.core.compiler import CompilerBase, DefaultPassBuilder
+from numba.core.compiler import CompilerBase
 from numba.core.compiler_machinery import FunctionPass, register_pass
-from numba.core.typed_passes import NopythonTypeInference
 
-from crashlab.models.impulse.compiler import ElideArrayCopies
+from crashlab.models.impulse.compiler import ElideArrayCopies, nopython_pipeline
 
 COPIES: list[int] = []  # the array copies counted, one entry per compilation
 
@@ -33,19 +32,12 @@ class CountArrayCopies(FunctionPass):
 
 class Plain(CompilerBase):
     def define_pipelines(self):
-        pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
-        pm.add_pass_after(CountArrayCopies, NopythonTypeInference)
-        pm.finalize()
-        return [pm]
+        return nopython_pipeline(self.state, CountArrayCopies)
 
 
 class Elided(CompilerBase):  # models/impulse/compiler.StagesCompiler with the count after its pass
     def define_pipelines(self):
-        pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
-        pm.add_pass_after(ElideArrayCopies, NopythonTypeInference)
-        pm.add_pass_after(CountArrayCopies, ElideArrayCopies)
-        pm.finalize()
-        return [pm]
+        return nopython_pipeline(self.state, ElideArrayCopies, CountArrayCopies)
 
 
 @njit(inline="always")

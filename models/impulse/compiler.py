@@ -63,11 +63,19 @@ class ElideArrayCopies(FunctionPass):
         return True
 
 
+def nopython_pipeline(state, *passes):
+    """numba's nopython pipeline with `passes` run in turn right after type inference."""
+    pm = DefaultPassBuilder.define_nopython_pipeline(state)
+    after = NopythonTypeInference
+    for extra in passes:
+        pm.add_pass_after(extra, after)
+        after = extra
+    pm.finalize()
+    return [pm]
+
+
 class StagesCompiler(CompilerBase):
     """numba's nopython pipeline with ElideArrayCopies after type inference."""
 
     def define_pipelines(self):
-        pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
-        pm.add_pass_after(ElideArrayCopies, NopythonTypeInference)
-        pm.finalize()
-        return [pm]
+        return nopython_pipeline(self.state, ElideArrayCopies)
