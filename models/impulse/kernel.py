@@ -41,8 +41,7 @@ from crashlab.models.common.driver_inputs import (
     ramping,
     steady_next,
 )
-from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, stiffest_rate
-from crashlab.models.common.wheel_states import BRAKED, ROLLING
+from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, slip_rate
 from crashlab.units import G
 
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
@@ -80,7 +79,7 @@ from .layout import (
     STATUS_OK,
     STATUS_STEP_LIMIT,
 )
-from .motion import _heun, _near_zone
+from .motion import _gap_step, _heun, _long_step, _near_zone
 from .pairs import _awake_sets, _moved, _near_pairs
 
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
@@ -92,7 +91,6 @@ CONTACT_SLOP = 0.002  # m: overlap tolerated in sustained contact (no bisection,
 SEPARATION = 0.05  # m: a pair further apart than this has ended its contact episode
 DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this within a step is bisected
 MAX_SWEEPS = 50  # sequential-impulse sweeps over simultaneous contacts per step
-STOP_MARGIN = 0.5  # m/s: coarse steps end this far above the speed a coarse step could brake away
 REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left out until a vehicle moved REACH
 
 
@@ -194,8 +192,6 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     law_brake = np.zeros(nv)
     law_change = np.zeros(nv)
     law_ramp = np.zeros(nv, np.bool_)
-    rate_mode = np.full(nv, -1, np.int64)  # the wheel state of the vehicle's step bound rate_h (stiffest_rate)
-    rate_h = np.full(nv, math.inf)
     for i in range(nv):
         wheel_reach[i] = math.sqrt(max(P[i, P_A], P[i, P_B]) ** 2 + (0.5 * P[i, P_TRACK]) ** 2)
     for i in range(nv):
@@ -247,13 +243,15 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             traj[n_rec, :, 1:7] = S
             n_rec += 1
             next_rec += rec_dt
-        # ---- step size: the fine step within the tyre forces' stability limit, coarse while every
-        # moving vehicle runs straight and nothing can touch
+        # ---- step size: the fine step within the tyre forces' stability limit at the wheels' slip speeds
+        # (planar_vehicle.slip_rate); a long step, up to coarse_dt, while every moving vehicle runs straight
+        # or slides on locked wheels, far from stopping, and nothing can touch (_long_step)
         # (a step ends where a driver's input changes its law: an action's start or its ramp's end; it is
         # fine within a ramp and near a friction zone)
         h = dt
         t_change = math.inf
-        quiet = True
+        long_ok = coarse_dt > dt
+        h_long = coarse_dt
         for a in range(na):
             i = awake[a]
             if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
@@ -266,41 +264,26 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                     inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
                                                                   else (1.0, 0.0))
             t_change = min(t_change, law_change[i])
-            if law_ramp[i]:
-                quiet = False
             mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
             inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
-            if mode == ROLLING and brake > 0.0:
-                mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
-            if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
-                rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
-                rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
-            h = min(h, rate_h[i])
             c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
             inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
-            lat = -sn * S[i, 3] + c * S[i, 4]
-            speed = math.hypot(S[i, 3], S[i, 4])
-            if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
-                quiet = False
-            elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zones[3]):
-                quiet = False
-            # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near
-            # the discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
-            if speed < 2.0 * mu_max * G * coarse_dt + STOP_MARGIN:
-                quiet = False
-        if quiet and coarse_dt > dt:
-            h_gap = coarse_dt
+            cs, ss = inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER]
+            rate = slip_rate(P[i], S[i], c, sn, cs, ss, mu_max, mode, brake, dt)  # 0: locked on ice, no force
+            if rate * h > 1.0:
+                h = 1.0 / rate
+            if long_ok:  # (not within a ramp, nor where a wheel's friction may change: near a zone)
+                if law_ramp[i] or (zoned and _near_zone(S, i, radius[i] + math.hypot(S[i, 3], S[i, 4]) * coarse_dt
+                                                        + PATCH, zones[3])):
+                    h_long = 0.0
+                else:
+                    h_long = min(h_long, _long_step(P[i], S[i], c, sn, cs, ss, steer, mode, brake, mu_max, coarse_dt))
+                long_ok = h_long > h
+        if long_ok:
             for p in range(n_pairs):  # (a sleeping vehicle and a barrier: not listed, closing 0)
-                i, k = pair_i[p], pair_k[p]
-                ckx, cky = _centre(S, B, k, nv)
-                gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
-                closing = math.hypot(S[i, 3], S[i, 4])
-                if k < nv:
-                    closing += math.hypot(S[k, 3], S[k, 4])
-                if closing > 0.0:
-                    h_gap = min(h_gap, 0.5 * gap / closing)
-            if h_gap > h:
-                h = h_gap
+                h_long = min(h_long, _gap_step(P, S, B, radius, pair_i[p], pair_k[p], nv, mu_max * G * h_long, oa, ob))
+            if h_long > h:
+                h = h_long
                 diag[D_COARSE] += 1
         h = min(h, duration - t, t_change - t)
         _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, inp, held)
