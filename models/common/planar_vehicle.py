@@ -138,22 +138,6 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
 
 
 @register_jitable
-def stiffest_rate(p, mu, mode):
-    """Largest decay rate [1/s] of the regularised tyre forces of one vehicle (lateral and yaw modes):
-    an explicit step must stay below about 1 / rate (Heun is stable up to 2 / rate)."""
-    m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
-    if mode == LOCKED:
-        # Coulomb regularised over V_REG: force mu N v / V_REG per wheel
-        rho2 = 0.5 * (a * a + b * b) + 0.25 * track * track
-        return mu * G / V_REG * max(1.0, m * rho2 / iz)
-    c = p[P_CALPHA]  # cornering stiffness per tyre, slip angle floored at V_LOW
-    rate = max(4.0 * c / (m * V_LOW), 2.0 * c * (a * a + b * b) / (iz * V_LOW))
-    if mode == BRAKED:
-        rate = max(rate, mu * G / V_REG)
-    return rate
-
-
-@register_jitable
 def locked_forces(p, s, c, sn, mu_fl, mu_fr, mu_rl, mu_rr, acc_body, out):
     """vehicle_forces_trig for locked wheels with the quasi-static load transfer solved, not lagged
     (docs/physics.md §2): each wheel's Coulomb force is its load N times -mu v / sqrt(|v|^2 + V_REG^2)
@@ -231,11 +215,14 @@ def wheel_slips(p, s, c, sn, cs, ss, mu):
 
 @register_jitable
 def slip_rate(p, s, c, sn, cs, ss, mu, mode, brake, dt):
-    """stiffest_rate at the vehicle's state s (heading cos, sin c, sn; steer cos, sin cs, ss) for a step of
-    at most dt: each regularised force's stiffness at the slowest wheel's own slip speed, the speed it can
-    lose within dt taken off first (wheel_slips; docs/physics.md §2). A locked wheel's Coulomb force is stiff
-    (mu N / sqrt(|v|^2 + V_REG^2)) only near standstill, a braked wheel's (mu N / V_REG / cosh^2(v_x / V_REG))
-    only near v_x = 0, a rolling tyre's (C_alpha / max(|v_x|, V_LOW)) only slower than a few m/s."""
+    """Largest decay rate [1/s] of the regularised tyre forces (lateral and yaw modes) of one vehicle in state s
+    (heading cos, sin c, sn; steer cos, sin cs, ss; wheel state `mode`, brake fraction `brake`; the road's
+    largest friction mu) over a step of at most dt: an explicit step must stay below about 1 / rate (Heun is
+    stable up to 2 / rate). Each regularised force's stiffness at the slowest wheel's own slip speed, the
+    speed it can lose within dt taken off first (wheel_slips; docs/physics.md §2): a locked wheel's Coulomb
+    force is stiff (mu N / sqrt(|v|^2 + V_REG^2)) only near standstill, a braked wheel's
+    (mu N / V_REG / cosh^2(v_x / V_REG)) only near v_x = 0, a rolling tyre's (C_alpha / max(|v_x|, V_LOW))
+    only slower than a few m/s. At zero slip speed: the worst case, e.g. 1 / 3.6 ms for the Clio locked."""
     m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
     slip, along, change, change_along = wheel_slips(p, s, c, sn, cs, ss, mu)
     slip, along = max(slip - change * dt, 0.0), max(along - change_along * dt, 0.0)

@@ -3,9 +3,12 @@
 Everything per scene runs inside one numba function (no Python loop over time steps); a batch of
 scenes runs in parallel with `prange`. Step-size policy:
   * fine steps (Heun, 2nd order) of at most `dt`, and below 1 / (fastest decay rate of the regularised
-    tyre forces) (planar_vehicle.stiffest_rate), whenever a tyre force can change or vehicles are close;
-  * while every moving vehicle runs straight and no pair can touch within the step, the step grows up
-    to `coarse_dt` (straight running has constant forces, Heun is exact for it);
+    tyre forces at the wheels' slip speeds) (planar_vehicle.slip_rate), whenever a tyre force can change
+    or vehicles are close;
+  * while every moving vehicle runs straight or slides on locked wheels, far from stopping, and no pair
+    can touch within the step, the step grows up to `coarse_dt` (straight running has constant forces,
+    Heun is exact for it; a locked wheel's force turns smoothly with its slip velocity: motion._long_step,
+    _gap_step; docs/physics.md §2);
   * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it; the loops of a step run
     over the awake vehicles and the pairs with an awake member only (lists rebuilt when a vehicle sleeps or
     wakes, pairs in the order of the full i < k loop, so results do not depend on the skipping), and the
