@@ -223,8 +223,14 @@ def slip_rate(p, s, c, sn, cs, ss, mu, mode, brake, dt):
     force is stiff (mu N / sqrt(|v|^2 + V_REG^2)) only near standstill, a braked wheel's
     (mu N / V_REG / cosh^2(v_x / V_REG)) only near v_x = 0, a rolling tyre's (C_alpha / max(|v_x|, V_LOW))
     only slower than a few m/s. At zero slip speed: the worst case, e.g. 1 / 3.6 ms for the Clio locked."""
+    return rate_of_slips(p, mu, mode, brake, wheel_slips(p, s, c, sn, cs, ss, mu), dt)
+
+
+@register_jitable
+def rate_of_slips(p, mu, mode, brake, slips, dt):
+    """slip_rate from the vehicle's wheel_slips (a caller that needs them too computes them once)."""
     m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
-    slip, along, change, change_along = wheel_slips(p, s, c, sn, cs, ss, mu)
+    slip, along, change, change_along = slips
     slip, along = max(slip - change * dt, 0.0), max(along - change_along * dt, 0.0)
     if mode == LOCKED:
         rho2 = 0.5 * (a * a + b * b) + 0.25 * track * track

@@ -44,7 +44,7 @@ from crashlab.models.common.driver_inputs import (
     ramping,
     steady_next,
 )
-from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, slip_rate
+from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, rate_of_slips, wheel_slips
 from crashlab.units import G
 
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
@@ -272,7 +272,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
             inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
             cs, ss = inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER]
-            rate = slip_rate(P[i], S[i], c, sn, cs, ss, mu_max, mode, brake, dt)  # 0: locked on ice, no force
+            slips = wheel_slips(P[i], S[i], c, sn, cs, ss, mu_max)
+            rate = rate_of_slips(P[i], mu_max, mode, brake, slips, dt)  # 0: locked on ice, no force
             if rate * h > 1.0:
                 h = 1.0 / rate
             if long_ok:  # (not within a ramp, nor where a wheel's friction may change: near a zone)
@@ -280,7 +281,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
                                                         + PATCH, zones[3])):
                     h_long = 0.0
                 else:
-                    h_long = min(h_long, _long_step(P[i], S[i], c, sn, cs, ss, steer, mode, brake, mu_max, coarse_dt))
+                    h_long = min(h_long, _long_step(P[i], S[i], c, sn, steer, mode, brake, mu_max, coarse_dt, slips))
                 long_ok = h_long > h
         if long_ok:
             for p in range(n_pairs):  # (a sleeping vehicle and a barrier: not listed, closing 0)

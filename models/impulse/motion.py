@@ -12,9 +12,8 @@ from crashlab.models.common.planar_vehicle import (
     P_B,
     P_TRACK,
     locked_forces,
-    slip_rate,
+    rate_of_slips,
     vehicle_forces_trig,
-    wheel_slips,
 )
 from crashlab.models.common.wheel_states import LOCKED
 from crashlab.units import G
@@ -107,15 +106,16 @@ SLIDE_TURN = 0.4  # rad: how far a wheel's slip velocity may turn within a slidi
 
 
 @njit(cache=True)
-def _long_step(p, s, c, sn, cs, ss, steer, mode, brake, mu, coarse_dt):
+def _long_step(p, s, c, sn, steer, mode, brake, mu, coarse_dt, slips):
     """The longest step (up to coarse_dt; 0: a fine one) of a vehicle in state s (heading cos, sin c, sn; steer
-    angle `steer`, its cos, sin cs, ss) with the road's largest friction mu (docs/physics.md §2):
+    angle `steer`; its planar_vehicle.wheel_slips `slips`) with the road's largest friction mu (docs/physics.md
+    §2):
     * running straight (no yaw rate, side slip or steer): constant forces, which Heun integrates exactly; the step
-      stays within the tyre modes' stability limit at the wheels' slip speeds (planar_vehicle.slip_rate over the
+      stays within the tyre modes' stability limit at the wheels' slip speeds (planar_vehicle.rate_of_slips over the
       step) so that round-off in them decays;
     * sliding on locked wheels: each wheel's force (mu N against its slip velocity) turns with that velocity,
       smoothly while the wheel slides fast: the step within which the slowest wheel's slip velocity can turn by
-      SLIDE_TURN at most (planar_vehicle.wheel_slips: |dv| <= its change bound x the step);
+      SLIDE_TURN at most (wheel_slips: |dv| <= its change bound x the step);
     * else: 0;
     and never so long that the vehicle could stop within it (deceleration <= mu g, STOP_MARGIN kept: a long Heun
     step oscillates about v = 0 at Coulomb friction's discontinuity)."""
@@ -124,11 +124,11 @@ def _long_step(p, s, c, sn, cs, ss, steer, mode, brake, mu, coarse_dt):
         return 0.0
     h = coarse_dt if room >= 2.0 * mu * G * coarse_dt else room / (2.0 * mu * G)
     if abs(s[5]) <= 1e-9 and abs(-sn * s[3] + c * s[4]) <= 1e-9 and steer == 0.0:  # straight
-        rate = slip_rate(p, s, c, sn, cs, ss, mu, mode, brake, h)
+        rate = rate_of_slips(p, mu, mode, brake, slips, h)
         return min(h, 1.0 / rate) if rate > 0.0 else h
     if mode != LOCKED:
         return 0.0
-    slip, _, change, _ = wheel_slips(p, s, c, sn, cs, ss, mu)
+    slip, _, change, _ = slips
     return min(h, SLIDE_TURN * slip / change) if change > 0.0 else h
 
 
@@ -136,9 +136,9 @@ def _long_step(p, s, c, sn, cs, ss, steer, mode, brake, mu, coarse_dt):
 def _gap_step(P, S, B, radius, i, k, nv, dv, oa, ob):
     """The step within which vehicle i and vehicle or barrier k cannot touch: half their gap over their closing
     speed. The gap between their bounding circles (closing: the centres' relative speed), or where those meet
-    the outlines' separation (geometry.penetration, a lower bound of the distance; closing: plus the corners'
-    speeds about the centres, |r| radius); each vehicle's speed may change by dv within the step; 0 where they
-    touch. oa, ob: scratch (4, 2) for the outlines."""
+    the outlines' separation along their separating axis n (geometry.penetration, a lower bound of the
+    distance; closing: the centres' approach along n plus the corners' speeds about the centres, |r| radius);
+    each vehicle's speed may change by dv within the step; 0 where they touch. oa, ob: scratch (4, 2)."""
     ckx, cky = _centre(S, B, k, nv)
     gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
     if k < nv:
@@ -146,8 +146,12 @@ def _gap_step(P, S, B, radius, i, k, nv, dv, oa, ob):
     else:
         closing = math.hypot(S[i, 3], S[i, 4]) + dv
     if gap <= 0.0:
-        gap = -penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
-        closing += abs(S[i, 5]) * radius[i] + (abs(S[k, 5]) * radius[k] if k < nv else 0.0)
-        if gap <= 0.0:
+        depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
+        if depth >= 0.0:
             return 0.0
+        gap = -depth  # along the separating axis n (from i to k): points approach at most at the centres'
+        # approach along n plus the corners' speeds about the centres
+        closing = (S[i, 3] * nx + S[i, 4] * ny) + abs(S[i, 5]) * radius[i] + dv
+        if k < nv:
+            closing += -(S[k, 3] * nx + S[k, 4] * ny) + abs(S[k, 5]) * radius[k] + dv
     return 0.5 * gap / closing if closing > 0.0 else math.inf
