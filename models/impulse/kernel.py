@@ -45,6 +45,7 @@ from crashlab.models.common.driver_inputs import (
     steady_next,
 )
 from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, rate_of_slips, wheel_slips
+from crashlab.models.common.wheel_states import LOCKED
 from crashlab.units import G
 
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
@@ -82,7 +83,7 @@ from .layout import (
     STATUS_OK,
     STATUS_STEP_LIMIT,
 )
-from .motion import _gap_step, _heun, _long_step, _near_zone
+from .motion import _gap_step, _heun, _long_step, _near_zone, _straight
 from .pairs import _awake_sets, _moved, _near_pairs
 
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
@@ -273,6 +274,8 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
             cs, ss = inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER]
             slips = wheel_slips(P[i], S[i], c, sn, cs, ss, mu_max)
+            if mode != LOCKED and not _straight(S[i], c, sn, steer):  # its load transfer lags a stage (first
+                slips = (0.0, 0.0, slips[2], slips[3])  # order): the worst case's step (docs/physics.md §2)
             rate = rate_of_slips(P[i], mu_max, mode, brake, slips, dt)  # 0: locked on ice, no force
             if rate * h > 1.0:
                 h = 1.0 / rate

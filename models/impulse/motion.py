@@ -105,6 +105,12 @@ STOP_MARGIN = 0.5  # m/s: long steps end this far above the speed a long step co
 SLIDE_TURN = 0.4  # rad: how far a wheel's slip velocity may turn within a sliding step
 
 
+@njit(cache=True, inline="always")
+def _straight(s, c, sn, steer):
+    """Whether a vehicle in state s (heading cos, sin c, sn) runs straight: no yaw rate, side slip or steer."""
+    return abs(s[5]) <= 1e-9 and abs(-sn * s[3] + c * s[4]) <= 1e-9 and steer == 0.0
+
+
 @njit(cache=True)
 def _long_step(p, s, c, sn, steer, mode, brake, mu, coarse_dt, slips):
     """The longest step (up to coarse_dt; 0: a fine one) of a vehicle in state s (heading cos, sin c, sn; steer
@@ -123,7 +129,7 @@ def _long_step(p, s, c, sn, steer, mode, brake, mu, coarse_dt, slips):
     if room <= 0.0:
         return 0.0
     h = coarse_dt if room >= 2.0 * mu * G * coarse_dt else room / (2.0 * mu * G)
-    if abs(s[5]) <= 1e-9 and abs(-sn * s[3] + c * s[4]) <= 1e-9 and steer == 0.0:  # straight
+    if _straight(s, c, sn, steer):
         rate = rate_of_slips(p, mu, mode, brake, slips, h)
         return min(h, 1.0 / rate) if rate > 0.0 else h
     if mode != LOCKED:
