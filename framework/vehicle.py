@@ -50,6 +50,10 @@ class MultibodyChassis(_MultibodyPart):
         None, description="m, contact superellipsoid about the chassis CG; each in (0, 15]")
     shape_exponents: ShapeExponents | None = Field(None, description="2/eps of the superellipsoid; each in [2, 20] "
                                                    "(convex)")
+    structure_bottom: Real | None = bounded(
+        0.0, 5.0, "m, height above the road of the body structure's lowest point (bumper, sill, skirt), static: the "
+        "contact superellipsoid reaches down to it, its top kept (default: its own bottom, at most 0.45 m)",
+        lo_open=True, default=None)
     mass: Real | None = bounded(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
     inertia: Positive3 | None = Field(None, description="kg m^2: Ixx, Iyy, Izz; each in (0, 1e7]")
 

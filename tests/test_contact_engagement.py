@@ -3,8 +3,8 @@ each other, the contact normal is that of their struck faces (turning with the v
 along it from the first touch, so a small-overlap or oblique crush keeps engaging instead of the rounded shapes
 sliding off along their minimum-translation normal; the tangential force is the contact friction.
 
-References written here: the force per width of two equal CRASH3 structures in series, A + B C / 2 (force
-equilibrium, each crushing C / 2), over the engaged width 2 b - offset (the plan shadows' overlap across the
+References written here: the force per width of two equal CRASH3 structures in series, B C / 2 (force
+equilibrium, each crushing C / 2; the CRASH3 line through zero force), over the engaged width 2 b - offset (the plan shadows' overlap across the
 normal, exact for a superellipsoid), its moment about the CG at the middle of the engaged zone; for the runs, the
 planar impulse-momentum of a frictionless impact along the fronts' normal at the engaged point (Brach & Brach
 2011, ch. 5: P = (1 + e) v / (1/m1 + 1/m2 + r1^2/I1 + r2^2/I2))."""
@@ -62,14 +62,14 @@ def _first_touch():
 def test_small_overlap_crush_stays_along_the_fronts(depth):
     """Fronts at 25 % overlap: engaged at the first touch, then V2 pushed `depth` further along -x (0.8 m: beyond
     the 0.46 m lateral overlap, where the minimum-translation normal of the rounded shapes has turned sideways).
-    The force on V1 is -w (A + B C / 2) along x with C = depth, w = 2 b - offset; no lateral force (no sliding
+    The force on V1 is -w B C / 2 along x with C = depth, w = 2 b - offset; no lateral force (no sliding
     velocity); its moment about V1's CG that of the force at the middle of the engaged zone (y = offset / 2)."""
     x0 = _first_touch()
     CT = _arrays()
     _evaluate(_state(x0), CT)          # the latch at the first touch (pair not yet in contact)
     CT[5][0, C.S_ACT] = 1.0            # the episode opens (contact_episodes.open_episode)
     out, FX = _evaluate(_state(x0 - depth), CT)
-    f_ref = W_REF * (A + 0.5 * B * depth)
+    f_ref = W_REF * 0.5 * B * depth
     assert out[C.G_CRUSH] == pytest.approx(depth, abs=1e-6)
     assert out[C.G_WIDTH] == pytest.approx(W_REF, rel=1e-9)
     assert FX[0, 0] == pytest.approx(-f_ref, rel=1e-6)
@@ -126,3 +126,27 @@ def test_episode_records_are_sized_to_the_pairs_that_can_touch():
     assert episode_capacity(2, 0) == 64 and episode_capacity(1, 0) == 64
     assert episode_capacity(5, 1) == 64 * 15
     assert episode_capacity(32, 0) == 64 * 496
+
+
+def test_crush_is_never_below_the_shapes_overlap():
+    """An open episode whose continuous crush lags its measure (the crush held at a measure switch, docs/physics.md
+    §13a) still counts at least the shapes' overlap -g: before, the crush stayed below the permanent set and the
+    pair sank into each other with no force (audit seed 4 in multibody: 0.33 m). The overlap -g is read here from
+    the generic law's evaluation of the same state (its penetration is -g)."""
+    x0 = _first_touch()
+    CT = _arrays()
+    _evaluate(_state(x0), CT)
+    PST = CT[5]
+    PST[0, C.S_ACT] = 1.0
+    PST[0, C.S_CMAX] = 0.1                                         # crushed 0.1 m before
+    PST[0, C.S_CI], PST[0, C.S_CR], PST[0, C.S_CM] = 0.05, 0.5, 2.0  # continuous crush 0.45 m below its measure
+    out, FX = _evaluate(_state(x0 - 0.3), CT)
+    GT = _arrays()
+    CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG, FXg, BPC = GT
+    C.contacts(_state(x0 - 0.3), 7, CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG[0], FXg, BPC, 1.5, 0.0, 0.3, 0.0,
+               FRICTION_V0, FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_GENERIC), 0.1)
+    overlap = PSG[0, 0, C.G_DEL]  # the rounded shapes' smallest overlap, sideways here
+    assert 0.0 < overlap < 0.3    # (the continuous crush: 0.05 + 0.3 - 0.5 = -0.15 m)
+    assert out[C.G_CRUSH] == pytest.approx(overlap, rel=1e-12)
+    # loading beyond the 0.1 m memory: two equal fronts in series, w B C / 2 along the overlap's normal
+    assert math.hypot(FX[0, 0], FX[0, 1]) == pytest.approx(out[C.G_WIDTH] * 0.5 * B * overlap, rel=1e-6)

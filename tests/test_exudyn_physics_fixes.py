@@ -43,15 +43,15 @@ def test_elastic_impact_makes_no_energy_and_does_not_depend_on_the_step():
 
 
 def test_structure_law_restitution_does_not_depend_on_the_step():
-    """The crush-structure law (§13a) with the largest restitution its linear unloading allows (0.7; the scene's
-    1.0 is clamped with a warning): the wall rebound gives 0.7 at both steps."""
+    """The crush-structure law (§13a) at the scene's restitution 1.0 (the unloading along the loading line): the wall
+    rebound gives 1.0 at both steps, without a warning."""
     e = {}
     for h in (1e-3, 2.5e-4):
         out = ExudynModel(step=h).simulate(_wall(50.0))
-        assert out.outcome_ok and any("above 0.7" in w for w in out.warnings), out.warnings
+        assert out.outcome_ok and not any("restitution" in w for w in out.warnings), out.warnings
         (row,) = out.impact_rows
         e[h] = row["restitution"]
-        assert e[h] == pytest.approx(0.7, abs=0.01), (h, e[h])
+        assert e[h] == pytest.approx(1.0, abs=0.01), (h, e[h])
     assert abs(e[1e-3] - e[2.5e-4]) <= 2e-3, e
 
 
@@ -197,7 +197,8 @@ def test_max_penetration_reports_the_dynamic_crush():
     (the dynamic crush under the crush-structure law, docs/physics.md §13a), as multibody reports it. It read
     the overlap beyond the permanent set (2 e^2 e_m / f_m: the elastic part), 0.015 m here and 0.02 m of NHTSA
     10146's 0.56 m. A Clio (980 kg, front A = 35.2 kN/m, B = 429 kN/m^2 over 1.64 m) at 50 km/h into a rigid
-    wall, e = 0.1: the energy balance 1/2 m v^2 = w (A C + B C^2 / 2) gives C = 0.443 m (multibody: 0.448 m);
+    wall, e = 0.1: the energy balance 1/2 m v^2 = w B C^2 / 2 (the CRASH3 line through zero force, its energy
+    with G) gives C = 0.518 m;
     within 5 % (the rounded body engages less than the full width at first; the wheels' mass rides on the
     suspension), and equal to the impact row's max_penetration."""
     sc = scene_from_dict({"name": "crush wall", "duration": 0.2, "stop_at_rest": False,
@@ -207,10 +208,10 @@ def test_max_penetration_reports_the_dynamic_crush():
                           "barriers": [{"x": 0.5, "y": 0.0, "heading": 90.0, "length": 4.0, "width": 1.0}]})
     spec = sc.vehicles[0].spec
     front = spec.structure["front"]
-    a, b, w = front.A, front.B, min(front.width, spec.width)
+    b, w = front.B, min(front.width, spec.width)
     energy = 0.5 * spec.mass * (50.0 / 3.6) ** 2
-    crush = (-a + math.sqrt(a * a + 2.0 * b * energy / w)) / b
-    assert crush == pytest.approx(0.443, abs=0.001)
+    crush = math.sqrt(2.0 * energy / (w * b))
+    assert crush == pytest.approx(0.518, abs=0.001)
     out = ExudynModel().simulate(sc)
     assert out.outcome_ok, out.warnings
     (row,) = out.impact_rows

@@ -482,16 +482,11 @@ def test_audit_impulse_few():
     assert not any(cls == "false_alarm?" for _, cls, _, _ in notes), notes
 
 
-# open (README, "Never silently wrong"), measured 2026-11-26 after the engaged force became its crush's gradient
-# (docs/physics.md §13a, "Work of the engaged force"; multibody 29 ok, exudyn 11 ok and 1 failed with a reason):
-# multibody seed 28: the Clio (V1), shoved by a van at 24 m/s, runs under the 18 t bus (V3): the Clio's chassis body
-# spans z 0.08-0.58 m, the bus's 0.61-1.69 m (models/common/vehicle_3d.py chassis shapes), so the contact's height
-# gate keeps them apart until the Clio pitches up at 1.91 s 2.3 m inside the bus's plan, then a 3.1 m crush; it ends
-# 1.64 m into the bus's undeformed plan shadow: within the permanent crush the pair reached (the guard passes it),
-# beyond the audit's Campbell bound (1.41 m): "silent" by the audit. An underride the geometry allows (a bus body
-# that does not reach down to its skirt), not the contact law
-DISPUTED = {"multibody": "seed 28: the Clio runs under the bus's chassis body (z 0.61-1.69 m against its 0.08-0.58 m) "
-                         "and ends 1.64 m into its plan shadow, beyond the audit's crush bound 1.41 m"}
+# runs the audit disputes (model -> reason: a strict xfail), none open. Closed: multibody seed 28, a Clio shoved
+# under the 18 t bus by a van at 24 m/s (the bus's contact body spanned z 0.61-1.69 m, the Clio's 0.08-0.58 m: it
+# ended 1.64 m into the bus's plan shadow, beyond the audit's bound 1.41 m); the bus's body now reaches down to its
+# published 320 mm (models/common/vehicle_3d.py chassis_shape, docs/physics.md §10 "Chassis bodies"), seed 28 ok
+DISPUTED: dict[str, str] = {}
 
 
 @pytest.mark.slow

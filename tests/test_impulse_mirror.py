@@ -6,7 +6,7 @@ for every impulse law, to MIRROR_TOL relative.
 With sustained contact (docs/physics.md §5: up to hundreds of contact impulses) the contact impulse went to the
 first of the overlap's vertices that approached fastest, and where two tie (a pure translation) round-off chose
 it, in the polygon's order, which a reflection reverses: 6.4e-6 relative in a yaw-rate change before
-(kernel._fastest_point, V_TIE). Now the tied vertices' mean: measured 2.3e-10 on the 200 scenes below, so
+(episode._fastest_point, V_TIE). Now the tied vertices' mean: measured 2.3e-10 on the 200 scenes below, so
 SUSTAINED_TOL = MIRROR_TOL.
 
 Without sustained contact 3 of the 428 runs differed by 1.6e-8: one scene (axis_scenes(100, seed=3)[98], every
@@ -217,7 +217,7 @@ def test_engagement_point_and_plane_are_mirrored(impulse_model):
 
 def test_tied_vertices_in_sustained_contact_give_the_mirrored_result(impulse_model):
     """axis_scenes(100, seed=3)[47]: 68 contact impulses under law routh, whose fastest-approaching overlap
-    vertices tie up to round-off (kernel._fastest_point). Before the tie rule the reflection differed by 6.4e-6
+    vertices tie up to round-off (episode._fastest_point). Before the tie rule the reflection differed by 6.4e-6
     relative (the first impact row's yaw-rate change), 3.0e-6 under the other laws; now within MIRROR_TOL."""
     scene = axis_scenes(100, seed=3)[47]
     for law in LAWS:

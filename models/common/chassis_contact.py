@@ -1,6 +1,6 @@
 """Vehicle contact of the 3D models (multibody's numba time loop, exudyn's loads): chassis superellipsoids
 against each other and against rigid box barriers; continuous normal force, by default from the vehicles'
-crush structures (docs/physics.md §13a, crush_structure.py: CRASH3 A + B C per unit of engaged width, the
+crush structures (docs/physics.md §13a, crush_structure.py: the CRASH3 line B C per unit of engaged width, the
 struck sides in series, unloading to the restitution, crush memory per pair), else the generic Hertz-type
 force with hysteresis damping (LAW_GENERIC, below); friction.
 Also the packing of the contact arrays both models hand to `contacts`
@@ -234,6 +234,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
         else:
             M = (P1[0] + 0.5 * g * d0, P1[1] + 0.5 * g * d1, P1[2])
         crush = -g
+        gd0, gd1, Mg = d0, d1, M  # the overlap's own normal and point
         if cfg_law == LAW_STRUCTURE:
             # §13a: struck sides and faces latched until the contact opens (a contact on other faces forgets the
             # crush)
@@ -280,6 +281,19 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                         mt = -e1 * Q1[0] + e0 * Q1[1]
                     md = 0.5 * (top + bot)
                     M = (-mt * e1 + md * e0, mt * e0 + md * e1, M[2])
+            # §13a, work of the engaged force: in an open episode the crush is continuous where the measure switches
+            # (the engagement normal lost or regained): the crush at the last accepted evaluation plus the change
+            # of the measure since, none where it has switched
+            psg[p, G_RAW], psg[p, G_MEAS] = crush, measure
+            if PST[p, S_ACT] > 0.0 and PST[p, S_CM] > 0.0:
+                crush = PST[p, S_CI] + (crush - PST[p, S_CR] if measure == PST[p, S_CM] else 0.0)
+            if crush < -g:
+                # never less than the shapes' overlap -g (continuous too): a crush held below it by a switch let
+                # the pair sink into each other without a force (audit seed 4: 0.33 m); along its own normal
+                crush, d0, d1, M = -g, gd0, gd1, Mg
+                psg[p, G_TH] = th
+                psg[p, G_RAW], psg[p, G_MEAS] = crush, 1.0
+            psg[p, G_CRUSH] = crush
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
         a2 = (M[0] - r2[0], M[1] - r2[1], M[2] - r2[2])
         u1 = (v1[0] + om1[1] * a1[2] - om1[2] * a1[1], v1[1] + om1[2] * a1[0] - om1[0] * a1[2],
@@ -292,7 +306,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
         if cfg_law == LAW_STRUCTURE:
             ci = P_STR_I + 3 * int(PST[p, S_SIDE_I])
             cj = P_STR_J + 3 * int(PST[p, S_SIDE_J])
-            a1s, b1s, a2s, b2s = PP[p, ci], PP[p, ci + 1], PP[p, cj], PP[p, cj + 1]
+            b1s, b2s = PP[p, ci + 1], PP[p, cj + 1]
             cm = PST[p, S_CMAX]
             e = cfg_e
             if cfg_e < 0.0:  # the law at the closing speed where this crush began (§13b)
@@ -300,16 +314,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                     PST[p, S_VCLOSE] = max(dd, 0.0)
                     PST[p, S_E] = min(max(speed_restitution(dd), E_LO), E_HI)
                 e = PST[p, S_E]
-            # §13a, work of the engaged force: in an open episode the crush is continuous where the measure switches
-            # (the engagement normal lost or regained): the crush at the last accepted evaluation plus the change
-            # of the measure since, none where it has switched
-            psg[p, G_RAW], psg[p, G_MEAS] = crush, measure
-            if PST[p, S_ACT] > 0.0 and PST[p, S_CM] > 0.0:
-                crush = PST[p, S_CI] + (crush - PST[p, S_CR] if measure == PST[p, S_CM] else 0.0)
-            psg[p, G_CRUSH] = crush
             # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
             # episode) exceeds the permanent set: an engaged episode does not chatter between the two measures
-            cp = permanent_crush(cm, e, a1s, b1s, a2s, b2s)
+            cp = permanent_crush(cm, e)
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue
@@ -324,7 +331,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 w = min(w, PP[p, cj + 2])
             w = max(w, 0.0)
             psg[p, G_WIDTH] = w
-            fn = w * structure_force(crush, cm, e, a1s, b1s, a2s, b2s)
+            fn = w * structure_force(crush, cm, e, b1s, b2s)
         else:
             if g >= 0.0:
                 continue

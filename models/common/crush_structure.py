@@ -1,19 +1,21 @@
-"""Crush structure of the chassis contact (docs/physics.md §13a): the CRASH3 force per unit of engaged width of
-the struck side of each vehicle, the two structures in series, and the unloading that gives the impact's
+"""Crush structure of the chassis contact (docs/physics.md §13a): the CRASH3 structure of the struck side of each
+vehicle as a force per unit of engaged width, the two structures in series, and the unloading that gives the impact's
 restitution. Used by common/chassis_contact.py (multibody's time loop, exudyn's loads).
 
-Loading, one structure (Campbell 1974; CRASH3): f = F/w = A + B C, C >= 0 its crush.
-Two structures in series (force equilibrium: the same f on both): with A1 <= A2, only the weaker one crushes up
-to C* = (A2 - A1)/B1; beyond it both do, f = A2 + Bs (C - C*), Bs = B1 B2/(B1 + B2). A rigid barrier is
-B2 = A2 = inf (rows with B <= 0 are rigid): f = A1 + B1 C. Crush share of a structure: (f - A)/B (>= 0).
-Energy per unit width e(C) = integral of f: A1 C + B1 C^2/2 below C*, e(C*) + A2 (C - C*) + Bs (C - C*)^2/2.
-Unloading from the largest crush Cm (f_m = f(Cm), e_m = e(Cm)): linear, slope k = f_m^2 / (2 e^2 e_m), so that
-the energy given back f_m^2/(2k) is e^2 e_m (e^2 = E_rebound / E_absorbed, the impact's restitution); reloading
-follows the same line up to Cm, then the loading law. The line reaches f = 0 at the permanent crush
-Cp = Cm - f_m / k = Cm - 2 e^2 e_m / f_m (>= Cm (1 - 2 e^2) >= 0 for e <= 1/sqrt 2).
+Loading, one structure: the CRASH3 line F/w = A + B C_r over the residual crush C_r, with its energy term G = A^2/2B,
+is the line f = B C over the crush C counted from the first touch, C = C_r + A/B (Campbell 1974: A/B = b0/b1, the
+deformation of the no-damage speed b0, which springs back; the energy to C is B C^2/2 = A C_r + B C_r^2/2 + G).
+Two structures in series (force equilibrium: the same f on both, each crushing f/B_k): f = Bs C,
+Bs = B1 B2/(B1 + B2); a rigid barrier is B2 = inf (rows with B <= 0 are rigid): f = B1 C. Energy per unit width
+e(C) = Bs C^2/2.
+Unloading from the largest crush Cm (f_m = f(Cm), e_m = e(Cm)): linear, slope k = f_m^2 / (2 e^2 e_m) = Bs/e^2, so
+that the energy given back f_m^2/(2k) is e^2 e_m (e^2 = E_rebound / E_absorbed, the impact's restitution);
+reloading follows the same line up to Cm, then the loading law. The line reaches f = 0 at the permanent crush
+Cp = Cm (1 - e^2).
 
 The vehicle's coefficients come from crashlab.structure: its file's [structure.front|rear|side] A, B, width, else
-the class default there (the one home of those numbers, docs/physics.md §28).
+the class default there (the one home of those numbers, docs/physics.md §28); A is the CRASH3 residual-crush
+intercept and does not enter the force.
 """
 from __future__ import annotations
 
@@ -26,8 +28,8 @@ from crashlab.structure import STRUCTURE_SIDES as SIDES
 
 # per-vehicle structure row: A [N/m], B [N/m^2], width [m] of front, rear, side
 N_STR = 9
-# restitution range of the linear unloading (Cp >= 0 needs e <= 1/sqrt 2)
-E_LO, E_HI = 0.01, 0.7
+# restitution range of the linear unloading
+E_LO, E_HI = 0.01, 1.0
 
 
 def structure_row(spec):
@@ -43,12 +45,10 @@ def structure_row(spec):
 
 
 def clamp_restitution(e):
-    """e within [E_LO, E_HI] and a reason when it had to move (the caller warns)."""
+    """e at least E_LO (the unloading slope Bs/e^2 stays finite) and a reason when it had to move (the caller
+    warns); the scene's schema holds e <= E_HI."""
     if e < E_LO:
         return E_LO, f"restitution {e:g} below {E_LO:g}: the crush unloading uses {E_LO:g}"
-    if e > E_HI:
-        return E_HI, (f"restitution {e:g} above {E_HI:g}: the linear crush unloading would end with a negative "
-                      f"permanent crush; it uses {E_HI:g} (docs/physics.md §13a)")
     return e, None
 
 
@@ -105,62 +105,54 @@ def engagement_normal(fi, fj, A1, A2, barrier):
 
 
 @njit(cache=True)
-def series_force(C, A1, B1, A2, B2):
-    """Force per unit width f(C) of two structures in series at total crush C >= 0 (B2 <= 0: rigid)."""
+def series_stiffness(B1, B2):
+    """Stiffness per unit width of two structures in series, B1 B2 / (B1 + B2); a rigid partner (B2 <= 0): B1."""
+    if B2 <= 0.0:
+        return B1
+    return B1 * B2 / (B1 + B2)
+
+
+@njit(cache=True)
+def series_force(C, B1, B2):
+    """Force per unit width f(C) = Bs C of two structures in series at total crush C >= 0 (B2 <= 0: rigid)."""
     if C <= 0.0:
         return 0.0
-    if B2 <= 0.0:
-        return A1 + B1 * C
-    if A2 < A1:
-        A1, B1, A2, B2 = A2, B2, A1, B1
-    cs = (A2 - A1) / B1
-    if C <= cs:
-        return A1 + B1 * C
-    return A2 + B1 * B2 / (B1 + B2) * (C - cs)
+    return series_stiffness(B1, B2) * C
 
 
 @njit(cache=True)
-def series_energy(C, A1, B1, A2, B2):
-    """Energy per unit width e(C) = integral of series_force from 0 to C."""
+def series_energy(C, B1, B2):
+    """Energy per unit width e(C) = Bs C^2 / 2, the integral of series_force from 0 to C."""
     if C <= 0.0:
         return 0.0
-    if B2 <= 0.0:
-        return A1 * C + 0.5 * B1 * C * C
-    if A2 < A1:
-        A1, B1, A2, B2 = A2, B2, A1, B1
-    cs = (A2 - A1) / B1
-    if C <= cs:
-        return A1 * C + 0.5 * B1 * C * C
-    d = C - cs
-    return A1 * cs + 0.5 * B1 * cs * cs + A2 * d + 0.5 * B1 * B2 / (B1 + B2) * d * d
+    return 0.5 * series_stiffness(B1, B2) * C * C
 
 
 @njit(cache=True)
-def crush_share(f, A, B):
-    """Crush of one structure (A, B) carrying the force per unit width f (0 for a rigid one, B <= 0)."""
-    if B <= 0.0 or f <= A:
+def crush_share(f, B):
+    """Crush of one structure (stiffness B) carrying the force per unit width f (0 for a rigid one, B <= 0)."""
+    if B <= 0.0 or f <= 0.0:
         return 0.0
-    return (f - A) / B
+    return f / B
 
 
 @njit(cache=True)
-def permanent_crush(Cm, e, A1, B1, A2, B2):
-    """Cp: where the unloading line from the largest crush Cm reaches f = 0 (0 before any crush)."""
+def permanent_crush(Cm, e):
+    """Cp: where the unloading line from the largest crush Cm reaches f = 0: Cm - 2 e^2 e_m / f_m = Cm (1 - e^2)
+    for the linear loading (0 before any crush)."""
     if Cm <= 0.0:
         return 0.0
-    fm = series_force(Cm, A1, B1, A2, B2)
-    return Cm - 2.0 * e * e * series_energy(Cm, A1, B1, A2, B2) / fm
+    return Cm * (1.0 - e * e)
 
 
 @njit(cache=True)
-def structure_force(C, Cm, e, A1, B1, A2, B2):
+def structure_force(C, Cm, e, B1, B2):
     """Force per unit width at total crush C with the largest crush so far Cm: the loading law at C >= Cm, else
-    the unloading line of slope f_m^2 / (2 e^2 e_m) through (Cm, f_m), clamped at 0."""
+    the unloading line of slope f_m^2 / (2 e^2 e_m) = Bs / e^2 through (Cm, f_m), clamped at 0."""
     if C <= 0.0:
         return 0.0
     if C >= Cm:
-        return series_force(C, A1, B1, A2, B2)
-    fm = series_force(Cm, A1, B1, A2, B2)
-    k = fm * fm / (2.0 * e * e * series_energy(Cm, A1, B1, A2, B2))
-    f = fm - k * (Cm - C)
+        return series_force(C, B1, B2)
+    fm = series_force(Cm, B1, B2)
+    f = fm - series_stiffness(B1, B2) / (e * e) * (Cm - C)
     return f if f > 0.0 else 0.0

@@ -204,14 +204,23 @@ def build(spec) -> Vehicle:
         SPR[k, S_KB] = DEFAULTS["bump_stiffness_factor"] * k_s[k]
         SPR[k, S_U:S_U + 3] = [0.0, 0.0, -1.0]     # a strut along the translational joint (signed length)
     return Vehicle(spec.name, BODY, SPR, TYR, axle_x, axle_y, DEFAULTS["joint_z"], spec.wheelbase, zc, z_w, notes,
-                   chassis_shape(spec, ch, notes))
+                   chassis_shape(spec, ch, notes, zc))
 
 
-def chassis_shape(spec, ch, notes) -> np.ndarray:
-    """Contact superellipsoid of the chassis [a, b, c, eps1, eps2, x_off, z_off] (chassis frame).
-    [multibody.chassis] semi_axes / shape_exponents (read as 2/eps, the thesis's column) when given, centred
-    on the chassis CG; otherwise a = length/2 centred between the bumpers, b = width/2, c = 0.25 m scaled
-    with height/1.42 (the Clio's slab), 2/eps = 4."""
+# m above the road: the highest a default contact body's bottom may lie (docs/physics.md §10, "Chassis bodies"): UN
+# Regulation 58 (03 series) §16.1 (a), the largest ground clearance of the rear underrun protection of buses over
+# 8 t, trucks and trailers with air suspension; every passenger car of the library lies lower (0.26-0.42 m)
+STRUCTURE_BOTTOM_MAX = 0.45
+
+
+def chassis_shape(spec, ch, notes, zc) -> np.ndarray:
+    """Contact superellipsoid of the chassis [a, b, c, eps1, eps2, x_off, z_off] (chassis frame; docs/physics.md
+    §10, "Chassis bodies"). [multibody.chassis] semi_axes / shape_exponents (read as 2/eps, the thesis's column)
+    when given, centred on the chassis CG; otherwise a = length/2 centred between the bumpers, b = width/2,
+    c = 0.25 m scaled with height/1.42 (the Clio's slab), 2/eps = 4. Its height: from its top down to the
+    structure's bottom, [multibody.chassis] structure_bottom (m above the road, static; zc the chassis CG height)
+    when given, else its own bottom zc - c or STRUCTURE_BOTTOM_MAX, whichever is lower (a bus's or truck's body
+    reaches down to its skirt and underrun guard: a car does not pass under it)."""
     if "semi_axes" in ch:
         a, b, c = (float(x) for x in ch["semi_axes"])
         xo = 0.0
@@ -220,8 +229,22 @@ def chassis_shape(spec, ch, notes) -> np.ndarray:
         c = 0.25 * spec.height / 1.42
         xo = (spec.cg_to_front - spec.cg_to_rear) / 2
         notes.append("chassis contact shape from length/width/height, 2/eps = 4 (default)")
+    top, bottom = zc + c, zc - c
+    if "structure_bottom" in ch:
+        zb = float(ch["structure_bottom"])
+        if zb >= top:
+            raise ValueError(f"{spec.name}: multibody.chassis.structure_bottom = {zb:g} m is not below the top of "
+                             f"the chassis contact body ({top:.3f} m above the road)")
+    else:
+        zb = min(bottom, STRUCTURE_BOTTOM_MAX)
+        if zb != bottom:
+            notes.append(f"chassis contact body extended down to {zb:g} m above the road (structure_bottom: "
+                         f"default at most {STRUCTURE_BOTTOM_MAX:g} m)")
+    zo = 0.0
+    if zb != bottom:        # only then: a car's body stays bit-identical
+        c, zo = (top - zb) / 2, (top + zb) / 2 - zc
     ex = ch.get("shape_exponents", [4.0, 4.0])
-    return np.array([a, b, c, 2.0 / float(ex[0]), 2.0 / float(ex[1]), xo, 0.0])
+    return np.array([a, b, c, 2.0 / float(ex[0]), 2.0 / float(ex[1]), xo, zo])
 
 
 def steer_angles(veh: Vehicle, steer: float) -> np.ndarray:

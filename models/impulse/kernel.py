@@ -3,7 +3,7 @@
 Everything per scene runs inside one numba function (no Python loop over time steps); a batch of
 scenes runs in parallel with `prange`. Step-size policy:
   * fine steps (Heun, 2nd order) of at most `dt`, and below 1 / (fastest decay rate of the regularised
-    tyre forces at the wheels' slip speeds) (planar_vehicle.slip_rate), whenever a tyre force can change
+    tyre forces at the wheels' slip speeds) (planar_vehicle.rate_of_slips), whenever a tyre force can change
     or vehicles are close;
   * while every moving vehicle runs straight or slides on locked wheels, far from stopping, and no pair
     can touch within the step, the step grows up to `coarse_dt` (straight running has constant forces,
@@ -18,23 +18,28 @@ scenes runs in parallel with `prange`. Step-size policy:
   * the run ends when every vehicle sleeps (stop_at_rest) or at `duration`.
 Contact onset is located by bisection of the step until the outlines overlap by at most `onset_tol`.
 
-Contact episodes (the model docstring argues the choice): a pair's touch after being apart by more than
+Contact episodes (episode.py; the model docstring argues the choice): a pair's touch after being apart by more than
 SEPARATION is an impact (restitution e, a row of the impact table); until the pair is that far apart
 again, every step in which the outlines overlap and approach gets plastic (e = 0) Coulomb-limited
 contact impulses, booked into that impact's row, and a position projection keeps the overlap below
 CONTACT_SLOP. Reaching max_impacts or MAX_STEPS stops and fails the run.
 
-The time loop and its step policy live here; the stages it calls, one module per reason to change:
-contact.py (outlines, contact geometry, the engagement point, the position projection), impacts.py (the impulse
-at a point and the impact record), motion.py (the Heun step and the wheels' road friction), pairs.py (which
-vehicles and pairs a step visits), layout.py (the arrays' layouts).
+The time loop and its step policy live here: simulate_one is a loop over named stages (step size, free motion, the
+pairs tested, onset, contacts, impulses, projection, rest, recording), each a function inlined at numba's IR level
+(inline="always": the same compiled code as the loop in one piece, no call; numba's "Notes on Inlining"), compiled
+by compiler.py (which drops the array copies inlining leaves, and with them their reference counts). A stage takes
+at most 30 arguments: CPython compiles a call with more as a call with *args, which numba's inliner refuses. The
+stages and what they call, one module per reason to change: episode.py (onset, the step's contacts, their impulses,
+the projection), contact.py (outlines, contact geometry, the engagement point, the position projection), impacts.py
+(the impulse at a point and the impact record), motion.py (the Heun step and the wheels' road friction), pairs.py
+(which vehicles and pairs a step visits), layout.py (the arrays' layouts).
 """
 import math
 
 import numpy as np
 from numba import njit, prange
 
-from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration
+from crashlab.geometry import penetration
 from crashlab.models.common.driver_inputs import (
     PATCH,
     ahead,
@@ -48,27 +53,20 @@ from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, rate_of_sli
 from crashlab.models.common.wheel_states import LOCKED
 from crashlab.units import G
 
-from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart, _radius
-from .impacts import _apply_impulse, _kinetic, _merge_impact, _record_impact, _struck
+from .compiler import StagesCompiler
+from .contact import _circles_apart, _outline, _radius
+from .episode import _bisect, _gather_contacts, _given_impact, _impulses, _onset_test, _project
+from .impacts import _kinetic
 from .layout import (
-    D_BISECT,
     D_COARSE,
     D_CONTACT_T,
-    D_E_IMPACT,
-    D_FOLLOW,
     D_IMPACTS,
     D_KE0,
-    D_MAX_DEPTH,
-    D_NARROW,
     D_NREC,
-    D_PROJECTED,
     D_STATUS,
     D_STEPS,
     D_T_END,
     D_VEHICLE_STEPS,
-    I_ENGAGE,
-    I_ENGAGE_RATIO,
-    I_T,
     IN_BRAKE,
     IN_COS_HEADING,
     IN_COS_STEER,
@@ -79,7 +77,6 @@ from .layout import (
     N_IN,
     STATUS_IMPACT_CAP,
     STATUS_NAN,
-    STATUS_NOT_APPROACHING,
     STATUS_OK,
     STATUS_STEP_LIMIT,
 )
@@ -87,49 +84,134 @@ from .motion import _gap_step, _heun, _long_step, _near_zone, _straight
 from .pairs import _awake_sets, _moved, _near_pairs
 
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
-V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact impulse (round-off level)
-# m/s: overlap vertices approaching within this of the fastest tie (_fastest_point): 1000x the round-off of a
-# point velocity of ~30 m/s, a physically negligible difference
-V_TIE = 1e-12
-CONTACT_SLOP = 0.002  # m: overlap tolerated in sustained contact (no bisection, no projection below it)
-SEPARATION = 0.05  # m: a pair further apart than this has ended its contact episode
-DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this within a step is bisected
-MAX_SWEEPS = 50  # sequential-impulse sweeps over simultaneous contacts per step
 REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left out until a vehicle moved REACH
 
 
-@njit(cache=True)
-def _normal_approach(S, i, k, nv, px, py, nx, ny):
-    """The speed at which k's point (px, py) approaches i's along the normal n."""
-    v1x, v1y = _point_velocity(S, i, nv, px, py)
-    v2x, v2y = _point_velocity(S, k, nv, px, py)
-    return -((v2x - v1x) * nx + (v2y - v1y) * ny)
+@njit(inline="always")
+def _start_contacts(P, S, B, radius, broad, in_contact, allowed, oa, ob):
+    """Outlines that overlap at the start are in contact (a collision position): their overlap is allowed."""
+    nv, nk = P.shape[0], radius.shape[0]
+    for i in range(nv):
+        for k in range(i + 1, nk):
+            if broad and _circles_apart(S, B, radius, i, k, nv):
+                continue
+            d0 = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
+            if d0 > 0.0:
+                in_contact[i, k] = True
+                allowed[i, k] = d0
 
 
-@njit(cache=True)
-def _fastest_point(S, i, k, nv, poly, n_poly, nx, ny, approach, px, py, speeds):
-    """Sustained contact (docs/physics.md §5): the point of the overlap that approaches fastest, from the overlap's
-    centroid (px, py) approaching at `approach` (rigid bodies: the normal velocity is linear over the overlap, so
-    its extremes are at vertices). Vertices within V_TIE of the fastest tie: the point is their mean (the centroid
-    where they tie with it: a pure translation), not the first in the polygon's order, which a reflected scene
-    reverses. Each vertex's approach is evaluated once, into the scratch `speeds` (>= n_poly). Returns (approach,
-    px, py)."""
-    fastest = approach
-    for q in range(n_poly):
-        speeds[q] = _normal_approach(S, i, k, nv, poly[q, 0], poly[q, 1], nx, ny)
-        fastest = max(fastest, speeds[q])
-    if fastest - approach <= V_TIE:
-        return approach, px, py
-    sx, sy, n = 0.0, 0.0, 0
-    for q in range(n_poly):
-        if speeds[q] >= fastest - V_TIE:
-            sx, sy, n = sx + poly[q, 0], sy + poly[q, 1], n + 1
-    if n == 1:
-        return fastest, sx, sy
-    return _normal_approach(S, i, k, nv, sx / n, sy / n, nx, ny), sx / n, sy / n
+@njit(inline="always")
+def _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_change, law_ramp, inp, radius, zone_box,
+               zoned, mu_max, dt, coarse_dt):
+    """The step size of the tyre forces: at most dt and below each awake vehicle's stability limit 1 / (the fastest
+    decay rate of its regularised tyre forces at its wheels' slip speeds) (planar_vehicle.rate_of_slips). Reads
+    each vehicle's driver inputs where their law changed (held: until when they hold) into inp, with its heading's
+    cosine and sine. Returns (h, the time the next law starts: a step ends there, the longest step every awake
+    vehicle allows: motion._long_step, running straight or sliding on locked wheels, far from a friction zone and
+    from stopping, with constant inputs; 0 where one does not)."""
+    h = dt
+    t_change = math.inf
+    long_ok = coarse_dt > dt
+    h_long = coarse_dt
+    for a in range(na):
+        i = awake[a]
+        if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
+            law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
+            law_change[i] = next_change(A[i], NA[i], t)
+            law_ramp[i] = ramping(A[i], NA[i], t)
+            held[i] = steady_next(A[i], NA[i], t)
+            if steer != inp[i, IN_STEER]:
+                inp[i, IN_STEER] = steer
+                inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
+                                                              else (1.0, 0.0))
+        t_change = min(t_change, law_change[i])
+        mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
+        inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
+        c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
+        inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
+        slips = wheel_slips(P[i], S[i], c, sn, inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER], mu_max)
+        if mode != LOCKED and not _straight(S[i], c, sn, steer):  # its load transfer lags a stage (first
+            slips = (0.0, 0.0, slips[2], slips[3])  # order): the worst case's step (docs/physics.md §2)
+        rate = rate_of_slips(P[i], mu_max, mode, brake, slips, dt)  # 0: locked on ice, no force
+        if rate * h > 1.0:
+            h = 1.0 / rate
+        if long_ok:  # (not within a ramp, nor where a wheel's friction may change: near a zone)
+            if law_ramp[i] or (zoned and _near_zone(S, i, radius[i] + math.hypot(S[i, 3], S[i, 4]) * coarse_dt
+                                                    + PATCH, zone_box)):
+                h_long = 0.0
+            else:
+                h_long = min(h_long, _long_step(P[i], S[i], c, sn, steer, mode, brake, mu_max, coarse_dt, slips))
+            long_ok = h_long > h
+    return h, t_change, h_long if long_ok else 0.0
 
 
-@njit(cache=True)
+@njit(inline="always")
+def _coarse_step(P, S, B, radius, pair_i, pair_k, n_pairs, h, h_long, mu_max, oa, ob, diag):
+    """A step grows up to h_long (_fine_step) while no listed pair can touch within it (motion._gap_step; a
+    sleeping vehicle and a barrier are not listed, closing 0). Returns h."""
+    nv = S.shape[0]
+    for p in range(n_pairs):
+        h_long = min(h_long, _gap_step(P, S, B, radius, pair_i[p], pair_k[p], nv, mu_max * G * h_long, oa, ob))
+    if h_long > h:
+        h = h_long
+        diag[D_COARSE] += 1
+    return h
+
+
+@njit(inline="always")
+def _near_list(S, Snew, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, near_i, near_k, n_near,
+               near_stale, in_contact, episode, allowed):
+    """The broad phase's pairs tested this step: pairs with a static partner far away are left out (_near_pairs,
+    rebuilt once an awake vehicle has moved REACH from ref); a step longer than REACH leaves the list stale (every
+    listed pair is tested). Returns (n_near, near_stale)."""
+    if near_stale or _moved(S, Snew, awake, na, ref, REACH):
+        near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
+        if not near_stale:
+            n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, REACH, near_i,
+                                 near_k, in_contact, episode, allowed)
+    return n_near, near_stale
+
+
+@njit(inline="always")
+def _accept(S, Snew, awake, na):
+    """The step's end becomes the awake vehicles' state."""
+    for a in range(na):
+        i = awake[a]
+        for q in range(6):
+            S[i, q] = Snew[i, q]
+
+
+@njit(inline="always")
+def _come_to_rest(S, Snew, asleep, awake, na, v_rest, sleeping):
+    """A vehicle that has (almost) stopped goes to sleep (with sleeping: no force evaluation) until an impulse wakes
+    it. Returns (all asleep, one fell asleep, a state is NaN: a sleeping vehicle's state is only moved by the
+    projection, finite; NaN can arise in awake ones)."""
+    all_asleep, slept, nan = True, False, False
+    for a in range(na):
+        i = awake[a]
+        if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
+            S[i, 3:6] = 0.0
+            asleep[i] = sleeping
+            if sleeping:
+                Snew[i] = S[i]
+                slept = True
+        if not asleep[i]:
+            all_asleep = False
+        if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
+            nan = True
+    return all_asleep, slept, nan
+
+
+@njit(inline="always")
+def _record(traj, n_rec, t, S):
+    """The vehicles' state at t into the trajectory's next row. Returns the rows filled."""
+    traj[n_rec, :, 0] = t
+    traj[n_rec, :, 1:7] = S
+    return n_rec + 1
+
+
+@njit(cache=True, pipeline_class=StagesCompiler)  # (compiler.py: the stages inlined without reference counts)
 def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, diag):
     """Simulate one scene. P (nv, N_PARAMS), S0 (nv, 6) start states, B (nb, 5) barriers
     (x, y, heading, half length, half width), cfg the run's settings (a layout.SETTINGS record), A, NA the
@@ -139,8 +221,9 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     nk = nv + nb
     mu, e, mu_imp, law = cfg.road_friction, cfg.restitution, cfg.impact_friction, cfg.law
     duration, dt, coarse_dt, rec_dt = cfg.duration, cfg.dt, cfg.coarse_dt, cfg.record_dt
-    tol, v_rest, max_imp = cfg.onset_tol, cfg.v_rest, min(cfg.max_impacts, imp.shape[0])
+    tol, v_rest = cfg.onset_tol, cfg.v_rest
     broad, sleeping = cfg.broad_phase, cfg.sleeping  # study switches (comparison scaling)
+    # ---- the state and the scratch arrays of the stages
     S = S0.copy()
     no_alt = np.empty(0)
     Snew = np.empty_like(S)
@@ -174,14 +257,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     near_k = np.empty(nv * nk, np.int64)
     ref = np.zeros((nv, 2))
     n_near, near_stale = 0, True
-    for i in range(nv):  # outlines that overlap at the start are in contact (a collision position)
-        for k in range(i + 1, nk):
-            if broad and _circles_apart(S, B, radius, i, k, nv):
-                continue
-            d0 = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))[0]
-            if d0 > 0.0:
-                in_contact[i, k] = True
-                allowed[i, k] = d0
+    _start_contacts(P, S, B, radius, broad, in_contact, allowed, oa, ob)
     mu_max = mu  # the largest road friction anywhere (zones): bounds the step and the stopping speed
     for z in range(zones[2].shape[0]):
         mu_max = max(mu_max, zones[2][z])
@@ -212,287 +288,73 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     n_imp, n_rec, t = 0, 0, 0.0
     next_rec = 0.0
     status = STATUS_OK
-
-    # impact at t = 0 at a given point of impact and contact plane (PC-Crash style)
     if cfg.given and nk >= 2:
-        i0, j = cfg.given_i, cfg.given_j  # the pair touching at the point
-        px, py, th = cfg.given_x, cfg.given_y, cfg.given_plane
-        nx, ny = math.sin(th), -math.cos(th)
-        cjx, cjy = _centre(S, B, j, nv)
-        if nx * (cjx - S[i0, 0]) + ny * (cjy - S[i0, 1]) < 0.0:
-            nx, ny = -nx, -ny
-        for i in range(nv):
-            contact[i, 0], contact[i, 1], contact[i, 2] = S[i, 0], S[i, 1], S[i, 2]
-            contact[i, 3] = math.hypot(S[i, 3], S[i, 4])
-        diag[D_CONTACT_T] = 0.0
-        S_before[:] = S
-        pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, e, mu_imp, law, imp[0])
-        if kind < 0:
-            status = STATUS_NOT_APPROACHING
-        else:
-            _record_impact(imp, 0, 0.0, i0, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
-            n_imp = 1
-            # the given impulse keeps its own row (the collision position's impulse as given); contact
-            # after it, where the pair's overlap deepens, opens an episode of its own
-            diag[D_E_IMPACT] += energy
-            _struck(i0, j, nv, hit, asleep)
-            in_contact[i0, j] = True
-
+        n_imp, status = _given_impact(P, S, B, cfg, e, mu_imp, law, S_before, contact, imp, hit, asleep, in_contact,
+                                      diag)
     na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
     Snew[:] = S  # a sleeping vehicle's row of Snew stays equal to its row of S (_heun leaves it)
     steps = 0
+    # ---- the time loop
     while t < duration - 1e-12:
         if rec_dt > 0.0 and t >= next_rec - 1e-12 and n_rec < traj.shape[0] - 1:
-            traj[n_rec, :, 0] = t
-            traj[n_rec, :, 1:7] = S
-            n_rec += 1
+            n_rec = _record(traj, n_rec, t, S)
             next_rec += rec_dt
-        # ---- step size: the fine step within the tyre forces' stability limit at the wheels' slip speeds
-        # (planar_vehicle.slip_rate); a long step, up to coarse_dt, while every moving vehicle runs straight
-        # or slides on locked wheels, far from stopping, and nothing can touch (_long_step)
-        # (a step ends where a driver's input changes its law: an action's start or its ramp's end; it is
-        # fine within a ramp and near a friction zone)
-        h = dt
-        t_change = math.inf
-        long_ok = coarse_dt > dt
-        h_long = coarse_dt
-        for a in range(na):
-            i = awake[a]
-            if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
-                law_mode[i], law_brake[i], steer = driver_inputs(A[i], NA[i], t)
-                law_change[i] = next_change(A[i], NA[i], t)
-                law_ramp[i] = ramping(A[i], NA[i], t)
-                held[i] = steady_next(A[i], NA[i], t)
-                if steer != inp[i, IN_STEER]:
-                    inp[i, IN_STEER] = steer
-                    inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
-                                                                  else (1.0, 0.0))
-            t_change = min(t_change, law_change[i])
-            mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
-            inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
-            c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
-            inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
-            cs, ss = inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER]
-            slips = wheel_slips(P[i], S[i], c, sn, cs, ss, mu_max)
-            if mode != LOCKED and not _straight(S[i], c, sn, steer):  # its load transfer lags a stage (first
-                slips = (0.0, 0.0, slips[2], slips[3])  # order): the worst case's step (docs/physics.md §2)
-            rate = rate_of_slips(P[i], mu_max, mode, brake, slips, dt)  # 0: locked on ice, no force
-            if rate * h > 1.0:
-                h = 1.0 / rate
-            if long_ok:  # (not within a ramp, nor where a wheel's friction may change: near a zone)
-                if law_ramp[i] or (zoned and _near_zone(S, i, radius[i] + math.hypot(S[i, 3], S[i, 4]) * coarse_dt
-                                                        + PATCH, zones[3])):
-                    h_long = 0.0
-                else:
-                    h_long = min(h_long, _long_step(P[i], S[i], c, sn, steer, mode, brake, mu_max, coarse_dt, slips))
-                long_ok = h_long > h
-        if long_ok:
-            for p in range(n_pairs):  # (a sleeping vehicle and a barrier: not listed, closing 0)
-                h_long = min(h_long, _gap_step(P, S, B, radius, pair_i[p], pair_k[p], nv, mu_max * G * h_long, oa, ob))
-            if h_long > h:
-                h = h_long
-                diag[D_COARSE] += 1
+        # step size: fine within the tyre forces' stability limit, coarse while every moving vehicle runs
+        # straight and nothing can touch; a step ends where a driver's input changes its law
+        h, t_change, h_long = _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_change,
+                                         law_ramp, inp, radius, zones[3], zoned, mu_max, dt, coarse_dt)
+        if h_long > h:
+            h = _coarse_step(P, S, B, radius, pair_i, pair_k, n_pairs, h, h_long, mu_max, oa, ob, diag)
         h = min(h, duration - t, t_change - t)
+        # free motion
         _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, inp, held)
         steps += 1
         diag[D_VEHICLE_STEPS] += na
         if steps > MAX_STEPS:
             status = STATUS_STEP_LIMIT
             break
-        # ---- the pairs tested this step: with the broad phase, pairs with a static partner far away
-        # are left out (_near_pairs, rebuilt once an awake vehicle has moved REACH); a step longer
-        # than REACH tests every listed pair
+        # the pairs tested this step
         li, lk, nl = pair_i, pair_k, n_pairs
         if broad and (na < nv or nb > 0):
-            if near_stale or _moved(S, Snew, awake, na, ref, REACH):
-                near_stale = _moved(S, Snew, awake, na, S[:, 0:2], REACH)  # the step itself longer
-                if not near_stale:
-                    n_near = _near_pairs(S, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref, REACH,
-                                         near_i, near_k, in_contact, episode, allowed)
+            n_near, near_stale = _near_list(S, Snew, B, radius, asleep, awake, na, pair_i, pair_k, n_pairs, ref,
+                                            near_i, near_k, n_near, near_stale, in_contact, episode, allowed)
             if not near_stale:
                 li, lk, nl = near_i, near_k, n_near
-        # ---- onset of a new contact: bisect the step until the overlap is at most tol; a touching pair
-        # whose overlap deepens past DEEPEN within the step (another part of it approaching, e.g. a
-        # rotating car's far corner) is bisected likewise, to an overlap between CONTACT_SLOP and DEEPEN
-        bisected = False  # (else the contacts below reuse each pair's test of the step's end: pen)
+        # onset: the step shortened to a new contact's touch (or a contact's deepening)
+        bisected = False  # (else the contacts reuse each pair's test of the step's end: pen)
         for p in range(nl):
-            i, k = li[p], lk[p]
-            if broad and _circles_apart(Snew, B, radius, i, k, nv):
-                continue
-            diag[D_NARROW] += 1
-            depth, nx, ny, _ = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))
-            pen[p, 0], pen[p, 1], pen[p, 2] = depth, nx, ny
-            if in_contact[i, k]:
-                if allowed[i, k] > 0.0 or depth <= DEEPEN:
-                    continue
-                lo_d, hi_d = CONTACT_SLOP, DEEPEN
-            else:
-                if depth <= tol or (episode[i, k] >= 0 and depth <= CONTACT_SLOP):
-                    continue
-                lo_d, hi_d = 0.0, tol
-            lo, hi = 0.0, h
-            bisected = True
-            for _ in range(60):
-                hm = 0.5 * (lo + hi)
-                _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, hm, Snew, k1, k2, tmp, inp,
-                      held)
-                diag[D_BISECT] += 1
-                depth = penetration(_outline(P, Snew, B, i, nv, oa), _outline(P, Snew, B, k, nv, ob))[0]
-                if depth > hi_d:
-                    hi = hm
-                elif depth <= lo_d:
-                    lo = hm
-                else:
-                    break
-            h = hm
+            bisect, lo_d, hi_d = _onset_test(P, Snew, B, radius, broad, li[p], lk[p], p, in_contact, episode, allowed,
+                                             tol, pen, oa, ob, diag)
+            if bisect:
+                h = _bisect(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, Snew, k1, k2, tmp,
+                            inp, held, B, li[p], lk[p], h, lo_d, hi_d, oa, ob, diag)
+                bisected = True
         t += h
-        for a in range(na):
-            i = awake[a]
-            for q in range(6):
-                S[i, q] = Snew[i, q]
-        # ---- contacts: an impact (the first touch of an episode) gets its own row; a pair in an open
-        # episode that overlaps and approaches gets a plastic contact impulse booked into the episode's
-        # row. Several contacts at once (a car squeezed between a car and a wall) are
-        # resolved together by sweeps of sequential impulses (projected Gauss-Seidel) over the step's
-        # contacts: after the first sweep a pair is approaching again only through its neighbours'
-        # impulses of this instant, so its further impulses are plastic and booked into its row. Then a
-        # projection keeps each overlap below CONTACT_SLOP.
-        nc = 0
-        for p in range(nl):
-            i, k = li[p], lk[p]
-            if broad and _circles_apart(S, B, radius, i, k, nv):
-                in_contact[i, k] = False
-                episode[i, k] = -1
-                allowed[i, k] = 0.0
-                continue
-            if bisected:  # the step's end moved since the onset test
-                diag[D_NARROW] += 1
-                depth, nx, ny, _ = penetration(_outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob))
-            else:
-                depth, nx, ny = pen[p, 0], pen[p, 1], pen[p, 2]
-            if depth <= 0.0:
-                in_contact[i, k] = False
-                allowed[i, k] = 0.0
-                if -depth > SEPARATION:
-                    episode[i, k] = -1
-                continue
-            in_contact[i, k] = True
-            if depth <= allowed[i, k] + CONTACT_SLOP and allowed[i, k] > 0.0:
-                # a collision position's start overlap, not deepening: the given impulse resolved it
-                allowed[i, k] = min(allowed[i, k], depth)
-                continue
-            diag[D_MAX_DEPTH] = max(diag[D_MAX_DEPTH], depth)
-            ci, ck = _outline(P, S, B, i, nv, oa), _outline(P, S, B, k, nv, ob)
-            px, py, area = overlap_centroid(ci, ck)
-            if math.isnan(px):
-                continue
-            poly, npoly = clip_convex(ci, ck)
-            cl_m[nc] = min(npoly, cl_v.shape[1])
-            cl_v[nc, :cl_m[nc]] = poly[:cl_m[nc]]
-            cl_i[nc], cl_k[nc], cl_d[nc] = i, k, depth
-            cl_n[nc, 0], cl_n[nc, 1], cl_p[nc, 0], cl_p[nc, 1] = nx, ny, px, py
-            nc += 1
-        stop = False
-        woke = False
-        for _ in range(MAX_SWEEPS if nc > 1 else 1):
-            active = False
-            for c in range(nc):
-                i, k = cl_i[c], cl_k[c]
-                nx, ny, px, py = cl_n[c, 0], cl_n[c, 1], cl_p[c, 0], cl_p[c, 1]
-                approach = _normal_approach(S, i, k, nv, px, py, nx, ny)
-                row = episode[i, k]
-                if row >= 0 and imp[row, I_T] != t:
-                    approach, px, py = _fastest_point(S, i, k, nv, cl_v[c], cl_m[c], nx, ny, approach, px, py,
-                                                      speeds)
-                if approach <= V_EPS:
-                    continue
-                is_impact = row < 0
-                if is_impact:
-                    if n_imp >= max_imp:
-                        status = STATUS_IMPACT_CAP
-                        stop = True
-                        break
-                    # the point: the middle of the contact zone the approach will crush, or (point =
-                    # "engagement") the overlap's centroid at engagement with its contact plane
-                    zx, e_flag, e_ratio = math.nan, 0, math.nan
-                    if cfg.engagement:
-                        zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx,
-                                                                      ny, oa, ob)
-                    if math.isnan(zx):
-                        zx, zy, _ = contact_zone_centroid(_outline(P, S, B, i, nv, oa),
-                                                          _outline(P, S, B, k, nv, ob),
-                                                          nx, ny, cfg.crush_time * approach)
-                    if not math.isnan(zx):
-                        px, py = zx, zy
-                e_k = e if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
-                S_before[:] = S
-                alt = imp[n_imp] if is_impact else no_alt  # (the impact's row: its slip-reversal check)
-                pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, mu_imp, law, alt)
-                if kind < 0:
-                    continue
-                active = True
-                if is_impact:
-                    if n_imp == 0:
-                        diag[D_CONTACT_T] = t
-                        for q in range(nv):
-                            contact[q, 0], contact[q, 1] = S_before[q, 0], S_before[q, 1]
-                            contact[q, 2] = S_before[q, 2]
-                            contact[q, 3] = math.hypot(S_before[q, 3], S_before[q, 4])
-                    _record_impact(imp, n_imp, t, i, k, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
-                    imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
-                    episode[i, k] = n_imp
-                    n_imp += 1
-                else:
-                    _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
-                    diag[D_FOLLOW] += 1
-                diag[D_E_IMPACT] += energy
-                woke = woke or asleep[i] or (k < nv and asleep[k])
-                _struck(i, k, nv, hit, asleep)
-            if stop or not active:
-                break
-        if stop:
+        _accept(S, Snew, awake, na)
+        # contacts, their impact and contact impulses, the projection
+        nc = _gather_contacts(P, S, B, radius, broad, bisected, li, lk, nl, pen, in_contact, episode, allowed, oa,
+                              ob, cl_i, cl_k, cl_d, cl_n, cl_p, cl_v, cl_m, diag)
+        n_imp, capped, woke = _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, episode, imp,
+                                        n_imp, S_before, no_alt, contact, hit, asleep, oa, ob, diag)
+        if capped:
+            status = STATUS_IMPACT_CAP
             break
         if woke:
             na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
             near_stale = True
-        # non-penetration at the position level: the velocity-level contact impulse stops the approach at
-        # the end of a step but not the overlap gained within it (~ a h^2 / 2)
-        for c in range(nc):
-            i, k, depth = cl_i[c], cl_k[c], cl_d[c]
-            target = max(allowed[i, k], CONTACT_SLOP)
-            if depth > target:
-                _project_apart(P, S, i, k, nv, cl_n[c, 0], cl_n[c, 1], depth - target)
-                diag[D_PROJECTED] += depth - target
-                Snew[i] = S[i]  # (a sleeping vehicle's row of Snew equals its row of S)
-                if k < nv:
-                    Snew[k] = S[k]
-                    near_stale = near_stale or asleep[k]  # a static partner moved
-                near_stale = near_stale or asleep[i]
-            allowed[i, k] = min(allowed[i, k], depth)
-        # ---- rest: a vehicle that has (almost) stopped goes to sleep; an impulse wakes it
-        # (a sleeping vehicle's state is only moved by the projection, finite: NaN can arise in awake ones)
-        all_asleep, slept = True, False
-        for a in range(na):
-            i = awake[a]
-            if math.hypot(S[i, 3], S[i, 4]) < v_rest and abs(S[i, 5]) < v_rest:
-                S[i, 3:6] = 0.0
-                asleep[i] = sleeping
-                if sleeping:
-                    Snew[i] = S[i]
-                    slept = True
-            if not asleep[i]:
-                all_asleep = False
-            if math.isnan(S[i, 0]) or math.isnan(S[i, 3]):
-                status = STATUS_NAN
+        near_stale = _project(P, S, Snew, nc, cl_i, cl_k, cl_d, cl_n, allowed, asleep, near_stale, diag)
+        # rest and sleep
+        all_asleep, slept, nan = _come_to_rest(S, Snew, asleep, awake, na, v_rest, sleeping)
+        if nan:
+            status = STATUS_NAN
         if slept:
             na, n_pairs = _awake_sets(asleep, nk, awake, pair_i, pair_k)
             near_stale = True
         if status == STATUS_NAN or (all_asleep and cfg.stop_at_rest):
             break
+    # ---- the results
     if rec_dt > 0.0 and n_rec < traj.shape[0]:
-        traj[n_rec, :, 0] = t
-        traj[n_rec, :, 1:7] = S
-        n_rec += 1
+        n_rec = _record(traj, n_rec, t, S)
     rest[:, :] = S[:, 0:3]
     final[:, :] = S[:, 3:6]
     diag[D_STEPS], diag[D_IMPACTS], diag[D_NREC], diag[D_T_END] = steps, n_imp, n_rec, t
