@@ -258,10 +258,11 @@ def test_rest_pose_is_smooth_in_the_start_position(case3):
     """The onset of contact is located to onset_tol; the state at the impulse wanders within it as the
     start moves, and the rest pose with it. A start of the side collision found by the twin-4 search (V1
     at 66 km/h hits V2's front corner): along 0.24 m of V1.x (241 starts) the rest positions' second
-    differences scatter by 0.7 cm with a 1 mm tolerance and the first-touch point of impact, and by
-    0.09 cm with the defaults (0.01 mm, contact-zone point). A search or a least-squares polish needs the
-    smooth one. (Before sustained contact, issue 10, the pair chattered through 9-20 micro-impacts here,
-    which amplified the 1 mm jitter to 1.9 cm.)"""
+    differences scatter by 0.79 cm with a 3 mm tolerance and the first-touch point of impact (0.29 cm with
+    1 mm), and by 0.001 cm with the defaults (0.01 mm, contact-zone point; 0.09 cm, and 0.7 cm with 1 mm,
+    before the locked wheels' load transfer was solved and the steps followed the slip speeds, issue 25). A
+    search or a least-squares polish needs the smooth one. (Before sustained contact, issue 10, the pair
+    chattered through 9-20 micro-impacts here, which amplified the 1 mm jitter to 1.9 cm.)"""
     scene = case3.with_vehicle("V1", x=-1.9638, y=0.2535, speed=66.3217 * KMH)
     scene = scene.with_vehicle("V2", x=1.3553, y=0.5725, speed=23.0194 * KMH)
     shifts = np.linspace(-0.12, 0.12, 241)
@@ -274,8 +275,8 @@ def test_rest_pose_is_smooth_in_the_start_position(case3):
         return float(np.std(np.diff(rest, 2, axis=0)))
 
     default = roughness(crashlab.get_model("impulse"))
-    coarse = roughness(crashlab.get_model("impulse", onset_tol=1e-3, crush_time=0.0))
-    print(f"\nrest-position roughness: {default * 100:.3f} cm (defaults), {coarse * 100:.3f} cm (1 mm, first touch)")
+    coarse = roughness(crashlab.get_model("impulse", onset_tol=3e-3, crush_time=0.0))
+    print(f"\nrest-position roughness: {default * 100:.4f} cm (defaults), {coarse * 100:.3f} cm (3 mm, first touch)")
     assert default < 0.005
     assert coarse > 0.005  # the measure sees the jitter it guards against
 

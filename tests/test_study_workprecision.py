@@ -40,14 +40,20 @@ def test_csv_contract_and_figure(tiny):
 
 
 def test_numerical_error_falls_as_the_step_is_refined(tiny):
-    """Error against the model's own converged result: the coarsest step is further off than the finest."""
+    """Error against the model's own converged result: pymunk's coarsest step is further off than its finest;
+    impulse's dt is at the floor there (its slides are second order, docs/physics.md §2): 0.05-0.08 mm,
+    0.003 deg at 2.5, 5 and 10 ms, measured (while the locked wheels' load transfer lagged a stage: 0.78 mm,
+    0.09 deg at 5 and 10 ms, both capped at 3.6 ms by the tyre forces' rate bound, 0.01 mm at 2.5 ms)."""
     path, _ = tiny
     df = pd.read_csv(path)
     for model in ("impulse", "pymunk"):
         d = df[(df.model == model) & (df.error_kind == "numerical")].copy()
         d["dt"] = [json.loads(s).get("dt", math.nan) for s in d.setting]
         d = d[d.knob == "dt"].sort_values("dt")
-        assert d.error_m.iloc[0] < d.error_m.iloc[-1], (model, d[["dt", "error_m"]])
+        if model == "pymunk":
+            assert d.error_m.iloc[0] < d.error_m.iloc[-1], (model, d[["dt", "error_m"]])
+        else:
+            assert (d.error_m < 0.0005).all() and (d.error_deg < 0.05).all(), (model, d[["dt", "error_m"]])
 
 
 def test_knob_values_stay_in_range_and_round_integers():

@@ -138,18 +138,108 @@ def vehicle_derivative(p, s, mu, mode, acc_body, out):
 
 
 @register_jitable
-def stiffest_rate(p, mu, mode):
-    """Largest decay rate [1/s] of the regularised tyre forces of one vehicle (lateral and yaw modes):
-    an explicit step must stay below about 1 / rate (Heun is stable up to 2 / rate)."""
+def locked_forces(p, s, c, sn, mu_fl, mu_fr, mu_rl, mu_rr, acc_body, out):
+    """vehicle_forces_trig for locked wheels with the quasi-static load transfer solved, not lagged
+    (docs/physics.md §2): each wheel's Coulomb force is its load N times -mu v / sqrt(|v|^2 + V_REG^2)
+    (wheel_force, any steer) and the loads are linear in the body acceleration (ax, ay), so m (ax, ay) =
+    sum of N (ux, uy) is a 2 x 2 linear system. The previous evaluation's acceleration (vehicle_forces_trig)
+    lags one Heun stage behind: an error first order in the step (the side collision's rest heading moved
+    0.09 deg per ms of step). acc_body gets the solved acceleration; where a solved load would lift a wheel
+    (|a| beyond about g track / 2h) this is vehicle_forces_trig with the lagged loads."""
+    m, iz, a, b, track, h = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK], p[P_H]
+    wb = a + b
+    u = c * s[3] + sn * s[4]
+    v = -sn * s[3] + c * s[4]
+    r = s[5]
+    # the load of wheel w: n0 + kx ax + ky ay (vehicle_forces_trig's transfer), its force that times (ux, uy):
+    # m (ax, ay) = (bx, by) + S (ax, ay), and the yaw moment mz = z0 + zx ax + zy ay. Each axle's left and
+    # right wheel are added first: a reflected scene (left and right swapped) gives the same bits, mirrored.
+    bx, by, sxx, sxy, syx, syy, z0, zx, zy = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    yw = 0.5 * track
+    for axle in range(2):
+        front = axle == 0
+        xw = a if front else -b
+        share = b / wb if front else a / wb
+        n0 = 0.5 * m * G * share
+        kx = (-0.5 if front else 0.5) * m * h / wb
+        ky = m * h / track * share  # (the left wheel's: -ky)
+        mu_l, mu_r = (mu_fl, mu_fr) if front else (mu_rl, mu_rr)
+        vx_l, vx_r, vy_w = u - r * yw, u + r * yw, v + r * xw
+        q_l = -mu_l / math.sqrt(vx_l * vx_l + vy_w * vy_w + V_REG * V_REG)
+        q_r = -mu_r / math.sqrt(vx_r * vx_r + vy_w * vy_w + V_REG * V_REG)
+        ux_l, uy_l, ux_r, uy_r = q_l * vx_l, q_l * vy_w, q_r * vx_r, q_r * vy_w
+        m_l, m_r = xw * uy_l - yw * ux_l, xw * uy_r + yw * ux_r
+        bx, by, z0 = bx + n0 * (ux_l + ux_r), by + n0 * (uy_l + uy_r), z0 + n0 * (m_l + m_r)
+        sxx, syx, zx = sxx + kx * (ux_l + ux_r), syx + kx * (uy_l + uy_r), zx + kx * (m_l + m_r)
+        sxy, syy, zy = sxy + ky * (ux_r - ux_l), syy + ky * (uy_r - uy_l), zy + ky * (m_r - m_l)
+    det = (m - sxx) * (m - syy) - sxy * syx
+    ax = (bx * (m - syy) + sxy * by) / det
+    ay = ((m - sxx) * by + syx * bx) / det
+    dlat = abs(ay) * h / track  # the side transfer per unit mass; a wheel lifts where its load would be <= 0
+    if G * b - ax * h <= 2.0 * dlat * b or G * a + ax * h <= 2.0 * dlat * a:
+        vehicle_forces_trig(p, s, c, sn, mu_fl, mu_fr, mu_rl, mu_rr, LOCKED, 0.0, 1.0, 0.0, acc_body, out)
+        return
+    mz = z0 + zx * ax + zy * ay
+    acc_body[0], acc_body[1] = ax, ay
+    out[0], out[1], out[2] = s[3], s[4], r
+    out[3] = c * ax - sn * ay
+    out[4] = sn * ax + c * ay
+    out[5] = mz / iz
+
+
+@register_jitable
+def wheel_slips(p, s, c, sn, cs, ss, mu):
+    """The slowest wheel of a vehicle in state s (heading cos, sin c, sn; steer cos, sin cs, ss; the road's
+    largest friction mu): (its slip speed [m/s], the least |longitudinal speed| of a wheel in its own frame,
+    a bound of how fast a wheel's slip speed changes [m/s^2], the same for the longitudinal speed). The road's
+    forces total at most mu m g and their moment mu m g rho (rho the farthest wheel's distance from the CG),
+    so a wheel's velocity changes at most at mu g (1 + m rho^2 / Iz) + r^2 rho; its components in the turning
+    vehicle's frame also by |r| |v_w|."""
     m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
+    u = c * s[3] + sn * s[4]  # body-frame velocity
+    v = -sn * s[3] + c * s[4]
+    r = s[5]
+    rho2 = max(a, b) ** 2 + 0.25 * track * track
+    change = mu * G * (1.0 + m * rho2 / iz) + r * r * math.sqrt(rho2)
+    slip, along, fastest = math.inf, math.inf, 0.0
+    for w in range(4):
+        xw = a if w < 2 else -b
+        yw = 0.5 * track if w % 2 == 0 else -0.5 * track
+        vx_w, vy_w = u - r * yw, v + r * xw
+        speed = math.sqrt(vx_w * vx_w + vy_w * vy_w)
+        if w < 2 and ss != 0.0:
+            vx_w = cs * vx_w + ss * vy_w
+        slip, along, fastest = min(slip, speed), min(along, abs(vx_w)), max(fastest, speed)
+    return slip, along, change, change + abs(r) * fastest
+
+
+@register_jitable
+def slip_rate(p, s, c, sn, cs, ss, mu, mode, brake, dt):
+    """Largest decay rate [1/s] of the regularised tyre forces (lateral and yaw modes) of one vehicle in state s
+    (heading cos, sin c, sn; steer cos, sin cs, ss; wheel state `mode`, brake fraction `brake`; the road's
+    largest friction mu) over a step of at most dt: an explicit step must stay below about 1 / rate (Heun is
+    stable up to 2 / rate). Each regularised force's stiffness at the slowest wheel's own slip speed, the
+    speed it can lose within dt taken off first (wheel_slips; docs/physics.md §2): a locked wheel's Coulomb
+    force is stiff (mu N / sqrt(|v|^2 + V_REG^2)) only near standstill, a braked wheel's
+    (mu N / V_REG / cosh^2(v_x / V_REG)) only near v_x = 0, a rolling tyre's (C_alpha / max(|v_x|, V_LOW))
+    only slower than a few m/s. At zero slip speed: the worst case, e.g. 1 / 3.6 ms for the Clio locked."""
+    return rate_of_slips(p, mu, mode, brake, wheel_slips(p, s, c, sn, cs, ss, mu), dt)
+
+
+@register_jitable
+def rate_of_slips(p, mu, mode, brake, slips, dt):
+    """slip_rate from the vehicle's wheel_slips (a caller that needs them too computes them once)."""
+    m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
+    slip, along, change, change_along = slips
+    slip, along = max(slip - change * dt, 0.0), max(along - change_along * dt, 0.0)
     if mode == LOCKED:
-        # Coulomb regularised over V_REG: force mu N v / V_REG per wheel
         rho2 = 0.5 * (a * a + b * b) + 0.25 * track * track
-        return mu * G / V_REG * max(1.0, m * rho2 / iz)
-    c = p[P_CALPHA]  # cornering stiffness per tyre, slip angle floored at V_LOW
-    rate = max(4.0 * c / (m * V_LOW), 2.0 * c * (a * a + b * b) / (iz * V_LOW))
-    if mode == BRAKED:
-        rate = max(rate, mu * G / V_REG)
+        return mu * G / math.sqrt(slip * slip + V_REG * V_REG) * max(1.0, m * rho2 / iz)
+    c_alpha = p[P_CALPHA]
+    x = max(along, V_LOW)
+    rate = max(4.0 * c_alpha / (m * x), 2.0 * c_alpha * (a * a + b * b) / (iz * x))
+    if mode == BRAKED or brake > 0.0:
+        rate = max(rate, mu * G / V_REG / math.cosh(min(along / V_REG, 300.0)) ** 2)
     return rate
 
 

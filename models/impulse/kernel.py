@@ -3,9 +3,12 @@
 Everything per scene runs inside one numba function (no Python loop over time steps); a batch of
 scenes runs in parallel with `prange`. Step-size policy:
   * fine steps (Heun, 2nd order) of at most `dt`, and below 1 / (fastest decay rate of the regularised
-    tyre forces) (planar_vehicle.stiffest_rate), whenever a tyre force can change or vehicles are close;
-  * while every moving vehicle runs straight and no pair can touch within the step, the step grows up
-    to `coarse_dt` (straight running has constant forces, Heun is exact for it);
+    tyre forces at the wheels' slip speeds) (planar_vehicle.rate_of_slips), whenever a tyre force can change
+    or vehicles are close;
+  * while every moving vehicle runs straight or slides on locked wheels, far from stopping, and no pair
+    can touch within the step, the step grows up to `coarse_dt` (straight running has constant forces,
+    Heun is exact for it; a locked wheel's force turns smoothly with its slip velocity: motion._long_step,
+    _gap_step; docs/physics.md §2);
   * a vehicle at rest sleeps (no force evaluation) until an impulse wakes it; the loops of a step run
     over the awake vehicles and the pairs with an awake member only (lists rebuilt when a vehicle sleeps or
     wakes, pairs in the order of the full i < k loop, so results do not depend on the skipping), and the
@@ -46,12 +49,12 @@ from crashlab.models.common.driver_inputs import (
     ramping,
     steady_next,
 )
-from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, stiffest_rate
-from crashlab.models.common.wheel_states import BRAKED, ROLLING
+from crashlab.models.common.planar_vehicle import P_A, P_B, P_TRACK, rate_of_slips, wheel_slips
+from crashlab.models.common.wheel_states import LOCKED
 from crashlab.units import G
 
 from .compiler import StagesCompiler
-from .contact import _centre, _circles_apart, _outline, _radius
+from .contact import _circles_apart, _outline, _radius
 from .episode import _bisect, _gather_contacts, _given_impact, _impulses, _onset_test, _project
 from .impacts import _kinetic
 from .layout import (
@@ -77,11 +80,10 @@ from .layout import (
     STATUS_OK,
     STATUS_STEP_LIMIT,
 )
-from .motion import _heun, _near_zone
+from .motion import _gap_step, _heun, _long_step, _near_zone, _straight
 from .pairs import _awake_sets, _moved, _near_pairs
 
 MAX_STEPS = 200_000  # a guard: no scene needs more (duration <= 120 s at dt >= 1 ms)
-STOP_MARGIN = 0.5  # m/s: coarse steps end this far above the speed a coarse step could brake away
 REACH = 1.0  # m: a pair with a static member further apart than 2 REACH is left out until a vehicle moved REACH
 
 
@@ -100,16 +102,18 @@ def _start_contacts(P, S, B, radius, broad, in_contact, allowed, oa, ob):
 
 
 @njit(inline="always")
-def _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_change, law_ramp, inp, rate_mode,
-               rate_h, radius, zone_box, zoned, mu_max, dt, coarse_dt):
+def _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_change, law_ramp, inp, radius, zone_box,
+               zoned, mu_max, dt, coarse_dt):
     """The step size of the tyre forces: at most dt and below each awake vehicle's stability limit 1 / (the fastest
-    decay rate of its regularised tyre forces at its wheel state) (planar_vehicle.stiffest_rate). Reads each
-    vehicle's driver inputs where their law changed (held: until when they hold) into inp, with its heading's cosine
-    and sine. Returns (h, the time the next law starts: a step ends there, quiet: every awake vehicle runs straight,
-    far from a friction zone and from stopping, with constant inputs, so a coarse step is exact)."""
+    decay rate of its regularised tyre forces at its wheels' slip speeds) (planar_vehicle.rate_of_slips). Reads
+    each vehicle's driver inputs where their law changed (held: until when they hold) into inp, with its heading's
+    cosine and sine. Returns (h, the time the next law starts: a step ends there, the longest step every awake
+    vehicle allows: motion._long_step, running straight or sliding on locked wheels, far from a friction zone and
+    from stopping, with constant inputs; 0 where one does not)."""
     h = dt
     t_change = math.inf
-    quiet = True
+    long_ok = coarse_dt > dt
+    h_long = coarse_dt
     for a in range(na):
         i = awake[a]
         if not ahead(t, held[i]):  # the inputs' law changed (or changes continuously): read it again
@@ -122,48 +126,35 @@ def _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_ch
                 inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER] = ((math.cos(steer), math.sin(steer)) if steer != 0.0
                                                               else (1.0, 0.0))
         t_change = min(t_change, law_change[i])
-        if law_ramp[i]:
-            quiet = False
         mode, brake, steer = effective_mode(law_mode[i], hit[i]), law_brake[i], inp[i, IN_STEER]
         inp[i, IN_MODE], inp[i, IN_BRAKE] = mode, brake
-        if mode == ROLLING and brake > 0.0:
-            mode = BRAKED  # a braking rolling wheel is as stiff as a braked one
-        if mode != rate_mode[i]:  # (the bound changes with the wheel state only: mu_max is fixed)
-            rate = stiffest_rate(P[i], mu_max, mode)  # 0 for locked wheels on ice: no tyre force
-            rate_mode[i], rate_h[i] = mode, 1.0 / rate if rate > 0.0 else math.inf
-        h = min(h, rate_h[i])
         c, sn = math.cos(S[i, 2]), math.sin(S[i, 2])
         inp[i, IN_COS_HEADING], inp[i, IN_SIN_HEADING] = c, sn
-        lat = -sn * S[i, 3] + c * S[i, 4]
-        speed = math.hypot(S[i, 3], S[i, 4])
-        if abs(S[i, 5]) > 1e-9 or abs(lat) > 1e-9 or steer != 0.0:
-            quiet = False
-        elif zoned and _near_zone(S, i, radius[i] + speed * coarse_dt + PATCH, zone_box):
-            quiet = False
-        # a vehicle that can come to a stop within a coarse step (deceleration <= mu g) is near the
-        # discontinuity of Coulomb friction: a coarse Heun step there oscillates about v = 0
-        if speed < 2.0 * mu_max * G * coarse_dt + STOP_MARGIN:
-            quiet = False
-    return h, t_change, quiet
+        slips = wheel_slips(P[i], S[i], c, sn, inp[i, IN_COS_STEER], inp[i, IN_SIN_STEER], mu_max)
+        if mode != LOCKED and not _straight(S[i], c, sn, steer):  # its load transfer lags a stage (first
+            slips = (0.0, 0.0, slips[2], slips[3])  # order): the worst case's step (docs/physics.md §2)
+        rate = rate_of_slips(P[i], mu_max, mode, brake, slips, dt)  # 0: locked on ice, no force
+        if rate * h > 1.0:
+            h = 1.0 / rate
+        if long_ok:  # (not within a ramp, nor where a wheel's friction may change: near a zone)
+            if law_ramp[i] or (zoned and _near_zone(S, i, radius[i] + math.hypot(S[i, 3], S[i, 4]) * coarse_dt
+                                                    + PATCH, zone_box)):
+                h_long = 0.0
+            else:
+                h_long = min(h_long, _long_step(P[i], S[i], c, sn, steer, mode, brake, mu_max, coarse_dt, slips))
+            long_ok = h_long > h
+    return h, t_change, h_long if long_ok else 0.0
 
 
 @njit(inline="always")
-def _coarse_step(S, B, radius, pair_i, pair_k, n_pairs, h, coarse_dt, diag):
-    """A quiet step grows up to coarse_dt while no listed pair can touch within it (half the gap of the bounding
-    circles over the closing speed; a sleeping vehicle and a barrier are not listed, closing 0). Returns h."""
+def _coarse_step(P, S, B, radius, pair_i, pair_k, n_pairs, h, h_long, mu_max, oa, ob, diag):
+    """A step grows up to h_long (_fine_step) while no listed pair can touch within it (motion._gap_step; a
+    sleeping vehicle and a barrier are not listed, closing 0). Returns h."""
     nv = S.shape[0]
-    h_gap = coarse_dt
     for p in range(n_pairs):
-        i, k = pair_i[p], pair_k[p]
-        ckx, cky = _centre(S, B, k, nv)
-        gap = math.hypot(S[i, 0] - ckx, S[i, 1] - cky) - radius[i] - radius[k]
-        closing = math.hypot(S[i, 3], S[i, 4])
-        if k < nv:
-            closing += math.hypot(S[k, 3], S[k, 4])
-        if closing > 0.0:
-            h_gap = min(h_gap, 0.5 * gap / closing)
-    if h_gap > h:
-        h = h_gap
+        h_long = min(h_long, _gap_step(P, S, B, radius, pair_i[p], pair_k[p], nv, mu_max * G * h_long, oa, ob))
+    if h_long > h:
+        h = h_long
         diag[D_COARSE] += 1
     return h
 
@@ -281,8 +272,6 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
     law_brake = np.zeros(nv)
     law_change = np.zeros(nv)
     law_ramp = np.zeros(nv, np.bool_)
-    rate_mode = np.full(nv, -1, np.int64)  # the wheel state of the vehicle's step bound rate_h (stiffest_rate)
-    rate_h = np.full(nv, math.inf)
     for i in range(nv):
         wheel_reach[i] = math.sqrt(max(P[i, P_A], P[i, P_B]) ** 2 + (0.5 * P[i, P_TRACK]) ** 2)
     for i in range(nv):
@@ -312,11 +301,10 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
             next_rec += rec_dt
         # step size: fine within the tyre forces' stability limit, coarse while every moving vehicle runs
         # straight and nothing can touch; a step ends where a driver's input changes its law
-        h, t_change, quiet = _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_change,
-                                        law_ramp, inp, rate_mode, rate_h, radius, zones[3], zoned, mu_max, dt,
-                                        coarse_dt)
-        if quiet and coarse_dt > dt:
-            h = _coarse_step(S, B, radius, pair_i, pair_k, n_pairs, h, coarse_dt, diag)
+        h, t_change, h_long = _fine_step(P, S, A, NA, t, awake, na, hit, held, law_mode, law_brake, law_change,
+                                         law_ramp, inp, radius, zones[3], zoned, mu_max, dt, coarse_dt)
+        if h_long > h:
+            h = _coarse_step(P, S, B, radius, pair_i, pair_k, n_pairs, h, h_long, mu_max, oa, ob, diag)
         h = min(h, duration - t, t_change - t)
         # free motion
         _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h, Snew, k1, k2, tmp, inp, held)

@@ -36,9 +36,13 @@ class ImpulseModel(CollisionModel):
 
     Options (documented defaults, the same for every scene):
       dt = 0.005 s        largest fine step of the Heun integrator; each step is also kept below
-                          1 / (fastest decay rate of the regularised tyre forces), e.g. 2.4 ms for
-                          the Clio on rolling wheels, 3.5 ms on locked wheels (planar_vehicle.stiffest_rate)
-      coarse_dt = 0.05 s  largest step while every vehicle runs straight and nothing can touch
+                          1 / (fastest decay rate of the regularised tyre forces at the wheels' slip
+                          speeds), e.g. 2.4 ms for the Clio on rolling wheels near standstill, 3.6 ms on
+                          locked wheels near standstill, dt when they roll or slide at metres per second
+                          (planar_vehicle.slip_rate)
+      coarse_dt = 0.05 s  largest step while every vehicle runs straight, or slides on locked wheels
+                          with each wheel's slip velocity turning by at most 0.4 rad within the step,
+                          and nothing can touch (docs/physics.md §2)
       onset_tol = 1e-5 m  contact onset located until the outlines overlap by at most this; with
                           1 mm (and the first-touch point) the rest position jittered by 0.7 cm (std of
                           second differences along a start coordinate of a side collision; 1.9 cm
@@ -114,7 +118,8 @@ class ImpulseModel(CollisionModel):
     class Options(ModelOptions):
         dt: float = option(0.005, "largest fine step of the Heun integrator (also kept below 1 / the fastest "
                            "tyre-force decay rate)", "s", accuracy="smaller", gt=0, le=0.05)
-        coarse_dt: float = option(0.05, "largest step while every vehicle runs straight and nothing can touch",
+        coarse_dt: float = option(0.05, "largest step while every vehicle runs straight or slides on locked wheels "
+                                  "and nothing can touch",
                                   "s", accuracy="smaller", gt=0, le=1.0)
         onset_tol: float = option(1e-5, "contact onset located until the outlines overlap by at most this", "m",
                                   accuracy="smaller", gt=0, le=0.1)
