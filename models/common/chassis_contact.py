@@ -4,7 +4,7 @@ crush structures (docs/physics.md §13a, crush_structure.py: the CRASH3 line B C
 struck sides in series, unloading to the restitution, crush memory per pair), else the generic Hertz-type
 force with hysteresis damping (LAW_GENERIC, below); friction.
 Also the packing of the contact arrays both models hand to `contacts`
-(`pair_table`, `barrier_rows`, `contact_arrays`) and the end-state overlap check (`end_overlap`).
+(`pair_table`, `barrier_rows`, `contact_arrays`); what a run's contacts report after it: contact_report.py.
 
 Geometry. Each vehicle's chassis is one superellipsoid (shape row CSH[v] = [a, b, c, eps1, eps2, x_off,
 z_off], centred at x_off, z_off in the chassis frame); a barrier is a rigid box (BOXR centre, BOXA
@@ -46,7 +46,6 @@ import numpy as np
 from numba import njit
 
 from crashlab.models.common.restitution_law import speed_restitution
-from crashlab.restitution import range_warning
 
 from .broad_phase import obb_overlap
 from .contact_force import friction_ratio_code, normal_force_chi
@@ -400,28 +399,3 @@ def contact_arrays(CSH, PP, BAR, nv):
     return (np.ascontiguousarray(CSH, dtype=float), BOXR, BOXA, BOXE, np.ascontiguousarray(PP, dtype=float),
             np.zeros((npair, N_PST)), np.zeros((7, npair, N_PSG)), np.zeros((nv, 7)), np.zeros(N_BPC, np.int64))
 
-
-def end_overlap(names, PP, psg):
-    """The guard's interpenetration check with the contact bodies (superellipsoid chassis, barrier boxes) at
-    the last evaluation: a reason when a pair ends penetrating deeper than guard.PENETRATION_TOL, else None."""
-    from crashlab.guard import PENETRATION_TOL
-    nv = len(names)
-    for p in range(PP.shape[0]):
-        d = psg[p, G_DEL]
-        if d > PENETRATION_TOL:
-            i, j = int(PP[p, P_I]), int(PP[p, P_J])
-            other = names[j] if j < nv else f"barrier {j - nv}"
-            return f"{names[i]} and {other} end penetrating by {d:.2f} m (contact bodies)"
-    return None
-
-
-def speed_law_warnings(PST) -> list:
-    """restitution = "speed": the reason for each pair whose (last) crush began at a closing speed outside the
-    law's data (crashlab.restitution.range_warning); pairs that never touched have no closing speed."""
-    out = []
-    for p in range(PST.shape[0]):
-        if PST[p, S_CMAX] > 0.0:
-            why = range_warning(PST[p, S_VCLOSE])
-            if why and why not in out:
-                out.append(why)
-    return out

@@ -9,6 +9,7 @@ import numpy as np
 
 from crashlab.models.common import chassis_contact as C
 from crashlab.models.common import contact_episodes as EP
+from crashlab.models.common import contact_report
 from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import chi, friction_code
@@ -115,7 +116,8 @@ class ExudynRun(StepLoads, DriverLoads, Records):
         self.contact = np.full((nv, 4), np.nan)
         self.contact_time = math.nan
         self.traj = [[] for _ in range(nv)]
-        self.IMP, self.n_episodes, self.intervals = np.zeros((EP.episode_capacity(nv, len(scene.barriers)), EP.N_IMP)), 0, []
+        self.IMP = np.zeros((EP.episode_capacity(nv, len(scene.barriers)), EP.N_IMP))
+        self.n_episodes, self.intervals = 0, []
         self.t_rec, self.t_still, self.nsteps = 0.0, None, 0
         self.max_onset = self.road_pen = 0.0
         self.s_cur, self.awake, self.iter = None, True, 0
@@ -166,9 +168,9 @@ class ExudynRun(StepLoads, DriverLoads, Records):
             if PST[p, C.S_ACT] > 0.0:
                 self._close(p, t_end, 1.0, psg)
         if self.rest == E_SPEED_LAW:
-            warnings += C.speed_law_warnings(PST)
+            warnings += contact_report.speed_law_warnings(PST)
         for v in range(nv):
             if self.road_on[v]:
                 self.intervals.append((self.road_t0[v], t_end))
-        overlap = C.end_overlap(self.names, self.PP, psg)
+        overlap = contact_report.end_overlap(self.names, self.PP, psg)
         return self._outcome(t0, t_end, warnings, ok, overlap)

@@ -16,9 +16,7 @@ from crashlab.models.common.chassis_contact import (
     N_PP,
     barrier_rows,
     contact_arrays,
-    end_overlap,
     pair_table,
-    speed_law_warnings,
 )
 from crashlab.models.common.contact_episodes import (
     I_MAXPEN,
@@ -30,6 +28,7 @@ from crashlab.models.common.contact_episodes import (
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
+from crashlab.models.common.contact_report import end_overlap, speed_law_warnings
 from crashlab.models.common.crush_structure import clamp_restitution, speed_law_setting, structure_row
 from crashlab.models.common.driver_inputs import (
     A_MODE,

@@ -1,0 +1,33 @@
+"""What the 3D models' chassis contact (chassis_contact.py) reports after a run: the guard's interpenetration check
+with the contact bodies, and the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b)."""
+from __future__ import annotations
+
+from crashlab.restitution import range_warning
+
+from .chassis_contact import G_DEL, P_I, P_J, S_CMAX, S_VCLOSE
+
+
+def end_overlap(names, PP, psg):
+    """The guard's interpenetration check with the contact bodies (superellipsoid chassis, barrier boxes) at
+    the last evaluation: a reason when a pair ends penetrating deeper than guard.PENETRATION_TOL, else None."""
+    from crashlab.guard import PENETRATION_TOL
+    nv = len(names)
+    for p in range(PP.shape[0]):
+        d = psg[p, G_DEL]
+        if d > PENETRATION_TOL:
+            i, j = int(PP[p, P_I]), int(PP[p, P_J])
+            other = names[j] if j < nv else f"barrier {j - nv}"
+            return f"{names[i]} and {other} end penetrating by {d:.2f} m (contact bodies)"
+    return None
+
+
+def speed_law_warnings(PST) -> list:
+    """restitution = "speed": the reason for each pair whose (last) crush began at a closing speed outside the
+    law's data (crashlab.restitution.range_warning); pairs that never touched have no closing speed."""
+    out = []
+    for p in range(PST.shape[0]):
+        if PST[p, S_CMAX] > 0.0:
+            why = range_warning(PST[p, S_VCLOSE])
+            if why and why not in out:
+                out.append(why)
+    return out
