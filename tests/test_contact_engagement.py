@@ -5,9 +5,9 @@ sliding off along their minimum-translation normal; the tangential force is the 
 
 References written here: the force per width of two equal CRASH3 structures in series, B C / 2 (force
 equilibrium, each crushing C / 2; the CRASH3 line through zero force), over the engaged width 2 b - offset (the
-plan shadows' overlap across the normal, exact for a superellipsoid), its moment about the CG at the middle of the engaged zone; for the runs, the
-planar impulse-momentum of a frictionless impact along the fronts' normal at the engaged point (Brach & Brach
-2011, ch. 5: P = (1 + e) v / (1/m1 + 1/m2 + r1^2/I1 + r2^2/I2))."""
+plan shadows' overlap across the normal, exact for a superellipsoid), its moment about the CG at the middle of the
+engaged zone; for the runs, the planar impulse-momentum of a frictionless impact along the fronts' normal at the
+engaged point (Brach & Brach 2011, ch. 5: P = (1 + e) v / (1/m1 + 1/m2 + r1^2/I1 + r2^2/I2))."""
 import math
 import sys
 from pathlib import Path
