@@ -22,6 +22,17 @@ V_REG = 0.05  # m/s: regularisation of Coulomb friction and rolling resistance n
 V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it defined near standstill
 
 
+@register_jitable(inline="always")
+def _derivative(s, c, sn, ax, ay, mz, iz, acc_body, out):
+    """The state's time derivative into out from the CG acceleration (ax, ay) in body axes and the yaw moment mz
+    (heading cos, sin c, sn); acc_body keeps (ax, ay) for the next evaluation's load transfer."""
+    acc_body[0], acc_body[1] = ax, ay
+    out[0], out[1], out[2] = s[3], s[4], s[5]
+    out[3] = c * ax - sn * ay
+    out[4] = sn * ax + c * ay
+    out[5] = mz / iz
+
+
 @register_jitable
 def wheel_force(vwx, vwy, normal, mu, mode, brake, f_rr, c_alpha):
     """Force (Fx, Fy) of the road on one wheel, in the wheel frame, from its contact velocity.
@@ -122,12 +133,7 @@ def vehicle_forces_trig(p, s, c, sn, mu_fl, mu_fr, mu_rl, mu_rr, mode, brake, cs
         fx_t += fx
         fy_t += fy
         mz += xw * fy - yw * fx
-    ax_b, ay_b = fx_t / m, fy_t / m  # CG acceleration in body axes
-    acc_body[0], acc_body[1] = ax_b, ay_b
-    out[0], out[1], out[2] = s[3], s[4], r
-    out[3] = c * ax_b - sn * ay_b
-    out[4] = sn * ax_b + c * ay_b
-    out[5] = mz / iz
+    _derivative(s, c, sn, fx_t / m, fy_t / m, mz, iz, acc_body, out)  # CG acceleration in body axes
 
 
 @register_jitable
@@ -179,12 +185,7 @@ def locked_forces(p, s, c, sn, mu_fl, mu_fr, mu_rl, mu_rr, acc_body, out):
     if G * b - ax * h <= 2.0 * dlat * b or G * a + ax * h <= 2.0 * dlat * a:
         vehicle_forces_trig(p, s, c, sn, mu_fl, mu_fr, mu_rl, mu_rr, LOCKED, 0.0, 1.0, 0.0, acc_body, out)
         return
-    mz = z0 + zx * ax + zy * ay
-    acc_body[0], acc_body[1] = ax, ay
-    out[0], out[1], out[2] = s[3], s[4], r
-    out[3] = c * ax - sn * ay
-    out[4] = sn * ax + c * ay
-    out[5] = mz / iz
+    _derivative(s, c, sn, ax, ay, z0 + zx * ax + zy * ay, iz, acc_body, out)
 
 
 @register_jitable
