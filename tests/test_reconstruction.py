@@ -388,13 +388,8 @@ def test_outputs_csv_figures_summary_and_json(tmp_path):
 
 
 # ------------------------------------------------------------------ 7. twin experiments (slow)
-TWIN4_OPEN = pytest.mark.xfail(strict=True, reason=(
-    "open since the impulse model's sustained contact (issue 10): twin4 at seed 4 ends 0.162 m after the "
-    "search and 0.121 m after 245 polish evaluations (500: 0.107 m, 1000: 0.0001 m); seeds 1-3 and 5 <= 0.06 m"))
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("k", [1, 2, 3, pytest.param(4, marks=TWIN4_OPEN), 5])
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
 def test_twin_experiment_finds_the_evidence(k):
     """The study as written (its optimizer, the thesis's budget, then the least-squares polish), seeds 1-5:
     every seed's Pareto set holds a solution within 10 cm for both vehicles. Printed per seed: the best
