@@ -61,6 +61,8 @@ def _heun(P, S, t, A, NA, hit, zones, wheel_reach, zcache, awake, na, mu, acc, h
     long they hold (driver_inputs.steady_next). The wheels' frictions: _wheel_frictions, then
     planar_vehicle.vehicle_forces_trig."""
     zoned = zones[2].shape[0] > 0
+    # the two stages repeat the frictions and the force law's choice on purpose: a shared helper measured 2.5 %
+    # (inline="always") to 18 % (a call) slower on populations, from the arrays' reference counts (2026-11-26)
     for a in range(na):
         i = awake[a]
         mode, brake = int(inp[i, IN_MODE]), inp[i, IN_BRAKE]
