@@ -11,6 +11,9 @@ from .file_numbers import Real, bounded
 STRUCTURE_SIDES = ("front", "rear", "side")
 A_RANGE = (0.0, 2e6)   # N/m: cars 20-80e3 (front), a bus or truck front some 1e5-5e5
 B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
+# m/s, the largest no-damage speed b0 = sqrt(2 G w / m) a side may imply (G = A^2 / 2B over its width w): tests
+# bracket 2.2-4.5 m/s (SAE 2010-01-0069); a pair of A, B each in range may still give an absurd G (B -> 0)
+NO_DAMAGE_SPEED_MAX = 8.0
 
 
 class StructureSideFile(BaseModel):
