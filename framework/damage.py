@@ -183,6 +183,11 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     offset = _finite(offset, prefix + "offset", where)
     structure: Structure = spec.structure[side]
     limit, what = (spec.length, "length") if side == "side" else (spec.width, "width")
+    depth_limit, across = (spec.width, "width") if side == "side" else (spec.length, "length")
+    for i, c in enumerate(profile):
+        if c >= depth_limit:
+            raise InputError(where, f"{prefix}profile[{i + 1}]", f"crush depth {c:g} m is deeper than the vehicle's "
+                             f"{across} {depth_limit:g} m across its {side}")
     if not 0.0 < width <= structure.width * (1 + 1e-9):
         raise InputError(where, prefix + "width", f"damaged width {width:g} m must be positive and at most the "
                          f"{side}'s structure width {structure.width:g} m (the vehicle's {what} {limit:g} m)")

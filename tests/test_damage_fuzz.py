@@ -104,6 +104,16 @@ def test_a_structure_whose_G_is_absurd_is_refused_naming_B(tmp_path):
     assert str(err.value).startswith(f"{scene}: vehicles.V1.overrides.structure.side.B: ") and "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize("side, profile, key", [("front", "5,5", "--profile[1]"),
+                                                ("rear", "0.2,4.3,0.2,0.2", "--profile[2]"),
+                                                ("side", "1.7,1.7", "--profile[1]")])
+def test_a_crush_deeper_than_the_vehicle_is_refused(side, profile, key):
+    """clio is 3.78 m long and 1.64 m wide: 5 m of front crush gave an EES of 469 km/h, 1.7 m of side crush
+    121 km/h, both exit 0."""
+    res = cli("clio", "--side", side, "--profile", profile, "--width", "1.0")
+    assert_one_error_line(res, "command line", key, ["deeper than"])
+
+
 # ------------------------------------------------------------------ bad input: one line, exit 2
 CLI_BAD = [  # (crashlab.cli.damage.command's arguments after `clio --side front`, key, words)
     (dict(profile="nan,0.2", width=1.5), "--profile[1]", ["finite"]),
@@ -222,6 +232,8 @@ STUDY_BAD = {  # id: (damage table, key, words)
     "profile-empty": (damage(profile="[]"), "evidence.damage.V1.profile", []),
     "profile-nan": (damage(profile="[nan, 0.1]"), "evidence.damage.V1.profile.0", ["finite"]),
     "profile-string": (damage(profile='["0.1", 0.1]'), "evidence.damage.V1.profile.0", []),
+    "profile-deeper-than-the-car": (damage(profile="[4.0, 4.0]"), "evidence.damage.V1.profile[1]",
+                                    ["deeper than"]),
     "width-0": (damage(width="0.0"), "evidence.damage.V1.width", []),
     "offset-huge": (damage(extra="offset = 14.0\n"), "evidence.damage.V1.offset", ["outside"]),
     "pdof-90": (damage(extra="pdof = 90.0\n"), "evidence.damage.V1.pdof", ["cannot have crushed"]),
