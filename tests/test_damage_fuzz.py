@@ -114,6 +114,17 @@ def test_a_crush_deeper_than_the_vehicle_is_refused(side, profile, key):
     assert_one_error_line(res, "command line", key, ["deeper than"])
 
 
+def test_with_errors_name_with_and_a_vehicle_is_not_paired_with_itself(tmp_path):
+    """`--with nosuch:...` was blamed on `target`, a scene's unknown --with vehicle on `--vehicle`, and a scene's
+    vehicle paired with itself gave a delta-V (exit 0)."""
+    assert_one_error_line(cli("clio", "--side", "front", "--profile", "0.2,0.2", "--width", "1.5",
+                              "--with", "nosuch:side:0.2,0.2:1.5"), "command line", "--with", ["nosuch"])
+    for other, words in (("V9:side:0.2,0.2:1.5", ["V9"]), ("V1:side:0.2,0.2:1.5", ["itself"])):
+        res = cli(SIDE_SCENE, "--vehicle", "V1", "--side", "front", "--profile", "0.2,0.2", "--width", "1.2",
+                  "--with", other)
+        assert_one_error_line(res, "command line", "--with", words)
+
+
 # ------------------------------------------------------------------ bad input: one line, exit 2
 CLI_BAD = [  # (crashlab.cli.damage.command's arguments after `clio --side front`, key, words)
     (dict(profile="nan,0.2", width=1.5), "--profile[1]", ["finite"]),
