@@ -44,7 +44,8 @@ def _finite(value, key: str, where: str) -> float:
 
 
 def check_profile(profile: Sequence[float], key: str = "profile", where: str = "damage") -> list[float]:
-    """The profile as floats: 2, 4 or 6 finite, non-negative depths [m], not all zero; InputError otherwise."""
+    """The profile as floats: 2, 4 or 6 finite, non-negative depths [m] of at most 5 m; InputError otherwise
+    (all zero is allowed: `report` warns that its EES is an upper bound)."""
     if isinstance(profile, (str, bytes)) or not isinstance(profile, Sequence):
         raise InputError(where, key, f"a list of {', '.join(map(str, PROFILE_POINTS))} crush depths [m]")
     if len(profile) not in PROFILE_POINTS:
@@ -210,6 +211,11 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     arm = _geometry(spec, side, offset, alpha, pdof_used, lateral, depth)
     gamma = effective_mass_factor(spec.yaw_inertia, spec.mass, arm)
     speed = ees(energy, spec.mass)
+    warnings = [warning] if warning else []
+    if max(profile) == 0.0:
+        warnings.append("no residual crush: the CRASH3 energy is then G L, the most the side absorbs without "
+                        "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "
+                        "is an upper bound, not a measurement")
     return {
         "vehicle": spec.name, "mass": spec.mass, "side": side, "profile": profile, "width": width,
         "offset": offset, "pdof": pdof_used, "pdof_angle": alpha, "pdof_factor": factor,
@@ -218,7 +224,7 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
         "energy_uncorrected": e0, "energy": energy, "ees": speed, "ees_kmh": ms_to_kmh(speed),
         "centroid_lateral": lateral, "centroid_depth": depth, "moment_arm": arm,
         "radius_of_gyration": math.sqrt(spec.yaw_inertia / spec.mass), "gamma": gamma,
-        "warnings": [warning] if warning else [],
+        "warnings": warnings,
     }
 
 

@@ -125,6 +125,15 @@ def test_with_errors_name_with_and_a_vehicle_is_not_paired_with_itself(tmp_path)
         assert_one_error_line(res, "command line", "--with", words)
 
 
+def test_a_profile_without_residual_crush_warns_that_its_ees_is_an_upper_bound(tmp_path):
+    """All depths 0 gave EES 7.6 km/h from G alone with no word (check_profile's docstring said it refused
+    them): no residual crush bounds the energy by G L, it does not measure it."""
+    rep = strict_json(command("clio", "front", "0,0,0,0", 1.5, as_json=True))
+    assert rep["energy"] == pytest.approx(1.5 * 35200.0 ** 2 / (2 * 429000.0), rel=1e-12)  # clio.toml's A, B
+    assert any("no residual crush" in w and "upper bound" in w for w in rep["warnings"])
+    assert not strict_json(command("clio", "front", "0,0.01,0,0", 1.5, as_json=True))["warnings"]
+
+
 # ------------------------------------------------------------------ bad input: one line, exit 2
 CLI_BAD = [  # (crashlab.cli.damage.command's arguments after `clio --side front`, key, words)
     (dict(profile="nan,0.2", width=1.5), "--profile[1]", ["finite"]),
