@@ -34,6 +34,9 @@ PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
 PDOF_LIMIT = 45.0  # deg: the largest angle between the force and the side's normal the correction is used for
 # deg: the direction the force comes from when it is normal to the side (vehicle axes, docs/physics.md §21)
 SIDE_NORMAL = {"front": 0.0, "rear": 180.0, "side": 90.0}
+# the delta-method sigma of damage evidence holds for a relative stiffness error up to about 0.3 and crush
+# errors small beside the crush (docs/physics.md §28): (sigma_stiffness, sigma_crush / mean crush) limits
+SIGMA_FIRST_ORDER = (0.3, 0.5)
 
 
 # ---------------------------------------------------------------- checks of the inputs
@@ -321,6 +324,13 @@ def damage_ees_report(evidence: DamageEvidence, spec: VehicleSpec, where: str = 
     energy = rep["energy"]
     sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
     ees_kmh = rep["ees_kmh"]
+    mean_crush = sum(rep["profile"]) / len(rep["profile"])
+    if evidence.sigma_stiffness > SIGMA_FIRST_ORDER[0] or evidence.sigma_crush > SIGMA_FIRST_ORDER[1] * mean_crush:
+        rep["warnings"].append(
+            f"sigma_stiffness {evidence.sigma_stiffness:g}, sigma_crush {evidence.sigma_crush:g} m against a mean "
+            f"crush of {mean_crush:.3g} m: the first order sigma holds for sigma_stiffness <= "
+            f"{SIGMA_FIRST_ORDER[0]:g} and sigma_crush <= {SIGMA_FIRST_ORDER[1]:g} x the mean crush "
+            "(docs/physics.md §28); beyond, the EES is not Gaussian and its sigma is a rough one")
     return ees_kmh, ees_kmh * sigma_e / (2.0 * energy), rep
 
 

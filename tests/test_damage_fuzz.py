@@ -266,3 +266,11 @@ def test_bad_damage_evidence_is_one_line_naming_the_key(tmp_path, case):
     assert_refused_with_one_line(load_study, study(tmp_path, text), key, words)
 
 
+def test_damage_evidence_beyond_the_first_order_sigma_warns(tmp_path):
+    """docs/physics.md §28: the delta-method sigma holds for sigma_stiffness up to about 0.3; 1.0 was accepted
+    without a word."""
+    items = load_study(study(tmp_path, damage(sigma_stiffness="0.9"))).evidence_set.items
+    detail = next(it.detail for it in items if it.kind == "damage")
+    assert "warning" in detail and "first order" in detail
+    items = load_study(study(tmp_path, damage())).evidence_set.items
+    assert "warning" not in next(it.detail for it in items if it.kind == "damage")
