@@ -350,11 +350,12 @@ def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec:
 
 
 def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, n: int = 6,
-                    pdof: float | None = None) -> list[float]:
+                    pdof: float | None = None, where: str = "damage", prefix: str = "") -> list[float]:
     """A uniform n-point profile [m] over `width` whose `report` EES is `ees_kmh` (for twin experiments):
-    C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros."""
-    s = spec.structure[_side(side, "damage")]
-    factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof))
+    C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros. Bad
+    input: InputError naming `where` and `prefix` + the key (as `report`)."""
+    s = spec.structure[_side(side, where, prefix + "side")]
+    factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof), prefix + "pdof", where)
     per_width = 0.5 * spec.mass * kmh_to_ms(ees_kmh) ** 2 / (factor * width) - s.G
     c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B
     return [c] * n

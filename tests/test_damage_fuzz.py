@@ -101,7 +101,8 @@ def test_a_structure_whose_G_is_absurd_is_refused_naming_B(tmp_path):
                      '[vehicles.overrides]\nmass = 1000.0\n[vehicles.overrides.structure.side]\nA = 2e6\nB = 1e-3\n')
     with pytest.raises(InputError) as err:  # the overridden structure is named, not the overridden mass
         command(str(scene), "side", "0.2,0.2", 1.5)
-    assert str(err.value).startswith(f"{scene}: vehicles.V1.overrides.structure.side.B: ") and "\n" not in str(err.value)
+    line = str(err.value)
+    assert line.startswith(f"{scene}: vehicles.V1.overrides.structure.side.B: ") and "\n" not in line
 
 
 @pytest.mark.parametrize("side, profile, key", [("front", "5,5", "--profile[1]"),
@@ -274,3 +275,15 @@ def test_damage_evidence_beyond_the_first_order_sigma_warns(tmp_path):
     assert "warning" in detail and "first order" in detail
     items = load_study(study(tmp_path, damage())).evidence_set.items
     assert "warning" not in next(it.detail for it in items if it.kind == "damage")
+
+
+@pytest.mark.parametrize("side, pdof", [("front", 90.0), ("front", 180.0), ("side", 0.0)])
+def test_a_twin_whose_pdof_cannot_crush_the_side_names_the_study_file_and_key(tmp_path, side, pdof):
+    """A twin fills the profile from the run (profile_for_ees): its PDOF error read `damage: pdof: ...`,
+    naming neither the study file nor the key."""
+    path = tmp_path / "twin.toml"
+    path.write_text(f'\nscene = "{SIDE_SCENE.as_posix()}"\n{FREE_SPEEDS}[evidence]\ntwin = true\n'
+                    f'[evidence.rest.V1]\nsigma_xy = 1.0\n[evidence.damage.V1]\nside = "{side}"\nwidth = 1.2\n'
+                    f"pdof = {pdof}\nsigma_crush = 0.02\nsigma_stiffness = 0.15\n")
+    assert_refused_with_one_line(load_study, path, "evidence.damage.V1.pdof", ["cannot have crushed"])
+
