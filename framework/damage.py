@@ -31,6 +31,7 @@ from .units import kmh_to_ms, ms_to_kmh, wrap_deg
 from .vehicle import VehicleSpec
 
 PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
+DAMAGE_WIDTH_MIN = 0.1  # m, the narrowest damaged width (the structure width's lower bound, crashlab.structure)
 PDOF_LIMIT = 45.0  # deg: the largest angle between the force and the side's normal the correction is used for
 # deg: the direction the force comes from when it is normal to the side (vehicle axes, docs/physics.md §21)
 SIDE_NORMAL = {"front": 0.0, "rear": 180.0, "side": 90.0}
@@ -192,9 +193,11 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
         if c >= depth_limit:
             raise InputError(where, f"{prefix}profile[{i + 1}]", f"crush depth {c:g} m is deeper than the vehicle's "
                              f"{across} {depth_limit:g} m across its {side}")
-    if not 0.0 < width <= structure.width * (1 + 1e-9):
-        raise InputError(where, prefix + "width", f"damaged width {width:g} m must be positive and at most the "
-                         f"{side}'s structure width {structure.width:g} m (the vehicle's {what} {limit:g} m)")
+    if not DAMAGE_WIDTH_MIN <= width <= structure.width * (1 + 1e-9):
+        raise InputError(where, prefix + "width", f"damaged width {width:g} m must be at least "
+                         f"{DAMAGE_WIDTH_MIN:g} m (a CRASH3 profile is measured over a damaged width; a pole's is "
+                         f"some 0.3 m) and at most the {side}'s structure width {structure.width:g} m (the "
+                         f"vehicle's {what} {limit:g} m)")
     if side == "side":
         lo, hi = -spec.cg_to_rear, spec.cg_to_front
     else:

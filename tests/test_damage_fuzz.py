@@ -146,8 +146,8 @@ CLI_BAD = [  # (crashlab.cli.damage.command's arguments after `clio --side front
     (dict(profile="0.2,0.2,0.2,0.2,0.2", width=1.5), "--profile", ["2, 4 or 6"]),
     (dict(profile="0.2,0.2,0.2,0.2,0.2,0.2,0.2", width=1.5), "--profile", ["2, 4 or 6"]),
     (dict(profile="0.2,,0.2,0.2", width=1.5), "--profile", []),
-    (dict(profile="0.2,0.2", width=0.0), "--width", ["positive"]),
-    (dict(profile="0.2,0.2", width=-1.0), "--width", ["positive"]),
+    (dict(profile="0.2,0.2", width=0.0), "--width", ["at least"]),
+    (dict(profile="0.2,0.2", width=-1.0), "--width", ["at least"]),
     (dict(profile="0.2,0.2", width=3.0), "--width", ["at most"]),
     (dict(profile="0.2,0.2", width=math.nan), "--width", ["finite"]),
     (dict(profile="0.2,0.2", width=1.5, offset=1e9), "--offset", ["outside"]),
@@ -287,3 +287,10 @@ def test_a_twin_whose_pdof_cannot_crush_the_side_names_the_study_file_and_key(tm
                     f"pdof = {pdof}\nsigma_crush = 0.02\nsigma_stiffness = 0.15\n")
     assert_refused_with_one_line(load_study, path, "evidence.damage.V1.pdof", ["cannot have crushed"])
 
+
+@pytest.mark.parametrize("width", [1e-12, 0.05])
+def test_a_damaged_width_narrower_than_a_crush_measurement_is_refused(width):
+    """--width 1e-12 gave an EES of 0.0 km/h (exit 0); a twin's 1 cm width a uniform crush of 3.2 m."""
+    with pytest.raises(InputError) as err:
+        command("clio", "front", "0.2,0.2", width)
+    assert str(err.value).startswith("command line: --width: ") and "at least 0.1 m" in str(err.value)
