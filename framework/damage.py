@@ -218,6 +218,10 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     gamma = effective_mass_factor(spec.yaw_inertia, spec.mass, arm)
     speed = ees(energy, spec.mass)
     warnings = [warning] if warning else []
+    if structure.reference_mass and not 0.5 <= spec.mass / structure.reference_mass <= 2.0:
+        warnings.append(f"the {side}'s stiffness is the class default, a crash plot of a {structure.reference_mass:g} "
+                        f"kg vehicle, and this one is {spec.mass:g} kg: the crush energy is off by about their "
+                        f"ratio (docs/physics.md §28); give the vehicle file's [structure.{side}] or its class")
     if max(profile) == 0.0:
         warnings.append("no residual crush: the CRASH3 energy is then G L, the most the side absorbs without "
                         "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "

@@ -86,13 +86,15 @@ class StructureSection(BaseModel):
 @dataclasses.dataclass(frozen=True)
 class Structure:
     """One side's CRASH3 stiffness (docs/physics.md §28): force per unit width F/w = A + B C for a residual
-    crush C, over `width` [m]; `default` when the vehicle file gave none and the class default is used."""
+    crush C, over `width` [m]; `default` when the vehicle file gave none and the class default is used, for a
+    vehicle of the class's `reference_mass` [kg] (CLASS_REFERENCE)."""
 
     A: float       # N/m
     B: float       # N/m^2
     width: float   # m
     source: str
     default: bool = False
+    reference_mass: float | None = None
 
     @property
     def G(self) -> float:
@@ -110,7 +112,8 @@ def structure_of(v) -> dict:
         extent = v.length if side == "side" else v.width
         if given is None:
             a, b, src = defaults[side]
-            out[side] = Structure(a, b, extent, src, default=True)
+            cls = v.vehicle_class if v.vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
+            out[side] = Structure(a, b, extent, src, default=True, reference_mass=CLASS_REFERENCE[cls][0])
         else:
             out[side] = Structure(given.A, given.B, extent if given.width is None else given.width,
                                   given.source or "not given")

@@ -294,3 +294,17 @@ def test_a_damaged_width_narrower_than_a_crush_measurement_is_refused(width):
     with pytest.raises(InputError) as err:
         command("clio", "front", "0.2,0.2", width)
     assert str(err.value).startswith("command line: --width: ") and "at least 0.1 m" in str(err.value)
+
+
+def test_a_class_default_far_from_the_vehicle_mass_warns(tmp_path):
+    """A 6000 kg vehicle without [structure] or class took the stiffness of a 1544 kg mid-size car with no
+    word: its EES from 0.3 m of front crush was 16.9 km/h where the crash plot at its own mass gives 33 km/h."""
+    heavy = CAR.replace(f"mass = {MASS}", "mass = 6000.0").replace(f"yaw_inertia = {YAW}", "yaw_inertia = 9000.0")
+    heavy = heavy.replace("roll_inertia = 450.0", "roll_inertia = 2250.0").replace("pitch_inertia = 1800.0",
+                                                                                   "pitch_inertia = 9000.0")
+    path = tmp_path / "heavy.toml"
+    path.write_text(heavy)
+    rep = strict_json(command(str(path), "front", "0.3,0.3", 1.5, as_json=True))
+    assert rep["structure_default"] and any("class default" in w and "6000 kg" in w for w in rep["warnings"])
+    rep = strict_json(command(str(car(tmp_path, "")), "front", "0.3,0.3", 1.5, as_json=True))  # 1200 kg: near
+    assert rep["structure_default"] and not rep["warnings"]
