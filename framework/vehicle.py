@@ -284,6 +284,19 @@ def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None
     return spec
 
 
+def _stiffness_sources(overrides: dict, key: str, scene_file) -> dict:
+    """The overrides, a [structure.<side>] whose A or B they set without a source given one naming them (the
+    vehicle file's source no longer gives the numbers used)."""
+    section = overrides.get("structure")
+    if not isinstance(section, dict):
+        return overrides
+    out = dict(section)
+    for side, given in section.items():
+        if isinstance(given, dict) and {"A", "B"} & set(given) and "source" not in given:
+            out[side] = {**given, "source": f"overridden in {scene_file}: {key}.structure.{side}"}
+    return {**overrides, "structure": out}
+
+
 def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None = None,
                  where: str = "vehicle", scene_file: str | Path = "<scene>") -> VehicleSpec:
     """A vehicle from the library by name, or from a file path (relative to `base_dir`), with overrides.
@@ -315,6 +328,7 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
             if key in data and isinstance(data[key], dict) != isinstance(val, dict):
                 raise InputError(scene_file, f"{where}.overrides.{key}",
                                  "a table is overridden by a table, a value by a value")
+        overrides = _stiffness_sources(overrides, f"{where}.overrides", scene_file)
         data = _deep_merge(data, overrides)
         spec = _validate(data, scene_file, f"{where}.overrides.", overrides)
     core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k not in ("sections", "structure")}

@@ -308,3 +308,17 @@ def test_a_class_default_far_from_the_vehicle_mass_warns(tmp_path):
     assert rep["structure_default"] and any("class default" in w and "6000 kg" in w for w in rep["warnings"])
     rep = strict_json(command(str(car(tmp_path, "")), "front", "0.3,0.3", 1.5, as_json=True))  # 1200 kg: near
     assert rep["structure_default"] and not rep["warnings"]
+
+
+def test_a_scene_override_of_the_stiffness_is_its_source(tmp_path):
+    """A scene overriding clio's front A kept the file's source ("estimate: A = m b0 b1 / L ... m = 980 kg"),
+    a provenance that no longer gives the number used."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text('name = "s"\nduration = 1.0\n[road]\nfriction = 0.8\n[[vehicles]]\nname = "V1"\n'
+                     'vehicle = "clio"\nx = 0.0\ny = 0.0\nheading = 0.0\nspeed = 30.0\n'
+                     '[vehicles.overrides.structure.front]\nA = 30000.0\n')
+    rep = strict_json(command(str(scene), "front", "0.2,0.2", 1.5, as_json=True))
+    assert rep["A"] == 30000.0 and rep["B"] == 429000.0  # clio.toml's B kept
+    assert rep["structure_source"].startswith(f"overridden in {scene}") and "overrides.structure.front" in \
+        rep["structure_source"]
+    assert "overridden" not in strict_json(command("clio", "front", "0.2,0.2", 1.5, as_json=True))["structure_source"]
