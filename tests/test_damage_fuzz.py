@@ -322,3 +322,56 @@ def test_a_scene_override_of_the_stiffness_is_its_source(tmp_path):
     assert rep["structure_source"].startswith(f"overridden in {scene}") and "overrides.structure.front" in \
         rep["structure_source"]
     assert "overridden" not in strict_json(command("clio", "front", "0.2,0.2", 1.5, as_json=True))["structure_source"]
+
+
+def test_a_scene_pair_where_one_vehicle_has_no_structure_uses_its_class_default(tmp_path):
+    car(tmp_path, "", "bare.toml")
+    scene = tmp_path / "scene.toml"
+    scene.write_text('name = "s"\nduration = 1.0\n[road]\nfriction = 0.8\n'
+                     '[[vehicles]]\nname = "A"\nvehicle = "bare.toml"\nx = 0.0\ny = 0.0\nheading = 0.0\nspeed = 50.0\n'
+                     '[[vehicles]]\nname = "B"\nvehicle = "clio"\nx = 5.0\ny = -3.0\nheading = 90.0\nspeed = 30.0\n')
+    rep = strict_json(command(str(scene), "front", "0.3,0.3", 1.5, vehicle="A", other="B:side:0.2,0.2:1.5:0:90",
+                              as_json=True))
+    (a, b), (dv1, dv2) = rep["vehicles"], rep["delta_v"]
+    assert a["structure_default"] and not b["structure_default"]
+    assert a["mass"] * dv1 == pytest.approx(b["mass"] * dv2, rel=1e-12)
+    # e = 0, both impulses central (gamma = 1): CRASH3's dV1 = sqrt(2 E_T m2 / (m1 (m1 + m2)))
+    assert a["gamma"] == b["gamma"] == 1.0
+    m1, m2 = a["mass"], b["mass"]
+    assert dv1 == pytest.approx(math.sqrt(2 * (a["energy"] + b["energy"]) * m2 / (m1 * (m1 + m2))), rel=1e-12)
+
+
+def test_random_inputs_give_an_input_error_or_finite_physical_numbers():
+    """300 seeded random commands over library vehicles, sides, profiles, widths, offsets, PDOFs and pairs:
+    each is refused with an InputError or gives finite numbers, a positive energy, 0 < gamma <= 1 and, for a
+    pair, m1 dV1 = m2 dV2."""
+    import random
+    rng = random.Random(24)
+    vehicles = ["clio", "saloon", "citaro_bus", "metro_1998"]
+
+    def profile():
+        depths = [0.0, 0.01, 0.1, 0.3, 0.6, 1.2, 2.5, 4.9]
+        return ",".join(repr(rng.choice(depths)) for _ in range(rng.choice([2, 4, 6])))
+
+    def number(lo, hi):
+        return rng.uniform(lo, hi) if rng.random() < 0.9 else rng.choice([0.0, 1e-9, -1.0, 12.0, 89.99, 90.0])
+
+    ok = 0
+    for _ in range(300):
+        other = (f"{rng.choice(vehicles)}:{rng.choice(['front', 'rear', 'side'])}:{profile()}:{number(0.1, 2.0)}:"
+                 f"{number(-0.5, 0.5)}:{number(-180, 180)}") if rng.random() < 0.4 else None
+        try:
+            out = command(rng.choice(vehicles), rng.choice(["front", "rear", "side"]), profile(), number(0.1, 2.0),
+                          rng.choice([0.0, number(-0.5, 0.5)]), rng.choice([None, number(-180, 180)]), other=other,
+                          restitution=rng.choice([0.0, 0.3]) if other else 0.0, as_json=True)
+        except InputError as err:
+            assert "\n" not in str(err) and str(err).startswith("command line: --")
+            continue
+        rep = strict_json(out)
+        for r in rep.get("vehicles", [rep]):
+            assert r["energy"] > 0 and r["ees"] > 0 and 0 < r["gamma"] <= 1, r
+        if "delta_v" in rep:
+            (r1, r2), (dv1, dv2) = rep["vehicles"], rep["delta_v"]
+            assert r1["mass"] * dv1 == pytest.approx(r2["mass"] * dv2, rel=1e-12)
+        ok += 1
+    assert ok > 40  # enough valid commands to check the numbers
