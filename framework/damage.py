@@ -31,9 +31,13 @@ from .units import kmh_to_ms, ms_to_kmh, wrap_deg
 from .vehicle import VehicleSpec
 
 PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
+DAMAGE_WIDTH_MIN = 0.1  # m, the narrowest damaged width (the structure width's lower bound, crashlab.structure)
 PDOF_LIMIT = 45.0  # deg: the largest angle between the force and the side's normal the correction is used for
 # deg: the direction the force comes from when it is normal to the side (vehicle axes, docs/physics.md §21)
 SIDE_NORMAL = {"front": 0.0, "rear": 180.0, "side": 90.0}
+# the delta-method sigma of damage evidence holds for a relative stiffness error up to about 0.3 and crush
+# errors small beside the crush (docs/physics.md §28): (sigma_stiffness, sigma_crush / mean crush) limits
+SIGMA_FIRST_ORDER = (0.3, 0.5)
 
 
 # ---------------------------------------------------------------- checks of the inputs
@@ -44,7 +48,8 @@ def _finite(value, key: str, where: str) -> float:
 
 
 def check_profile(profile: Sequence[float], key: str = "profile", where: str = "damage") -> list[float]:
-    """The profile as floats: 2, 4 or 6 finite, non-negative depths [m], not all zero; InputError otherwise."""
+    """The profile as floats: 2, 4 or 6 finite, non-negative depths [m] of at most 5 m; InputError otherwise
+    (all zero is allowed: `report` warns that its EES is an upper bound)."""
     if isinstance(profile, (str, bytes)) or not isinstance(profile, Sequence):
         raise InputError(where, key, f"a list of {', '.join(map(str, PROFILE_POINTS))} crush depths [m]")
     if len(profile) not in PROFILE_POINTS:
@@ -183,9 +188,16 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     offset = _finite(offset, prefix + "offset", where)
     structure: Structure = spec.structure[side]
     limit, what = (spec.length, "length") if side == "side" else (spec.width, "width")
-    if not 0.0 < width <= structure.width * (1 + 1e-9):
-        raise InputError(where, prefix + "width", f"damaged width {width:g} m must be positive and at most the "
-                         f"{side}'s structure width {structure.width:g} m (the vehicle's {what} {limit:g} m)")
+    depth_limit, across = (spec.width, "width") if side == "side" else (spec.length, "length")
+    for i, c in enumerate(profile):
+        if c >= depth_limit:
+            raise InputError(where, f"{prefix}profile[{i + 1}]", f"crush depth {c:g} m is deeper than the vehicle's "
+                             f"{across} {depth_limit:g} m across its {side}")
+    if not DAMAGE_WIDTH_MIN <= width <= structure.width * (1 + 1e-9):
+        raise InputError(where, prefix + "width", f"damaged width {width:g} m must be at least "
+                         f"{DAMAGE_WIDTH_MIN:g} m (a CRASH3 profile is measured over a damaged width; a pole's is "
+                         f"some 0.3 m) and at most the {side}'s structure width {structure.width:g} m (the "
+                         f"vehicle's {what} {limit:g} m)")
     if side == "side":
         lo, hi = -spec.cg_to_rear, spec.cg_to_front
     else:
@@ -205,6 +217,15 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     arm = _geometry(spec, side, offset, alpha, pdof_used, lateral, depth)
     gamma = effective_mass_factor(spec.yaw_inertia, spec.mass, arm)
     speed = ees(energy, spec.mass)
+    warnings = [warning] if warning else []
+    if structure.reference_mass and not 0.5 <= spec.mass / structure.reference_mass <= 2.0:
+        warnings.append(f"the {side}'s stiffness is the class default, a crash plot of a {structure.reference_mass:g} "
+                        f"kg vehicle, and this one is {spec.mass:g} kg: the crush energy is off by about their "
+                        f"ratio (docs/physics.md §28); give the vehicle file's [structure.{side}] or its class")
+    if max(profile) == 0.0:
+        warnings.append("no residual crush: the CRASH3 energy is then G L, the most the side absorbs without "
+                        "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "
+                        "is an upper bound, not a measurement")
     return {
         "vehicle": spec.name, "mass": spec.mass, "side": side, "profile": profile, "width": width,
         "offset": offset, "pdof": pdof_used, "pdof_angle": alpha, "pdof_factor": factor,
@@ -213,7 +234,7 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
         "energy_uncorrected": e0, "energy": energy, "ees": speed, "ees_kmh": ms_to_kmh(speed),
         "centroid_lateral": lateral, "centroid_depth": depth, "moment_arm": arm,
         "radius_of_gyration": math.sqrt(spec.yaw_inertia / spec.mass), "gamma": gamma,
-        "warnings": [warning] if warning else [],
+        "warnings": warnings,
     }
 
 
@@ -310,6 +331,13 @@ def damage_ees_report(evidence: DamageEvidence, spec: VehicleSpec, where: str = 
     energy = rep["energy"]
     sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
     ees_kmh = rep["ees_kmh"]
+    mean_crush = sum(rep["profile"]) / len(rep["profile"])
+    if evidence.sigma_stiffness > SIGMA_FIRST_ORDER[0] or evidence.sigma_crush > SIGMA_FIRST_ORDER[1] * mean_crush:
+        rep["warnings"].append(
+            f"sigma_stiffness {evidence.sigma_stiffness:g}, sigma_crush {evidence.sigma_crush:g} m against a mean "
+            f"crush of {mean_crush:.3g} m: the first order sigma holds for sigma_stiffness <= "
+            f"{SIGMA_FIRST_ORDER[0]:g} and sigma_crush <= {SIGMA_FIRST_ORDER[1]:g} x the mean crush "
+            "(docs/physics.md §28); beyond, the EES is not Gaussian and its sigma is a rough one")
     return ees_kmh, ees_kmh * sigma_e / (2.0 * energy), rep
 
 
@@ -329,11 +357,12 @@ def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec:
 
 
 def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, n: int = 6,
-                    pdof: float | None = None) -> list[float]:
+                    pdof: float | None = None, where: str = "damage", prefix: str = "") -> list[float]:
     """A uniform n-point profile [m] over `width` whose `report` EES is `ees_kmh` (for twin experiments):
-    C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros."""
-    s = spec.structure[_side(side, "damage")]
-    factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof))
+    C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros. Bad
+    input: InputError naming `where` and `prefix` + the key (as `report`)."""
+    s = spec.structure[_side(side, where, prefix + "side")]
+    factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof), prefix + "pdof", where)
     per_width = 0.5 * spec.mass * kmh_to_ms(ees_kmh) ** 2 / (factor * width) - s.G
     c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B
     return [c] * n

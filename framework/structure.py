@@ -11,6 +11,9 @@ from .file_numbers import Real, bounded
 STRUCTURE_SIDES = ("front", "rear", "side")
 A_RANGE = (0.0, 2e6)   # N/m: cars 20-80e3 (front), a bus or truck front some 1e5-5e5
 B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
+# m/s, the largest no-damage speed b0 = sqrt(2 G w / m) a side may imply (G = A^2 / 2B over its width w): tests
+# bracket 2.2-4.5 m/s (SAE 2010-01-0069); a pair of A, B each in range may still give an absurd G (B -> 0)
+NO_DAMAGE_SPEED_MAX = 8.0
 
 
 class StructureSideFile(BaseModel):
@@ -83,13 +86,15 @@ class StructureSection(BaseModel):
 @dataclasses.dataclass(frozen=True)
 class Structure:
     """One side's CRASH3 stiffness (docs/physics.md §28): force per unit width F/w = A + B C for a residual
-    crush C, over `width` [m]; `default` when the vehicle file gave none and the class default is used."""
+    crush C, over `width` [m]; `default` when the vehicle file gave none and the class default is used, for a
+    vehicle of the class's `reference_mass` [kg] (CLASS_REFERENCE)."""
 
     A: float       # N/m
     B: float       # N/m^2
     width: float   # m
     source: str
     default: bool = False
+    reference_mass: float | None = None
 
     @property
     def G(self) -> float:
@@ -107,7 +112,8 @@ def structure_of(v) -> dict:
         extent = v.length if side == "side" else v.width
         if given is None:
             a, b, src = defaults[side]
-            out[side] = Structure(a, b, extent, src, default=True)
+            cls = v.vehicle_class if v.vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
+            out[side] = Structure(a, b, extent, src, default=True, reference_mass=CLASS_REFERENCE[cls][0])
         else:
             out[side] = Structure(given.A, given.B, extent if given.width is None else given.width,
                                   given.source or "not given")

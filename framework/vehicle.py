@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .errors import InputError
 from .file_numbers import Real, bounded
 from .input_files import pydantic_error, read_toml
-from .structure import STRUCTURE_SIDES, StructureSection, structure_of
+from .structure import NO_DAMAGE_SPEED_MAX, STRUCTURE_SIDES, StructureSection, structure_of
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
@@ -176,6 +176,14 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
             out.append(((f"structure.{side}.width", name),
                         f"structure.{side}.width ({given.width:g} m) must not exceed the vehicle's {name} "
                         f"({limit:g} m)"))
+        if given is not None:  # docs/physics.md §28: G = A^2/2B = m b0^2 / 2w
+            b0 = math.sqrt(given.A * given.A / given.B * (given.width or limit) / v.mass)
+            if not b0 <= NO_DAMAGE_SPEED_MAX:
+                out.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"),
+                            f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
+                            f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) of "
+                            f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg: more than "
+                            f"{NO_DAMAGE_SPEED_MAX:g} m/s is no vehicle structure (B too small for A?)"))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
     if v.cg_height >= v.height:
@@ -251,6 +259,15 @@ def _deep_merge(base: dict, update: dict) -> dict:
     return out
 
 
+def _has_key(data: dict, dotted: str) -> bool:
+    """Whether nested tables `data` hold the key path `dotted` ("structure.front.B")."""
+    for part in dotted.split("."):
+        if not isinstance(data, dict) or part not in data:
+            return False
+        data = data[part]
+    return True
+
+
 def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None) -> VehicleFile:
     """VehicleFile of `data`, every bad number blamed on `file` under `prefix` (the file itself, or the
     scene's overrides: then the problem is named by an overridden key where one is involved)."""
@@ -262,9 +279,22 @@ def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None
     if hit is not None:
         raise InputError(file, prefix + ".".join(map(str, hit)), "Input should be a finite number")
     for keys, problem in consistency_problems(spec):
-        named = [k for k in keys if overridden is None or k in overridden]
+        named = [k for k in keys if overridden is None or _has_key(overridden, k)]
         raise InputError(file, prefix + (named or keys)[0], problem)
     return spec
+
+
+def _stiffness_sources(overrides: dict, key: str, scene_file) -> dict:
+    """The overrides, a [structure.<side>] whose A or B they set without a source given one naming them (the
+    vehicle file's source no longer gives the numbers used)."""
+    section = overrides.get("structure")
+    if not isinstance(section, dict):
+        return overrides
+    out = dict(section)
+    for side, given in section.items():
+        if isinstance(given, dict) and {"A", "B"} & set(given) and "source" not in given:
+            out[side] = {**given, "source": f"overridden in {scene_file}: {key}.structure.{side}"}
+    return {**overrides, "structure": out}
 
 
 def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None = None,
@@ -298,6 +328,7 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
             if key in data and isinstance(data[key], dict) != isinstance(val, dict):
                 raise InputError(scene_file, f"{where}.overrides.{key}",
                                  "a table is overridden by a table, a value by a value")
+        overrides = _stiffness_sources(overrides, f"{where}.overrides", scene_file)
         data = _deep_merge(data, overrides)
         spec = _validate(data, scene_file, f"{where}.overrides.", overrides)
     core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k not in ("sections", "structure")}

@@ -176,7 +176,7 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
         sim = ms_to_kmh(crush_ees(twin_outcome, n, vspec.mass))
         if not math.isfinite(sim):
             raise InputError(path, key, f"the twin's run has no impact of {n}")
-        profile = np.array(profile_for_ees(sim, vspec, e.side, e.width, pdof=e.pdof))
+        profile = np.array(profile_for_ees(sim, vspec, e.side, e.width, pdof=e.pdof, where=path, prefix=f"{key}."))
         if rng is not None:
             profile = np.maximum(profile + rng.normal(0.0, e.sigma_crush, len(profile)), 0.0)
         e = e.model_copy(update={"profile": [float(c) for c in profile]})

@@ -26,23 +26,25 @@ def is_scene(target: str) -> bool:
     return target.endswith(".toml") and Path(target).is_file() and "vehicles" in read_toml(Path(target), "scene")
 
 
-def vehicle_for(target: str, vehicle: str | None = None, where: str = "command line") -> VehicleSpec:
+def vehicle_for(target: str, vehicle: str | None = None, where: str = "command line", key: str = "--vehicle",
+                target_key: str = "target") -> VehicleSpec:
     """The vehicle of `crashlab damage SCENE|VEHICLE`: a library vehicle's name or a vehicle file; a .toml file
-    with [[vehicles]] is a scene, and `vehicle` names one of its vehicles (may be left out when it has one)."""
+    with [[vehicles]] is a scene, and `vehicle` names one of its vehicles (may be left out when it has one).
+    Errors name `key` (the option naming a scene's vehicle) or `target_key` (the option naming the vehicle)."""
     if is_scene(target):
         scene = load_scene(target)
         names = [v.name for v in scene.vehicles]
         if vehicle is None:
             if len(names) != 1:
-                raise InputError(where, "--vehicle", f"the scene has {len(names)} vehicles: name one of "
+                raise InputError(where, key, f"the scene has {len(names)} vehicles: name one of "
                                  f"{', '.join(names)}")
             return scene.vehicles[0].spec
         if vehicle not in names:
-            raise InputError(where, "--vehicle", f"no vehicle {vehicle!r} in {target}: one of {', '.join(names)}")
+            raise InputError(where, key, f"no vehicle {vehicle!r} in {target}: one of {', '.join(names)}")
         return scene.vehicles[names.index(vehicle)].spec
     if vehicle is not None:
-        raise InputError(where, "--vehicle", "names a vehicle of a scene; the target is a vehicle")
-    return load_vehicle(target, base_dir=Path.cwd(), where="target", scene_file=where)
+        raise InputError(where, key, "names a vehicle of a scene; the target is a vehicle")
+    return load_vehicle(target, base_dir=Path.cwd(), where=target_key, scene_file=where)
 
 
 def parse_other(text: str, key: str = "--with", where: str = "command line") -> dict:
@@ -69,7 +71,14 @@ def command(target: str, side: str, profile: str, width: float, offset: float = 
     if other is not None:
         o = parse_other(other)
         name = o.pop("vehicle")
-        spec2 = vehicle_for(target, name) if is_scene(target) else vehicle_for(name)
+        if is_scene(target):
+            own = vehicle if vehicle is not None else load_scene(target).vehicles[0].name
+            if name == own:
+                raise InputError("command line", "--with", f"{name!r} is the damaged vehicle itself: name the "
+                                 "scene's other vehicle of the impact")
+            spec2 = vehicle_for(target, name, key="--with")
+        else:
+            spec2 = vehicle_for(name, target_key="--with")
         rep2 = report(spec2, o["side"], o["profile"], o["width"], o["offset"], o["pdof"], "command line",
                       "--with ")
         if not (isinstance(restitution, (int, float)) and 0.0 <= restitution < 1.0):
