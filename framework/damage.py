@@ -262,7 +262,7 @@ def format_report(rep: dict) -> str:
         f"{rep['vehicle']}: {rep['side']}, {len(rep['profile'])}-point profile "
         f"{', '.join(f'{c:.3f}' for c in rep['profile'])} m over {rep['width']:.3f} m, offset {rep['offset']:.3f} m",
         f"  stiffness A {rep['A'] / 1e3:.1f} kN/m, B {rep['B'] / 1e3:.0f} kN/m^2, G {rep['G']:.0f} J/m ({src})",
-        f"  PDOF {rep['pdof']:.0f} deg ({rep['pdof_angle']:.0f} deg off the normal, factor "
+        f"  PDOF {rep['pdof']:.1f} deg ({rep['pdof_angle']:.1f} deg off the normal, factor "
         f"{rep['pdof_factor']:.3f}); crush energy {rep['energy'] / 1e3:.1f} kJ; EES {rep['ees_kmh']:.1f} km/h",
         f"  moment arm {rep['moment_arm']:.2f} m, radius of gyration {rep['radius_of_gyration']:.2f} m, "
         f"effective-mass factor {rep['gamma']:.3f}"] + [f"  warning: {w}" for w in rep["warnings"]])
