@@ -274,7 +274,7 @@ def goal_rows(rows: list[dict]) -> list[dict]:
 
 
 def side_by_side(rows: list[dict]) -> list[str]:
-    """Markdown lines: per model that runs more than one (law, contact) variant, the error % of every
+    """Markdown lines: per model that runs more than one (law, contact, restitution) variant, the error % of every
     (test, quantity, vehicle) in one column per variant ("*": an impact flagged slip_reversed; "fail": the
     run failed); nothing for a model with one variant."""
     lines = []
@@ -285,8 +285,9 @@ def side_by_side(rows: list[dict]) -> list[str]:
             continue
         cells = {(r["test"], r["quantity"], r["vehicle"], (r["law"], r["contact"], r["restitution"])): r
                  for r in mine}
+        heads = " | ".join(f"{law} {contact} e {e}" for law, contact, e in cols)
         lines += ["", f"## {model}: every law and contact side by side (error %)", "",
-                  "| test | quantity | vehicle | published | " + " | ".join(f"{c[0]} {c[1]}" for c in cols) + " |",
+                  f"| test | quantity | vehicle | published | {heads} |",
                   "|---|---|---|---:|" + "---:|" * len(cols)]
         for key in dict.fromkeys((r["test"], r["quantity"], r["vehicle"]) for r in mine):
             vals = []

@@ -251,3 +251,8 @@ def test_side_by_side_marks_a_flagged_run():
     lines = validation.side_by_side(rows)
     assert "| t | delta_v | V1 | 10.000 | -35.0* | 2.0 | fail |" in lines
     assert validation.side_by_side(rows[1:2]) == []  # one variant: no side-by-side table
+    # columns that differ only in the restitution say which is which (they read "- found | - found" before)
+    two = [{**base, "model": "multibody", "law": "-", "contact": "found", "ok": True, "error_pct": 1.0,
+            "slip_reversed": False, "restitution": e} for e in (0.1, "speed")]
+    head = next(line for line in validation.side_by_side(two) if line.startswith("| test"))
+    assert "| - found e 0.1 | - found e speed |" in head
