@@ -58,9 +58,14 @@ def crash_plot_coefficients(side: str, mass: float, width: float) -> tuple[float
     return mass * b0 * b1 / w, mass * b1 * b1 / w
 
 
+def reference_class(vehicle_class: str | None) -> str:
+    """The class whose crash plot a vehicle without [structure] takes: its own, else DEFAULT_CLASS."""
+    return vehicle_class if vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
+
+
 def class_structure(vehicle_class: str | None) -> dict:
     """side -> (A, B, source) of a class's default structure (docs/physics.md §28)."""
-    cls = vehicle_class if vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
+    cls = reference_class(vehicle_class)
     mass, width = CLASS_REFERENCE[cls]
     out = {}
     for side in STRUCTURE_SIDES:
@@ -112,8 +117,8 @@ def structure_of(v) -> dict:
         extent = v.length if side == "side" else v.width
         if given is None:
             a, b, src = defaults[side]
-            cls = v.vehicle_class if v.vehicle_class in CLASS_REFERENCE else DEFAULT_CLASS
-            out[side] = Structure(a, b, extent, src, default=True, reference_mass=CLASS_REFERENCE[cls][0])
+            out[side] = Structure(a, b, extent, src, default=True,
+                                  reference_mass=CLASS_REFERENCE[reference_class(v.vehicle_class)][0])
         else:
             out[side] = Structure(given.A, given.B, extent if given.width is None else given.width,
                                   given.source or "not given")

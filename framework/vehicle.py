@@ -176,13 +176,14 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
             out.append(((f"structure.{side}.width", name),
                         f"structure.{side}.width ({given.width:g} m) must not exceed the vehicle's {name} "
                         f"({limit:g} m)"))
-        if given is not None:  # docs/physics.md §28: G = A^2/2B = m b0^2 / 2w
+        if given is not None:  # docs/physics.md §28: the side's G w is the vehicle's energy at this speed
             b0 = math.sqrt(given.A * given.A / given.B * (given.width or limit) / v.mass)
             if not b0 <= NO_DAMAGE_SPEED_MAX:
                 out.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"),
                             f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
                             f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) of "
-                            f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg: more than "
+                            f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg (the speed "
+                            f"whose energy the side absorbs without residual crush): more than "
                             f"{NO_DAMAGE_SPEED_MAX:g} m/s is no vehicle structure (B too small for A?)"))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))

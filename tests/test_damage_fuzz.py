@@ -105,6 +105,19 @@ def test_a_structure_whose_G_is_absurd_is_refused_naming_B(tmp_path):
     assert line.startswith(f"{scene}: vehicles.V1.overrides.structure.side.B: ") and "\n" not in line
 
 
+@pytest.mark.parametrize("b0, refused", [(7.0, False), (7.9, False), (8.1, True), (9.0, True)])
+def test_the_no_damage_speed_bound_sits_at_8_m_s(tmp_path, b0, refused):
+    """The bound itself, near its value (the cases above are far beyond it): B chosen so that
+    sqrt(2 G w / m) = sqrt(A^2 w / (B m)) is b0 for the test car's front (w its width, written here)."""
+    b = A_FRONT ** 2 * WIDTH / (b0 ** 2 * MASS)
+    path = car(tmp_path, f"[structure.front]\nA = {A_FRONT}\nB = {b!r}\n", f"b0_{b0}.toml")
+    res = cli(path, "--side", "front", "--profile", "0.2,0.2", "--width", "1.5")
+    if refused:
+        assert_one_error_line(res, path, "structure.front.B", ["no-damage speed"])
+    else:
+        assert res.returncode == 0, res.stderr
+
+
 @pytest.mark.parametrize("side, profile, key", [("front", "5,5", "--profile[1]"),
                                                 ("rear", "0.2,4.3,0.2,0.2", "--profile[2]"),
                                                 ("side", "1.7,1.7", "--profile[1]")])
@@ -235,7 +248,10 @@ def study(tmp_path, damage: str) -> Path:
     return path
 
 
-def damage(vehicle="V1", side="front", width="1.2", profile="[0.1, 0.18, 0.25, 0.22, 0.15, 0.08]",
+PROFILE = (0.1, 0.18, 0.25, 0.22, 0.15, 0.08)  # m, the studies' damage profile
+
+
+def damage(vehicle="V1", side="front", width="1.2", profile=str(list(PROFILE)),
            sigma_crush="0.02", sigma_stiffness="0.15", extra="") -> str:
     return (f'[evidence.damage.{vehicle}]\nside = "{side}"\nwidth = {width}\nprofile = {profile}\n'
             f"sigma_crush = {sigma_crush}\nsigma_stiffness = {sigma_stiffness}\n{extra}")
@@ -275,6 +291,11 @@ def test_damage_evidence_beyond_the_first_order_sigma_warns(tmp_path):
     assert "warning" in detail and "first order" in detail
     items = load_study(study(tmp_path, damage())).evidence_set.items
     assert "warning" not in next(it.detail for it in items if it.kind == "damage")
+    # the crush error's branch: sigma_crush over half the mean crush
+    mean = sum(PROFILE) / len(PROFILE)
+    for sigma, warns in ((0.45 * mean, False), (0.55 * mean, True)):
+        items = load_study(study(tmp_path, damage(sigma_crush=f"{sigma!r}"))).evidence_set.items
+        assert ("first order" in next(it.detail for it in items if it.kind == "damage")) == warns, sigma
 
 
 @pytest.mark.parametrize("side, pdof", [("front", 90.0), ("front", 180.0), ("side", 0.0)])
@@ -308,6 +329,13 @@ def test_a_class_default_far_from_the_vehicle_mass_warns(tmp_path):
     assert rep["structure_default"] and any("class default" in w and "6000 kg" in w for w in rep["warnings"])
     rep = strict_json(command(str(car(tmp_path, "")), "front", "0.3,0.3", 1.5, as_json=True))  # 1200 kg: near
     assert rep["structure_default"] and not rep["warnings"]
+    # the light branch: under half the class's 1544 kg (the mid-size default of a vehicle without a class)
+    for mass, warns in ((700.0, True), (800.0, False)):
+        light = CAR.replace(f"mass = {MASS}", f"mass = {mass}")
+        path = tmp_path / f"light{mass:g}.toml"
+        path.write_text(light)
+        rep = strict_json(command(str(path), "front", "0.3,0.3", 1.5, as_json=True))
+        assert any("class default" in w for w in rep["warnings"]) == warns, mass
 
 
 def test_a_scene_override_of_the_stiffness_is_its_source(tmp_path):
