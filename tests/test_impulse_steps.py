@@ -1,5 +1,5 @@
 """The impulse model's step policy (docs/physics.md §2, issue 25 item 3): the locked wheels' load transfer solved
-(planar_vehicle.locked_forces), the fine step from the wheels' slip speeds (slip_rate) and long steps for locked
+(planar_vehicle.locked_forces), the fine step from the wheels' slip speeds (rate_of_slips) and long steps for locked
 slides (motion._long_step). Results must not depend on the step beyond the work-precision error."""
 import math
 
@@ -15,8 +15,9 @@ from crashlab.models.common.planar_vehicle import (
     P_TRACK,
     V_REG,
     locked_forces,
-    slip_rate,
+    rate_of_slips,
     vehicle_forces_trig,
+    wheel_slips,
 )
 from crashlab.models.common.wheel_states import LOCKED, ROLLING
 from crashlab.models.impulse import ImpulseModel
@@ -51,6 +52,11 @@ def test_locked_forces_are_the_fixed_point_of_the_lagged_transfer(state):
     assert np.hypot(*acc_s) <= MU * G * (1 + 1e-12)  # the loads sum to m g: the friction at most mu m g
 
 
+def _slip_rate(p, s, mode):
+    """The fine step's rate of a vehicle heading along x without steer (rate_of_slips of its wheel_slips)."""
+    return rate_of_slips(p, MU, mode, 0.0, wheel_slips(p, s, 1.0, 0.0, 1.0, 0.0, MU), 0.005)
+
+
 def test_slip_rate_is_the_worst_case_at_standstill_and_falls_with_the_slip_speed():
     """At zero slip speed the bound is the regularisation's worst case mu g / V_REG max(1, m rho^2 / Iz) (locked)
     and C_alpha-limited at V_LOW (rolling); a car sliding at 10 m/s allows far more than the 5 ms fine step."""
@@ -58,15 +64,15 @@ def test_slip_rate_is_the_worst_case_at_standstill_and_falls_with_the_slip_speed
     m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
     rho2 = 0.5 * (a * a + b * b) + 0.25 * track * track
     at_rest = np.zeros(6)
-    assert slip_rate(p, at_rest, 1.0, 0.0, 1.0, 0.0, MU, LOCKED, 0.0, 0.005) == pytest.approx(
+    assert _slip_rate(p, at_rest, LOCKED) == pytest.approx(
         MU * G / V_REG * max(1.0, m * rho2 / iz), rel=1e-12)
-    assert 1.0 / slip_rate(p, at_rest, 1.0, 0.0, 1.0, 0.0, MU, LOCKED, 0.0, 0.005) == pytest.approx(0.0036, abs=1e-4)
+    assert 1.0 / _slip_rate(p, at_rest, LOCKED) == pytest.approx(0.0036, abs=1e-4)
     sliding = np.array([0.0, 0.0, 0.0, 10.0, 0.0, 0.0])
-    assert 1.0 / slip_rate(p, sliding, 1.0, 0.0, 1.0, 0.0, MU, LOCKED, 0.0, 0.005) > 0.05
-    assert 1.0 / slip_rate(p, sliding, 1.0, 0.0, 1.0, 0.0, MU, ROLLING, 0.0, 0.005) > 0.005
+    assert 1.0 / _slip_rate(p, sliding, LOCKED) > 0.05
+    assert 1.0 / _slip_rate(p, sliding, ROLLING) > 0.005
     # the speed a wheel can lose within the step is taken off first: at 0.1 m/s a 5 ms step is the worst case
     creeping = np.array([0.0, 0.0, 0.0, 0.1, 0.0, 0.0])
-    assert slip_rate(p, creeping, 1.0, 0.0, 1.0, 0.0, MU, LOCKED, 0.0, 0.005) == pytest.approx(
+    assert _slip_rate(p, creeping, LOCKED) == pytest.approx(
         MU * G / V_REG * max(1.0, m * rho2 / iz), rel=1e-12)
 
 

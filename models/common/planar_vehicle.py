@@ -215,21 +215,15 @@ def wheel_slips(p, s, c, sn, cs, ss, mu):
 
 
 @register_jitable
-def slip_rate(p, s, c, sn, cs, ss, mu, mode, brake, dt):
-    """Largest decay rate [1/s] of the regularised tyre forces (lateral and yaw modes) of one vehicle in state s
-    (heading cos, sin c, sn; steer cos, sin cs, ss; wheel state `mode`, brake fraction `brake`; the road's
-    largest friction mu) over a step of at most dt: an explicit step must stay below about 1 / rate (Heun is
-    stable up to 2 / rate). Each regularised force's stiffness at the slowest wheel's own slip speed, the
-    speed it can lose within dt taken off first (wheel_slips; docs/physics.md §2): a locked wheel's Coulomb
-    force is stiff (mu N / sqrt(|v|^2 + V_REG^2)) only near standstill, a braked wheel's
-    (mu N / V_REG / cosh^2(v_x / V_REG)) only near v_x = 0, a rolling tyre's (C_alpha / max(|v_x|, V_LOW))
-    only slower than a few m/s. At zero slip speed: the worst case, e.g. 1 / 3.6 ms for the Clio locked."""
-    return rate_of_slips(p, mu, mode, brake, wheel_slips(p, s, c, sn, cs, ss, mu), dt)
-
-
-@register_jitable
 def rate_of_slips(p, mu, mode, brake, slips, dt):
-    """slip_rate from the vehicle's wheel_slips (a caller that needs them too computes them once)."""
+    """Largest decay rate [1/s] of the regularised tyre forces (lateral and yaw modes) of one vehicle with the
+    wheel_slips `slips` (wheel state `mode`, brake fraction `brake`, the road's largest friction mu) over a step
+    of at most dt: an explicit step must stay below about 1 / rate (Heun is stable up to 2 / rate). Each
+    regularised force's stiffness at the slowest wheel's own slip speed, the speed it can lose within dt taken
+    off first (docs/physics.md §2): a locked wheel's Coulomb force is stiff (mu N / sqrt(|v|^2 + V_REG^2)) only
+    near standstill, a braked wheel's (mu N / V_REG / cosh^2(v_x / V_REG)) only near v_x = 0, a rolling tyre's
+    (C_alpha / max(|v_x|, V_LOW)) only slower than a few m/s. At zero slip speed: the worst case, e.g. 1 / 3.6
+    ms for the Clio locked."""
     m, iz, a, b, track = p[P_MASS], p[P_IZ], p[P_A], p[P_B], p[P_TRACK]
     slip, along, change, change_along = slips
     slip, along = max(slip - change * dt, 0.0), max(along - change_along * dt, 0.0)

@@ -39,7 +39,7 @@ class ImpulseModel(CollisionModel):
                           1 / (fastest decay rate of the regularised tyre forces at the wheels' slip
                           speeds), e.g. 2.4 ms for the Clio on rolling wheels near standstill, 3.6 ms on
                           locked wheels near standstill, dt when they roll or slide at metres per second
-                          (planar_vehicle.slip_rate)
+                          (planar_vehicle.rate_of_slips)
       coarse_dt = 0.05 s  largest step while every vehicle runs straight, or slides on locked wheels
                           with each wheel's slip velocity turning by at most 0.4 rad within the step,
                           and nothing can touch (docs/physics.md §2)
