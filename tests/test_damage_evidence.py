@@ -1,7 +1,7 @@
 """Damage as evidence (issue 24, item 3; [evidence.damage.<vehicle>], crashlab.reconstruction.evidence,
 docs/physics.md §28): the residual of a measured crush profile in sigma units against an independent
 computation (the CRASH3 integral by quadrature, the sigma by finite differences, the simulated energy from
-the impact rows' dissipated energy and the masses), exact at the candidate's own mass when the mass changes,
+the impact rows' dissipated energy and the struck structures), exact at the candidate's own mass when the mass changes,
 a twin's profile scoring zero at the truth, a wrong profile moving the likelihood, and bad input one line
 naming the key."""
 from __future__ import annotations
@@ -72,15 +72,21 @@ def reference_ees_and_sigma(profile, width, A, B, mass) -> tuple[float, float]:
     return ees(profile), math.sqrt(var)
 
 
-def simulated_ees(outcome, name: str, masses: dict) -> float:
-    """km/h: the vehicle's share of every impact's dissipated energy (split as 1 / mass, docs/physics.md §21)
-    summed, as an EES at its mass."""
+STRUCK = {"V1": "front", "V2": "side"}  # side.toml: V1's front strikes V2's left side
+
+
+def simulated_ees(outcome, name: str, scene) -> float:
+    """km/h: the vehicle's share of every impact's dissipated energy summed, as an EES at its mass; the two struck
+    structures in series carry the same force, so each takes the energy as its compliance 1/B (docs/physics.md
+    §21), the sides STRUCK."""
+    spec = {v.name: v.spec for v in scene.vehicles}
     e = 0.0
     for r in outcome.impact_rows:
         if r["vehicle"] == name:
-            m, other = masses[name], masses.get(r["other"])
-            e += r["energy"] * (1.0 if other is None else other / (m + other))
-    return math.sqrt(2.0 * e / masses[name]) * 3.6
+            own = 1.0 / spec[name].structure[STRUCK[name]].B
+            other = 1.0 / spec[r["other"]].structure[STRUCK[r["other"]]].B if r["other"] in spec else 0.0
+            e += r["energy"] * own / (own + other)
+    return math.sqrt(2.0 * e / spec[name].mass) * 3.6
 
 
 # ------------------------------------------------------------------ the residual
@@ -98,10 +104,9 @@ def test_damage_residual_in_sigma_units_against_an_independent_computation(tmp_p
     X = np.array([[50.0, 30.0], [60.0, 30.0], [45.0, 20.0]])
     R = problem.evaluate(X, return_values_of=["residuals"])
     model = get_model("impulse")
-    masses = {v.name: v.spec.mass for v in study.scene.vehicles}
     for k, scene in enumerate(problem.scenes_for(X)):
         o = model.simulate(scene)
-        expected = (simulated_ees(o, "V1", masses) - ref) / sigma
+        expected = (simulated_ees(o, "V1", scene) - ref) / sigma
         assert R[k, -1] == pytest.approx(expected, rel=1e-4, abs=1e-6), (X[k], R[k])
     print(f"\nEES from the damage {ref:.2f} ± {sigma:.2f} km/h; damage residuals {np.round(R[:, -1], 3)}")
     assert abs(R[1, -1]) > 1.0  # 10 km/h faster: a harder impact, more than a sigma
@@ -119,8 +124,7 @@ def test_the_residual_is_the_one_at_the_candidates_own_mass(tmp_path):
     evidence = DamageEvidence(side="front", profile=PROFILE, width=WIDTH, sigma_crush=SIGMA_C,
                               sigma_stiffness=SIGMA_S)
     for scene, o in ((base, o_base), (heavy, o_heavy)):
-        masses = {v.name: v.spec.mass for v in scene.vehicles}
-        own = damage_residual(simulated_ees(o, "V1", masses), evidence, scene.vehicle("V1").spec)
+        own = damage_residual(simulated_ees(o, "V1", scene), evidence, scene.vehicle("V1").spec)
         assert es.residuals([o])[0, -1] == pytest.approx(own, rel=1e-6)
     assert es.residuals([o_heavy])[0, -1] != pytest.approx(es.residuals([o_base])[0, -1], abs=0.05)
 

@@ -78,6 +78,7 @@ CONTACT_LAWS = ("structure", "generic")
  S_VI, S_VJ) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17
 # the pair's crush memory (structure law, kept across its episodes): largest crush, struck sides of i and j
 # (crush_structure.side_code) latched while the pair is not in contact; a new contact on other sides forgets it
+# (the generic law sets the sides at each episode's first touch: they share its energy in the impact rows, §21)
 S_CMAX, S_SIDE_I, S_SIDE_J = 20, 21, 22
 # restitution = "speed" (cfg_e = crashlab.restitution.E_SPEED_LAW): the unloading's e, set from the law at the
 # normal closing speed S_VCLOSE of the pair's first crush (while S_CMAX is 0) and kept for it (docs/physics.md §13b)
@@ -115,6 +116,15 @@ def chassis_pose(y, nq, A):
     om = (A[0, 0] * w0 + A[0, 1] * w1 + A[0, 2] * w2, A[1, 0] * w0 + A[1, 1] * w1 + A[1, 2] * w2,
           A[2, 0] * w0 + A[2, 1] * w1 + A[2, 2] * w2)
     return (y[0], y[1], y[2]), (y[nq], y[nq + 1], y[nq + 2]), om
+
+
+@njit(cache=True)
+def _struck_face(A, rc, M, a, b):
+    """(side code, outward face normal angle) of the point M on a body of rotation A, shape centre rc, half length a
+    and half width b: crush_structure.side_code and face_normal_angle in its frame."""
+    xl = A[0, 0] * (M[0] - rc[0]) + A[1, 0] * (M[1] - rc[1]) + A[2, 0] * (M[2] - rc[2])
+    yl = A[0, 1] * (M[0] - rc[0]) + A[1, 1] * (M[1] - rc[1]) + A[2, 1] * (M[2] - rc[2])
+    return side_code(xl, yl, a, b), face_normal_angle(xl, yl, a, b)
 
 
 @njit(cache=True)
@@ -240,14 +250,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             # (a crushed pair keeps them while its shapes still overlap: the crushed zones are still the ones in
             # touch; re-chosen once the shapes have separated, g >= 0)
             if PST[p, S_ACT] == 0.0 and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
-                xl = A1[0, 0] * (M[0] - rc1[0]) + A1[1, 0] * (M[1] - rc1[1]) + A1[2, 0] * (M[2] - rc1[2])
-                yl = A1[0, 1] * (M[0] - rc1[0]) + A1[1, 1] * (M[1] - rc1[1]) + A1[2, 1] * (M[2] - rc1[2])
-                si = side_code(xl, yl, sh1[0], sh1[1])
-                fi = face_normal_angle(xl, yl, sh1[0], sh1[1])
-                xl = A2[0, 0] * (M[0] - rc2[0]) + A2[1, 0] * (M[1] - rc2[1]) + A2[2, 0] * (M[2] - rc2[2])
-                yl = A2[0, 1] * (M[0] - rc2[0]) + A2[1, 1] * (M[1] - rc2[1]) + A2[2, 1] * (M[2] - rc2[2])
-                fj = face_normal_angle(xl, yl, sh2[0], sh2[1])
-                sj = side_code(xl, yl, sh2[0], sh2[1]) if k2 == 0 else 0
+                si, fi = _struck_face(A1, rc1, M, sh1[0], sh1[1])
+                sj, fj = _struck_face(A2, rc2, M, sh2[0], sh2[1])
+                sj = sj if k2 == 0 else 0
                 if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
                         or fj != PST[p, S_FACE_J]:
                     PST[p, S_CMAX] = 0.0
@@ -293,6 +298,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 psg[p, G_TH] = th
                 psg[p, G_RAW], psg[p, G_MEAS] = crush, 1.0
             psg[p, G_CRUSH] = crush
+        elif PST[p, S_ACT] == 0.0:  # the struck sides, which share the episode's energy in its impact rows (§21)
+            PST[p, S_SIDE_I] = _struck_face(A1, rc1, M, sh1[0], sh1[1])[0]
+            PST[p, S_SIDE_J] = _struck_face(A2, rc2, M, sh2[0], sh2[1])[0] if k2 == 0 else 0
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
         a2 = (M[0] - r2[0], M[1] - r2[1], M[2] - r2[2])
         u1 = (v1[0] + om1[1] * a1[2] - om1[2] * a1[1], v1[1] + om1[2] * a1[0] - om1[0] * a1[2],

@@ -42,6 +42,8 @@ from .chassis_contact import (
     S_PTH,
     S_PX,
     S_PY,
+    S_SIDE_I,
+    S_SIDE_J,
     S_T0,
     S_VI,
     S_VJ,
@@ -51,10 +53,11 @@ from .impact_rows import pair_rows
 
 # episode records IMP[k]: pair, onset and end time, impulse on i (3), peak normal force, max penetration,
 # energy dissipated (-work), point and normal angle at the peak, velocity changes of i and j (vx, vy, yaw
-# rate), approach velocity at onset, normal velocity at the end, still open at the end of the run
+# rate), approach velocity at onset, normal velocity at the end, still open at the end of the run, the struck sides
+# of i and j (crush_structure.side_code; 0 for a barrier), whose structures share the energy (§21)
 (I_I, I_J, I_T0, I_T1, I_JX, I_JY, I_JZ, I_PEAK, I_MAXPEN, I_ENERGY, I_PX, I_PY, I_TH, I_DVI, I_DVJ,
- I_DD0, I_DD1, I_OPEN) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21
-N_IMP = 22
+ I_DD0, I_DD1, I_OPEN, I_SIDE_I, I_SIDE_J) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21, 22, 23
+N_IMP = 24
 EPISODES_PER_PAIR = 64  # records per pair of bodies that can touch (two vehicles, a vehicle and a barrier)
 
 
@@ -132,13 +135,15 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
         r[I_PEAK], r[I_MAXPEN], r[I_ENERGY] = PST[p, S_PEAK], PST[p, S_MAXPEN], -PST[p, S_WORK]
         r[I_PX], r[I_PY], r[I_TH] = PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH]
         r[I_DD0], r[I_DD1], r[I_OPEN] = PST[p, S_DD0], dd1, is_open
+        r[I_SIDE_I], r[I_SIDE_J] = PST[p, S_SIDE_I], PST[p, S_SIDE_J]
     PST[p, S_ACT] = 0.0
     reset_sums(PST, p)
     return n + 1
 
 
-def impact_rows(names, mass, imp, heads=None):
-    """Impact table rows (SI; impact_rows.pair_rows: delta-V, EES split by 1/mass, PDOF), one per vehicle per
+def impact_rows(names, mass, imp, compliance, heads=None):
+    """Impact table rows (SI; impact_rows.pair_rows: delta-V, EES from the energy split by the struck sides'
+    compliance (nv, 3), impact_rows.struck_compliance, PDOF), one per vehicle per
     contact episode (kind "continuous"): t = episode start, dvx, dvy, d_yaw_rate = CG velocity / yaw-rate
     change over the episode, energy = work dissipated by the contact forces over the episode (whole pair), pdof
     from the impulse on the vehicle (heading at the episode start, from heads[v] = (t, heading) records),
@@ -155,9 +160,10 @@ def impact_rows(names, mass, imp, heads=None):
         dd0, dd1 = r[I_DD0], r[I_DD1]
         heading = [float(np.interp(r[I_T0], heads[q][0], heads[q][1])) if heads is not None and q < nv else 0.0
                    for q in (i, j)]
+        struck = (compliance[i, int(r[I_SIDE_I])], compliance[j, int(r[I_SIDE_J])] if j < nv else 0.0)
         pair = pair_rows(names, mass, i, j, r[I_T0], r[I_ENERGY], (r[I_DVI:I_DVI + 3], r[I_DVJ:I_DVJ + 3]),
                          ((J[0], J[1]), (-J[0], -J[1])), heading, (r[I_PX], r[I_PY]), r[I_TH] + math.pi / 2,
-                         "continuous", peak_force=r[I_PEAK], duration=r[I_T1] - r[I_T0],
+                         "continuous", struck, peak_force=r[I_PEAK], duration=r[I_T1] - r[I_T0],
                          impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],

@@ -2,13 +2,18 @@
 
 One impact (or contact episode) between vehicle i and vehicle j, or barrier j - nv when j >= nv (nv vehicles),
 gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, the vehicle's share of
-it (crush_energy, the energy split in proportion to 1 / mass; a barrier takes none), its energy-equivalent
-speed (EES) from that share and the principal direction
-of force (PDOF) from the direction of the impulse, or summed contact force, on it (docs/physics.md §21).
+it (crush_energy: the two struck structures in series carry the same force, so each takes the energy in proportion
+to its crush compliance 1/B; a barrier takes none), its energy-equivalent speed (EES) from that share and the
+principal direction of force (PDOF) from the direction of the impulse, or summed contact force, on it
+(docs/physics.md §21).
 """
 from __future__ import annotations
 
 import math
+
+import numpy as np
+
+from crashlab.structure import STRUCTURE_SIDES
 
 
 def barrier_name(k: int) -> str:
@@ -23,7 +28,14 @@ def pdof(fx, fy, heading):
     return math.atan2(math.sin(ang), math.cos(ang))
 
 
-def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, **extra) -> list[dict]:
+def struck_compliance(specs) -> np.ndarray:
+    """(nv, 3) crush compliance 1/B [m^2/N] of each vehicle's front, rear and side (STRUCTURE_SIDES, the codes of
+    crush_structure.side_code), from its crashlab.structure (file or class default, docs/physics.md §28)."""
+    return np.array([[1.0 / spec.structure[side].B for side in STRUCTURE_SIDES] for spec in specs]).reshape(-1, 3)
+
+
+def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, compliance,
+              **extra) -> list[dict]:
     """Impact-table rows of one impact of vehicle i with vehicle or barrier j: one row for i, and one for j
     if it is a vehicle.
 
@@ -31,18 +43,19 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     per side s (0: i, 1: j; side 1 is not read for a barrier): dv[s] = (dvx, dvy, d_yaw_rate) [m/s, rad/s],
     push[s] = (fx, fy) the impulse or summed contact force on that vehicle (global; only its direction is
     used, for the PDOF), heading[s] [rad] the heading the PDOF is measured from; point = (x, y) [m],
-    plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; extra: further keys of
-    every row (the impulse model: slip_reversed).
+    plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; compliance = (c_i, c_j)
+    the crush compliance 1/B [m^2/N] of the struck side of i and of j (struck_compliance; c_j is not read for a
+    barrier); extra: further keys of every row (the impulse model: slip_reversed).
     """
     nv = len(names)
-    inv_i, inv_j = 1.0 / mass[i], (1.0 / mass[j] if j < nv else 0.0)
-    sides = [(i, names[j] if j < nv else barrier_name(j - nv), inv_i)]
+    c_i, c_j = compliance[0], (compliance[1] if j < nv else 0.0)
+    sides = [(i, names[j] if j < nv else barrier_name(j - nv), c_i)]
     if j < nv:
-        sides.append((j, names[i], inv_j))
+        sides.append((j, names[i], c_j))
     rows = []
-    for s, (q, other, inv_q) in enumerate(sides):
-        # deformation energy split assuming crush stiffness proportional to mass (equal force: E_q ~ 1 / m_q)
-        e_q = max(energy, 0.0) * inv_q / (inv_i + inv_j)
+    for s, (q, other, c_q) in enumerate(sides):
+        # §21: the struck structures in series carry the same force f, each absorbing f^2/2B: E_q ~ 1/B_q
+        e_q = max(energy, 0.0) * c_q / (c_i + c_j)
         rows.append({"t": t, "vehicle": names[q], "other": other, "dvx": dv[s][0], "dvy": dv[s][1],
                      "d_yaw_rate": dv[s][2], "energy": energy, "crush_energy": e_q,
                      "ees": math.sqrt(2.0 * e_q / mass[q]),

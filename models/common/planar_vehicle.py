@@ -11,6 +11,7 @@ from numba.extending import register_jitable
 
 from crashlab.units import G
 
+from .crush_structure import side_code
 from .driver_inputs import wheel_frictions
 from .wheel_states import BRAKED, LOCKED, WHEEL_CODES
 
@@ -20,6 +21,16 @@ N_PARAMS = 13
 
 V_REG = 0.05  # m/s: regularisation of Coulomb friction and rolling resistance near zero slip speed
 V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it defined near standstill
+
+
+@register_jitable
+def struck_side(p, x, y, heading, px, py):
+    """The side of the vehicle (parameters p, CG at x, y, heading) a contact point (px, py) strikes: 0 front, 1
+    rear, 2 side (crush_structure.side_code on its outline rectangle; docs/physics.md §21)."""
+    c, sn = math.cos(heading), math.sin(heading)
+    dx, dy = px - x, py - y
+    half = 0.5 * (p[P_FRONT] + p[P_REAR])
+    return side_code(c * dx + sn * dy - (p[P_FRONT] - half), -sn * dx + c * dy, half, p[P_HALFW])
 
 
 @register_jitable(inline="always")

@@ -11,6 +11,7 @@ import numpy as np
 from crashlab.models.common import chassis_contact as C
 from crashlab.models.common import contact_episodes as EP
 from crashlab.models.common import road_contact as R
+from crashlab.models.common.impact_rows import struck_compliance
 from crashlab.models.common.vehicle_3d import CORNERS
 from crashlab.outcome import Outcome
 from crashlab.units import G
@@ -163,7 +164,8 @@ class Records:
             warnings.append("the state became NaN")
         mass = np.array([it["mass"].sum() for it in self.items])
         heads = [(trajectories[n]["t"], trajectories[n]["heading"]) for n in self.names]
-        rows = EP.impact_rows(self.names, mass, self.IMP[:min(self.n_episodes, len(self.IMP))].copy(), heads)
+        rows = EP.impact_rows(self.names, mass, self.IMP[:min(self.n_episodes, len(self.IMP))].copy(),
+                              struck_compliance(vs.spec for vs in self.scene.vehicles), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
         if self.n_unsettled:

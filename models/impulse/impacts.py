@@ -5,7 +5,7 @@ import math
 
 from numba import njit
 
-from crashlab.models.common.planar_vehicle import P_IZ, P_MASS
+from crashlab.models.common.planar_vehicle import P_IZ, P_MASS, struck_side
 from crashlab.models.common.restitution_law import kernel_restitution
 
 from .contact import _point_velocity
@@ -41,6 +41,8 @@ from .layout import (
     I_PX,
     I_PY,
     I_REVERSED,
+    I_SIDE_I,
+    I_SIDE_J,
     I_T,
     I_T_END,
 )
@@ -99,8 +101,10 @@ def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law, alt):
 
 
 @njit(cache=True)
-def _record_impact(imp, n, t, i, j, nv, S_before, S, pn, pt, kind, energy, px, py, nx, ny):
+def _record_impact(imp, n, t, i, j, nv, P, S_before, S, pn, pt, kind, energy, px, py, nx, ny):
     imp[n, I_T], imp[n, I_I], imp[n, I_J] = t, i, j
+    imp[n, I_SIDE_I] = struck_side(P[i], S[i, 0], S[i, 1], S[i, 2], px, py)
+    imp[n, I_SIDE_J] = struck_side(P[j], S[j, 0], S[j, 1], S[j, 2], px, py) if j < nv else 0.0
     imp[n, I_DVX_I] = S[i, 3] - S_before[i, 3]
     imp[n, I_DVY_I] = S[i, 4] - S_before[i, 4]
     imp[n, I_DR_I] = S[i, 5] - S_before[i, 5]

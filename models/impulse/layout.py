@@ -30,8 +30,10 @@ SETTINGS = np.dtype([
 # that does not follow the reversal (model._slip_warnings)
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
- I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO) = range(32)
-N_IMP = 32  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+ I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO, I_SIDE_I, I_SIDE_J) = range(34)
+N_IMP = 34  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+# I_SIDE_I, I_SIDE_J: the side of i and of j the impact strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 side;
+# 0 for a barrier), whose structures share the energy (§21)
 # I_ENGAGE: how [impact] point = "engagement" placed the impact (ENGAGE_*; 0 for every other placement and for
 # follow-up impulses); I_ENGAGE_RATIO: the crushed faces' smaller principal value over the larger (_engagement)
 ENGAGE_USED, ENGAGE_AMBIGUOUS, ENGAGE_FALLBACK = 1, 2, 3

@@ -11,7 +11,7 @@ from pydantic import model_validator
 from crashlab.diagnostics import Diagnostics
 from crashlab.model import CollisionModel
 from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
-from crashlab.models.common.impact_rows import barrier_name, pair_rows
+from crashlab.models.common.impact_rows import barrier_name, pair_rows, struck_compliance
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
@@ -235,7 +235,8 @@ class ImpulseModel(CollisionModel):
         ok = status == L.STATUS_OK
         n_imp = int(diag[L.D_IMPACTS])
         imp = imp[:n_imp].copy()
-        rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp)
+        rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp,
+                                 tuple(v.spec for v in scene.vehicles))
         intervals = list(zip(imp[:, L.I_T].tolist(), imp[:, L.I_T_END].tolist()))
         d = diag.tolist()
         # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps; built
@@ -261,19 +262,23 @@ class ImpulseModel(CollisionModel):
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
                        impact_energy=imp[:, L.I_ENERGY].copy())
 
-def _impact_rows(names, mass, imp):
+def _impact_rows(names, mass, imp, specs):
     """Impact table rows (SI), one per vehicle per impact; an impact's row holds the sums over its contact
     episode (the impact and its follow-up contact impulses, `contact_impulses` of them, the last at
-    `t_end`); kind, point and plane are the impact's."""
+    `t_end`); kind, point and plane are the impact's; the energy shared by the struck sides' structures (the
+    vehicles' specs, impact_rows.struck_compliance)."""
+    compliance = struck_compliance(specs)
     rows = []
     for r in imp:
         pn, pt, plane = r[L.I_PN], r[L.I_PT], r[L.I_PLANE]
         nx, ny = math.sin(plane), -math.cos(plane)
         ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
         dv = ((r[L.I_DVX_I], r[L.I_DVY_I], r[L.I_DR_I]), (r[L.I_DVX_J], r[L.I_DVY_J], r[L.I_DR_J]))
-        rows += pair_rows(names, mass, int(r[L.I_I]), int(r[L.I_J]), r[L.I_T], r[L.I_ENERGY], dv,
+        i, j = int(r[L.I_I]), int(r[L.I_J])
+        struck = (compliance[i, int(r[L.I_SIDE_I])], compliance[j, int(r[L.I_SIDE_J])] if j < len(names) else 0.0)
+        rows += pair_rows(names, mass, i, j, r[L.I_T], r[L.I_ENERGY], dv,
                           ((-ix, -iy), (ix, iy)), (r[L.I_HEAD_I], r[L.I_HEAD_J]), (r[L.I_PX], r[L.I_PY]), plane,
-                          KIND_TEXT[int(r[L.I_KIND])], t_end=r[L.I_T_END],
+                          KIND_TEXT[int(r[L.I_KIND])], struck, t_end=r[L.I_T_END],
                           contact_impulses=int(r[L.I_N_FOLLOW]), slip_reversed=bool(r[L.I_REVERSED]))
     return rows
 

@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from crashlab.fields import setter, vehicle_columns
+from crashlab.models.common.impact_rows import struck_compliance
 from crashlab.models.common.planar_vehicle import P_IZ, P_MASS
 from crashlab.outcome import at_rest
 from crashlab.population import Population
@@ -71,12 +72,14 @@ def simulate_variants(model, scene, fs, values) -> Population:
     # (the impact records beyond each run's count are never read: no zeroing of n x max_impacts rows)
     imp, diag = np.empty((n, model.impact_cap(nv), L.N_IMP)), np.zeros((n, L.N_DIAG))
     K.simulate_many(*arrays, rest, final, contact, imp, diag)
-    return population_of(model, scene.vehicle_names, arrays[0][:, :, P_MASS], rest, final, contact, imp, diag)
+    return population_of(model, scene.vehicle_names, rest, final, contact, imp, diag,
+                         struck_compliance(v.spec for v in scene.vehicles))
 
 
-def population_of(model, names, mass, rest, final, contact, imp, diag) -> Population:
+def population_of(model, names, rest, final, contact, imp, diag, compliance) -> Population:
     """The kernel's outputs of n runs as a Population (the columns the Outcome route reads from impact rows,
-    models/common/impact_rows.py: crush energy split in proportion to 1 / mass, a barrier takes none)."""
+    models/common/impact_rows.py: crush energy split by the struck sides' compliance (nv, 3), a barrier takes
+    none)."""
     n, nv = rest.shape[0], rest.shape[1]
     pop = Population.empty(n, names, "")
     status = diag[:, L.D_STATUS].astype(int)
@@ -97,15 +100,14 @@ def population_of(model, names, mass, rest, final, contact, imp, diag) -> Popula
     low = np.where(valid, imp[..., L.I_ENERGY], np.inf).min(1)
     pop.lowest_impact_energy[good] = np.where(np.isfinite(low), low, np.nan)[good]
     i, j = imp[..., L.I_I].astype(int), imp[..., L.I_J].astype(int)
-    inv = 1.0 / mass
-    inv_i = np.take_along_axis(inv, np.clip(i, 0, nv - 1), 1)
-    inv_j = np.where(j < nv, np.take_along_axis(inv, np.clip(j, 0, nv - 1), 1), 0.0)
-    positive, both = np.maximum(energy, 0.0), inv_i + inv_j
+    c_i = compliance[np.clip(i, 0, nv - 1), imp[..., L.I_SIDE_I].astype(int)]
+    c_j = np.where(j < nv, compliance[np.clip(j, 0, nv - 1), imp[..., L.I_SIDE_J].astype(int)], 0.0)
+    positive, both = np.maximum(energy, 0.0), c_i + c_j
     for v in range(nv):
         as_i, as_j = valid & (i == v), valid & (j == v)
         dvx = np.where(as_i, imp[..., L.I_DVX_I], 0.0) + np.where(as_j, imp[..., L.I_DVX_J], 0.0)
         dvy = np.where(as_i, imp[..., L.I_DVY_I], 0.0) + np.where(as_j, imp[..., L.I_DVY_J], 0.0)
-        crush = np.where(as_i, positive * inv_i / both, 0.0) + np.where(as_j, positive * inv_j / both, 0.0)
+        crush = np.where(as_i, positive * c_i / both, 0.0) + np.where(as_j, positive * c_j / both, 0.0)
         pop.delta_v[good, v] = np.hypot(dvx.sum(1), dvy.sum(1))[good]
         pop.crush_energy[good, v] = crush.sum(1)[good]
         hit = as_i | as_j

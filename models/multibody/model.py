@@ -42,6 +42,7 @@ from crashlab.models.common.driver_inputs import (
     pack_action_tables,
     pack_zones,
 )
+from crashlab.models.common.impact_rows import struck_compliance
 from crashlab.models.common.rotations import from_matrix, matrix, rot_z
 from crashlab.models.common.vehicle_3d import (
     CORNERS,
@@ -321,7 +322,7 @@ class MultibodyModel(CollisionModel):
             warnings.append(f"more than {len(IMP)} contact episodes: the run cannot report them all")
         heads = [(traj[:nr, v, REC.R_T].copy(), traj[:nr, v, REC.R_HEAD].copy()) for v in range(nv)]
         imp = IMP[:n_imp].copy()
-        rows = impact_rows(names, BODY[:, :, 0].sum(1), imp, heads)
+        rows = impact_rows(names, BODY[:, :, 0].sum(1), imp, struck_compliance(vs.spec for vs in scene.vehicles), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
         intervals = contact_intervals(imp[:, I_T0], imp[:, I_T1], traj[:nr, :, REC.R_T], traj[:nr, :, REC.R_ROAD])

@@ -8,16 +8,18 @@ import math
 
 import numpy as np
 
+from crashlab.models.common.planar_vehicle import struck_side
 from crashlab.restitution import restitution_at
 
 
 class Episode:
     """One contact episode of a pair (vehicle i, vehicle or barrier k)."""
 
-    __slots__ = ("dv", "e", "energy", "i", "j", "k", "plane", "px", "py", "t", "t_end", "weight")
+    __slots__ = ("dv", "e", "energy", "i", "j", "k", "plane", "px", "py", "sides", "t", "t_end", "weight")
 
-    def __init__(self, t, i, k, px, py, plane, e):
+    def __init__(self, t, i, k, px, py, plane, e, sides):
         self.t, self.i, self.k, self.px, self.py, self.plane = t, i, k, px, py, plane
+        self.sides = sides  # the sides of i and k its first contact strikes (planar_vehicle.struck_side; 0: barrier)
         self.e = e  # the episode's restitution (the scene's, or its law at the first contact's closing speed)
         self.t_end = t  # end of the last step with a contact impulse
         self.dv = np.zeros((2, 3))  # contact velocity jump of i and (if a vehicle) k: vx, vy, r
@@ -61,11 +63,12 @@ class Contacts:
     """The contact bookkeeping of one run: the callbacks of its pymunk space (`attach`) and the episodes.
 
     bodies: the vehicles' pymunk bodies, in scene order; owner: pymunk shape -> vehicle index (a barrier:
-    the number of vehicles + its index); impact: the scene's [impact]; dt: the engine's step. The run sets
-    `t`, the time at the start of the step the engine takes next."""
+    the number of vehicles + its index); impact: the scene's [impact]; dt: the engine's step; P: the vehicles'
+    parameters (planar_vehicle.pack_vehicle rows). The run sets `t`, the time at the start of the step the engine
+    takes next."""
 
-    def __init__(self, bodies, owner, impact, dt: float):
-        self.bodies, self.owner, self.impact, self.dt = bodies, owner, impact, dt
+    def __init__(self, bodies, owner, impact, dt: float, P):
+        self.bodies, self.owner, self.impact, self.dt, self.P = bodies, owner, impact, dt, P
         self.nv = len(bodies)
         self.t = 0.0
         self.open = {}  # (i, k) -> open Episode
@@ -87,6 +90,11 @@ class Contacts:
         i, k = self.owner[a], self.owner[b]
         return (i, k, 1.0) if i < k else (k, i, -1.0)
 
+    def _struck_side(self, q, px, py) -> int:
+        """The side of vehicle q the point (px, py) strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 side)."""
+        body = self.bodies[q]
+        return struck_side(self.P[q], body.position.x, body.position.y, body.angle, px, py)
+
     def _begin(self, arb, space, data):
         i, k, sgn = self._pair(arb)
         if math.isnan(self.contact_t):
@@ -106,7 +114,8 @@ class Contacts:
         e, why = restitution_at(max(-((vk[0] - vi.x) * nx + (vk[1] - vi.y) * ny), 0.0), self.impact)
         if why:
             self.law_warnings.append(why)
-        ep = Episode(self.t + self.dt, i, k, px, py, math.atan2(nx, -ny), e)
+        ep = Episode(self.t + self.dt, i, k, px, py, math.atan2(nx, -ny), e,
+                     (self._struck_side(i, px, py), self._struck_side(k, px, py) if k < self.nv else 0))
         self.open[(i, k)] = ep
         self.episodes.append(ep)
         for q in (i, k):

@@ -9,7 +9,7 @@ import numpy as np
 
 from crashlab.geometry import rect_corners
 from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
-from crashlab.models.common.impact_rows import pair_rows
+from crashlab.models.common.impact_rows import pair_rows, struck_compliance
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_IZ, P_MASS, pack_vehicle
 from crashlab.outcome import Outcome
 from crashlab.scene import barrier_outline
@@ -62,7 +62,7 @@ class Run:
         self.actions, self.n_actions = pack_action_tables(scene.vehicles)  # driver inputs (§2a)
         self.zones = pack_zones(scene.road)
         self.space, self.bodies, owner = build_space(pymunk, model, scene)
-        self.contacts = Contacts(self.bodies, owner, scene.impact, model.dt)
+        self.contacts = Contacts(self.bodies, owner, scene.impact, model.dt, self.P)
         self.contacts.attach(self.space)
         self.t = 0.0
 
@@ -164,11 +164,12 @@ class Run:
         scene, nv, P, c = self.scene, self.nv, self.P, self.contacts
         names = scene.vehicle_names
         heads = [c.contact[q, 2] if not math.isnan(c.contact[q, 2]) else S[q, 2] for q in range(nv)]
-        rows = []
+        rows, compliance = [], struck_compliance(v.spec for v in scene.vehicles)
         for ep in c.episodes:  # the force on a vehicle has the direction of its contact velocity jump
+            struck = (compliance[ep.i, ep.sides[0]], compliance[ep.k, ep.sides[1]] if ep.k < nv else 0.0)
             rows += pair_rows(names, P[:, P_MASS], ep.i, ep.k, ep.t, ep.energy, ep.dv, ep.dv[:, 0:2],
                               (heads[ep.i], heads[ep.k] if ep.k < nv else 0.0), (ep.px, ep.py), ep.plane,
-                              "continuous", duration=ep.t_end - ep.t)
+                              "continuous", struck, duration=ep.t_end - ep.t)
         if not c.episodes:
             warnings.append("no contact between the vehicles")
         # core (crashlab.diagnostics): fixed steps, none rejected; max_penetration from the arbiters' contact depths
