@@ -118,7 +118,7 @@ def chassis_pose(y, nq, A):
     return (y[0], y[1], y[2]), (y[nq], y[nq + 1], y[nq + 2]), om
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _struck_face(A, rc, M, a, b):
     """(side code, outward face normal angle) of the point M on a body of rotation A, shape centre rc, half length a
     and half width b: crush_structure.side_code and face_normal_angle in its frame."""
