@@ -18,7 +18,7 @@ REST_SPEED = 0.1  # m/s
 REST_YAW_RATE = 0.1  # rad/s
 
 IMPACT_COLUMNS = ["t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate", "energy", "ees",
-                  "pdof", "pdof_clock", "kind", "slip_reversed", "point_x", "point_y", "plane_angle"]
+                  "pdof", "pdof_clock", "side", "kind", "slip_reversed", "point_x", "point_y", "plane_angle"]
 # units of the impact table's columns (printed headers)
 # units of Outcome.trajectory's columns (file units)
 TRAJECTORY_UNITS = {"t": "s", "x": "m", "y": "m", "heading": "deg", "vx": "km/h", "vy": "km/h", "yaw_rate": "deg/s",
@@ -189,7 +189,8 @@ class Outcome:
     def impacts(self):
         """One row per vehicle per impact: t [s], vehicle, other, dvx, dvy, delta_v [km/h],
         d_yaw_rate [deg/s], energy [J] (dissipated, per impact), ees [km/h], pdof [deg, counter-clockwise from
-        straight ahead], pdof_clock [h, SAE J224: 12 from straight ahead, 3 from the right], kind
+        straight ahead], pdof_clock [h, SAE J224: 12 from straight ahead, 3 from the right], side (the side it
+        is struck on: front, rear or side, whose structure takes its share of the energy, docs/physics.md §21), kind
         (impulse model: full, sliding or, law routh, reversed; continuous-contact models: continuous),
         slip_reversed (impulse model: the slip at the point stops and reverses in this impact, which
         the laws kudlich-slibar and brach do not follow; docs/physics.md §3), point_x, point_y [m],
@@ -202,7 +203,8 @@ class Outcome:
                          "delta_v": ms_to_kmh(math.hypot(r["dvx"], r["dvy"])),
                          "d_yaw_rate": rad_to_deg(r["d_yaw_rate"]), "energy": r["energy"],
                          "ees": ms_to_kmh(r.get("ees", math.nan)), "pdof": rad_to_deg(r.get("pdof", math.nan)),
-                         "pdof_clock": pdof_clock(rad_to_deg(r.get("pdof", math.nan))), "kind": r["kind"],
+                         "pdof_clock": pdof_clock(rad_to_deg(r.get("pdof", math.nan))),
+                         "side": r.get("side", ""), "kind": r["kind"],
                          "slip_reversed": bool(r.get("slip_reversed", False)),
                          "point_x": r["point_x"], "point_y": r["point_y"],
                          "plane_angle": rad_to_deg(r["plane_angle"])})

@@ -12,8 +12,9 @@ Columns (SI; nv vehicles in scene order):
   contact (N, nv, 4) x, y, heading, speed at first contact; n_impacts (N,) impacts (contact episodes)
   mass (N, nv) [kg]; delta_v (N, nv) |sum of the vehicle's impact-row velocity changes| [m/s];
   first_delta_v (N, nv) the velocity change of its first impact [m/s] (what an event data recorder reports)
-  crush_energy (N, nv) the vehicle's share of the dissipated energy summed over its impacts [J] (ees: its
-  energy-equivalent speed, docs/physics.md §21); first_impact_t (N, nv) [s], first_impact_point (N, nv, 2) [m]
+  crush_energy (N, nv, 3) the vehicle's share of the dissipated energy summed over its impacts [J], per side it
+  was struck on (front, rear, side: crashlab.structure.STRUCTURE_SIDES; 0 where none struck it; ees: the EES of
+  the sum, docs/physics.md §21); first_impact_t (N, nv) [s], first_impact_point (N, nv, 2) [m]
   of the vehicle's first impact (NaN without one); energy_start, energy_end (N,) planar kinetic energy [J];
   energy_impacts (N,) dissipated by all impacts, lowest_impact_energy (N,) of the impact that dissipated least
   (the guard: below zero an impact created energy)
@@ -26,6 +27,9 @@ import math
 
 import numpy as np
 
+from .structure import STRUCTURE_SIDES
+
+SIDE_INDEX = {side: k for k, side in enumerate(STRUCTURE_SIDES)}
 ARRAYS = ("ok", "reason", "rest", "final", "rest_speed", "at_rest", "contact", "n_impacts", "mass", "delta_v",
           "first_delta_v", "crush_energy", "first_impact_t", "first_impact_point", "energy_start", "energy_end",
           "energy_impacts", "lowest_impact_energy", "scores")
@@ -92,7 +96,7 @@ class Population:
         return cls(tuple(names), np.zeros(n, bool), np.array([reason] * n, dtype=object),
                    nan((n, nv, 3), np.nan), nan((n, nv, 3), np.nan), nan((n, nv), np.nan), np.zeros((n, nv), bool),
                    nan((n, nv, 4), np.nan), np.zeros(n, int), nan((n, nv), np.nan), nan((n, nv), np.nan),
-                   nan((n, nv), np.nan), nan((n, nv), np.nan), nan((n, nv), np.nan), nan((n, nv, 2), np.nan),
+                   nan((n, nv), np.nan), nan((n, nv, 3), np.nan), nan((n, nv), np.nan), nan((n, nv, 2), np.nan),
                    nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan((n, k), np.nan))
 
     def __len__(self) -> int:
@@ -100,9 +104,9 @@ class Population:
 
     @property
     def ees(self) -> np.ndarray:
-        """(N, nv) energy-equivalent speed of each vehicle's crush energy at its own mass [m/s]
+        """(N, nv) energy-equivalent speed of each vehicle's crush energy (all sides) at its own mass [m/s]
         (sqrt(2 E / m), docs/physics.md §21; 0 without an impact)."""
-        return np.sqrt(2.0 * self.crush_energy / self.mass)
+        return np.sqrt(2.0 * self.crush_energy.sum(2) / self.mass)
 
     # -------------------------------------------------------------- assembling
     def put(self, start: int, part: Population) -> None:
@@ -231,7 +235,8 @@ def exception_reason(err: BaseException) -> str:
 
 def _impact_columns(pop: Population, r: int, names, rows) -> None:
     """Row r's per-vehicle impact columns from an Outcome's impact rows (SI): delta_v |sum dv|, the first
-    impact's, crush energy summed, first impact time and point (NaN where a model's rows lack a column)."""
+    impact's, crush energy summed per struck side, first impact time and point (NaN where a model's rows lack a
+    column; a row without a side counts as the front's)."""
     index = {n: i for i, n in enumerate(names)}
     dv = np.zeros((len(names), 2))
     pop.crush_energy[r] = 0.0
@@ -243,7 +248,7 @@ def _impact_columns(pop: Population, r: int, names, rows) -> None:
         def get(key, row=row):
             return row.get(key, math.nan)
         dv[i] += (get("dvx"), get("dvy"))
-        pop.crush_energy[r, i] += max(row.get("crush_energy", 0.0), 0.0)
+        pop.crush_energy[r, i, SIDE_INDEX.get(row.get("side"), 0)] += max(row.get("crush_energy", 0.0), 0.0)
         if not math.isfinite(pop.first_impact_t[r, i]):
             pop.first_impact_t[r, i] = row["t"]
             pop.first_impact_point[r, i] = (get("point_x"), get("point_y"))

@@ -173,10 +173,11 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
     if twin_outcome is not None:
         if e.profile is not None:
             raise InputError(path, f"{key}.profile", "a twin's run gives this value: leave it out (or twin = false)")
-        sim = ms_to_kmh(crush_ees(twin_outcome, n, vspec.mass))
+        sim = ms_to_kmh(crush_ees(twin_outcome, n, vspec.mass, e.side))
+        profile = np.array(profile_for_ees(sim if math.isfinite(sim) else 0.0, vspec, e.side, e.width, pdof=e.pdof,
+                                           where=path, prefix=f"{key}."))  # (the evidence's own errors first)
         if not math.isfinite(sim):
-            raise InputError(path, key, f"the twin's run has no impact of {n}")
-        profile = np.array(profile_for_ees(sim, vspec, e.side, e.width, pdof=e.pdof, where=path, prefix=f"{key}."))
+            raise InputError(path, key, f"the twin's run has no impact of {n} on its {e.side}")
         if rng is not None:
             profile = np.maximum(profile + rng.normal(0.0, e.sigma_crush, len(profile)), 0.0)
         e = e.model_copy(update={"profile": [float(c) for c in profile]})
@@ -186,7 +187,7 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
               f"{rep['pdof_factor']:.2f}; sigma from {e.sigma_crush:g} m per depth and {e.sigma_stiffness:.0%} "
               "stiffness" + "".join(f"; warning: {w}" for w in rep["warnings"]))
     return EvidenceItem("damage", f"damage.{n}", (n,), ("ees",), (float(value),), (float(sigma),),
-                        mass=float(vspec.mass), detail=detail)
+                        mass=float(vspec.mass), side=e.side, detail=detail)
 
 
 __all__ = ["UNITS", "EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "crush_ees", "delta_v",

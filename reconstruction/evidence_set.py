@@ -23,11 +23,12 @@ Residual components (simulated minus measured, each divided by its sigma; file u
                  (dvx, dvy) [km/h]; a vehicle in no impact row has dv = 0;
   damage.<V>     (EES_sim - EES_damage) / sigma [km/h]: EES_damage and its sigma from the measured crush profile
                  (crashlab.damage.damage_ees, CRASH3, docs/physics.md §28); EES_sim = sqrt(2 sum_k E_k / m)
-                 over the vehicle's impact rows (their crush_energy E_k, the vehicle's share of each impact's
-                 dissipated energy: energies add), m the vehicle's mass in the study's scene. Expressing the
+                 over the vehicle's impact rows that struck the damaged side (their crush_energy E_k, the
+                 vehicle's share of each impact's dissipated energy, §21: energies add), m the vehicle's mass
+                 in the study's scene. Expressing the
                  simulated energy at that mass makes the residual exactly the one at the candidate's own mass
-                 when the mass is uncertain (both EES and sigma scale as 1/sqrt(m)). No impact row of the
-                 vehicle: it cannot be scored (the damage says it was struck).
+                 when the mass is uncertain (both EES and sigma scale as 1/sqrt(m)). No impact of the vehicle
+                 on that side: it cannot be scored (the damage says it was struck there).
 A candidate that cannot be scored (Outcome not ok, None or an exception, no impact where the point of impact,
 an EDR speed or a vehicle's damage is evidence, no CG path where marks are) has NaN residuals and log-likelihood -inf.
 
@@ -43,7 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from crashlab.population import Population
+from crashlab.population import SIDE_INDEX, Population
 from crashlab.units import ms_to_kmh, unit_in, value_in, wrap_deg
 
 # units of the residual components (file units), for the tables that list the evidence
@@ -56,7 +57,8 @@ class EvidenceItem:
     "marks.0", "edr.V1", "damage.V1"; vehicles: whose objective it enters (the impact: every vehicle);
     components: the names of its residual components (e.g. ("x", "y", "heading")); values / sigmas: measured
     values and their standard deviations, per component, file units (m, deg, km/h); points: (p, 2) a mark's
-    points [m]; mass: damage, the vehicle's mass [kg] at which the simulated crush energy is an EES;
+    points [m]; mass: damage, the vehicle's mass [kg] at which the simulated crush energy is an EES; side:
+    damage, the side it was measured on (front, rear, side), whose simulated crush energy is compared;
     detail: damage, what the value was computed from (for summary.md)."""
     kind: str
     label: str
@@ -66,6 +68,7 @@ class EvidenceItem:
     sigmas: tuple[float, ...]
     points: np.ndarray | None = field(default=None, compare=False)
     mass: float = math.nan
+    side: str = ""
     detail: str = field(default="", compare=False)
 
 
@@ -102,11 +105,11 @@ def delta_v(outcome, name: str) -> float:
     return float(_one(outcome).delta_v[0, outcome.names.index(name)])
 
 
-def crush_ees(outcome, name: str, mass: float) -> float:
-    """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows (energies add,
-    crashlab.damage.combined_ees); NaN when it is in no row."""
-    pop, i = _one(outcome), outcome.names.index(name)
-    return math.sqrt(2.0 * pop.crush_energy[0, i] / mass) if math.isfinite(pop.first_impact_t[0, i]) else math.nan
+def crush_ees(outcome, name: str, mass: float, side: str) -> float:
+    """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows that struck `side`
+    (front, rear or side; energies add, crashlab.damage.combined_ees); NaN when no impact struck it there."""
+    e = _one(outcome).crush_energy[0, outcome.names.index(name), SIDE_INDEX[side]]
+    return math.sqrt(2.0 * e / mass) if e > 0.0 else math.nan
 
 
 def cg_path(outcome, name: str) -> np.ndarray:
@@ -147,9 +150,10 @@ class EvidenceSet:
         if it.kind == "rest":
             return np.column_stack([pop.rest[:, i, 0], pop.rest[:, i, 1], np.degrees(pop.rest[:, i, 2])])[
                 :, :len(it.components)]
-        if it.kind == "damage":  # the crush energy as an EES at the study's mass; NaN in no impact row
-            e = np.where(np.isfinite(pop.first_impact_t[:, i]), pop.crush_energy[:, i], np.nan)
-            return ms_to_kmh(np.sqrt(2.0 * e / it.mass))[:, None]
+        if it.kind == "damage":  # the crush energy of the damaged side as an EES at the study's mass; NaN where
+            # no impact struck that side (docs/physics.md §21, §28)
+            e = pop.crush_energy[:, i, SIDE_INDEX[it.side]]
+            return ms_to_kmh(np.sqrt(2.0 * np.where(e > 0.0, e, np.nan) / it.mass))[:, None]
         sim = {"speed_at_impact": lambda: ms_to_kmh(pop.contact[:, i, 3]),  # NaN without contact
                "delta_v": lambda: ms_to_kmh(pop.delta_v[:, i])}
         return np.column_stack([sim[c]() for c in it.components])

@@ -112,7 +112,9 @@ IMPACT_DIGITS = {"t [s]": 3, "speed at impact [km/h]": 1, "delta-V [km/h]": 1, "
                  "PDOF [clock]": 0, "energy dissipated [kJ]": 1, "of it this vehicle's [kJ]": 1}
 IMPACT_NOTE = ("One row per impact and vehicle, from the simulation's impact rows (crashlab Outcome.impacts). "
                "Speed at impact: the vehicle's speed when it touched the other (the state at first contact, "
-               "Outcome.first_contact; for a later impact the last recorded sample before it). delta-V: the "
+               "Outcome.first_contact; for a later impact the last recorded sample before it). Struck side: the "
+               "vehicle's front, rear or side the impact struck, whose crush structure takes its share of the "
+               "energy. delta-V: the "
                "magnitude of the vehicle's velocity change in the impact; EES: the energy equivalent speed of the "
                "energy the vehicle absorbed; PDOF: principal direction of force, deg counter-clockwise from straight "
                "ahead, and as the SAE J224 clock (12 from ahead, 3 from the right); energy dissipated: kinetic "
@@ -155,9 +157,9 @@ def impact_table(outcome, table_id: str = "impacts", system: str = "si") -> Tabl
                   "delta-V [km/h]": r["delta_v"], "EES [km/h]": r["ees"], "PDOF [deg]": r["pdof"],
                   "PDOF [clock]": r["pdof_clock"], "energy dissipated [kJ]": r["energy"] / 1e3,
                   "of it this vehicle's [kJ]": r["crush_energy"] / 1e3}
-        rows.append([r["vehicle"], r["other"]] + [_impact_cell(k, v, system) for k, v in values.items()])
+        rows.append([r["vehicle"], r["other"], r["side"]] + [_impact_cell(k, v, system) for k, v in values.items()])
     head = [IMPACT_US[k][0] if system == "us" and k in IMPACT_US else k for k in IMPACT_DIGITS]
-    return Table(["vehicle", "other"] + head, rows, table_id, (0, 1))
+    return Table(["vehicle", "other", "struck side"] + head, rows, table_id, (0, 1, 2))
 
 
 def _impact_cell(header: str, value, system: str) -> str:

@@ -147,6 +147,27 @@ def test_a_wrong_profile_moves_the_likelihood_and_a_miss_cannot_be_scored(tmp_pa
     assert np.isnan(right.evidence_set.residuals([o_miss])).all()
 
 
+def test_damage_on_a_side_no_impact_struck_cannot_be_scored(tmp_path):
+    """The damage says where the vehicle was struck: a candidate whose impacts strike it elsewhere has no energy on
+    that side to compare (docs/physics.md §21): NaN residuals, log-likelihood -inf; the same profile on the side
+    the impact strikes is scored (V1's front hits V2's left side)."""
+    scene = fields.set_fields(load_study(write(tmp_path, MEASURED)).scene, ["vehicles.V1.speed", "vehicles.V2.speed"],
+                              [50.0, 30.0])
+    o = get_model("impulse").simulate(scene)
+    assert {(r["vehicle"], r["side"]) for r in o.impact_rows} == {("V1", "front"), ("V2", "side")}
+    rear = load_study(write(tmp_path, MEASURED.replace('side = "front"', 'side = "rear"'), "rear.toml"))
+    R = rear.evidence_set.residuals([o])
+    assert np.isnan(R).all() and log_likelihood_of(R)[0] == -math.inf
+    front = load_study(write(tmp_path, MEASURED))
+    assert np.isfinite(front.evidence_set.residuals([o])).all()
+
+
+def test_a_twin_without_an_impact_on_the_damaged_side_is_refused(tmp_path):
+    text = TWIN.replace('side = "front"', 'side = "rear"')
+    assert_refused_with_one_line(load_study, write(tmp_path, text), "evidence.damage.V1",
+                                 ["no impact of V1 on its rear"])
+
+
 def test_twin_fills_the_profiles_and_scores_zero_at_the_truth(tmp_path):
     study = load_study(write(tmp_path, TWIN))
     items = {it.label: it for it in study.evidence_set.items}

@@ -197,7 +197,7 @@ def test_evidence_scored_on_the_arrays_equals_the_outcomes_scores(model):
         EvidenceItem("rest", "rest.V1", ("V1",), ("x", "y", "heading"), (4.0, 0.5, 50.0), (0.2, 0.2, 5.0)),
         EvidenceItem("impact", "impact", ("V1", "V2"), ("x", "y"), (1.5, 0.2), (0.3, 0.3)),
         EvidenceItem("edr", "edr.V2", ("V2",), ("speed_at_impact", "delta_v"), (30.0, 25.0), (2.0, 3.0)),
-        EvidenceItem("damage", "damage.V2", ("V2",), ("ees",), (20.0,), (4.0,), mass=1100.0)])
+        EvidenceItem("damage", "damage.V2", ("V2",), ("ees",), (20.0,), (4.0,), mass=1100.0, side="side")])
     values = _rows(6)
     pop = model.simulate_population(scene, SPEEDS_HEADINGS, values)
     build = fields.setter(scene, SPEEDS_HEADINGS)

@@ -319,7 +319,7 @@ def assert_impact_table_is_the_outcomes(rows: list[list[str]], outcome):
     last printed digit), computed here from the Outcome's public tables: impacts, first_contact and the
     trajectories (a later impact's speed: the last sample before it)."""
     head = rows[0]
-    assert head[:2] == ["vehicle", "other"] and len(rows) - 1 == len(outcome.impacts) >= 2
+    assert head[:3] == ["vehicle", "other", "struck side"] and len(rows) - 1 == len(outcome.impacts) >= 2
     imp = outcome.impacts.assign(crush=[r["crush_energy"] for r in outcome.impact_rows])
     first = outcome.first_contact
     for cells in rows[1:]:
@@ -337,7 +337,7 @@ def assert_impact_table_is_the_outcomes(rows: list[list[str]], outcome):
         expected = {"t [s]": r.t, "speed at impact [km/h]": speed, "delta-V [km/h]": r.delta_v,
                     "EES [km/h]": r.ees, "PDOF [deg]": r.pdof, "PDOF [clock]": r.pdof_clock,
                     "energy dissipated [kJ]": r.energy / 1e3, "of it this vehicle's [kJ]": r.crush / 1e3}
-        assert set(expected) == set(head[2:])
+        assert set(expected) == set(head[3:]) and got["struck side"] == r.side
         for key, value in expected.items():
             digits = html_sections.IMPACT_DIGITS[key]
             if isinstance(value, float) and math.isnan(value):

@@ -25,7 +25,7 @@ def _num(v):
 # units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
 # impact-table columns printed with --wide only (the default table fits 100 columns; a reversed slip is also a
 # warning of its own)
-IMPACT_WIDE_ONLY = ("dvx", "dvy", "pdof_clock", "slip_reversed", "point_x", "point_y")
+IMPACT_WIDE_ONLY = ("dvx", "dvy", "pdof_clock", "side", "slip_reversed", "point_x", "point_y")
 JSON_UNITS = {"x": "m", "y": "m", "heading": "deg, wrapped to (-180, 180]",
               "heading_continuous": "deg, continuous: the start heading plus every turn",
               "yaw_turned": "deg, continuous: rest heading minus start heading (two spins add 720)",

@@ -160,11 +160,10 @@ def impact_rows(names, mass, imp, compliance, heads=None):
         dd0, dd1 = r[I_DD0], r[I_DD1]
         heading = [float(np.interp(r[I_T0], heads[q][0], heads[q][1])) if heads is not None and q < nv else 0.0
                    for q in (i, j)]
-        struck = (compliance[i, int(r[I_SIDE_I])], compliance[j, int(r[I_SIDE_J])] if j < nv else 0.0)
         pair = pair_rows(names, mass, i, j, r[I_T0], r[I_ENERGY], (r[I_DVI:I_DVI + 3], r[I_DVJ:I_DVJ + 3]),
                          ((J[0], J[1]), (-J[0], -J[1])), heading, (r[I_PX], r[I_PY]), r[I_TH] + math.pi / 2,
-                         "continuous", struck, peak_force=r[I_PEAK], duration=r[I_T1] - r[I_T0],
-                         impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
+                         "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance, peak_force=r[I_PEAK],
+                         duration=r[I_T1] - r[I_T0], impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],
                        max_penetration=r[I_MAXPEN], approach_speed=dd0, separation_speed=-dd1,

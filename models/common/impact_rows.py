@@ -1,11 +1,11 @@
 """Rows of the impact table (framework/outcome.py IMPACT_COLUMNS, SI), one home for every model.
 
 One impact (or contact episode) between vehicle i and vehicle j, or barrier j - nv when j >= nv (nv vehicles),
-gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, the vehicle's share of
-it (crush_energy: the two struck structures in series carry the same force, so each takes the energy in proportion
-to its crush compliance 1/B; a barrier takes none), its energy-equivalent speed (EES) from that share and the
-principal direction of force (PDOF) from the direction of the impulse, or summed contact force, on it
-(docs/physics.md §21).
+gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, the side it is struck on
+(front, rear or side), its share of the energy (crush_energy: the two struck structures in series carry the same
+force, so each takes the energy in proportion to its crush compliance 1/B; a barrier takes none), its
+energy-equivalent speed (EES) from that share and the principal direction of force (PDOF) from the direction of the
+impulse, or summed contact force, on it (docs/physics.md §21).
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def struck_compliance(specs) -> np.ndarray:
     return np.array([[1.0 / spec.structure[side].B for side in STRUCTURE_SIDES] for spec in specs]).reshape(-1, 3)
 
 
-def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, compliance,
+def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, sides, compliance,
               **extra) -> list[dict]:
     """Impact-table rows of one impact of vehicle i with vehicle or barrier j: one row for i, and one for j
     if it is a vehicle.
@@ -43,22 +43,24 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     per side s (0: i, 1: j; side 1 is not read for a barrier): dv[s] = (dvx, dvy, d_yaw_rate) [m/s, rad/s],
     push[s] = (fx, fy) the impulse or summed contact force on that vehicle (global; only its direction is
     used, for the PDOF), heading[s] [rad] the heading the PDOF is measured from; point = (x, y) [m],
-    plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; compliance = (c_i, c_j)
-    the crush compliance 1/B [m^2/N] of the struck side of i and of j (struck_compliance; c_j is not read for a
-    barrier); extra: further keys of every row (the impulse model: slip_reversed).
+    plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; sides = (s_i, s_j) the
+    struck side codes of i and j (crush_structure.side_code: 0 front, 1 rear, 2 side; s_j not read for a barrier);
+    compliance: the vehicles' (nv, 3) crush compliance table (struck_compliance); extra: further keys of every row
+    (the impulse model: slip_reversed).
     """
     nv = len(names)
-    c_i, c_j = compliance[0], (compliance[1] if j < nv else 0.0)
-    sides = [(i, names[j] if j < nv else barrier_name(j - nv), c_i)]
+    c_i = compliance[i, int(sides[0])]
+    c_j = compliance[j, int(sides[1])] if j < nv else 0.0
+    struck = [(i, names[j] if j < nv else barrier_name(j - nv), c_i, int(sides[0]))]
     if j < nv:
-        sides.append((j, names[i], c_j))
+        struck.append((j, names[i], c_j, int(sides[1])))
     rows = []
-    for s, (q, other, c_q) in enumerate(sides):
+    for s, (q, other, c_q, side) in enumerate(struck):
         # §21: the struck structures in series carry the same force f, each absorbing f^2/2B: E_q ~ 1/B_q
         e_q = max(energy, 0.0) * c_q / (c_i + c_j)
         rows.append({"t": t, "vehicle": names[q], "other": other, "dvx": dv[s][0], "dvy": dv[s][1],
                      "d_yaw_rate": dv[s][2], "energy": energy, "crush_energy": e_q,
                      "ees": math.sqrt(2.0 * e_q / mass[q]),
-                     "pdof": pdof(push[s][0], push[s][1], heading[s]), "kind": kind,
+                     "pdof": pdof(push[s][0], push[s][1], heading[s]), "kind": kind, "side": STRUCTURE_SIDES[side],
                      "point_x": point[0], "point_y": point[1], "plane_angle": plane, **extra})
     return rows

@@ -274,11 +274,9 @@ def _impact_rows(names, mass, imp, specs):
         nx, ny = math.sin(plane), -math.cos(plane)
         ix, iy = pn * nx - pt * ny, pn * ny + pt * nx  # impulse on j; -impulse on i
         dv = ((r[L.I_DVX_I], r[L.I_DVY_I], r[L.I_DR_I]), (r[L.I_DVX_J], r[L.I_DVY_J], r[L.I_DR_J]))
-        i, j = int(r[L.I_I]), int(r[L.I_J])
-        struck = (compliance[i, int(r[L.I_SIDE_I])], compliance[j, int(r[L.I_SIDE_J])] if j < len(names) else 0.0)
-        rows += pair_rows(names, mass, i, j, r[L.I_T], r[L.I_ENERGY], dv,
+        rows += pair_rows(names, mass, int(r[L.I_I]), int(r[L.I_J]), r[L.I_T], r[L.I_ENERGY], dv,
                           ((-ix, -iy), (ix, iy)), (r[L.I_HEAD_I], r[L.I_HEAD_J]), (r[L.I_PX], r[L.I_PY]), plane,
-                          KIND_TEXT[int(r[L.I_KIND])], struck, t_end=r[L.I_T_END],
+                          KIND_TEXT[int(r[L.I_KIND])], (r[L.I_SIDE_I], r[L.I_SIDE_J]), compliance, t_end=r[L.I_T_END],
                           contact_impulses=int(r[L.I_N_FOLLOW]), slip_reversed=bool(r[L.I_REVERSED]))
     return rows
 

@@ -166,10 +166,9 @@ class Run:
         heads = [c.contact[q, 2] if not math.isnan(c.contact[q, 2]) else S[q, 2] for q in range(nv)]
         rows, compliance = [], struck_compliance(v.spec for v in scene.vehicles)
         for ep in c.episodes:  # the force on a vehicle has the direction of its contact velocity jump
-            struck = (compliance[ep.i, ep.sides[0]], compliance[ep.k, ep.sides[1]] if ep.k < nv else 0.0)
             rows += pair_rows(names, P[:, P_MASS], ep.i, ep.k, ep.t, ep.energy, ep.dv, ep.dv[:, 0:2],
                               (heads[ep.i], heads[ep.k] if ep.k < nv else 0.0), (ep.px, ep.py), ep.plane,
-                              "continuous", struck, duration=ep.t_end - ep.t)
+                              "continuous", ep.sides, compliance, duration=ep.t_end - ep.t)
         if not c.episodes:
             warnings.append("no contact between the vehicles")
         # core (crashlab.diagnostics): fixed steps, none rejected; max_penetration from the arbiters' contact depths

@@ -30,7 +30,8 @@ import time
 import numpy as np
 
 import crashlab
-from crashlab.models.common.impact_rows import pair_rows
+from crashlab.models.common.crush_structure import side_code
+from crashlab.models.common.impact_rows import pair_rows, struck_compliance
 from crashlab.options import ModelOptions, option
 from crashlab.units import G
 
@@ -50,6 +51,11 @@ class _Box:
     def corners(self) -> np.ndarray:
         signs = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]])
         return self.centre + (signs * self.half) @ self.axes
+
+    def struck_side(self, point) -> int:
+        """The side a contact point strikes: 0 front, 1 rear, 2 side (crashlab's rule, side_code)."""
+        local = self.axes @ (np.asarray(point) - self.centre)
+        return side_code(float(local[0]), float(local[1]), float(self.half[0]), float(self.half[1]))
 
     def support(self, direction) -> np.ndarray:
         """The point of the outline furthest along `direction` (the middle of a face when a face is)."""
@@ -178,6 +184,7 @@ class ExampleModel(crashlab.CollisionModel):
                             ep = episodes[(i, j)] = {
                                 "i": i, "j": j, "t": t, "t_end": t, "energy": 0.0, "dv": np.zeros((2, 2)),
                                 "impulse": np.zeros(2), "point": point,
+                                "sides": (boxes[i].struck_side(point), boxes[j].struck_side(point) if j < nv else 0),
                                 "plane": math.atan2(n[1], n[0]) + math.pi / 2,
                                 "kind": "full" if math.hypot(*slip) < FULL_SLIP else "sliding"}
                             rows.append(ep)
@@ -206,13 +213,14 @@ class ExampleModel(crashlab.CollisionModel):
         headings = [v.heading for v in vehicles]
 
         impact_rows = []  # one row per vehicle per contact episode (a barrier has no row)
+        compliance = struck_compliance(v.spec for v in vehicles)  # shares each impact's energy by the struck sides
         for ep in rows:
             i, j = ep["i"], ep["j"]
             dv = [(*ep["dv"][0], 0.0), (*ep["dv"][1], 0.0)]  # (dvx, dvy, d_yaw_rate): these boxes never turn
             push = [-ep["impulse"], ep["impulse"]]
             impact_rows += pair_rows(names, mass, i, j, ep["t"], ep["energy"], dv, push,
                                      [headings[i], headings[j] if j < nv else 0.0], ep["point"], ep["plane"],
-                                     ep["kind"], t_end=ep["t_end"])
+                                     ep["kind"], ep["sides"], compliance, t_end=ep["t_end"])
 
         diagnostics = {"steps": steps, "rejected_steps": 0, "episodes": len(rows), "t_end": t,
                        "max_penetration": max_pen, "impulses": impulses}
