@@ -130,10 +130,10 @@ def test_tutorial_commands_run_and_make_its_figures(tmp_path):
     (tmp_path / "studies").symlink_to(REPO / "studies", target_is_directory=True)
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
                MPLBACKEND="Agg")
-    stdout = {}
+    stdout, printed = {}, {}
     for cmd, expected in commands(text):
         r = subprocess.run(cmd, shell=True, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
-        stdout[cmd] = r.stdout
+        stdout[cmd], printed[cmd] = r.stdout, r.stdout + r.stderr  # (a refusal is printed on stderr)
         assert r.returncode == expected, f"{cmd}: exit {r.returncode}\n{r.stdout[-2000:]}\n{r.stderr[-2000:]}"
         if expected == 2:  # bad input: one line naming the file and the key
             lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
@@ -153,6 +153,61 @@ def test_tutorial_commands_run_and_make_its_figures(tmp_path):
         best = min(csv.DictReader(f), key=lambda r: float(r["f_V1"]) + float(r["f_V2"]))
     assert float(best["f_V1"]) <= 1.0 and float(best["f_V2"]) <= 1.0, best
     check_counterfactuals(text, stdout, tmp_path / "out" / "infer", rows)
+    bad = unprinted_lines(text, printed)
+    assert not bad, "lines the tutorial shows that its command did not print:\n" + "\n".join(bad)
+
+
+# the commands whose printed numbers the tutorial shows to the digit (single deterministic runs); the searches,
+# the sampler and the Monte Carlo are checked for their words and layout only (their last digits may move with
+# the platform's floating point, and a search's chaotic rows with them)
+EXACT = ("crashlab simulate studies/tutorial/truth.toml", "crashlab compare", "crashlab reconstruct typo.toml",
+         "crashlab reconstruct short_study.toml")
+NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
+WALL = re.compile(r"\b\d+(?:\.\d+)? (?:s|ms)\b")  # wall times differ from run to run
+
+
+def printed_blocks(text: str) -> list[tuple[str, list[str]]]:
+    """(last command of a ```bash block, the lines of the ```text block right after it)."""
+    out = []
+    for m in re.finditer(r"^```bash\n(.*?)^```\n+```text\n(.*?)^```", text, flags=re.S | re.M):
+        cmds = [ln.strip() for ln in m.group(1).splitlines() if ln.strip() and not ln.strip().startswith("#")]
+        out.append((cmds[-1], m.group(2).splitlines()))
+    return out
+
+
+def same_line(shown: str, printed: str, exact: bool) -> bool:
+    """The tutorial's line is the printed one: the same words; numbers within half a unit of the shown line's last
+    digit (exact), or any numbers (not exact)."""
+    shown, printed = WALL.sub("T", shown), WALL.sub("T", printed)
+    if NUMBER.sub("#", shown).split() != NUMBER.sub("#", printed).split():
+        return False
+    if not exact:
+        return True
+    for a, b in zip(NUMBER.findall(shown), NUMBER.findall(printed)):
+        digits = len(a.split(".")[1]) if "." in a else 0
+        if abs(float(a) - float(b)) > 0.5 * 10.0 ** -digits + 1e-12:
+            return False
+    return True
+
+
+def unprinted_lines(text: str, printed: dict) -> list[str]:
+    """The tutorial's printed lines (all but '...') that are no line of what their command printed."""
+    bad = []
+    for cmd, lines in printed_blocks(text):
+        exact = cmd.startswith(EXACT)
+        got = printed[cmd].splitlines()
+        bad += [f"{cmd}: {ln}" for ln in lines if ln != "..." and not any(same_line(ln, g, exact) for g in got)]
+    return bad
+
+
+def test_a_drifted_printed_line_is_found():
+    """unprinted_lines finds a number off by more than its printed rounding, and only in the exact commands."""
+    text = "```bash\ncrashlab compare x\n```\n\n```text\nV1  7.206  -39.78  ok (1.2 s)\n```\n"
+    assert unprinted_lines(text, {"crashlab compare x": "V1  7.2064  -39.783  ok (9.9 s)\n"}) == []
+    assert unprinted_lines(text, {"crashlab compare x": "V1  7.206  -40.04  ok (1.2 s)\n"})
+    assert unprinted_lines(text, {"crashlab compare x": "V1  7.206  -39.78  fail (1.2 s)\n"})
+    loose = text.replace("compare", "infer")
+    assert unprinted_lines(loose, {"crashlab infer x": "V1  7.3  -41.0  ok (2 s)\n"}) == []
 
 
 def printed_after(text: str, command: str) -> list[str]:
