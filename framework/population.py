@@ -154,6 +154,12 @@ class Population:
             if rest.shape != (nv, 3) or not np.all(np.isfinite(rest)):
                 pop.reason[r] = "non-finite rest pose"
                 continue
+            rows = o.impact_rows
+            unnamed = sorted({str(row.get("vehicle")) for row in rows if row.get("side") not in SIDE_INDEX})
+            if unnamed:  # (its energy could not be booked to the side damage evidence compares)
+                pop.reason[r] = (f"the model's impact rows of {', '.join(unnamed)} name no struck side (front, rear "
+                                 "or side; crashlab.models.common.impact_rows.pair_rows builds them)")
+                continue
             pop.ok[r] = True
             pop.rest[r] = rest
             pop.final[r] = o.final_si
@@ -161,7 +167,6 @@ class Population:
             pop.rest_speed[r] = o.end_speed_si
             # an Outcome without velocities: nothing says it moves
             pop.at_rest[r] = o.at_rest_mask if np.all(np.isfinite(o.final_si)) else True
-            rows = o.impact_rows
             pop.n_impacts[r] = diag["episodes"] if diag is not None and "episodes" in diag else len(rows)
             e = o.impact_energy
             pop.energy_impacts[r] = math.fsum(e.tolist())
@@ -236,7 +241,7 @@ def exception_reason(err: BaseException) -> str:
 def _impact_columns(pop: Population, r: int, names, rows) -> None:
     """Row r's per-vehicle impact columns from an Outcome's impact rows (SI): delta_v |sum dv|, the first
     impact's, crush energy summed per struck side, first impact time and point (NaN where a model's rows lack a
-    column; a row without a side counts as the front's)."""
+    column; every row names its side: of_outcomes fails a run whose rows do not)."""
     index = {n: i for i, n in enumerate(names)}
     dv = np.zeros((len(names), 2))
     pop.crush_energy[r] = 0.0
@@ -248,7 +253,7 @@ def _impact_columns(pop: Population, r: int, names, rows) -> None:
         def get(key, row=row):
             return row.get(key, math.nan)
         dv[i] += (get("dvx"), get("dvy"))
-        pop.crush_energy[r, i, SIDE_INDEX.get(row.get("side"), 0)] += max(row.get("crush_energy", 0.0), 0.0)
+        pop.crush_energy[r, i, SIDE_INDEX[row["side"]]] += max(row.get("crush_energy", 0.0), 0.0)
         if not math.isfinite(pop.first_impact_t[r, i]):
             pop.first_impact_t[r, i] = row["t"]
             pop.first_impact_point[r, i] = (get("point_x"), get("point_y"))

@@ -69,6 +69,11 @@ class EvidenceItem:
     points: np.ndarray | None = field(default=None, compare=False)
     mass: float = math.nan
     side: str = ""
+
+    def __post_init__(self):
+        if self.kind == "damage" and self.side not in SIDE_INDEX:
+            raise ValueError(f"{self.label}: damage evidence needs the side it was measured on (front, rear or "
+                             f"side), got {self.side!r}")
     detail: str = field(default="", compare=False)
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 import crashlab
+from crashlab import fields
 from crashlab.registry import get_model
 
 REPO = Path(__file__).resolve().parent.parent
@@ -29,14 +30,18 @@ def expected_share(scene, struck: dict) -> dict:
     return {name: c[name] / sum(c.values()) for name in c}
 
 
+@pytest.mark.parametrize("heading", [0.0, 10.0, -10.0])  # V1 square on, or turned: its corner strikes first
 @pytest.mark.parametrize("model_name, options", [("impulse", {}), ("pymunk", {}), ("multibody", {}),
                                                  ("multibody", {"contact_law": "generic"}), ("exudyn", {})])
-def test_a_front_into_a_side_shares_the_energy_by_the_struck_structures(model_name, options):
-    scene = crashlab.load_scene(SIDE)
+def test_a_front_into_a_side_shares_the_energy_by_the_struck_structures(model_name, options, heading):
+    scene = fields.set_field(crashlab.load_scene(SIDE), "vehicles.V1.heading", heading)
     want = expected_share(scene, {"V1": "front", "V2": "side"})
     assert want["V2"] == pytest.approx(0.64, abs=0.01)  # the Clio's side is the softer: B 241 against 429 kN/m^2
-    got = first_impact_shares(get_model(model_name, **options).simulate(scene))
+    out = get_model(model_name, **options).simulate(scene)
+    got = first_impact_shares(out)
     assert set(got) == {"V1", "V2"}
+    assert {r["vehicle"]: r["side"] for r in out.impact_rows if r["t"] == min(x["t"] for x in out.impact_rows)} == \
+        {"V1": "front", "V2": "side"}
     for name, (crush, energy) in got.items():
         assert energy > 1e3 and crush == pytest.approx(want[name] * energy, rel=1e-9), (name, crush, energy)
 
@@ -47,3 +52,13 @@ def test_a_front_into_a_rear_shares_it_by_the_front_and_the_rear():
     got = first_impact_shares(get_model("impulse").simulate(scene))
     for name, (crush, energy) in got.items():
         assert crush == pytest.approx(want[name] * energy, rel=1e-9), name
+
+
+def test_the_side_codes_are_the_structure_sides_in_order():
+    """crush_structure.side_code's 0, 1, 2 index crashlab.structure.STRUCTURE_SIDES (the rows' names, the compliance
+    table's columns and Population.crush_energy's last axis)."""
+    from crashlab.models.common.crush_structure import side_code
+    from crashlab.structure import STRUCTURE_SIDES
+    points = {"front": (1.9, 0.1), "rear": (-1.9, -0.1), "side": (0.1, -0.9)}  # half length 2, half width 1
+    assert {name: STRUCTURE_SIDES[side_code(x, y, 2.0, 1.0)] for name, (x, y) in points.items()} == \
+        {name: name for name in points}

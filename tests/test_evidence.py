@@ -34,7 +34,7 @@ def test_polyline_distance_is_the_distance_to_the_nearest_segment():
 
 def _row(t, vehicle, other, dvx, dvy, px, py):
     return {"t": t, "vehicle": vehicle, "other": other, "dvx": dvx, "dvy": dvy, "d_yaw_rate": 0.0,
-            "energy": 1e4, "ees": 1.0, "pdof": 0.0, "kind": "full", "point_x": px, "point_y": py,
+            "energy": 1e4, "ees": 1.0, "pdof": 0.0, "side": "front", "kind": "full", "point_x": px, "point_y": py,
             "plane_angle": 0.0}
 
 

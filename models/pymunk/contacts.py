@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from crashlab.geometry import overlap_centroid
 from crashlab.models.common.planar_vehicle import struck_side
 from crashlab.restitution import restitution_at
 
@@ -57,6 +58,16 @@ def step_energy(S1, jump, mass, iz, vehicles):
         de += (0.5 * mass[q] * (v[0] ** 2 + v[1] ** 2 - w[0] ** 2 - w[1] ** 2)
                + 0.5 * iz[q] * (v[2] ** 2 - w[2] ** 2))
     return de
+
+
+def _overlap_middle(arb, px, py) -> tuple[float, float]:
+    """The middle of the two shapes' overlap at their first contact (crashlab.geometry.overlap_centroid), the point
+    whose side each vehicle is struck on (docs/physics.md §21); the contact point (px, py) where it has no area.
+    Not the contact point itself: at an angle that is the striking car's corner, on the diagonal that separates its
+    front from its side."""
+    outlines = [np.array([tuple(s.body.local_to_world(v)) for v in s.get_vertices()]) for s in arb.shapes]
+    x, y, _ = overlap_centroid(outlines[0], outlines[1])
+    return (x, y) if math.isfinite(x) else (px, py)
 
 
 class Contacts:
@@ -114,8 +125,9 @@ class Contacts:
         e, why = restitution_at(max(-((vk[0] - vi.x) * nx + (vk[1] - vi.y) * ny), 0.0), self.impact)
         if why:
             self.law_warnings.append(why)
+        sx, sy = _overlap_middle(arb, px, py)
         ep = Episode(self.t + self.dt, i, k, px, py, math.atan2(nx, -ny), e,
-                     (self._struck_side(i, px, py), self._struck_side(k, px, py) if k < self.nv else 0))
+                     (self._struck_side(i, sx, sy), self._struck_side(k, sx, sy) if k < self.nv else 0))
         self.open[(i, k)] = ep
         self.episodes.append(ep)
         for q in (i, k):

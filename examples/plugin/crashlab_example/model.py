@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 import crashlab
+from crashlab.geometry import overlap_centroid
 from crashlab.models.common.crush_structure import side_code
 from crashlab.models.common.impact_rows import pair_rows, struck_compliance
 from crashlab.options import ModelOptions, option
@@ -62,6 +63,13 @@ class _Box:
         c = self.corners()
         p = c @ direction
         return c[p >= p.max() - 1e-9].mean(axis=0)
+
+
+def _struck_sides(a: _Box, b: _Box, b_is_vehicle: bool) -> tuple[int, int]:
+    """The sides of a and b an impact strikes, from the middle of their overlap (crashlab's rule; the support
+    points' midpoint lies on the striking corner at an angle, on the diagonal between front and side)."""
+    x, y, _ = overlap_centroid(a.corners()[::-1].copy(), b.corners()[::-1].copy())  # (counter-clockwise)
+    return a.struck_side((x, y)), b.struck_side((x, y)) if b_is_vehicle else 0
 
 
 def _separation(a: _Box, b: _Box):
@@ -184,7 +192,7 @@ class ExampleModel(crashlab.CollisionModel):
                             ep = episodes[(i, j)] = {
                                 "i": i, "j": j, "t": t, "t_end": t, "energy": 0.0, "dv": np.zeros((2, 2)),
                                 "impulse": np.zeros(2), "point": point,
-                                "sides": (boxes[i].struck_side(point), boxes[j].struck_side(point) if j < nv else 0),
+                                "sides": _struck_sides(boxes[i], boxes[j], j < nv),
                                 "plane": math.atan2(n[1], n[0]) + math.pi / 2,
                                 "kind": "full" if math.hypot(*slip) < FULL_SLIP else "sliding"}
                             rows.append(ep)

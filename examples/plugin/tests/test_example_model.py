@@ -107,3 +107,17 @@ def test_barrier_impact_reverses_the_normal_velocity_times_e():
     m = s.vehicles[0].spec.mass
     lost = 0.5 * m * (v @ v - out.final_si[0, :2] @ out.final_si[0, :2])
     assert out.impacts.other.tolist() == ["barrier0"] and out.impact_energy[0] == pytest.approx(lost, rel=1e-9)
+
+
+@pytest.mark.parametrize("heading", [0.0, 10.0, -10.0])
+def test_a_front_into_a_side_names_the_sides_and_shares_the_energy_by_their_structures(heading):
+    """A's front into B's left side, square on or turned (its corner strikes first): the rows name the struck
+    sides, and the energy is shared as the compliance 1/B of those sides (the same force on both structures)."""
+    s = scene([{"name": "A", "vehicle": "clio", "x": 0.0, "y": 0.0, "heading": heading, "speed": 50.0},
+               {"name": "B", "vehicle": "clio", "x": 3.5, "y": 0.0, "heading": 90.0, "speed": 30.0}])
+    out = crashlab.get_model("example").simulate(s)
+    first = [r for r in out.impact_rows if r["t"] == min(x["t"] for x in out.impact_rows)]
+    assert {r["vehicle"]: r["side"] for r in first} == {"A": "front", "B": "side"}
+    c = {"A": 1.0 / s.vehicles[0].spec.structure["front"].B, "B": 1.0 / s.vehicles[1].spec.structure["side"].B}
+    for r in first:
+        assert r["crush_energy"] == pytest.approx(r["energy"] * c[r["vehicle"]] / (c["A"] + c["B"]), rel=1e-9)
