@@ -239,3 +239,18 @@ def test_the_population_masses_are_the_rows_masses_also_of_a_row_that_fails(mode
     assert list(pop.ok) == [True, False, True]
     want = np.column_stack([values[:, 0], np.full(3, scene.vehicles[1].spec.mass)])
     np.testing.assert_array_equal(pop.mass, want)
+
+
+def test_a_run_whose_impact_rows_name_no_struck_side_fails_with_the_reason():
+    """Its energy cannot be booked to the side damage evidence compares (docs/physics.md §28): the run fails in the
+    population, naming the vehicles; the same rows with their sides pass and book the energy there."""
+    from crashlab.outcome import Outcome
+    row = {"t": 0.1, "vehicle": "V1", "other": "V2", "dvx": -1.0, "dvy": 0.0, "d_yaw_rate": 0.0, "energy": 1e3,
+           "crush_energy": 400.0, "kind": "full", "point_x": 0.0, "point_y": 0.0, "plane_angle": 0.0}
+    rows = [row, {**row, "vehicle": "V2", "other": "V1", "crush_energy": 600.0}]
+    named = [{**rows[0], "side": "front"}, {**rows[1], "side": "side"}]
+    pop = Population.of_outcomes([Outcome(["V1", "V2"], np.zeros((2, 3)), np.zeros((2, 3)), impact_rows=r)
+                                  for r in (rows, named)], ["V1", "V2"])
+    assert list(pop.ok) == [False, True]
+    assert pop.reason[0].startswith("the model's impact rows of V1, V2 name no struck side")
+    np.testing.assert_array_equal(pop.crush_energy[1], [[400.0, 0.0, 0.0], [0.0, 0.0, 600.0]])
