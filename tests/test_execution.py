@@ -42,7 +42,8 @@ class EchoModel(crashlab.CollisionModel):
         shift = scene.vehicles[0].speed * 3.6
         rest = [(v.x + shift, v.y, v.heading) for v in scene.vehicles]
         return crashlab.Outcome(scene.vehicle_names, rest, np.zeros((len(rest), 3)), model=self.name,
-                                impact_rows=[{"t": 0.1, "vehicle": "V1", "other": "V2", "energy": 0.0}])
+                                impact_rows=[{"t": 0.1, "vehicle": "V1", "other": "V2", "energy": 0.0,
+                                              "side": "front"}])
 
 
 class RaisingModel(EchoModel):
