@@ -113,8 +113,12 @@ def delta_v(outcome, name: str) -> float:
 def crush_ees(outcome, name: str, mass: float, side: str) -> float:
     """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows that struck `side`
     (front, rear or side; energies add, crashlab.damage.combined_ees); NaN when no impact struck it there."""
-    e = _one(outcome).crush_energy[0, outcome.names.index(name), SIDE_INDEX[side]]
-    return math.sqrt(2.0 * e / mass) if e > 0.0 else math.nan
+    return float(side_ees(_one(outcome).crush_energy[0, outcome.names.index(name), SIDE_INDEX[side]], mass))
+
+
+def side_ees(energy, mass):
+    """m/s, the EES sqrt(2 E / m) of the crush energy booked to one struck side; NaN where none was (E = 0)."""
+    return np.sqrt(2.0 * np.where(energy > 0.0, energy, np.nan) / mass)
 
 
 def cg_path(outcome, name: str) -> np.ndarray:
@@ -157,8 +161,7 @@ class EvidenceSet:
                 :, :len(it.components)]
         if it.kind == "damage":  # the crush energy of the damaged side as an EES at the study's mass; NaN where
             # no impact struck that side (docs/physics.md §21, §28)
-            e = pop.crush_energy[:, i, SIDE_INDEX[it.side]]
-            return ms_to_kmh(np.sqrt(2.0 * np.where(e > 0.0, e, np.nan) / it.mass))[:, None]
+            return ms_to_kmh(side_ees(pop.crush_energy[:, i, SIDE_INDEX[it.side]], it.mass))[:, None]
         sim = {"speed_at_impact": lambda: ms_to_kmh(pop.contact[:, i, 3]),  # NaN without contact
                "delta_v": lambda: ms_to_kmh(pop.delta_v[:, i])}
         return np.column_stack([sim[c]() for c in it.components])

@@ -298,7 +298,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
                 psg[p, G_TH] = th
                 psg[p, G_RAW], psg[p, G_MEAS] = crush, 1.0
             psg[p, G_CRUSH] = crush
-        elif PST[p, S_ACT] == 0.0:  # the struck sides, which share the episode's energy in its impact rows (§21)
+        elif PST[p, S_ACT] == 0.0 and g < 0.0:  # the struck sides at the first touch, which share the episode's
+            # energy in its impact rows (§21)
             PST[p, S_SIDE_I] = _struck_face(A1, rc1, M, sh1[0], sh1[1])[0]
             PST[p, S_SIDE_J] = _struck_face(A2, rc2, M, sh2[0], sh2[1])[0] if k2 == 0 else 0
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
