@@ -295,3 +295,20 @@ def filter_pairs(centres, rotations, shapes, pairs=None, use_aabb=True):
         out.append((i, j))
     counts["remaining"] = len(out)
     return out, counts
+
+
+def nose_barrier_crush(energy, B, a, b, p=4.0, width=None):
+    """Deepest crush C of a superellipse nose (plan |x/a|^p + |y/b|^p = 1, half width b) face-on against a rigid
+    barrier that absorbs `energy` [J] with CRASH3's stiffness B [N/m^2] over the crush profile (docs/physics.md §13a
+    "Engaged width"): each line y across the nose crushes C - s(y), s(y) = a (1 - (1 - |y/b|^p)^(1/p)) its setback,
+    so energy = B/2 * integral over y of (C - s(y))+^2 (times width / 2b where the structure is narrower); dense
+    trapezoidal rule in y, bisection in C. The flat face (s = 0) gives sqrt(2 energy / (2 b B))."""
+    y = np.linspace(-b, b, 200_001)
+    s = a * (1.0 - (1.0 - np.abs(y / b) ** p) ** (1.0 / p))
+    scale = 1.0 if width is None else min(1.0, width / (2.0 * b))
+    lo, hi = 0.0, a
+    for _ in range(60):
+        c = 0.5 * (lo + hi)
+        e = 0.5 * B * scale * np.trapezoid(np.maximum(c - s, 0.0) ** 2, y)
+        lo, hi = (c, hi) if e < energy else (lo, c)
+    return 0.5 * (lo + hi)

@@ -8,6 +8,8 @@ import pytest
 
 pytest.importorskip("exudyn")
 
+from geometry_3d import nose_barrier_crush  # noqa: E402
+
 from crashlab.models.common.vehicle_3d import build  # noqa: E402
 from crashlab.models.exudyn import ExudynModel  # noqa: E402
 from crashlab.scene_file import scene_from_dict  # noqa: E402
@@ -197,10 +199,10 @@ def test_max_penetration_reports_the_dynamic_crush():
     (the dynamic crush under the crush-structure law, docs/physics.md §13a), as multibody reports it. It read
     the overlap beyond the permanent set (2 e^2 e_m / f_m: the elastic part), 0.015 m here and 0.02 m of NHTSA
     10146's 0.56 m. A Clio (980 kg, front A = 35.2 kN/m, B = 429 kN/m^2 over 1.64 m) at 50 km/h into a rigid
-    wall, e = 0.1: the energy balance 1/2 m v^2 = w B C^2 / 2 (the CRASH3 line through zero force, its energy
-    with G) gives C = 0.518 m;
-    within 5 % (the rounded body engages less than the full width at first; the wheels' mass rides on the
-    suspension), and equal to the impact row's max_penetration."""
+    wall, e = 0.1: the energy balance over the nose's crush profile, 1/2 m v^2 = B/2 int (C - s(y))+^2 dy (the
+    CRASH3 line through zero force on each line across the rounded nose, docs/physics.md §13a "Engaged width")
+    gives C = 0.609 m (a flat face: 0.518 m); within 5 % (the wheels' mass rides on the suspension), and equal to
+    the impact row's max_penetration."""
     sc = scene_from_dict({"name": "crush wall", "duration": 0.2, "stop_at_rest": False,
                           "impact": {"restitution": 0.1, "friction": 0.0},
                           "vehicles": [{"name": "A", "vehicle": "clio", "x": -2.5, "speed": 50.0,
@@ -208,10 +210,9 @@ def test_max_penetration_reports_the_dynamic_crush():
                           "barriers": [{"x": 0.5, "y": 0.0, "heading": 90.0, "length": 4.0, "width": 1.0}]})
     spec = sc.vehicles[0].spec
     front = spec.structure["front"]
-    b, w = front.B, min(front.width, spec.width)
     energy = 0.5 * spec.mass * (50.0 / 3.6) ** 2
-    crush = math.sqrt(2.0 * energy / (w * b))
-    assert crush == pytest.approx(0.518, abs=0.001)
+    crush = nose_barrier_crush(energy, front.B, spec.length / 2, spec.width / 2, width=front.width)
+    assert crush == pytest.approx(0.609, abs=0.001)
     out = ExudynModel().simulate(sc)
     assert out.outcome_ok, out.warnings
     (row,) = out.impact_rows

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from geometry_3d import nose_barrier_crush  # noqa: E402
 
 import crashlab
 from crashlab.models.multibody import MultibodyModel
@@ -51,12 +52,12 @@ def test_rigid_wall_64_effective_restitution(model):
     assert r["energy"] == pytest.approx(ke_lost, rel=0.03)
     assert 0.1 < r["max_penetration"] < 0.8
     # the crush structure (docs/physics.md §13a): the largest crush from the energy balance against a rigid
-    # barrier, 1/2 m v^2 = w B C^2/2 (the CRASH3 line through zero force), w the car's width (its front B:
-    # crashlab.structure); the 3D car
-    # crushes ~1 % deeper (its wheels' spin energy and pitch are not in the closed form)
-    front = sc.vehicles[0].spec.structure["front"]
-    b, w = front.B, front.width
-    c_ref = np.sqrt(m * v0 ** 2 / (w * b))
+    # barrier over the nose's crush profile, 1/2 m v^2 = B/2 int (C - s(y))+^2 dy (the CRASH3 line through zero
+    # force on each line across the rounded nose, its front B: crashlab.structure; 0.763 m, the flat face's
+    # sqrt(m v^2 / (w B)) 0.663 m); the 3D car crushes ~1 % deeper (its wheels' spin energy and pitch are not in it)
+    spec = sc.vehicles[0].spec
+    front = spec.structure["front"]
+    c_ref = nose_barrier_crush(0.5 * m * v0 ** 2, front.B, spec.length / 2, spec.width / 2, width=front.width)
     assert r["max_penetration"] == pytest.approx(c_ref, rel=0.03)
     assert 0.05 < r["duration"] < 0.4
     assert r["peak_force"] > r["impulse"] / r["duration"]

@@ -61,7 +61,7 @@ from .crush_structure import (
 )
 from .narrow_phase import horizontal_gap, support_value_body
 from .rotations import rot_z, rotation_matrix_into
-from .superellipsoid import support_global
+from .superellipsoid import support_global, support_local
 
 # pair parameters PP[p]: i, j (j >= nv: barrier j - nv), K of the generic law, the structure rows
 # (crush_structure.structure_row: A, B, width of front, rear, side) of i and of j (zeros for a barrier: rigid)
@@ -106,6 +106,10 @@ B_PAIRS, B_CIRCLE, B_HEIGHT, B_OBB, B_NARROW = range(5)
 N_BPC = 5
 # barrier: a rigid box standing on the road, 1.5 m tall
 BARRIER_HALF_HEIGHT = 0.75
+# crush profile (structure law, §13a "Engaged width"): each body's plan outline as N_OUT vertices in its own frame
+# about its shape centre (a vehicle's superellipse at the outward normal angles 2 pi k / N_OUT, so they crowd where
+# it is curved; a barrier's four corners, the last repeated), the engaged width cut into N_STRIP strips
+N_OUT, N_STRIP = 48, 24
 
 
 @njit(cache=True)
@@ -128,20 +132,92 @@ def _struck_face(A, rc, M, a, b):
 
 
 @njit(cache=True)
+def _extent(O, A, rc, n0, n1):
+    """(least, largest) lateral coordinate u = p . t (t = (-n1, n0), across the normal n) of the plan outline O
+    (vertices in the body frame about the shape centre rc, plan rotation from A)."""
+    lo, hi = math.inf, -math.inf
+    for k in range(O.shape[0]):
+        px = rc[0] + A[0, 0] * O[k, 0] + A[0, 1] * O[k, 1]
+        py = rc[1] + A[1, 0] * O[k, 0] + A[1, 1] * O[k, 1]
+        u = -n1 * px + n0 * py
+        lo, hi = min(lo, u), max(hi, u)
+    return lo, hi
+
+
+@njit(cache=True)
+def _sections(O, A, rc, n0, n1, lo, du, sign, out):
+    """out[k]: the largest sign (p . n) on the plan outline O (as _extent) along the middle line of strip k,
+    u = lo + (k + 1/2) du (sign 1: the body's front along n, -1: minus its back); -inf where the outline does not
+    reach it. Each edge is interpolated at the strip lines it spans (a convex outline: two edges per line)."""
+    ns = out.shape[0]
+    for k in range(ns):
+        out[k] = -math.inf
+    m = O.shape[0]
+    px = rc[0] + A[0, 0] * O[m - 1, 0] + A[0, 1] * O[m - 1, 1]
+    py = rc[1] + A[1, 0] * O[m - 1, 0] + A[1, 1] * O[m - 1, 1]
+    ua, sa = -n1 * px + n0 * py, sign * (n0 * px + n1 * py)
+    for e in range(m):
+        px = rc[0] + A[0, 0] * O[e, 0] + A[0, 1] * O[e, 1]
+        py = rc[1] + A[1, 0] * O[e, 0] + A[1, 1] * O[e, 1]
+        ub, sb = -n1 * px + n0 * py, sign * (n0 * px + n1 * py)
+        u0, s0, u1, s1 = (ua, sa, ub, sb) if ua <= ub else (ub, sb, ua, sa)
+        if u1 - u0 > 1e-12:
+            k0 = max(0, int(math.ceil((u0 - lo) / du - 0.5)))
+            k1 = min(ns - 1, int(math.floor((u1 - lo) / du - 0.5)))
+            for k in range(k0, k1 + 1):
+                s = s0 + (s1 - s0) * (lo + (k + 0.5) * du - u0) / (u1 - u0)
+                if s > out[k]:
+                    out[k] = s
+        ua, sa = ub, sb
+
+
+@njit(cache=True)
+def profile_force(O1, A1, rc1, O2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, top, bot):
+    """Normal force of the structure law over the crush profile (docs/physics.md §13a "Engaged width"): the
+    engaged width (the overlap of the two plan outlines across the normal n) cut into strips, each strip's local
+    overlap along n from the outlines, its setback sig_k below the deepest strip's, and the force per unit width
+    of the strip's own crush, sum_k du structure_force(crush - sig_k, cm - sig_k, e, b1, b2) (CRASH3's integral
+    over the profile; a flat face, sig = 0, gives w structure_force(crush, ...)); the width at most each
+    structure's (w1, w2; w2 <= 0: a barrier, unlimited), by scaling. Returns (force, engaged width)."""
+    lo1, hi1 = _extent(O1, A1, rc1, n0, n1)
+    lo2, hi2 = _extent(O2, A2, rc2, n0, n1)
+    lo, hi = max(lo1, lo2), min(hi1, hi2)
+    w = hi - lo
+    if w <= 0.0:
+        return 0.0, 0.0
+    du = w / top.shape[0]
+    _sections(O1, A1, rc1, n0, n1, lo, du, 1.0, top)
+    _sections(O2, A2, rc2, n0, n1, lo, du, -1.0, bot)
+    cmax = -math.inf
+    for k in range(top.shape[0]):
+        top[k] += bot[k]  # the local overlap along n (-inf where an outline does not reach the strip)
+        cmax = max(cmax, top[k])
+    f = 0.0
+    for k in range(top.shape[0]):
+        if top[k] > -math.inf:
+            sig = cmax - top[k]
+            f += structure_force(crush - sig, cm - sig, e, b1, b2)
+    scale = min(1.0, w1 / w)
+    if w2 > 0.0:
+        scale = min(scale, w2 / w)
+    return f * du * scale, w * scale
+
+
+@njit(cache=True)
 def _zrange(kind, sh, r, A):
     return -support_value_body(kind, 0.0, 0.0, -1.0, sh, r, A), support_value_body(kind, 0.0, 0.0, 1.0, sh, r, A)
 
 
 @njit(cache=True)
-def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
              cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e):
     """`contacts_awake` with every vehicle awake (every pair is evaluated)."""
-    contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+    contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
                    cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, np.ones(0, np.bool_))
 
 
 @njit(cache=True)
-def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
                    cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, awake):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
     CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
@@ -162,6 +238,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
     A2 = np.empty((3, 3))
     rc1 = np.empty(3)
     rc2 = np.empty(3)
+    strip_i = np.empty(N_STRIP)  # profile_force's work arrays
+    strip_j = np.empty(N_STRIP)
     for p in range(PP.shape[0]):
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
         psg[p, :] = 0.0
@@ -328,18 +406,10 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, cfg_n, c
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue
-            # engaged width: overlap of the two plan shadows across the normal, within each structure's width
-            tx, ty = -d1, d0
-            w = (min(support_value_body(0, tx, ty, 0.0, sh1, rc1, A1),
-                     support_value_body(k2, tx, ty, 0.0, sh2, rc2, A2))
-                 + min(support_value_body(0, -tx, -ty, 0.0, sh1, rc1, A1),
-                       support_value_body(k2, -tx, -ty, 0.0, sh2, rc2, A2)))
-            w = min(w, PP[p, ci + 2])
-            if k2 == 0:
-                w = min(w, PP[p, cj + 2])
-            w = max(w, 0.0)
-            psg[p, G_WIDTH] = w
-            fn = w * structure_force(crush, cm, e, b1s, b2s)
+            # over the crush profile across the engaged width, within each structure's width
+            fn, psg[p, G_WIDTH] = profile_force(OUT[i], A1, rc1, OUT[j], A2, rc2, d0, d1, crush, cm, e, b1s, b2s,
+                                                PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, strip_i,
+                                                strip_j)
         else:
             if g >= 0.0:
                 continue
@@ -394,8 +464,9 @@ def barrier_rows(barriers):
 
 
 def contact_arrays(CSH, PP, BAR, nv):
-    """The contact tuple handed to `contacts`: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC (fresh pair
-    state, outputs for the 7 stages of a Dormand-Prince step, broad-phase counters)."""
+    """The contact tuple handed to `contacts`: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT (fresh pair
+    state, outputs for the 7 stages of a Dormand-Prince step, broad-phase counters, the plan outlines of the
+    vehicles and then the barriers)."""
     nbar = BAR.shape[0]
     BOXR = np.zeros((nbar, 3))
     BOXA = np.zeros((nbar, 3, 3))
@@ -405,6 +476,21 @@ def contact_arrays(CSH, PP, BAR, nv):
         BOXA[k] = rot_z(BAR[k, 2])
         BOXE[k] = [BAR[k, 3], BAR[k, 4], BARRIER_HALF_HEIGHT]
     npair = PP.shape[0]
+    OUT = np.array([plan_outline(sh) for sh in np.asarray(CSH, dtype=float)]
+                   + [box_outline(e[0], e[1]) for e in BOXE]).reshape(-1, N_OUT, 2)
     return (np.ascontiguousarray(CSH, dtype=float), BOXR, BOXA, BOXE, np.ascontiguousarray(PP, dtype=float),
-            np.zeros((npair, N_PST)), np.zeros((7, npair, N_PSG)), np.zeros((nv, 7)), np.zeros(N_BPC, np.int64))
+            np.zeros((npair, N_PST)), np.zeros((7, npair, N_PSG)), np.zeros((nv, 7)), np.zeros(N_BPC, np.int64),
+            OUT)
+
+
+def plan_outline(sh):
+    """N_OUT vertices of a chassis superellipsoid's plan outline (its z = 0 section) about its centre, counter-
+    clockwise at the outward normal angles 2 pi k / N_OUT (its support points: support_local)."""
+    phi = 2.0 * np.pi * np.arange(N_OUT) / N_OUT
+    return np.array([support_local(math.cos(f), math.sin(f), 0.0, sh[:5])[:2] for f in phi])
+
+
+def box_outline(a, b):
+    """A barrier's plan outline: its four corners counter-clockwise, the last repeated to N_OUT vertices."""
+    return np.array([(a, b), (-a, b), (-a, -b)] + [(a, -b)] * (N_OUT - 3), dtype=float)
 

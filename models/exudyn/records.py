@@ -74,7 +74,7 @@ class Records:
         h = t - s
         self.nsteps += 1
         self.h_min_used = min(self.h_min_used, h)
-        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = self.CT
+        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = self.CT
         psg0 = self.psg0
         for p in range(PP.shape[0]):
             i, j = int(PP[p, C.P_I]), int(PP[p, C.P_J])

@@ -104,7 +104,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
     RSG = RD[1]
     road = np.zeros(nv)
     npair = PP.shape[0]

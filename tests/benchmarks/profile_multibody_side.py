@@ -64,9 +64,9 @@ def _one_vehicle(n, Y, K, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
 
 @njit(cache=True)
 def _contact(n, Y, CT, cfg, awake):
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
     for _ in range(n):
-        contacts_awake(Y, NQ, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[1], FX, BPC, cfg[E.C_NEXP], cfg[E.C_CHI],
+        contacts_awake(Y, NQ, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[1], FX, BPC, OUT, cfg[E.C_NEXP], cfg[E.C_CHI],
                        cfg[E.C_MU_C], cfg[E.C_FCODE], cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS], cfg[E.C_VMIN],
                        cfg[E.C_LAW], cfg[E.C_REST], awake)
 
