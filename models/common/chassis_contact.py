@@ -1,7 +1,8 @@
 """Vehicle contact of the 3D models (multibody's numba time loop, exudyn's loads): chassis superellipsoids
 against each other and against rigid box barriers; continuous normal force, by default from the vehicles'
 crush structures (docs/physics.md §13a, crush_structure.py: the CRASH3 line B C per unit of engaged width, the
-struck sides in series, unloading to the restitution, crush memory per pair), else the generic Hertz-type
+struck sides in series, unloading to the restitution, crush memory per pair; integrated over the crush profile
+across the engaged width, profile_force), else the generic Hertz-type
 force with hysteresis damping (LAW_GENERIC, below); friction.
 Also the packing of the contact arrays both models hand to `contacts`
 (`pair_table`, `barrier_rows`, `contact_arrays`); what a run's contacts report after it: contact_report.py.
@@ -132,35 +133,42 @@ def _struck_face(A, rc, M, a, b):
 
 
 @njit(cache=True)
-def _extent(O, A, rc, n0, n1):
-    """(least, largest) lateral coordinate u = p . t (t = (-n1, n0), across the normal n) of the plan outline O
-    (vertices in the body frame about the shape centre rc, plan rotation from A)."""
-    lo, hi = math.inf, -math.inf
-    for k in range(O.shape[0]):
+def _facing_chain(O, box, A, rc, n0, n1, sign, U, S):
+    """The part of the plan outline O (vertices in the body frame about the shape centre rc, plan rotation from A)
+    that faces sign n, n = (n0, n1): its vertices' lateral coordinates U = p . t (t = (-n1, n0)) and heights
+    S = sign (p . n), in order along the outline; returns their number. A vehicle's vertex k has the outward
+    normal angle 2 pi k / N_OUT (plan_outline), so only those within 90 deg of sign n (and one beyond each end,
+    the extremes across n) are taken; a box (box True) is its first four vertices, all taken."""
+    if box:
+        k0, m = 0, 4
+    else:
+        step = 2.0 * math.pi / N_OUT
+        alpha = math.atan2(sign * (A[0, 1] * n0 + A[1, 1] * n1), sign * (A[0, 0] * n0 + A[1, 0] * n1))
+        k0 = int(math.floor((alpha - 0.5 * math.pi) / step))
+        m = int(math.ceil((alpha + 0.5 * math.pi) / step)) - k0 + 1
+    for q in range(m):
+        k = (k0 + q) % O.shape[0] if not box else q
         px = rc[0] + A[0, 0] * O[k, 0] + A[0, 1] * O[k, 1]
         py = rc[1] + A[1, 0] * O[k, 0] + A[1, 1] * O[k, 1]
-        u = -n1 * px + n0 * py
-        lo, hi = min(lo, u), max(hi, u)
-    return lo, hi
+        U[q], S[q] = -n1 * px + n0 * py, sign * (n0 * px + n1 * py)
+    if box:  # close the box
+        U[4], S[4] = U[0], S[0]
+        m = 5
+    return m
 
 
 @njit(cache=True)
-def _sections(O, A, rc, n0, n1, lo, du, sign, out):
-    """out[k]: the largest sign (p . n) on the plan outline O (as _extent) along the middle line of strip k,
-    u = lo + (k + 1/2) du (sign 1: the body's front along n, -1: minus its back); -inf where the outline does not
-    reach it. Each edge is interpolated at the strip lines it spans (a convex outline: two edges per line)."""
+def _sections(U, S, m, lo, du, out):
+    """out[k]: the largest height S along the middle line of strip k, u = lo + (k + 1/2) du, of the chain (U, S)
+    of m vertices (_facing_chain); -inf where it does not reach the strip. Each edge is interpolated at the strip
+    lines it spans."""
     ns = out.shape[0]
     for k in range(ns):
         out[k] = -math.inf
-    m = O.shape[0]
-    px = rc[0] + A[0, 0] * O[m - 1, 0] + A[0, 1] * O[m - 1, 1]
-    py = rc[1] + A[1, 0] * O[m - 1, 0] + A[1, 1] * O[m - 1, 1]
-    ua, sa = -n1 * px + n0 * py, sign * (n0 * px + n1 * py)
-    for e in range(m):
-        px = rc[0] + A[0, 0] * O[e, 0] + A[0, 1] * O[e, 1]
-        py = rc[1] + A[1, 0] * O[e, 0] + A[1, 1] * O[e, 1]
-        ub, sb = -n1 * px + n0 * py, sign * (n0 * px + n1 * py)
-        u0, s0, u1, s1 = (ua, sa, ub, sb) if ua <= ub else (ub, sb, ua, sa)
+    for e in range(m - 1):
+        u0, s0, u1, s1 = U[e], S[e], U[e + 1], S[e + 1]
+        if u0 > u1:
+            u0, s0, u1, s1 = u1, s1, u0, s0
         if u1 - u0 > 1e-12:
             k0 = max(0, int(math.ceil((u0 - lo) / du - 0.5)))
             k1 = min(ns - 1, int(math.floor((u1 - lo) / du - 0.5)))
@@ -168,32 +176,35 @@ def _sections(O, A, rc, n0, n1, lo, du, sign, out):
                 s = s0 + (s1 - s0) * (lo + (k + 0.5) * du - u0) / (u1 - u0)
                 if s > out[k]:
                     out[k] = s
-        ua, sa = ub, sb
 
 
 @njit(cache=True)
-def profile_force(O1, A1, rc1, O2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, top, bot):
+def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work):
     """Normal force of the structure law over the crush profile (docs/physics.md §13a "Engaged width"): the
-    engaged width (the overlap of the two plan outlines across the normal n) cut into strips, each strip's local
-    overlap along n from the outlines, its setback sig_k below the deepest strip's, and the force per unit width
-    of the strip's own crush, sum_k du structure_force(crush - sig_k, cm - sig_k, e, b1, b2) (CRASH3's integral
-    over the profile; a flat face, sig = 0, gives w structure_force(crush, ...)); the width at most each
-    structure's (w1, w2; w2 <= 0: a barrier, unlimited), by scaling. Returns (force, engaged width)."""
-    lo1, hi1 = _extent(O1, A1, rc1, n0, n1)
-    lo2, hi2 = _extent(O2, A2, rc2, n0, n1)
-    lo, hi = max(lo1, lo2), min(hi1, hi2)
-    w = hi - lo
+    engaged width (the overlap of the two plan outlines across the normal n, from body 1 towards body 2; body 2 a
+    barrier's box if box2) cut into strips, each strip's local overlap along n from the outlines, its setback
+    sig_k below the deepest strip's, and the force per unit width of the strip's own crush,
+    sum_k du structure_force(crush - sig_k, cm - sig_k, e, b1, b2) (CRASH3's integral over the profile; a flat
+    face, sig = 0, gives w structure_force(crush, ...)); the width at most each structure's (w1, w2; w2 <= 0: a
+    barrier, unlimited), by scaling. work: (6, N_OUT + 2) scratch (the two chains, then the two strips' rows).
+    Returns (force, engaged width)."""
+    U1, S1, U2, S2, top, bot = work[0], work[1], work[2], work[3], work[4], work[5]
+    m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
+    m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
+    lo = max(U1[:m1].min(), U2[:m2].min())
+    w = min(U1[:m1].max(), U2[:m2].max()) - lo
     if w <= 0.0:
         return 0.0, 0.0
-    du = w / top.shape[0]
-    _sections(O1, A1, rc1, n0, n1, lo, du, 1.0, top)
-    _sections(O2, A2, rc2, n0, n1, lo, du, -1.0, bot)
+    du = w / N_STRIP
+    top, bot = top[:N_STRIP], bot[:N_STRIP]
+    _sections(U1, S1, m1, lo, du, top)
+    _sections(U2, S2, m2, lo, du, bot)
     cmax = -math.inf
-    for k in range(top.shape[0]):
+    for k in range(N_STRIP):
         top[k] += bot[k]  # the local overlap along n (-inf where an outline does not reach the strip)
         cmax = max(cmax, top[k])
     f = 0.0
-    for k in range(top.shape[0]):
+    for k in range(N_STRIP):
         if top[k] > -math.inf:
             sig = cmax - top[k]
             f += structure_force(crush - sig, cm - sig, e, b1, b2)
@@ -238,8 +249,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
     A2 = np.empty((3, 3))
     rc1 = np.empty(3)
     rc2 = np.empty(3)
-    strip_i = np.empty(N_STRIP)  # profile_force's work arrays
-    strip_j = np.empty(N_STRIP)
+    work = np.empty((6, N_OUT + 2))  # profile_force's scratch
     for p in range(PP.shape[0]):
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
         psg[p, :] = 0.0
@@ -407,9 +417,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             if psg[p, G_DEL] <= 0.0:
                 continue
             # over the crush profile across the engaged width, within each structure's width
-            fn, psg[p, G_WIDTH] = profile_force(OUT[i], A1, rc1, OUT[j], A2, rc2, d0, d1, crush, cm, e, b1s, b2s,
-                                                PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, strip_i,
-                                                strip_j)
+            fn, psg[p, G_WIDTH] = profile_force(OUT[i], A1, rc1, OUT[j], k2 == 1, A2, rc2, d0, d1, crush, cm, e,
+                                                b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work)
         else:
             if g >= 0.0:
                 continue
@@ -491,6 +500,6 @@ def plan_outline(sh):
 
 
 def box_outline(a, b):
-    """A barrier's plan outline: its four corners counter-clockwise, the last repeated to N_OUT vertices."""
+    """A barrier's plan outline: its four corners counter-clockwise (rows 4.. unused, the last repeated)."""
     return np.array([(a, b), (-a, b), (-a, -b)] + [(a, -b)] * (N_OUT - 3), dtype=float)
 
