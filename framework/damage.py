@@ -2,15 +2,16 @@
 for two vehicles, the delta-V from their energies and masses (docs/physics.md §28).
 
 A crush profile is n = 2, 4 or 6 residual crush depths C1..Cn [m], measured at equal spacing over the damaged
-width L [m] of one side of the vehicle (front, rear or side), from left to right seen from outside the vehicle
+width L [m] of one side of the vehicle (front, rear, left or right), from left to right seen from outside the vehicle
 (the order only matters for the centroid of the damage). The side's CRASH3 stiffness A [N/m], B [N/m^2] comes
 from the vehicle file's [structure] (crashlab.structure.Structure; the class default when the file gives none).
 
 Conventions (those of the impact rows, docs/physics.md §21): PDOF in degrees in vehicle axes, the direction
 the force comes from, 0 = from straight ahead, counter-clockwise positive (+90 from the left); the damage
 offset [m] is the position of the centre of the damaged width: for the front and rear, to the left of the
-vehicle's centreline (positive left); for a side, ahead of the CG (positive forward). A side's struck flank
-(left or right) is the one the PDOF points at (left for PDOF > 0, the default +90).
+vehicle's centreline (positive left); for a flank, ahead of the CG (positive forward). Both flanks have the side
+structure ([structure.side]); `report` also takes side = "side", the flank the PDOF points at (left for PDOF > 0,
+the default +90), damage evidence names its flank (the impact rows tell them apart).
 
 Damage as evidence: `DamageEvidence` ([evidence.damage.<vehicle>] of a study file), `damage_ees` (the EES from
 the damage and its sigma), `damage_residual` (simulated against measured, in sigma units).
@@ -23,10 +24,10 @@ import math
 from collections.abc import Sequence
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict
+from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator
 
 from .errors import InputError
-from .structure import STRUCTURE_SIDES, Structure
+from .structure import FACE_STRUCTURE, STRUCK_FACES, Structure
 from .units import kmh_to_ms, ms_to_kmh, wrap_deg
 from .vehicle import VehicleSpec
 
@@ -34,7 +35,7 @@ PROFILE_POINTS = (2, 4, 6)  # the CRASH3 measurement protocols
 DAMAGE_WIDTH_MIN = 0.1  # m, the narrowest damaged width (the structure width's lower bound, crashlab.structure)
 PDOF_LIMIT = 45.0  # deg: the largest angle between the force and the side's normal the correction is used for
 # deg: the direction the force comes from when it is normal to the side (vehicle axes, docs/physics.md §21)
-SIDE_NORMAL = {"front": 0.0, "rear": 180.0, "side": 90.0}
+SIDE_NORMAL = {"front": 0.0, "rear": 180.0, "left": 90.0, "right": -90.0, "side": 90.0}
 # the delta-method sigma of damage evidence holds for a relative stiffness error up to about 0.3 and crush
 # errors small beside the crush (docs/physics.md §28): (sigma_stiffness, sigma_crush / mean crush) limits
 SIGMA_FIRST_ORDER = (0.3, 0.5)
@@ -66,15 +67,16 @@ def check_profile(profile: Sequence[float], key: str = "profile", where: str = "
 
 
 def _side(side: str, where: str, key: str = "side") -> str:
-    if side not in STRUCTURE_SIDES:
-        raise InputError(where, key, f"unknown side {side!r}: one of {', '.join(STRUCTURE_SIDES)}")
+    if side not in SIDE_NORMAL:
+        raise InputError(where, key, f"unknown side {side!r}: one of {', '.join(SIDE_NORMAL)} (side: the flank the "
+                         "PDOF points at)")
     return side
 
 
 # ---------------------------------------------------------------- the laws (docs/physics.md §28)
 def pdof_angle(side: str, pdof_deg: float | None) -> float:
-    """Angle [deg] between the force and the normal of the struck side; a side's normal is +90 or -90,
-    whichever is nearer to the PDOF."""
+    """Angle [deg] between the force and the normal of the struck side; the left flank's normal is +90, the
+    right's -90, and side's whichever of them is nearer to the PDOF."""
     if pdof_deg is None:
         return 0.0
     normal = SIDE_NORMAL[side]
@@ -168,7 +170,7 @@ def _geometry(spec: VehicleSpec, side: str, offset: float, alpha_deg: float, pdo
     elif side == "rear":
         px, py = -spec.cg_to_rear + depth, offset - lateral
     else:
-        flank = 1.0 if wrap_deg(pdof_deg) >= 0 else -1.0
+        flank = {"left": 1.0, "right": -1.0}.get(side, 1.0 if wrap_deg(pdof_deg) >= 0 else -1.0)
         px, py = offset - flank * lateral, flank * (spec.width / 2.0 - depth)
     th = math.radians(pdof_deg)
     ux, uy = -math.cos(th), -math.sin(th)  # the force's direction (it comes from the PDOF)
@@ -186,9 +188,10 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     profile = check_profile(profile, prefix + "profile", where)
     width = _finite(width, prefix + "width", where)
     offset = _finite(offset, prefix + "offset", where)
-    structure: Structure = spec.structure[side]
-    limit, what = (spec.length, "length") if side == "side" else (spec.width, "width")
-    depth_limit, across = (spec.width, "width") if side == "side" else (spec.length, "length")
+    flank = FACE_STRUCTURE[side] == "side"
+    structure: Structure = spec.structure[FACE_STRUCTURE[side]]
+    limit, what = (spec.length, "length") if flank else (spec.width, "width")
+    depth_limit, across = (spec.width, "width") if flank else (spec.length, "length")
     for i, c in enumerate(profile):
         if c >= depth_limit:
             raise InputError(where, f"{prefix}profile[{i + 1}]", f"crush depth {c:g} m is deeper than the vehicle's "
@@ -198,14 +201,14 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
                          f"{DAMAGE_WIDTH_MIN:g} m (a CRASH3 profile is measured over a damaged width; a pole's is "
                          f"some 0.3 m) and at most the {side}'s structure width {structure.width:g} m (the "
                          f"vehicle's {what} {limit:g} m)")
-    if side == "side":
+    if flank:
         lo, hi = -spec.cg_to_rear, spec.cg_to_front
     else:
         lo, hi = -spec.width / 2.0, spec.width / 2.0
     if offset - width / 2.0 < lo - 1e-9 or offset + width / 2.0 > hi + 1e-9:
         raise InputError(where, prefix + "offset", f"the damage ({width:g} m wide about {offset:g} m) reaches "
                          f"outside the {side} ({lo:g} .. {hi:g} m from the "
-                         f"{'CG' if side == 'side' else 'centreline'})")
+                         f"{'CG' if flank else 'centreline'})")
     if pdof is not None:
         pdof = _finite(pdof, prefix + "pdof", where)
     pdof_used = SIDE_NORMAL[side] if pdof is None else pdof
@@ -221,7 +224,8 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     if structure.reference_mass and not 0.5 <= spec.mass / structure.reference_mass <= 2.0:
         warnings.append(f"the {side}'s stiffness is the class default, a crash plot of a {structure.reference_mass:g} "
                         f"kg vehicle, and this one is {spec.mass:g} kg: the crush energy is off by about their "
-                        f"ratio (docs/physics.md §28); give the vehicle file's [structure.{side}] or its class")
+                        f"ratio (docs/physics.md §28); give the vehicle file's [structure.{FACE_STRUCTURE[side]}] or "
+                        "its class")
     if max(profile) == 0.0:
         warnings.append("no residual crush: the CRASH3 energy is then G L, the most the side absorbs without "
                         "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "
@@ -276,7 +280,8 @@ class DamageEvidence(BaseModel):
     profile out: its run fills it (crashlab.reconstruction.evidence, `profile_for_ees`)."""
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
-    side: Literal["front", "rear", "side"] = Field(description="the struck side: front, rear or side")
+    side: Literal[STRUCK_FACES] = Field(description="the struck side: front, rear, left or right (both flanks have "
+                                        "the side structure; the impact rows tell them apart)")
     profile: list[Annotated[float, Strict()]] | None = Field(None, description="m, 2, 4 or 6 residual crush "
                                                              "depths C1..Cn, equally spaced over the width, left "
                                                              "to right seen from outside the vehicle; absent "
@@ -284,7 +289,8 @@ class DamageEvidence(BaseModel):
                                                              "profile)")
     width: Annotated[float, Strict()] = Field(gt=0, le=30, description="m, the damaged width; (0, 30]")
     offset: Annotated[float, Strict()] = Field(0.0, ge=-15, le=15, description="m, the centre of the damage: "
-                                               "left of the centreline (front, rear) or ahead of the CG (side)")
+                                               "left of the centreline (front, rear) or ahead of the CG (left, "
+                                               "right)")
     pdof: Annotated[float, Strict()] | None = Field(None, ge=-180, le=180, description="deg, the principal "
                                                     "direction of force in vehicle axes (0 = from ahead, +90 = "
                                                     "from the left); default normal to the side")
@@ -293,6 +299,14 @@ class DamageEvidence(BaseModel):
     sigma_stiffness: Annotated[float, Strict()] = Field(gt=0, le=1, description="-, the relative standard "
                                                         "deviation of the stiffness (A and B scaled together); "
                                                         "(0, 1]")
+
+    @field_validator("side", mode="before")
+    @classmethod
+    def _name_the_flank(cls, value):
+        if value == "side":
+            raise ValueError('"side" does not say which flank: left or right (the simulated impacts are compared on '
+                             "the flank the damage is on)")
+        return value
 
 
 def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: float) -> list[float]:
@@ -325,8 +339,7 @@ def damage_ees_report(evidence: DamageEvidence, spec: VehicleSpec, where: str = 
                          "run fills them)")
     rep = report(spec, evidence.side, evidence.profile, evidence.width, evidence.offset, evidence.pdof, where,
                  prefix)
-    s = spec.structure[evidence.side]
-    grad = crush_energy_gradient(rep["profile"], rep["width"], s.A, s.B)
+    grad = crush_energy_gradient(rep["profile"], rep["width"], rep["A"], rep["B"])
     var_crush = sum((rep["pdof_factor"] * g * evidence.sigma_crush) ** 2 for g in grad)
     energy = rep["energy"]
     sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
@@ -361,7 +374,7 @@ def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, 
     """A uniform n-point profile [m] over `width` whose `report` EES is `ees_kmh` (for twin experiments):
     C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros. Bad
     input: InputError naming `where` and `prefix` + the key (as `report`)."""
-    s = spec.structure[_side(side, where, prefix + "side")]
+    s = spec.structure[FACE_STRUCTURE[_side(side, where, prefix + "side")]]
     factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof), prefix + "pdof", where)
     per_width = 0.5 * spec.mass * kmh_to_ms(ees_kmh) ** 2 / (factor * width) - s.G
     c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B

@@ -12,8 +12,8 @@ Columns (SI; nv vehicles in scene order):
   contact (N, nv, 4) x, y, heading, speed at first contact; n_impacts (N,) impacts (contact episodes)
   mass (N, nv) [kg]; delta_v (N, nv) |sum of the vehicle's impact-row velocity changes| [m/s];
   first_delta_v (N, nv) the velocity change of its first impact [m/s] (what an event data recorder reports)
-  crush_energy (N, nv, 3) the vehicle's share of the dissipated energy summed over its impacts [J], per side it
-  was struck on (front, rear, side: crashlab.structure.STRUCTURE_SIDES; 0 where none struck it; ees: the EES of
+  crush_energy (N, nv, 4) the vehicle's share of the dissipated energy summed over its impacts [J], per face it
+  was struck on (front, rear, left, right: crashlab.structure.STRUCK_FACES; 0 where none struck it; ees: the EES of
   the sum, docs/physics.md §21); first_impact_t (N, nv) [s], first_impact_point (N, nv, 2) [m]
   of the vehicle's first impact (NaN without one); energy_start, energy_end (N,) planar kinetic energy [J];
   energy_impacts (N,) dissipated by all impacts, lowest_impact_energy (N,) of the impact that dissipated least
@@ -27,9 +27,9 @@ import math
 
 import numpy as np
 
-from .structure import STRUCTURE_SIDES
+from .structure import STRUCK_FACES
 
-SIDE_INDEX = {side: k for k, side in enumerate(STRUCTURE_SIDES)}
+SIDE_INDEX = {face: k for k, face in enumerate(STRUCK_FACES)}
 ARRAYS = ("ok", "reason", "rest", "final", "rest_speed", "at_rest", "contact", "n_impacts", "mass", "delta_v",
           "first_delta_v", "crush_energy", "first_impact_t", "first_impact_point", "energy_start", "energy_end",
           "energy_impacts", "lowest_impact_energy", "scores")
@@ -96,7 +96,8 @@ class Population:
         return cls(tuple(names), np.zeros(n, bool), np.array([reason] * n, dtype=object),
                    nan((n, nv, 3), np.nan), nan((n, nv, 3), np.nan), nan((n, nv), np.nan), np.zeros((n, nv), bool),
                    nan((n, nv, 4), np.nan), np.zeros(n, int), nan((n, nv), np.nan), nan((n, nv), np.nan),
-                   nan((n, nv), np.nan), nan((n, nv, 3), np.nan), nan((n, nv), np.nan), nan((n, nv, 2), np.nan),
+                   nan((n, nv), np.nan), nan((n, nv, len(STRUCK_FACES)), np.nan), nan((n, nv), np.nan),
+                   nan((n, nv, 2), np.nan),
                    nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan((n, k), np.nan))
 
     def __len__(self) -> int:
@@ -157,8 +158,8 @@ class Population:
             rows = o.impact_rows
             unnamed = sorted({str(row.get("vehicle")) for row in rows if row.get("side") not in SIDE_INDEX})
             if unnamed:  # (its energy could not be booked to the side damage evidence compares)
-                pop.reason[r] = (f"the model's impact rows of {', '.join(unnamed)} name no struck side (front, rear "
-                                 "or side; crashlab.models.common.impact_rows.pair_rows builds them)")
+                pop.reason[r] = (f"the model's impact rows of {', '.join(unnamed)} name no struck face (front, rear, "
+                                 "left or right; crashlab.models.common.impact_rows.pair_rows builds them)")
                 continue
             pop.ok[r] = True
             pop.rest[r] = rest

@@ -9,6 +9,11 @@ from pydantic import BaseModel, ConfigDict, Field
 from .file_numbers import Real, bounded
 
 STRUCTURE_SIDES = ("front", "rear", "side")
+# the faces an impact strikes (the impact rows' "side", damage evidence; their codes 0-3 in the models:
+# crashlab.models.common.crush_structure.side_code): a flank is the left (+y in vehicle axes) or the right one, and
+# both have the one side structure; FACE_STRUCTURE names the structure of each (and of "side" itself)
+STRUCK_FACES = ("front", "rear", "left", "right")
+FACE_STRUCTURE = {"front": "front", "rear": "rear", "left": "side", "right": "side", "side": "side"}
 A_RANGE = (0.0, 2e6)   # N/m: cars 20-80e3 (front), a bus or truck front some 1e5-5e5
 B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
 # m/s, the largest no-damage speed b0 = sqrt(2 G w / m) a side may imply (G = A^2 / 2B over its width w): tests

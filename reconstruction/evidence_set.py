@@ -58,7 +58,7 @@ class EvidenceItem:
     components: the names of its residual components (e.g. ("x", "y", "heading")); values / sigmas: measured
     values and their standard deviations, per component, file units (m, deg, km/h); points: (p, 2) a mark's
     points [m]; mass: damage, the vehicle's mass [kg] at which the simulated crush energy is an EES; side:
-    damage, the side it was measured on (front, rear, side), whose simulated crush energy is compared;
+    damage, the side it was measured on (front, rear, left, right), whose simulated crush energy is compared;
     detail: damage, what the value was computed from (for summary.md)."""
     kind: str
     label: str
@@ -72,8 +72,8 @@ class EvidenceItem:
 
     def __post_init__(self):
         if self.kind == "damage" and self.side not in SIDE_INDEX:
-            raise ValueError(f"{self.label}: damage evidence needs the side it was measured on (front, rear or "
-                             f"side), got {self.side!r}")
+            raise ValueError(f"{self.label}: damage evidence needs the side it was measured on (front, rear, "
+                             f"left or right), got {self.side!r}")
     detail: str = field(default="", compare=False)
 
 
@@ -112,7 +112,7 @@ def delta_v(outcome, name: str) -> float:
 
 def crush_ees(outcome, name: str, mass: float, side: str) -> float:
     """m/s, the EES at `mass` [kg] of the vehicle's crush energy summed over its impact rows that struck `side`
-    (front, rear or side; energies add, crashlab.damage.combined_ees); NaN when no impact struck it there."""
+    (front, rear, left or right; energies add, crashlab.damage.combined_ees); NaN when no impact struck it there."""
     return float(side_ees(_one(outcome).crush_energy[0, outcome.names.index(name), SIDE_INDEX[side]], mass))
 
 

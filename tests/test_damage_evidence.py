@@ -36,7 +36,7 @@ def damage(vehicle: str, side: str, width: float, extra: str = "") -> str:
 MEASURED = (f'\nscene = "{SIDE.as_posix()}"\n{FREE_SPEEDS}[evidence.rest.V1]\nx = 6.30\ny = -2.20\nsigma_xy = 1.0\n'
             + damage("V1", "front", WIDTH, f"profile = {PROFILE}\n"))
 TWIN = (f'\nscene = "{SIDE.as_posix()}"\n{FREE_SPEEDS}[evidence]\ntwin = true\n[evidence.rest.V1]\nsigma_xy = 1.0\n'
-        + damage("V1", "front", WIDTH) + damage("V2", "side", 1.5, "offset = 0.3\n"))
+        + damage("V1", "front", WIDTH) + damage("V2", "left", 1.5, "offset = 0.3\n"))
 
 
 def write(tmp_path, text, name="study.toml") -> Path:
@@ -154,12 +154,36 @@ def test_damage_on_a_side_no_impact_struck_cannot_be_scored(tmp_path):
     scene = fields.set_fields(load_study(write(tmp_path, MEASURED)).scene, ["vehicles.V1.speed", "vehicles.V2.speed"],
                               [50.0, 30.0])
     o = get_model("impulse").simulate(scene)
-    assert {(r["vehicle"], r["side"]) for r in o.impact_rows} == {("V1", "front"), ("V2", "side")}
+    assert {(r["vehicle"], r["side"]) for r in o.impact_rows} == {("V1", "front"), ("V2", "left")}
     rear = load_study(write(tmp_path, MEASURED.replace('side = "front"', 'side = "rear"'), "rear.toml"))
     R = rear.evidence_set.residuals([o])
     assert np.isnan(R).all() and log_likelihood_of(R)[0] == -math.inf
     front = load_study(write(tmp_path, MEASURED))
     assert np.isfinite(front.evidence_set.residuals([o])).all()
+
+
+@pytest.mark.parametrize("model_name", ["impulse", "pymunk", "multibody"])
+def test_damage_on_the_other_flank_cannot_be_scored(tmp_path, model_name):
+    """Both flanks have the side structure, but the damage says which one was struck: V1's front strikes V2's left
+    flank, so damage measured on V2's right flank has no simulated energy to compare (NaN residual, log-likelihood
+    -inf; before, both flanks were one "side" and it was scored against the left-flank impact), the same damage on
+    the left flank is scored. In every model that finds its own contact."""
+    scene = fields.set_fields(load_study(write(tmp_path, MEASURED)).scene, ["vehicles.V1.speed", "vehicles.V2.speed"],
+                              [50.0, 30.0])
+    o = get_model(model_name).simulate(scene)
+    assert ("V2", "left") in {(r["vehicle"], r["side"]) for r in o.impact_rows}
+    assert ("V2", "right") not in {(r["vehicle"], r["side"]) for r in o.impact_rows}
+    flank = damage("V2", "{flank}", 1.5, "offset = 0.3\nprofile = [0.1, 0.2, 0.25, 0.2, 0.1, 0.05]\n")
+    for side, scored in (("right", False), ("left", True)):
+        study = load_study(write(tmp_path, MEASURED + flank.replace("{flank}", side), f"{side}.toml"))
+        R = study.evidence_set.residuals([o])[0]
+        assert np.isfinite(R[-1]) == scored, side      # V2's damage is the last residual
+
+
+def test_damage_evidence_names_its_flank(tmp_path):
+    text = MEASURED + damage("V2", "side", 1.5, "profile = [0.1, 0.2]\n")
+    assert_refused_with_one_line(load_study, write(tmp_path, text), "evidence.damage.V2.side",
+                                 ["left or right"])
 
 
 def test_a_twin_without_an_impact_on_the_damaged_side_is_refused(tmp_path):
@@ -172,7 +196,7 @@ def test_twin_fills_the_profiles_and_scores_zero_at_the_truth(tmp_path):
     study = load_study(write(tmp_path, TWIN))
     items = {it.label: it for it in study.evidence_set.items}
     assert set(items) == {"rest.V1", "damage.V1", "damage.V2"}
-    assert "front crush" in items["damage.V1"].detail and "side crush" in items["damage.V2"].detail
+    assert "front crush" in items["damage.V1"].detail and "left crush" in items["damage.V2"].detail
     problem = study.make_problem()
     truth = problem.base_values()
     R = problem.evaluate(np.array([truth, truth + [8.0, 0.0]]), return_values_of=["residuals"])

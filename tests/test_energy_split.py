@@ -1,6 +1,7 @@
 """The impact rows' energy split (docs/physics.md §21): the two struck structures in series carry the same force f,
 each absorbing f^2 / 2B over the same engaged width, so a vehicle's share of an impact's dissipated energy is
-(1/B_own) / (1/B_own + 1/B_other), B of the side each one is struck on (front, rear or side), in every model.
+(1/B_own) / (1/B_own + 1/B_other), B of the side each one is struck on (front, rear, or a flank: the side
+structure), in every model.
 The reference is the vehicle files' B of the sides the scene strikes, written here; a split by 1/mass (the rule
 before, which these equal-mass pairs split 1 : 1) fails it."""
 from __future__ import annotations
@@ -25,7 +26,7 @@ def first_impact_shares(outcome) -> dict:
 
 
 def expected_share(scene, struck: dict) -> dict:
-    """vehicle -> its share of the energy from the files' B of the struck sides."""
+    """vehicle -> its share of the energy from the files' B of the struck structures (front, rear, side)."""
     c = {v.name: 1.0 / v.spec.structure[struck[v.name]].B for v in scene.vehicles}
     return {name: c[name] / sum(c.values()) for name in c}
 
@@ -41,7 +42,7 @@ def test_a_front_into_a_side_shares_the_energy_by_the_struck_structures(model_na
     got = first_impact_shares(out)
     assert set(got) == {"V1", "V2"}
     assert {r["vehicle"]: r["side"] for r in out.impact_rows if r["t"] == min(x["t"] for x in out.impact_rows)} == \
-        {"V1": "front", "V2": "side"}
+        {"V1": "front", "V2": "left"}
     for name, (crush, energy) in got.items():
         assert energy > 1e3 and crush == pytest.approx(want[name] * energy, rel=1e-9), (name, crush, energy)
 
@@ -54,11 +55,13 @@ def test_a_front_into_a_rear_shares_it_by_the_front_and_the_rear():
         assert crush == pytest.approx(want[name] * energy, rel=1e-9), name
 
 
-def test_the_side_codes_are_the_structure_sides_in_order():
-    """crush_structure.side_code's 0, 1, 2 index crashlab.structure.STRUCTURE_SIDES (the rows' names, the compliance
-    table's columns and Population.crush_energy's last axis)."""
-    from crashlab.models.common.crush_structure import side_code
-    from crashlab.structure import STRUCTURE_SIDES
-    points = {"front": (1.9, 0.1), "rear": (-1.9, -0.1), "side": (0.1, -0.9)}  # half length 2, half width 1
-    assert {name: STRUCTURE_SIDES[side_code(x, y, 2.0, 1.0)] for name, (x, y) in points.items()} == \
+def test_the_side_codes_are_the_struck_faces_in_order():
+    """crush_structure.side_code's 0-3 index crashlab.structure.STRUCK_FACES (the rows' names, the compliance
+    table's columns and Population.crush_energy's last axis; left is +y in vehicle axes), and structure_slot takes
+    each to its structure's row (crush_structure.structure_row: front, rear, side)."""
+    from crashlab.models.common.crush_structure import side_code, structure_slot
+    from crashlab.structure import FACE_STRUCTURE, STRUCK_FACES, STRUCTURE_SIDES
+    points = {"front": (1.9, 0.1), "rear": (-1.9, -0.1), "left": (0.1, 0.9), "right": (0.1, -0.9)}  # a 4 x 2 box
+    assert {name: STRUCK_FACES[side_code(x, y, 2.0, 1.0)] for name, (x, y) in points.items()} == \
         {name: name for name in points}
+    assert [STRUCTURE_SIDES[structure_slot(k)] for k in range(4)] == [FACE_STRUCTURE[f] for f in STRUCK_FACES]

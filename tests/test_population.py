@@ -197,7 +197,7 @@ def test_evidence_scored_on_the_arrays_equals_the_outcomes_scores(model):
         EvidenceItem("rest", "rest.V1", ("V1",), ("x", "y", "heading"), (4.0, 0.5, 50.0), (0.2, 0.2, 5.0)),
         EvidenceItem("impact", "impact", ("V1", "V2"), ("x", "y"), (1.5, 0.2), (0.3, 0.3)),
         EvidenceItem("edr", "edr.V2", ("V2",), ("speed_at_impact", "delta_v"), (30.0, 25.0), (2.0, 3.0)),
-        EvidenceItem("damage", "damage.V2", ("V2",), ("ees",), (20.0,), (4.0,), mass=1100.0, side="side")])
+        EvidenceItem("damage", "damage.V2", ("V2",), ("ees",), (20.0,), (4.0,), mass=1100.0, side="left")])
     values = _rows(6)
     pop = model.simulate_population(scene, SPEEDS_HEADINGS, values)
     build = fields.setter(scene, SPEEDS_HEADINGS)
@@ -243,14 +243,17 @@ def test_the_population_masses_are_the_rows_masses_also_of_a_row_that_fails(mode
 
 def test_a_run_whose_impact_rows_name_no_struck_side_fails_with_the_reason():
     """Its energy cannot be booked to the side damage evidence compares (docs/physics.md §28): the run fails in the
-    population, naming the vehicles; the same rows with their sides pass and book the energy there."""
+    population, naming the vehicles (rows naming no side, and rows naming "side", which does not say the flank);
+    the same rows with their faces pass and book the energy there."""
     from crashlab.outcome import Outcome
     row = {"t": 0.1, "vehicle": "V1", "other": "V2", "dvx": -1.0, "dvy": 0.0, "d_yaw_rate": 0.0, "energy": 1e3,
            "crush_energy": 400.0, "kind": "full", "point_x": 0.0, "point_y": 0.0, "plane_angle": 0.0}
     rows = [row, {**row, "vehicle": "V2", "other": "V1", "crush_energy": 600.0}]
-    named = [{**rows[0], "side": "front"}, {**rows[1], "side": "side"}]
+    flank = [{**rows[0], "side": "front"}, {**rows[1], "side": "side"}]
+    named = [{**rows[0], "side": "front"}, {**rows[1], "side": "right"}]
     pop = Population.of_outcomes([Outcome(["V1", "V2"], np.zeros((2, 3)), np.zeros((2, 3)), impact_rows=r)
-                                  for r in (rows, named)], ["V1", "V2"])
-    assert list(pop.ok) == [False, True]
-    assert pop.reason[0].startswith("the model's impact rows of V1, V2 name no struck side")
-    np.testing.assert_array_equal(pop.crush_energy[1], [[400.0, 0.0, 0.0], [0.0, 0.0, 600.0]])
+                                  for r in (rows, flank, named)], ["V1", "V2"])
+    assert list(pop.ok) == [False, False, True]
+    assert pop.reason[0].startswith("the model's impact rows of V1, V2 name no struck face")
+    assert pop.reason[1].startswith("the model's impact rows of V2 name no struck face")
+    np.testing.assert_array_equal(pop.crush_energy[2], [[400.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 600.0]])

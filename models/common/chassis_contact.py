@@ -59,6 +59,7 @@ from .crush_structure import (
     permanent_crush,
     side_code,
     structure_force,
+    structure_slot,
 )
 from .narrow_phase import horizontal_gap, support_value_body
 from .rotations import rot_z, rotation_matrix_into
@@ -400,8 +401,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         dd = vr[0] * d0 + vr[1] * d1
         psg[p, G_DDOT] = dd
         if cfg_law == LAW_STRUCTURE:
-            ci = P_STR_I + 3 * int(PST[p, S_SIDE_I])
-            cj = P_STR_J + 3 * int(PST[p, S_SIDE_J])
+            ci = P_STR_I + 3 * structure_slot(int(PST[p, S_SIDE_I]))
+            cj = P_STR_J + 3 * structure_slot(int(PST[p, S_SIDE_J]))
             b1s, b2s = PP[p, ci + 1], PP[p, cj + 1]
             cm = PST[p, S_CMAX]
             e = cfg_e

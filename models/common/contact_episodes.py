@@ -143,7 +143,7 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
 
 def impact_rows(names, mass, imp, compliance, heads=None):
     """Impact table rows (SI; impact_rows.pair_rows: delta-V, EES from the energy split by the struck sides'
-    compliance (nv, 3), impact_rows.struck_compliance, PDOF), one per vehicle per
+    compliance (nv, 4), impact_rows.struck_compliance, PDOF), one per vehicle per
     contact episode (kind "continuous"): t = episode start, dvx, dvy, d_yaw_rate = CG velocity / yaw-rate
     change over the episode, energy = work dissipated by the contact forces over the episode (whole pair), pdof
     from the impulse on the vehicle (heading at the episode start, from heads[v] = (t, heading) records),

@@ -66,11 +66,19 @@ def speed_law_setting(impact, contact_law, why):
 
 @njit(cache=True)
 def side_code(x, y, a, b):
-    """Struck side of a point (x, y) in the chassis frame relative to the shape centre, a and b the half length
-    and half width: 0 front, 1 rear, 2 side (the bounding box face it is nearest in proportion)."""
+    """Struck face of a point (x, y) in the chassis frame relative to the shape centre, a and b the half length
+    and half width: 0 front, 1 rear, 2 left (y >= 0), 3 right (crashlab.structure.STRUCK_FACES: the bounding box
+    face it is nearest in proportion)."""
     if abs(x) * b >= abs(y) * a:
         return 0 if x >= 0.0 else 1
-    return 2
+    return 2 if y >= 0.0 else 3
+
+
+@njit(cache=True)
+def structure_slot(code):
+    """The structure of a struck face (side_code): 0 front, 1 rear, 2 side for either flank (the rows of
+    structure_row, crashlab.structure.FACE_STRUCTURE)."""
+    return code if code < 2 else 2
 
 
 @njit(cache=True)

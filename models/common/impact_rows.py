@@ -1,8 +1,8 @@
 """Rows of the impact table (framework/outcome.py IMPACT_COLUMNS, SI), one home for every model.
 
 One impact (or contact episode) between vehicle i and vehicle j, or barrier j - nv when j >= nv (nv vehicles),
-gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, the side it is struck on
-(front, rear or side), its share of the energy (crush_energy: the two struck structures in series carry the same
+gives one row per vehicle: its delta-V and yaw-rate change, the pair's dissipated energy, the face it is struck on
+(front, rear, left or right), its share of the energy (crush_energy: the two struck structures in series carry the same
 force, so each takes the energy in proportion to its crush compliance 1/B; a barrier takes none), its
 energy-equivalent speed (EES) from that share and the principal direction of force (PDOF) from the direction of the
 impulse, or summed contact force, on it (docs/physics.md §21).
@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from crashlab.structure import STRUCTURE_SIDES
+from crashlab.structure import FACE_STRUCTURE, STRUCK_FACES
 
 
 def barrier_name(k: int) -> str:
@@ -29,9 +29,11 @@ def pdof(fx, fy, heading):
 
 
 def struck_compliance(specs) -> np.ndarray:
-    """(nv, 3) crush compliance 1/B [m^2/N] of each vehicle's front, rear and side (STRUCTURE_SIDES, the codes of
-    crush_structure.side_code), from its crashlab.structure (file or class default, docs/physics.md §28)."""
-    return np.array([[1.0 / spec.structure[side].B for side in STRUCTURE_SIDES] for spec in specs]).reshape(-1, 3)
+    """(nv, 4) crush compliance 1/B [m^2/N] of each vehicle's front, rear, left and right (STRUCK_FACES, the codes
+    of crush_structure.side_code; both flanks the side structure), from its crashlab.structure (file or class
+    default, docs/physics.md §28)."""
+    return np.array([[1.0 / spec.structure[FACE_STRUCTURE[face]].B for face in STRUCK_FACES]
+                     for spec in specs]).reshape(-1, len(STRUCK_FACES))
 
 
 def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, sides, compliance,
@@ -44,8 +46,9 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     push[s] = (fx, fy) the impulse or summed contact force on that vehicle (global; only its direction is
     used, for the PDOF), heading[s] [rad] the heading the PDOF is measured from; point = (x, y) [m],
     plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; sides = (s_i, s_j) the
-    struck side codes of i and j (crush_structure.side_code: 0 front, 1 rear, 2 side; s_j not read for a barrier);
-    compliance: the vehicles' (nv, 3) crush compliance table (struck_compliance); extra: further keys of every row
+    struck face codes of i and j (crush_structure.side_code: 0 front, 1 rear, 2 left, 3 right; s_j not read for a
+    barrier); compliance: the vehicles' (nv, 4) crush compliance table (struck_compliance); extra: further keys of
+    every row
     (the impulse model: slip_reversed).
     """
     nv = len(names)
@@ -61,6 +64,6 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
         rows.append({"t": t, "vehicle": names[q], "other": other, "dvx": dv[s][0], "dvy": dv[s][1],
                      "d_yaw_rate": dv[s][2], "energy": energy, "crush_energy": e_q,
                      "ees": math.sqrt(2.0 * e_q / mass[q]),
-                     "pdof": pdof(push[s][0], push[s][1], heading[s]), "kind": kind, "side": STRUCTURE_SIDES[side],
+                     "pdof": pdof(push[s][0], push[s][1], heading[s]), "kind": kind, "side": STRUCK_FACES[side],
                      "point_x": point[0], "point_y": point[1], "plane_angle": plane, **extra})
     return rows

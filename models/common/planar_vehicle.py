@@ -25,8 +25,8 @@ V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it 
 
 @register_jitable
 def struck_side(p, x, y, heading, px, py):
-    """The side of the vehicle (parameters p, CG at x, y, heading) a contact point (px, py) strikes: 0 front, 1
-    rear, 2 side (crush_structure.side_code on its outline rectangle; docs/physics.md §21)."""
+    """The face of the vehicle (parameters p, CG at x, y, heading) a contact point (px, py) strikes: 0 front, 1
+    rear, 2 left, 3 right (crush_structure.side_code on its outline rectangle; docs/physics.md §21)."""
     c, sn = math.cos(heading), math.sin(heading)
     dx, dy = px - x, py - y
     half = 0.5 * (p[P_FRONT] + p[P_REAR])

@@ -32,8 +32,8 @@ SETTINGS = np.dtype([
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
  I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO, I_SIDE_I, I_SIDE_J) = range(34)
 N_IMP = 34  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
-# I_SIDE_I, I_SIDE_J: the side of i and of j the impact strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 side;
-# 0 for a barrier), whose structures share the energy (§21)
+# I_SIDE_I, I_SIDE_J: the face of i and of j the impact strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 left,
+# 3 right; 0 for a barrier), whose structures share the energy (§21)
 # I_ENGAGE: how [impact] point = "engagement" placed the impact (ENGAGE_*; 0 for every other placement and for
 # follow-up impulses); I_ENGAGE_RATIO: the crushed faces' smaller principal value over the larger (_engagement)
 ENGAGE_USED, ENGAGE_AMBIGUOUS, ENGAGE_FALLBACK = 1, 2, 3

@@ -78,8 +78,8 @@ def simulate_variants(model, scene, fs, values) -> Population:
 
 def population_of(model, names, rest, final, contact, imp, diag, compliance) -> Population:
     """The kernel's outputs of n runs as a Population (the columns the Outcome route reads from impact rows,
-    models/common/impact_rows.py: crush energy split by the struck sides' compliance (nv, 3) and booked per struck
-    side, a barrier takes none)."""
+    models/common/impact_rows.py: crush energy split by the struck faces' compliance (nv, 4) and booked per struck
+    face, a barrier takes none)."""
     n, nv = rest.shape[0], rest.shape[1]
     pop = Population.empty(n, names, "")
     status = diag[:, L.D_STATUS].astype(int)
@@ -108,10 +108,10 @@ def population_of(model, names, rest, final, contact, imp, diag, compliance) -> 
         dvx = np.where(as_i, imp[..., L.I_DVX_I], 0.0) + np.where(as_j, imp[..., L.I_DVX_J], 0.0)
         dvy = np.where(as_i, imp[..., L.I_DVY_I], 0.0) + np.where(as_j, imp[..., L.I_DVY_J], 0.0)
         crush = np.where(as_i, positive * c_i / both, 0.0) + np.where(as_j, positive * c_j / both, 0.0)
-        side = np.where(as_i, imp[..., L.I_SIDE_I], imp[..., L.I_SIDE_J])  # the side v is struck on
+        face = np.where(as_i, imp[..., L.I_SIDE_I], imp[..., L.I_SIDE_J])  # the face v is struck on
         pop.delta_v[good, v] = np.hypot(dvx.sum(1), dvy.sum(1))[good]
-        for k in range(3):
-            pop.crush_energy[good, v, k] = np.where(side == k, crush, 0.0).sum(1)[good]
+        for k in range(compliance.shape[1]):
+            pop.crush_energy[good, v, k] = np.where(face == k, crush, 0.0).sum(1)[good]
         hit = as_i | as_j
         first = hit.argmax(1)
         some = hit.any(1)

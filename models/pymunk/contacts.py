@@ -102,7 +102,8 @@ class Contacts:
         return (i, k, 1.0) if i < k else (k, i, -1.0)
 
     def _struck_side(self, q, px, py) -> int:
-        """The side of vehicle q the point (px, py) strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 side)."""
+        """The face of vehicle q the point (px, py) strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 left,
+        3 right)."""
         body = self.bodies[q]
         return struck_side(self.P[q], body.position.x, body.position.y, body.angle, px, py)
 

@@ -54,7 +54,7 @@ class _Box:
         return self.centre + (signs * self.half) @ self.axes
 
     def struck_side(self, point) -> int:
-        """The side a contact point strikes: 0 front, 1 rear, 2 side (crashlab's rule, side_code)."""
+        """The face a contact point strikes: 0 front, 1 rear, 2 left, 3 right (crashlab's rule, side_code)."""
         local = self.axes @ (np.asarray(point) - self.centre)
         return side_code(float(local[0]), float(local[1]), float(self.half[0]), float(self.half[1]))
 

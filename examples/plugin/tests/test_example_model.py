@@ -117,7 +117,7 @@ def test_a_front_into_a_side_names_the_sides_and_shares_the_energy_by_their_stru
                {"name": "B", "vehicle": "clio", "x": 3.5, "y": 0.0, "heading": 90.0, "speed": 30.0}])
     out = crashlab.get_model("example").simulate(s)
     first = [r for r in out.impact_rows if r["t"] == min(x["t"] for x in out.impact_rows)]
-    assert {r["vehicle"]: r["side"] for r in first} == {"A": "front", "B": "side"}
+    assert {r["vehicle"]: r["side"] for r in first} == {"A": "front", "B": "left"}
     c = {"A": 1.0 / s.vehicles[0].spec.structure["front"].B, "B": 1.0 / s.vehicles[1].spec.structure["side"].B}
     for r in first:
         assert r["crush_energy"] == pytest.approx(r["energy"] * c[r["vehicle"]] / (c["A"] + c["B"]), rel=1e-9)
