@@ -259,7 +259,8 @@ def damage(vehicle="V1", side="front", width="1.2", profile=str(list(PROFILE)),
 
 STUDY_BAD = {  # id: (damage table, key, words)
     "unknown-vehicle": (damage(vehicle="V9"), "evidence.damage.V9", ["'V9'"]),
-    "wrong-side": (damage(side="left"), "evidence.damage.V1.side", ["front"]),
+    "wrong-side": (damage(side="top"), "evidence.damage.V1.side", ["front"]),
+    "flank-unnamed": (damage(side="side"), "evidence.damage.V1.side", ["left or right"]),
     "sigma-0": (damage(sigma_crush="0.0"), "evidence.damage.V1.sigma_crush", ["greater than 0"]),
     "sigma-negative": (damage(sigma_crush="-0.01"), "evidence.damage.V1.sigma_crush", ["greater than 0"]),
     "sigma-stiffness-0": (damage(sigma_stiffness="0.0"), "evidence.damage.V1.sigma_stiffness", []),
@@ -298,7 +299,7 @@ def test_damage_evidence_beyond_the_first_order_sigma_warns(tmp_path):
         assert ("first order" in next(it.detail for it in items if it.kind == "damage")) == warns, sigma
 
 
-@pytest.mark.parametrize("side, pdof", [("front", 90.0), ("front", 180.0), ("side", 0.0)])
+@pytest.mark.parametrize("side, pdof", [("front", 90.0), ("front", 180.0), ("left", 0.0), ("right", 90.0)])
 def test_a_twin_whose_pdof_cannot_crush_the_side_names_the_study_file_and_key(tmp_path, side, pdof):
     """A twin fills the profile from the run (profile_for_ees): its PDOF error read `damage: pdof: ...`,
     naming neither the study file nor the key."""

@@ -13,17 +13,18 @@ MASS = [1000.0, 2000.0]
 DV = ((-3.0, 1.0, 0.5), (1.5, -0.5, -0.2))
 
 
-# m^2/N, 1/B of (front, rear, side) per vehicle: V1's front B = 500 kN/m^2, V2's side 250 kN/m^2
-COMPLIANCE = np.array([[1 / 5e5, 1 / 3e5, 1 / 2e5], [1 / 6e5, 1 / 4e5, 1 / 2.5e5]])
-FRONT, REAR, SIDE = 0, 1, 2
+# m^2/N, 1/B of (front, rear, left, right: both flanks the side structure) per vehicle: V1's front B = 500 kN/m^2,
+# V2's side 250 kN/m^2
+COMPLIANCE = np.array([[1 / 5e5, 1 / 3e5, 1 / 2e5, 1 / 2e5], [1 / 6e5, 1 / 4e5, 1 / 2.5e5, 1 / 2.5e5]])
+FRONT, REAR, LEFT = 0, 1, 2
 
 
 def test_energy_split_by_the_struck_structures_and_pdof_from_the_impulse():
     # force on V1 from straight ahead (heading 0, pushed backwards), on V2 from its left (heading 90 deg)
     rows = pair_rows(NAMES, MASS, 0, 1, 0.1, 3000.0, DV, ((-1.0, 0.0), (1.0, 0.0)), (0.0, math.pi / 2),
-                     (1.0, 2.0), 0.3, "full", (FRONT, SIDE), COMPLIANCE, t_end=0.2)
+                     (1.0, 2.0), 0.3, "full", (FRONT, LEFT), COMPLIANCE, t_end=0.2)
     assert [r["vehicle"] for r in rows] == ["V1", "V2"] and [r["other"] for r in rows] == ["V2", "V1"]
-    assert [r["side"] for r in rows] == ["front", "side"]
+    assert [r["side"] for r in rows] == ["front", "left"]
     # the same force f per unit width on both: E_q = f^2 / 2 B_q, so E_1 : E_2 = 1/500 : 1/250 = 1 : 2;
     # E_1 = 1000 J -> EES sqrt(2 * 1000 / 1000) = sqrt(2) m/s; E_2 = 2000 J -> sqrt(2 * 2000 / 2000) = sqrt(2) m/s
     assert [r["crush_energy"] for r in rows] == [pytest.approx(1000.0, rel=1e-12), pytest.approx(2000.0, rel=1e-12)]
