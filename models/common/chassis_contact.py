@@ -111,7 +111,7 @@ BARRIER_HALF_HEIGHT = 0.75
 # crush profile (structure law, §13a "Engaged width"): each body's plan outline as N_OUT vertices in its own frame
 # about its shape centre (a vehicle's superellipse at the outward normal angles 2 pi k / N_OUT, so they crowd where
 # it is curved; a barrier's four corners, the last repeated), the engaged width cut into N_STRIP strips
-N_OUT, N_STRIP = 48, 24
+N_OUT, N_STRIP = 96, 24
 
 
 @njit(cache=True)
@@ -134,19 +134,44 @@ def _struck_face(A, rc, M, a, b):
 
 
 @njit(cache=True)
+def _wrap(x):
+    """x wrapped to [-pi, pi)."""
+    return (x + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def _height(U, S, m, u):
+    """The largest height S of the chain (U, S) of m vertices at the lateral coordinate u; -inf where it does not
+    reach u."""
+    h = -math.inf
+    for e in range(m - 1):
+        u0, s0, u1, s1 = U[e], S[e], U[e + 1], S[e + 1]
+        if u0 > u1:
+            u0, s0, u1, s1 = u1, s1, u0, s0
+        if u0 <= u <= u1:
+            h = max(h, s0 if u1 - u0 <= 1e-12 else s0 + (s1 - s0) * (u - u0) / (u1 - u0))
+    return h
+
+
+@njit(cache=True)
 def _facing_chain(O, box, A, rc, n0, n1, sign, U, S):
     """The part of the plan outline O (vertices in the body frame about the shape centre rc, plan rotation from A)
     that faces sign n, n = (n0, n1): its vertices' lateral coordinates U = p . t (t = (-n1, n0)) and heights
     S = sign (p . n), in order along the outline; returns their number. A vehicle's vertex k has the outward
-    normal angle 2 pi k / N_OUT (plan_outline), so only those within 90 deg of sign n (and one beyond each end,
-    the extremes across n) are taken; a box (box True) is its first four vertices, all taken."""
+    normal angle 2 pi k / N_OUT (plan_outline), so only the arc between the extremes across n is taken: the vertices
+    whose normals lie between those of the support points along -t and +t in the body frame (the plan block M of A
+    maps body to plane, so those normals are along M^T (-t), M^T t: 90 deg either side of sign n's for an upright
+    body, not for a pitched or rolled one), one beyond each end; a box (box True) is its first four vertices."""
     if box:
         k0, m = 0, 4
     else:
         step = 2.0 * math.pi / N_OUT
         alpha = math.atan2(sign * (A[0, 1] * n0 + A[1, 1] * n1), sign * (A[0, 0] * n0 + A[1, 0] * n1))
-        k0 = int(math.floor((alpha - 0.5 * math.pi) / step))
-        m = int(math.ceil((alpha + 0.5 * math.pi) / step)) - k0 + 1
+        tb0, tb1 = A[0, 0] * -n1 + A[1, 0] * n0, A[0, 1] * -n1 + A[1, 1] * n0  # M^T t
+        b1 = alpha + _wrap(math.atan2(tb1, tb0) - alpha)
+        b2 = alpha + _wrap(math.atan2(-tb1, -tb0) - alpha)
+        k0 = int(math.floor(min(b1, b2) / step))
+        m = int(math.ceil(max(b1, b2) / step)) - k0 + 1
     for q in range(m):
         k = (k0 + q) % O.shape[0] if not box else q
         px = rc[0] + A[0, 0] * O[k, 0] + A[0, 1] * O[k, 1]
@@ -204,6 +229,14 @@ def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, 
     for k in range(N_STRIP):
         top[k] += bot[k]  # the local overlap along n (-inf where an outline does not reach the strip)
         cmax = max(cmax, top[k])
+    # the deepest local overlap, piecewise linear between the chains' vertices, may lie between the strips'
+    # middles where a face slopes across n: at an end of the width, or at a box's corner
+    for u in (lo, lo + w):
+        cmax = max(cmax, _height(U1, S1, m1, u) + _height(U2, S2, m2, u))
+    if box2:
+        for q in range(m2 - 1):
+            if lo <= U2[q] <= lo + w:
+                cmax = max(cmax, _height(U1, S1, m1, U2[q]) + S2[q])
     f = 0.0
     for k in range(N_STRIP):
         if top[k] > -math.inf:
