@@ -209,7 +209,8 @@ def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, 
     """Normal force of the structure law over the crush profile (docs/physics.md §13a "Engaged width"): the
     engaged width (the overlap of the two plan outlines across the normal n, from body 1 towards body 2; body 2 a
     barrier's box if box2) cut into strips, each strip's local overlap along n from the outlines, its setback
-    sig_k below the deepest strip's, and the force per unit width of the strip's own crush,
+    sig_k below the deepest local overlap (of the strips' middles, the width's ends and a box's corners), and the
+    force per unit width of the strip's own crush,
     sum_k du structure_force(crush - sig_k, cm - sig_k, e, b1, b2) (CRASH3's integral over the profile; a flat
     face, sig = 0, gives w structure_force(crush, ...)); the width at most each structure's (w1, w2; w2 <= 0: a
     barrier, unlimited), by scaling. work: (6, N_OUT + 2) scratch (the two chains, then the two strips' rows).
