@@ -150,8 +150,9 @@ def _elastic_release(tr, times, tol) -> bool:
     """A 3D vehicle's rigid-body energy (`_energy`) rising over `times` while its own mechanical energy, as the
     model records it (trajectory column "energy": the chassis and wheels with the suspension's and tyres' springs),
     does not rise by more than `tol`: the springs give back what a tripping or landing body stored in them, which
-    the rigid-body estimate does not count (audit seed 25, multibody, 2026-11-27: a Metro tripped sideways at 4.8
-    m/s rises 7.1 kJ rigid, 2.1 kJ in the model's energy, thrown 1 m up). False where the column is missing."""
+    the rigid-body estimate does not count (audit seed 25, multibody, with the first build of the crush-profile
+    force of 2026-11-27: a Metro tripped sideways at 4.8 m/s rises 7.1 kJ rigid, 2.1 kJ in the model's energy,
+    thrown 1 m up). False where the column is missing."""
     if "energy" not in tr or len(times) < 2:
         return False
     em = np.interp(times, np.asarray(tr["t"], dtype=float), np.asarray(tr["energy"], dtype=float))
