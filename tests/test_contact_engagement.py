@@ -28,8 +28,8 @@ SH = np.array([2.38, 0.916, 0.25, 0.5, 0.5, 0.0, 0.0])   # a, b, c, eps1, eps2 (
 OFFSET = 0.75 * 2 * SH[1]             # lateral offset of the CGs: 25 % overlap
 W_REF = 2 * SH[1] - OFFSET            # engaged width [m]
 STR = np.array([A, B, 1.832, A, B, 1.832, A, B, 4.7])
-# the contact's profile integral (24 strips across the width, the fronts as 96-gons) against the dense one here:
-# within 3.3 % at this narrow overlap of two rounded corners (a flat face would give 2.5 x the force at 0.2 m)
+# the contact's profile integral (24 strips across the width, the fronts as 64-gons) against the dense one here:
+# within 3 % at this narrow overlap of two rounded corners (a flat face would give 2.5 x the force at 0.2 m)
 PROFILE_TOL = 0.05
 
 
@@ -169,11 +169,11 @@ def test_crush_is_never_below_the_shapes_overlap():
     assert 0.0 < math.hypot(FX[0, 0], FX[0, 1]) <= out[C.G_WIDTH] * 0.5 * B * overlap
 
 
-@pytest.mark.parametrize("crush, tol", [(0.1, 0.01), (0.3, 0.005), (0.6, 0.005), (0.75, 0.005)])
+@pytest.mark.parametrize("crush, tol", [(0.1, 0.02), (0.3, 0.006), (0.6, 0.006), (0.75, 0.006)])
 def test_profile_force_of_a_nose_against_a_barrier(crush, tol):
     """A saloon's nose (2/eps = 4) face-on against a rigid barrier, crush C at its middle: B times the integral
     over the full width of (C - s(y))+, s(y) = a (1 - (1 - |y/b|^4)^(1/4)) the nose's setback (dense trapezoidal
-    rule here), within 1 % at 0.1 m (the strips' and the 96-gon's discretisation; measured 0.74 %), 0.5 % beyond.
+    rule here), within 2 % at 0.1 m (the strips' and the 64-gon's discretisation; measured 1.5 %), 0.6 % beyond.
     The flat face's w B C is 1.3-2 x that."""
     sh = np.array([2.45, 0.92, 0.25, 0.5, 0.5, 0.0, 0.0])
     rc2 = np.array([sh[0] - crush + 0.5, 0.0, 0.0])      # the barrier's face at x = a - C

@@ -10,9 +10,9 @@ across n, their exact extents from the superellipses' support points), with the 
 Bs/e^2 from each line's own largest crush Cm - sigma where Cm > C. A barrier is a box, rigid: B times the integral,
 its back found by clipping the line against the box's slabs.
 
-Tolerance: profile_force takes 24 strips and the 96-gon through the superellipse's support points at the normal
-angles 2 pi k / 96 (inscribed: its overlap is at most the curve's), so its error is bounded by the setback error
-(the 96-gon's sag) times Bs times the engaged width: per case, with the measured error distribution, at TOL_FLOOR
+Tolerance: profile_force takes 24 strips and the 64-gon through the superellipse's support points at the normal
+angles 2 pi k / 64 (inscribed: its overlap is at most the curve's), so its error is bounded by the setback error
+(the 64-gon's sag) times Bs times the engaged width: per case, with the measured error distribution, at TOL_FLOOR
 below; the slow sweep takes 500 cases.
 """
 import math
@@ -23,18 +23,18 @@ from scipy.optimize import brentq, minimize_scalar
 
 from crashlab.models.common import chassis_contact as C
 
-N_OUT, N_STRIP = 96, 24  # the 96-gon and the 24 strips of docs/physics.md §13a
+N_OUT, N_STRIP = 64, 24  # the 64-gon and the 24 strips of docs/physics.md §13a
 B = 600e3           # N/m^2, both structures
 N_LINES = 600       # dense lines across the engaged width (midpoint rule)
 # tolerance per case (check): the force within Bs w (sag1 + sag2 + 1 mm) and the width within 2 (sag1 + sag2) + 1 mm,
-# where sag is the largest distance of a body's curve outside its inscribed 96-gon: each strip's local overlap falls
+# where sag is the largest distance of a body's curve outside its inscribed 64-gon: each strip's local overlap falls
 # short of the curves' by 0 to sag1 + sag2, the deepest one's too, so each strip's crush C - sigma is off by at most
 # sag1 + sag2 (the extents by up to a sag each); the deepest overlap between the strips' middles is found at the
-# width's ends and a box's corners (profile_force). Measured (2026-11-27, after the review's mends: the 96-gon, the
-# peak at the ends, the chain cut at M^T (+-t)), err / (Bs w): seed 20261127 (48 cases) median 0.40 mm, p90 1.3 mm,
-# max 2.5 mm; seed 4242 (500 cases, slow) median 0.4 mm, p90 1.5-1.7 mm, max 3.0 (free normal), 4.9 (normal along
-# the centres), 3.2 (pitched/rolled), 10.8 mm (box: a 3.8 m flank on a barrier, its 96-gon's sag 10 mm); before
-# them (48-gon, strip middles only) the box's largest was 12.4 mm at a sloped face and a flank's chord 24 mm short.
+# width's ends and a box's corners (profile_force). Measured (2026-11-27, after the review's mends: the 64-gon, the
+# peak at the ends, the chain cut at M^T (+-t)), err / (Bs w): seed 20261127 (48 cases) median 0.37 mm, p90 1.5 mm,
+# max 3.6 mm, at most 0.12 of the tolerance; seed 4242 (500 cases, slow) median 0.47 mm, p90 2.0 mm, max 5.5 mm
+# (cars), 9.9 mm (box), at most 0.53 of it; before them (48-gon, strip middles only) the box's largest was 12.4 mm
+# at a sloped face and a flank's chord lay 24 mm inside the body (13 mm with the 64-gon).
 TOL_FLOOR = 1e-3
 
 
@@ -49,7 +49,7 @@ def support_point(a, b, p, c, s):
 
 
 def outline(a, b, p):
-    """The 96 vertices at the outward normal angles 2 pi k / 96 (docs/physics.md §13a)."""
+    """The 64 vertices at the outward normal angles 2 pi k / 64 (docs/physics.md §13a)."""
     return np.array([support_point(a, b, p, math.cos(f), math.sin(f)) for f in 2 * np.pi * np.arange(N_OUT) / N_OUT])
 
 
@@ -76,7 +76,7 @@ class Body:
         self.Minv = np.linalg.inv(self.M)
 
     def sag(self):
-        """The largest distance of the curve outside the inscribed 96-gon, in the plan (0 for a box)."""
+        """The largest distance of the curve outside the inscribed 64-gon, in the plan (0 for a box)."""
         if self.is_box:
             return 0.0
         th = np.linspace(0.0, 2 * np.pi, 8001)
@@ -230,7 +230,7 @@ def default_rows():
 
 
 def test_outlines_are_the_contacts_own():
-    """The 96-gon and the box here are plan_outline's and box_outline's (so the fuzz measures profile_force)."""
+    """The 64-gon and the box here are plan_outline's and box_outline's (so the fuzz measures profile_force)."""
     sh = np.array([2.4, 0.9, 0.25, 0.5, 0.3, 0.0, 0.0])
     np.testing.assert_allclose(C.plan_outline(sh), outline(2.4, 0.9, 2 / 0.3), atol=1e-12)
     np.testing.assert_array_equal(C.box_outline(0.5, 3.0), box(0.5, 3.0))
@@ -251,7 +251,7 @@ def test_fuzz_detects_a_flat_face(default_rows):
 @pytest.mark.parametrize("yaw, phi", [(0.0, math.pi), (math.pi, 0.0), (-math.pi, 0.0), (0.5 * math.pi, -0.5 * math.pi),
                                       (math.pi / 24, math.pi + 1e-12), (0.0, -math.pi + 1e-9)])
 def test_normal_angle_wraps_around(yaw, phi):
-    """Normals at the +-pi wrap of the chain's angle (k0 negative, vertices taken modulo 96): a saloon against a
+    """Normals at the +-pi wrap of the chain's angle (k0 negative, vertices taken modulo 64): a saloon against a
     box barrier (turned 0.3 rad) along n, the force and width as the dense reference."""
     n = np.array([math.cos(phi), math.sin(phi)])
     t = np.array([-n[1], n[0]])
@@ -282,7 +282,7 @@ def test_profile_force_sweep():
 
 
 def polygon_width(body1, body2, n):
-    """The engaged width of the two 96-gons (box) themselves: the overlap of their vertices' extents across n."""
+    """The engaged width of the two 64-gons (box) themselves: the overlap of their vertices' extents across n."""
     t = np.array([-n[1], n[0]])
     u = [(b.c + (box(b.a, b.b)[:4] if b.is_box else outline(b.a, b.b, b.p)) @ b.M.T) @ t for b in (body1, body2)]
     return min(u[0].max(), u[1].max()) - max(u[0].min(), u[1].min())
@@ -291,7 +291,7 @@ def polygon_width(body1, body2, n):
 @pytest.mark.parametrize("kind", ["free", "box", "tilted"])
 def test_width_is_the_polygons_overlap(kind):
     """The chain of each outline reaches its extreme vertices across n (one vertex beyond each end of the facing
-    half): the engaged width is that of the full 96-gons, to rounding (pitch and roll up to 8 deg)."""
+    half): the engaged width is that of the full 64-gons, to rounding (pitch and roll up to 8 deg)."""
     rng = np.random.default_rng(11)
     for _ in range(300):
         body1, body2, n = random_case(rng, kind)

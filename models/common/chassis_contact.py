@@ -111,7 +111,7 @@ BARRIER_HALF_HEIGHT = 0.75
 # crush profile (structure law, §13a "Engaged width"): each body's plan outline as N_OUT vertices in its own frame
 # about its shape centre (a vehicle's superellipse at the outward normal angles 2 pi k / N_OUT, so they crowd where
 # it is curved; a barrier's four corners, the last repeated), the engaged width cut into N_STRIP strips
-N_OUT, N_STRIP = 96, 24
+N_OUT, N_STRIP = 64, 24
 
 
 @njit(cache=True)
@@ -151,6 +151,18 @@ def _height(U, S, m, u):
         if u0 <= u <= u1:
             h = max(h, s0 if u1 - u0 <= 1e-12 else s0 + (s1 - s0) * (u - u0) / (u1 - u0))
     return h
+
+
+@njit(cache=True)
+def _ends(U, m):
+    """Indices of the least and the largest of U[:m]."""
+    i = j = 0
+    for q in range(1, m):
+        if U[q] < U[i]:
+            i = q
+        if U[q] > U[j]:
+            j = q
+    return i, j
 
 
 @njit(cache=True)
@@ -218,8 +230,10 @@ def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, 
     U1, S1, U2, S2, top, bot = work[0], work[1], work[2], work[3], work[4], work[5]
     m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
     m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
-    lo = max(U1[:m1].min(), U2[:m2].min())
-    w = min(U1[:m1].max(), U2[:m2].max()) - lo
+    i1, j1 = _ends(U1, m1)
+    i2, j2 = _ends(U2, m2)
+    lo, hi = max(U1[i1], U2[i2]), min(U1[j1], U2[j2])
+    w = hi - lo
     if w <= 0.0:
         return 0.0, 0.0
     du = w / N_STRIP
@@ -232,11 +246,12 @@ def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, 
         cmax = max(cmax, top[k])
     # the deepest local overlap, piecewise linear between the chains' vertices, may lie between the strips'
     # middles where a face slopes across n: at an end of the width, or at a box's corner
-    for u in (lo, lo + w):
-        cmax = max(cmax, _height(U1, S1, m1, u) + _height(U2, S2, m2, u))
+    # (at each end one chain's extreme vertex: its own height there)
+    cmax = max(cmax, S1[i1] + _height(U2, S2, m2, lo) if U1[i1] >= U2[i2] else _height(U1, S1, m1, lo) + S2[i2])
+    cmax = max(cmax, S1[j1] + _height(U2, S2, m2, hi) if U1[j1] <= U2[j2] else _height(U1, S1, m1, hi) + S2[j2])
     if box2:
         for q in range(m2 - 1):
-            if lo <= U2[q] <= lo + w:
+            if lo <= U2[q] <= hi:
                 cmax = max(cmax, _height(U1, S1, m1, U2[q]) + S2[q])
     f = 0.0
     for k in range(N_STRIP):
@@ -284,7 +299,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
     A2 = np.empty((3, 3))
     rc1 = np.empty(3)
     rc2 = np.empty(3)
-    work = np.empty((6, N_OUT + 2))  # profile_force's scratch
+    # profile_force's scratch, allocated at its first use in this call (most calls have no pair in contact); psg
+    # only holds its place (the same array type)
+    work, have_work = psg, False
     for p in range(PP.shape[0]):
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
         psg[p, :] = 0.0
@@ -452,6 +469,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             if psg[p, G_DEL] <= 0.0:
                 continue
             # over the crush profile across the engaged width, within each structure's width
+            if not have_work:
+                work, have_work = np.empty((6, N_OUT + 2)), True
             fn, psg[p, G_WIDTH] = profile_force(OUT[i], A1, rc1, OUT[j], k2 == 1, A2, rc2, d0, d1, crush, cm, e,
                                                 b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work)
         else:
