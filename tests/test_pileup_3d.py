@@ -1,8 +1,8 @@
 """The 32-car pile-up in the 3D models (issue 27, item 3; tests/pileup.py): both run it, passing the guard. Measured
-2026-11-27 (the crush-profile contact), loaded 2-core machine: multibody the whole 5 s (it stops at rest) in 6.3 s
-CPU, 1,938 steps; exudyn 73 s CPU (2026-11-26: 10.4 s, 3,241 steps; 77 s). Before the crush line through zero
-force (docs/physics.md §13a) exudyn failed a column of 4 touching cars with its reason ("the contact loads did not
-settle": a touching pair's force jumped from 0 to A w)."""
+2026-11-27 (the crush-profile contact), loaded 2-core machine: multibody the whole 5 s (it stops at rest) in
+6.3-6.9 s CPU, about 1,940 steps; exudyn 68-73 s CPU (2026-11-26: 10.4 s, 3,241 steps; 77 s). Before the crush
+line through zero force (docs/physics.md §13a) exudyn failed a column of 4 touching cars with its reason ("the
+contact loads did not settle": a touching pair's force jumped from 0 to A w)."""
 from __future__ import annotations
 
 import numpy as np
