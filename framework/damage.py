@@ -74,14 +74,19 @@ def _side(side: str, where: str, key: str = "side") -> str:
 
 
 # ---------------------------------------------------------------- the laws (docs/physics.md §28)
+def flank_sign(side: str, pdof_deg: float) -> float:
+    """+1 for the left flank, -1 for the right; side = "side": the flank the PDOF points at (left for PDOF >= 0)."""
+    if side in ("left", "right"):
+        return 1.0 if side == "left" else -1.0
+    return 1.0 if wrap_deg(pdof_deg) >= 0 else -1.0
+
+
 def pdof_angle(side: str, pdof_deg: float | None) -> float:
-    """Angle [deg] between the force and the normal of the struck side; the left flank's normal is +90, the
-    right's -90, and side's whichever of them is nearer to the PDOF."""
+    """Angle [deg] between the force and the normal of the struck side; a flank's normal is +90 (left) or -90
+    (right, `flank_sign`)."""
     if pdof_deg is None:
         return 0.0
-    normal = SIDE_NORMAL[side]
-    if side == "side" and wrap_deg(pdof_deg) < 0:
-        normal = -90.0
+    normal = SIDE_NORMAL[side] if side in ("front", "rear") else 90.0 * flank_sign(side, pdof_deg)
     return wrap_deg(pdof_deg - normal)
 
 
@@ -170,7 +175,7 @@ def _geometry(spec: VehicleSpec, side: str, offset: float, alpha_deg: float, pdo
     elif side == "rear":
         px, py = -spec.cg_to_rear + depth, offset - lateral
     else:
-        flank = {"left": 1.0, "right": -1.0}.get(side, 1.0 if wrap_deg(pdof_deg) >= 0 else -1.0)
+        flank = flank_sign(side, pdof_deg)
         px, py = offset - flank * lateral, flank * (spec.width / 2.0 - depth)
     th = math.radians(pdof_deg)
     ux, uy = -math.cos(th), -math.sin(th)  # the force's direction (it comes from the PDOF)
