@@ -188,8 +188,11 @@ def evaluate(body1, body2, n, crush, cm, e, w1=50.0, w2=50.0):
     rc1 = np.array([*body1.c, 0.0])
     rc2 = np.array([*body2.c, 0.0])
     b2 = 0.0 if body2.is_box else B
-    return C.profile_force(O1, body1.A, rc1, O2, body2.is_box, body2.A, rc2, n[0], n[1], crush, cm, e, B, b2, w1,
-                           0.0 if body2.is_box else w2, np.empty((6, N_OUT + 2)))
+    # the superellipsoids (height 0.6 m, the plan exponent also along z): used only beyond 10 deg of tilt
+    sh1 = np.array([body1.a, body1.b, 0.6, 2.0 / body1.p, 2.0 / body1.p])
+    sh2 = np.zeros(5) if body2.is_box else np.array([body2.a, body2.b, 0.6, 2.0 / body2.p, 2.0 / body2.p])
+    return C.profile_force(O1, sh1, body1.A, rc1, O2, sh2, body2.is_box, body2.A, rc2, n[0], n[1], crush, cm, e, B,
+                           b2, w1, 0.0 if body2.is_box else w2, np.empty((6, N_OUT + 2)))
 
 
 def run_cases(seed, count):
@@ -291,23 +294,100 @@ def polygon_width(body1, body2, n):
 @pytest.mark.parametrize("kind", ["free", "box", "tilted"])
 def test_width_is_the_polygons_overlap(kind):
     """The chain of each outline reaches its extreme vertices across n (one vertex beyond each end of the facing
-    half): the engaged width is that of the full 64-gons, to rounding (pitch and roll up to 8 deg)."""
+    half): the engaged width of the sections' chains is that of the full 64-gons, to rounding (pitch and roll up to
+    8 deg)."""
     rng = np.random.default_rng(11)
     for _ in range(300):
         body1, body2, n = random_case(rng, kind)
-        f, w = evaluate(body1, body2, n, 0.1, 0.1, 0.1)
+        w = section_width(body1, body2, n)
         assert w == pytest.approx(max(polygon_width(body1, body2, n), 0.0), rel=1e-12, abs=1e-12)
 
 
+def section_width(body1, body2, n):
+    """The engaged width of the z = 0 sections' chains alone (profile_force below 10 deg of tilt; beyond, it blends
+    them with the shadows')."""
+    O1 = outline(body1.a, body1.b, body1.p)
+    O2 = box(body2.a, body2.b) if body2.is_box else outline(body2.a, body2.b, body2.p)
+    rc1, rc2 = np.array([*body1.c, 0.0]), np.array([*body2.c, 0.0])
+    U1, S1, U2, S2 = np.empty((4, N_OUT + 2))
+    m1 = C._facing_chain(O1, False, body1.A, rc1, n[0], n[1], 1.0, U1, S1)
+    m2 = C._facing_chain(O2, body2.is_box, body2.A, rc2, n[0], n[1], -1.0, U2, S2)
+    return C._chain_force(U1, S1, m1, U2, S2, m2, body2.is_box, 0.1, 0.1, 0.1, B, B, 50.0, 50.0,
+                          np.empty(N_OUT + 2), np.empty(N_OUT + 2))[1]
+
+
 def test_width_is_the_polygons_overlap_when_tilted_far():
-    """Pitch and roll up to 17 deg: the chain is cut at the support points along M^T (-t), M^T t, not at 90 deg
-    either side of M^T n (the review of 2026-11-27 found the engaged width 0.11 m short at 17 deg with that cut)."""
+    """Pitch and roll up to 17 deg: the section's chain is cut at the support points along M^T (-t), M^T t, not at
+    90 deg either side of M^T n (the review of 2026-11-27 found the engaged width 0.11 m short at 17 deg with that
+    cut)."""
     rng = np.random.default_rng(12)
     worst = 0.0
     for _ in range(2000):
         b1, b2, n = random_case(rng, "free")
         tilt = rotation(rng.uniform(-math.pi, math.pi), rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3))
         body1 = Body(b1.a, b1.b, b1.p, tilt, b1.c)
-        f, w = evaluate(body1, b2, n, 0.1, 0.1, 0.1)
-        worst = max(worst, abs(w - max(polygon_width(body1, b2, n), 0.0)))
+        worst = max(worst, abs(section_width(body1, b2, n) - max(polygon_width(body1, b2, n), 0.0)))
     assert worst < 1e-9
+
+
+# ---------------------------------------------------------------- a tilted body: its shadow (§13a "A tilted body")
+@pytest.mark.parametrize("pose", ["roll", "pitch", "roll_left"])
+def test_a_body_on_its_side_or_nose_presents_its_shadow(pose):
+    """A saloon on its side (roll +-90 deg) or on its nose (pitch 90 deg), any yaw, against an upright car along a
+    random normal: its outline on the road is its shadow, the body's y = 0 (x = 0) section, the superellipse of
+    semi-axes a (b) and c with the exponent 2 / eps1 (the superellipsoid's implicit function at y = 0), here in the
+    dense reference; the force and width within the fuzz's tolerance. Its z = 0 section, which the force took
+    before, collapses to a line there: an end-on (side-on) contact had no engaged width and no force (failed)."""
+    rng = np.random.default_rng({"roll": 31, "pitch": 32, "roll_left": 33}[pose])
+    a, b, c, e1, e2 = 2.3, 0.9, 0.7, 0.4, 0.5
+    sh = np.array([a, b, c, e1, e2])
+    rows = []
+    while len(rows) < 12:
+        yaw = rng.uniform(-math.pi, math.pi)
+        tilt = {"roll": (0.0, 0.5 * math.pi), "pitch": (0.5 * math.pi, 0.0), "roll_left": (0.0, -0.5 * math.pi)}[pose]
+        shadow = Body(a if pose != "pitch" else b, c, 2.0 / e1,
+                      rotation(yaw if pose != "pitch" else yaw + 0.5 * math.pi), rng.uniform(-5, 5, 2))
+        _, body2, n = random_case(rng, "free")
+        t = np.array([-n[1], n[0]])
+        delta, off = rng.uniform(0.05, 0.5), rng.uniform(-0.5, 0.5) * min(shadow.extent(t) - shadow.c @ t, body2.b)
+        probe = Body(body2.a, body2.b, body2.p, body2.A, np.zeros(2))
+        c2 = shadow.c + (shadow.extent(n) - shadow.c @ n + probe.extent(-n) - delta) * n + off * t
+        body2 = Body(body2.a, body2.b, body2.p, body2.A, c2)
+        ref, w_ref, hmax, miss = reference(shadow, body2, n, delta, delta, 0.1, 0.5 * B)
+        if w_ref <= 0.05:
+            continue
+        sh2 = np.array([body2.a, body2.b, 0.6, 2.0 / body2.p, 2.0 / body2.p])
+        f, w = C.profile_force(outline(a, b, 2.0 / e2), sh, rotation(yaw, *tilt), np.array([*shadow.c, 0.4]),
+                               outline(body2.a, body2.b, body2.p), sh2, False, body2.A, np.array([*body2.c, 0.0]),
+                               n[0], n[1], delta, delta, 0.1, B, B, 50.0, 50.0, np.empty((6, N_OUT + 2)))
+        rows.append(("tilted", f, ref, w, w_ref, 0.5 * B, shadow.sag() + body2.sag(), miss, delta))
+    assert check(rows) == []
+
+
+def test_tilt_blends_the_section_into_the_shadow_continuously():
+    """Rolling a saloon from 0 to 40 deg against an upright one end-on (n along the first's heading): the section up
+    to 10 deg (the force as for the z = 0 section), the shadow from 20 deg, no jump between (each 0.05 deg step
+    moves the force by less than 0.2 %), and beyond 20 deg the shadow's, which differs from the section's."""
+    sh = np.array([2.3, 0.9, 0.7, 0.4, 0.5])
+    O = outline(2.3, 0.9, 2.0 / 0.5)
+    rc2 = np.array([4.4, 0.3, 0.4])
+
+    def force(roll_deg, weight=None):
+        A = rotation(0.0, 0.0, math.radians(roll_deg))
+        return C.profile_force(O, sh, A, np.array([0.0, 0.0, 0.4]), O, sh, False, np.eye(3), rc2, 1.0, 0.0, 0.3,
+                               0.3, 0.1, B, B, 50.0, 50.0, np.empty((6, N_OUT + 2)))[0]
+
+    rolls = np.arange(0.0, 40.0, 0.05)
+    f = np.array([force(r) for r in rolls])
+    assert np.abs(np.diff(f)).max() < 2e-3 * f.max()
+    assert C.shadow_weight(rotation(0.0, 0.0, math.radians(9.99))) == 0.0
+    assert C.shadow_weight(rotation(0.0, math.radians(20.01), 0.0)) == 1.0
+    assert C.shadow_weight(rotation(0.0, 0.0, math.radians(170.0))) == 0.0  # upside down: the section again
+    # beyond 20 deg the shadow's force differs from the section's (the blend is not vacuous)
+    U1, S1, U2, S2 = np.empty((4, N_OUT + 2))
+    A = rotation(0.0, 0.0, math.radians(35.0))
+    m1 = C._facing_chain(O, False, A, np.array([0.0, 0.0, 0.4]), 1.0, 0.0, 1.0, U1, S1)
+    m2 = C._facing_chain(O, False, np.eye(3), rc2, 1.0, 0.0, -1.0, U2, S2)
+    section = C._chain_force(U1, S1, m1, U2, S2, m2, False, 0.3, 0.3, 0.1, B, B, 50.0, 50.0, np.empty(N_OUT + 2),
+                             np.empty(N_OUT + 2))[0]
+    assert abs(force(35.0) - section) > 0.05 * section

@@ -112,6 +112,10 @@ BARRIER_HALF_HEIGHT = 0.75
 # about its shape centre (a vehicle's superellipse at the outward normal angles 2 pi k / N_OUT, so they crowd where
 # it is curved; a barrier's four corners, the last repeated), the engaged width cut into N_STRIP strips
 N_OUT, N_STRIP = 64, 24
+# a tilted vehicle's outline (§13a "A tilted body"): its z = 0 section (the cached N_OUT-gon) up to COS_SECTION of
+# tilt (the angle of its up axis from the vertical, or from the downward one), its shadow on the road (the 3D
+# support points along the horizontal directions) from COS_SHADOW, the force blended between (10-20 deg)
+COS_SECTION, COS_SHADOW = math.cos(math.radians(10.0)), math.cos(math.radians(20.0))
 
 
 @njit(cache=True)
@@ -217,7 +221,31 @@ def _sections(U, S, m, lo, du, out):
 
 
 @njit(cache=True)
-def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work):
+def _shadow_chain(sh, A, rc, n0, n1, sign, U, S):
+    """The part of the body's shadow on the road (its outline seen from above, docs/physics.md §13a "A tilted
+    body") that faces sign n: the 3D support points (superellipsoid sh, centre rc, rotation A) along the horizontal
+    directions at the normal angles of sign n -90 ... +90 deg in steps of 2 pi / N_OUT, the first and the last the
+    extremes across n; their U = p . t and S = sign (p . n) as _facing_chain's. Returns their number."""
+    step = 2.0 * math.pi / N_OUT
+    phi0 = math.atan2(sign * n1, sign * n0)
+    half = N_OUT // 4
+    for q in range(2 * half + 1):
+        f = phi0 + (q - half) * step
+        P = support_global(math.cos(f), math.sin(f), 0.0, sh, rc, A)
+        U[q], S[q] = -n1 * P[0] + n0 * P[1], sign * (n0 * P[0] + n1 * P[1])
+    return 2 * half + 1
+
+
+@njit(cache=True)
+def shadow_weight(A):
+    """How much of a vehicle's outline is its shadow rather than its z = 0 section (§13a "A tilted body"): 0 up to
+    10 deg of tilt (from upright or upside down), 1 from 20 deg, linear in the cosine between."""
+    c = abs(A[2, 2])
+    return min(max((COS_SECTION - c) / (COS_SECTION - COS_SHADOW), 0.0), 1.0)
+
+
+@njit(cache=True)
+def profile_force(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work):
     """Normal force of the structure law over the crush profile (docs/physics.md §13a "Engaged width"): the
     engaged width (the overlap of the two plan outlines across the normal n, from body 1 towards body 2; body 2 a
     barrier's box if box2) cut into strips, each strip's local overlap along n from the outlines, its setback
@@ -225,11 +253,30 @@ def profile_force(O1, A1, rc1, O2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, 
     force per unit width of the strip's own crush,
     sum_k du structure_force(crush - sig_k, cm - sig_k, e, b1, b2) (CRASH3's integral over the profile; a flat
     face, sig = 0, gives w structure_force(crush, ...)); the width at most each structure's (w1, w2; w2 <= 0: a
-    barrier, unlimited), by scaling. work: (6, N_OUT + 2) scratch (the two chains, then the two strips' rows).
-    Returns (force, engaged width)."""
-    U1, S1, U2, S2, top, bot = work[0], work[1], work[2], work[3], work[4], work[5]
-    m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
-    m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
+    barrier, unlimited), by scaling. A vehicle's outline is its cached z = 0 section O (sh its superellipsoid),
+    or for a tilted one its shadow, the force and width blended between by the more tilted vehicle's
+    shadow_weight (§13a "A tilted body"). work: (6, N_OUT + 2) scratch (the two chains, then the two strips'
+    rows). Returns (force, engaged width)."""
+    lam = max(shadow_weight(A1), 0.0 if box2 else shadow_weight(A2))
+    U1, S1, U2, S2 = work[0], work[1], work[2], work[3]
+    f = w = 0.0
+    if lam < 1.0:
+        m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
+        m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
+        f, w = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
+    if lam > 0.0:
+        m1 = _shadow_chain(sh1, A1, rc1, n0, n1, 1.0, U1, S1)
+        m2 = _facing_chain(O2, True, A2, rc2, n0, n1, -1.0, U2, S2) if box2 else \
+            _shadow_chain(sh2, A2, rc2, n0, n1, -1.0, U2, S2)
+        fs, ws = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
+        f, w = (1.0 - lam) * f + lam * fs, (1.0 - lam) * w + lam * ws
+    return f, w
+
+
+@njit(cache=True)
+def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top, bot):
+    """profile_force over the two facing chains (U1, S1) of body 1 and (U2, S2) of body 2 (m1, m2 vertices):
+    (force, engaged width)."""
     i1, j1 = _ends(U1, m1)
     i2, j2 = _ends(U2, m2)
     lo, hi = max(U1[i1], U2[i2]), min(U1[j1], U2[j2])
@@ -471,8 +518,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             # over the crush profile across the engaged width, within each structure's width
             if not have_work:
                 work, have_work = np.empty((6, N_OUT + 2)), True
-            fn, psg[p, G_WIDTH] = profile_force(OUT[i], A1, rc1, OUT[j], k2 == 1, A2, rc2, d0, d1, crush, cm, e,
-                                                b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work)
+            fn, psg[p, G_WIDTH] = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush,
+                                                cm, e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0,
+                                                work)
         else:
             if g >= 0.0:
                 continue
