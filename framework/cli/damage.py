@@ -42,6 +42,8 @@ def vehicle_for(target: str, vehicle: str | None = None, where: str = "command l
         if vehicle not in names:
             raise InputError(where, key, f"no vehicle {vehicle!r} in {target}: one of {', '.join(names)}")
         return scene.vehicles[names.index(vehicle)].spec
+    if target.endswith(".toml") and Path(target).is_file() and "scene" in read_toml(Path(target), "study"):
+        raise InputError(target, target_key, "a study file: give its scene file (its `scene` key) or a vehicle")
     if vehicle is not None:
         raise InputError(where, key, "names a vehicle of a scene; the target is a vehicle")
     return load_vehicle(target, base_dir=Path.cwd(), where=target_key, scene_file=where)
@@ -56,8 +58,8 @@ def parse_other(text: str, key: str = "--with", where: str = "command line") -> 
         nums = [float(t) for t in parts[3:]]
     except ValueError:
         raise InputError(where, key, f"WIDTH, OFFSET and PDOF are numbers (m, m, deg), got {text!r}") from None
-    return dict(vehicle=parts[0], side=parts[1], profile=parse_profile(parts[2], key, where), width=nums[0],
-                offset=nums[1] if len(nums) > 1 else 0.0, pdof=nums[2] if len(nums) > 2 else None)
+    return dict(vehicle=parts[0], side=parts[1], profile=parse_profile(parts[2], f"{key} profile", where),
+                width=nums[0], offset=nums[1] if len(nums) > 1 else 0.0, pdof=nums[2] if len(nums) > 2 else None)
 
 
 def command(target: str, side: str, profile: str, width: float, offset: float = 0.0, pdof: float | None = None,
@@ -68,6 +70,9 @@ def command(target: str, side: str, profile: str, width: float, offset: float = 
     their delta-V (`pair_report`); text (`format_report`) or JSON. Bad input: InputError naming the option."""
     spec = vehicle_for(target, vehicle)
     rep = report(spec, side, parse_profile(profile), width, offset, pdof, "command line", "--")
+    if is_scene(target):  # the scene's name of the vehicle first: two of one model are told apart
+        own = vehicle if vehicle is not None else load_scene(target).vehicles[0].name
+        rep["vehicle"] = f"{own} ({rep['vehicle']})"
     if other is not None:
         o = parse_other(other)
         name = o.pop("vehicle")
@@ -81,6 +86,8 @@ def command(target: str, side: str, profile: str, width: float, offset: float = 
             spec2 = vehicle_for(name, target_key="--with")
         rep2 = report(spec2, o["side"], o["profile"], o["width"], o["offset"], o["pdof"], "command line",
                       "--with ")
+        if is_scene(target):
+            rep2["vehicle"] = f"{name} ({rep2['vehicle']})"
         if not (isinstance(restitution, (int, float)) and 0.0 <= restitution < 1.0):
             raise InputError("command line", "--restitution", f"in [0, 1), got {restitution!r}")
         rep = pair_report(rep, rep2, restitution)

@@ -329,8 +329,27 @@ def build_parser():
     return p
 
 
+# options whose value may start with "-" (a negative crush depth): argparse takes "-0.1,0.2" for an option and
+# prints its usage; glued to the option ("--profile=-0.1,0.2") the value reaches crashlab.damage, which refuses it
+# in one line naming the key (exit 2)
+DASH_VALUE_OPTIONS = ("--profile", "--with")
+
+
+def _glue_dash_values(argv: list[str]) -> list[str]:
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in DASH_VALUE_OPTIONS and i + 1 < len(argv) and argv[i + 1][:1] == "-" \
+                and argv[i + 1][1:2] in tuple("0123456789.,"):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
+
+
 def main(argv=None):
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(_glue_dash_values(sys.argv[1:] if argv is None else list(argv)))
     try:
         from ..outdir import lock_out_dir
         with lock_out_dir(getattr(args, "out", None), args.command):  # one writer per --out folder
