@@ -26,6 +26,7 @@ def run_cli(args) -> int:
     study.shown_units = args.units
     for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
         print(f"crashlab: note: {args.study}: {note}", file=sys.stderr)
+    evidence_warnings(args.study, study)
     if args.optimizer and args.optimizer not in available_optimizers():
         raise InputError(args.study, "--optimizer",
                          str(UnknownPluginError("optimizer", args.optimizer, available_optimizers())))
@@ -56,6 +57,14 @@ def run_cli(args) -> int:
     return _no_feasible(args, res)
 
 
+def evidence_warnings(path, study) -> None:
+    """Each evidence item's warnings on stderr, one line each (a damage profile without residual crush, a PDOF
+    beyond the correction's limit, a sigma outside the first order: docs/physics.md §28); summary.md repeats them."""
+    for it in getattr(study.evidence_set, "items", None) or ():
+        for w in getattr(it, "warnings", ()):
+            print(f"crashlab: warning: {path}: evidence.{it.label}: {w}", file=sys.stderr)
+
+
 def _three_decimals(v: float) -> str:
     """A printed number with 3 decimals, 0.000 rather than -0.000."""
     text = f"{v:.3f}"
@@ -63,7 +72,17 @@ def _three_decimals(v: float) -> str:
 
 
 def _no_feasible(args, res) -> int:
-    """EXIT_NO_FEASIBLE with one line on stderr when the run found no feasible solution, else 0."""
+    """EXIT_NO_FEASIBLE with one line on stderr when the run found no feasible solution, or none whose evidence
+    could be scored (every objective FAILED_OBJECTIVE: e.g. damage evidence on a side no run struck,
+    docs/physics.md §28), else 0."""
+    from .problem import FAILED_OBJECTIVE
+    f_cols = [c for c in res.pareto.columns if c.startswith("f_")]
+    if len(res.pareto) and f_cols and (res.pareto[f_cols].to_numpy() >= FAILED_OBJECTIVE).all():
+        print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations could be scored "
+              "on every evidence item (damage evidence needs an impact on the damaged side: check "
+              "evidence.damage.<vehicle>.side; report.html with --out names the side Pareto row 0 struck)",
+              file=sys.stderr)
+        return EXIT_NO_FEASIBLE
     if len(res.pareto):
         return 0
     print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations collided without a "
@@ -81,6 +100,7 @@ def cmd_infer(args) -> int:
     from .posterior import load_posterior
     post = load_posterior(args.study)
     post.study.shown_units = args.units
+    evidence_warnings(args.study, post.study)
     if args.samples is not None and not 10 <= args.samples <= 10_000_000:
         raise InputError(args.study, "--samples", f"{args.samples} is outside [10, 10000000]")
     if args.seed is not None and not 0 <= args.seed <= SEED_MAX:
@@ -103,6 +123,8 @@ def cmd_infer(args) -> int:
             print(line)
     for w in chain_warnings(res):  # (summary.md has them too)
         print("warning: " + w.removeprefix("**Warning**: "), file=sys.stderr)
+    for w in getattr(res, "model_warnings", ()):  # the median draw's run (infer_report.write_outputs)
+        print("warning (the median draw's run): " + w, file=sys.stderr)
     if not np.isfinite(res.log_likelihood).any():
         print(f"crashlab: no feasible solution: {args.study}: no draw explains the evidence (every log-posterior "
               "is -inf: no contact, a failed run or a vehicle moving at the end; see summary.md)", file=sys.stderr)

@@ -187,7 +187,7 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
               f"{rep['pdof_factor']:.2f}; sigma from {e.sigma_crush:g} m per depth and {e.sigma_stiffness:.0%} "
               "stiffness" + "".join(f"; warning: {w}" for w in rep["warnings"]))
     return EvidenceItem("damage", f"damage.{n}", (n,), ("ees",), (float(value),), (float(sigma),),
-                        mass=float(vspec.mass), side=e.side, detail=detail)
+                        mass=float(vspec.mass), side=e.side, detail=detail, warnings=tuple(rep["warnings"]))
 
 
 __all__ = ["UNITS", "EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "crush_ees", "delta_v",

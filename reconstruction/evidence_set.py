@@ -75,6 +75,7 @@ class EvidenceItem:
             raise ValueError(f"{self.label}: damage evidence needs the side it was measured on (front, rear, "
                              f"left or right), got {self.side!r}")
     detail: str = field(default="", compare=False)
+    warnings: tuple[str, ...] = field(default=(), compare=False)  # damage: the CRASH3 report's (crashlab.damage)
 
 
 def polyline_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:

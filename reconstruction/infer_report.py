@@ -300,7 +300,16 @@ def write_outputs(post, res, out: Path) -> dict:
             counterfactual_figures, more = write_counterfactual_figures(res.answers, post.study.scene.vehicle_names,
                                                                         out, post.study.shown_units)
             notes += more
-        return dict(warnings=chain_warnings(res), best=best, notes=notes, median=median,
+        # a model's warnings of the median draw's run (e.g. restitution = "speed" outside its data, docs/physics.md
+        # §13b): the batch evaluations keep none, so the draw run again says them, here, in report.html and on the CLI
+        res.model_warnings = [str(w) for w in (getattr(median[1], "warnings", ()) or ())] if median is not None else []
+        if res.model_warnings:
+            with open(out / "summary.md", "a") as fh:
+                fh.write("\n".join(["", "## Warnings of the median draw's run", ""]
+                                   + [f"- {w}" for w in res.model_warnings]) + "\n")
+        return dict(warnings=chain_warnings(res) + [f"**Warning** (the median draw's run): {w}"
+                                                    for w in res.model_warnings],
+                    best=best, notes=notes, median=median,
                     median_figures=median_figures, questions=question_rows(post, res) if post.questions else [],
                     counterfactuals=res.counterfactuals or [], counterfactual_figures=counterfactual_figures)
     except OSError as err:

@@ -122,7 +122,10 @@ def polish_archive(problem, spec, repair=None, budget: int | None = None):
     enters the archive. With a repair, each point is repaired before it is evaluated: the back-off
     makes the residual continuous across the start-overlap boundary, where repaired candidates sit."""
     arch = problem.archive_arrays()
-    feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
+    # a start must be scored: a row of NaN residuals (evidence no candidate run can score, e.g. damage on a side
+    # the impact did not strike, crashlab.reconstruction.evidence_set) makes least_squares raise at its first point
+    scored = np.all(np.isfinite(arch["R"]), axis=1) if arch["R"].ndim == 2 else np.ones(len(arch["ok"]), bool)
+    feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"] & scored)
     if len(feasible) == 0:
         return
     order = feasible[np.argsort(arch["F"][feasible].max(axis=1), kind="stable")]

@@ -207,6 +207,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
         for k in sorted({0, *[int(result.pareto[f"f_{n}"].idxmin()) for n in names]}):
             chosen.append((k, result.pareto.loc[k, cols].to_numpy(dtype=float)))
     figures = []
+    run_warnings: list[str] = []
     best = None  # (scene, outcome) of Pareto row 0: its impact table, time histories and animation in report.html
     time_figure = time_distance_figure = None
     for k, x in chosen[:3]:
@@ -218,6 +219,7 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
             continue
         if k == 0:
             best = (scene, outcome)
+            run_warnings = [str(w) for w in getattr(outcome, "warnings", ()) or ()]  # e.g. a law outside its data
             try:
                 time_histories(scene, outcome, out_dir / "solution_0_time.png",
                                title="Pareto row 0: speed, distance travelled and heading against time",
@@ -283,7 +285,11 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                    if hw else
                    "**not part of the objectives** (heading_weight = 0): a small f_ does not mean the "
                    "headings match."), ""]
-    warnings = []
+    warnings = [f"**Warning (Pareto row 0's run): {w}**" for w in run_warnings]
+    if best is not None and problem.evidence_set is not None:
+        warnings += [f"**Warning: {w}**" for w in unscored_damage(problem.evidence_set, best[1])]
+    for w in warnings:
+        lines += [w, ""]
     if len(result.pareto):
         first = result.pareto.iloc[0]
         off = [f"{n} {first[f'dheading_{n}']:+.0f} deg" for n in measured_h
@@ -336,3 +342,21 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
     return dict(figures=captions, near_figure=figures_near, near=near, tol=tol, best=best, warnings=warnings,
                 notes=notes, time_figure=time_figure, time_distance_figure=time_distance_figure,
                 failure_reasons=failure_counts(arch["reason"][~arch["ok"]]) if result.failed else None)
+
+
+def unscored_damage(evidence_set, outcome) -> list[str]:
+    """Why a run cannot score its damage evidence: one sentence per [evidence.damage.<vehicle>] whose side no
+    impact of the run struck with a dissipated energy (docs/physics.md §28), naming the sides it did strike."""
+    out = []
+    for it in evidence_set.items:
+        if it.kind != "damage":
+            continue
+        n = it.vehicles[0]
+        rows = [r for r in outcome.impact_rows if r.get("vehicle") == n]
+        if any(r.get("side") == it.side and r.get("crush_energy", 0.0) > 0.0 for r in rows):
+            continue
+        struck = sorted({str(r.get("side")) for r in rows})
+        out.append(f"{it.label}: Pareto row 0 strikes {n} on its {', '.join(struck) or 'nothing'}, not on its "
+                   f"{it.side}, where the damage was measured: no run like it can be scored (check "
+                   f"evidence.damage.{n}.side and pdof)")
+    return out
