@@ -231,10 +231,10 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
                         f"kg vehicle, and this one is {spec.mass:g} kg: the crush energy is off by about their "
                         f"ratio (docs/physics.md §28); give the vehicle file's [structure.{FACE_STRUCTURE[side]}] or "
                         "its class")
-    if max(profile) == 0.0:
+    if ees_is_upper_bound(profile):
         warnings.append("no residual crush: the CRASH3 energy is then G L, the most the side absorbs without "
                         "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "
-                        "is an upper bound, not a measurement")
+                        "is an upper bound, not a measurement (as evidence it is scored one-sided)")
     return {
         "vehicle": spec.name, "mass": spec.mass, "side": side, "profile": profile, "width": width,
         "offset": offset, "pdof": pdof_used, "pdof_angle": alpha, "pdof_factor": factor,
@@ -292,7 +292,9 @@ class DamageEvidence(BaseModel):
                                                              "to right seen from outside the vehicle; absent "
                                                              "only in a twin (its run fills a uniform 6-point "
                                                              "profile)")
-    width: Annotated[float, Strict()] = Field(gt=0, le=30, description="m, the damaged width; (0, 30]")
+    width: Annotated[float, Strict()] = Field(gt=0, le=30, description="m, the damaged width; at least 0.1 m and "
+                                               "at most the struck side's structure width (checked against the "
+                                               "vehicle)")
     offset: Annotated[float, Strict()] = Field(0.0, ge=-15, le=15, description="m, the centre of the damage: "
                                                "left of the centreline (front, rear) or ahead of the CG (left, "
                                                "right)")
@@ -312,6 +314,12 @@ class DamageEvidence(BaseModel):
             raise ValueError('"side" does not say which flank: left or right (the simulated impacts are compared on '
                              "the flank the damage is on)")
         return value
+
+
+def ees_is_upper_bound(profile: Sequence[float]) -> bool:
+    """A profile without residual crush (every depth 0): its CRASH3 EES (G L, the energy the side absorbs without
+    residual crush) bounds the impact's from above, it does not measure it (docs/physics.md §28)."""
+    return max(profile) == 0.0
 
 
 def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: float) -> list[float]:
@@ -350,7 +358,8 @@ def damage_ees_report(evidence: DamageEvidence, spec: VehicleSpec, where: str = 
     sigma_e = math.sqrt(var_crush + (energy * evidence.sigma_stiffness) ** 2)
     ees_kmh = rep["ees_kmh"]
     mean_crush = sum(rep["profile"]) / len(rep["profile"])
-    if evidence.sigma_stiffness > SIGMA_FIRST_ORDER[0] or evidence.sigma_crush > SIGMA_FIRST_ORDER[1] * mean_crush:
+    if evidence.sigma_stiffness > SIGMA_FIRST_ORDER[0] or (
+            evidence.sigma_crush > SIGMA_FIRST_ORDER[1] * mean_crush and not ees_is_upper_bound(rep["profile"])):
         rep["warnings"].append(
             f"sigma_stiffness {evidence.sigma_stiffness:g}, sigma_crush {evidence.sigma_crush:g} m against a mean "
             f"crush of {mean_crush:.3g} m: the first order sigma holds for sigma_stiffness <= "
@@ -367,11 +376,14 @@ def combined_ees(ees_values: Sequence[float]) -> float:
 def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec: VehicleSpec,
                     where: str = "study", prefix: str = "evidence.damage.") -> float:
     """(EES_simulated - EES_damage) / sigma [sigma units] for a vehicle's simulated EES [km/h] (its impact
-    rows' `combined_ees`); NaN when the simulated EES is not finite (a run that cannot be scored)."""
+    rows' `combined_ees`); NaN when the simulated EES is not finite (a run that cannot be scored). A profile
+    without residual crush bounds the EES from above (`ees_is_upper_bound`): only the excess is scored,
+    max(0, EES_simulated - EES_damage) / sigma."""
     if ees_simulated is None or not math.isfinite(ees_simulated):
         return math.nan
     value, sigma = damage_ees(damage_evidence, spec, where, prefix)
-    return (ees_simulated - value) / sigma
+    excess = ees_simulated - value
+    return (max(excess, 0.0) if ees_is_upper_bound(damage_evidence.profile) else excess) / sigma
 
 
 def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, n: int = 6,

@@ -165,7 +165,7 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
     run fills the profile: a uniform 6-point profile whose EES is the run's (crashlab.damage.profile_for_ees),
     plus Gaussian noise sigma_crush on every depth (noise_seed; clipped at 0); the stiffness is the file's (its
     sigma is not drawn)."""
-    from crashlab.damage import damage_ees_report, profile_for_ees
+    from crashlab.damage import damage_ees_report, ees_is_upper_bound, profile_for_ees
     from crashlab.errors import InputError
     key = f"evidence.damage.{n}"
     if n not in names:
@@ -187,7 +187,8 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
               f"{rep['pdof_factor']:.2f}; sigma from {e.sigma_crush:g} m per depth and {e.sigma_stiffness:.0%} "
               "stiffness" + "".join(f"; warning: {w}" for w in rep["warnings"]))
     return EvidenceItem("damage", f"damage.{n}", (n,), ("ees",), (float(value),), (float(sigma),),
-                        mass=float(vspec.mass), side=e.side, detail=detail, warnings=tuple(rep["warnings"]))
+                        mass=float(vspec.mass), side=e.side, detail=detail, warnings=tuple(rep["warnings"]),
+                        upper_bound=ees_is_upper_bound(rep["profile"]))
 
 
 __all__ = ["UNITS", "EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "crush_ees", "delta_v",

@@ -28,7 +28,9 @@ Residual components (simulated minus measured, each divided by its sigma; file u
                  in the study's scene. Expressing the
                  simulated energy at that mass makes the residual exactly the one at the candidate's own mass
                  when the mass is uncertain (both EES and sigma scale as 1/sqrt(m)). No impact of the vehicle
-                 on that side: it cannot be scored (the damage says it was struck there).
+                 on that side: it cannot be scored (the damage says it was struck there). A profile without
+                 residual crush bounds EES_damage from above (crashlab.damage.ees_is_upper_bound): the residual
+                 is max(0, EES_sim - EES_damage) / sigma, one-sided.
 A candidate that cannot be scored (Outcome not ok, None or an exception, no impact where the point of impact,
 an EDR speed or a vehicle's damage is evidence, no CG path where marks are) has NaN residuals and log-likelihood -inf.
 
@@ -76,6 +78,7 @@ class EvidenceItem:
                              f"left or right), got {self.side!r}")
     detail: str = field(default="", compare=False)
     warnings: tuple[str, ...] = field(default=(), compare=False)  # damage: the CRASH3 report's (crashlab.damage)
+    upper_bound: bool = False  # damage without residual crush: its value bounds the simulated one from above
 
 
 def polyline_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
@@ -196,6 +199,8 @@ class EvidenceSet:
             diff = self._simulated(it, pop) - np.asarray(it.values)
             if it.kind == "rest" and len(it.components) == 3:
                 diff[:, 2] = wrap_deg(diff[:, 2])
+            if it.upper_bound:  # only the excess over a bound is a misfit (NaN stays NaN)
+                diff = np.maximum(diff, 0.0)
             parts.append(diff / np.asarray(it.sigmas))
         R = np.concatenate(parts, axis=1) if parts else np.empty((len(pop), 0))
         R[~pop.ok | ~np.all(np.isfinite(R), axis=1)] = np.nan

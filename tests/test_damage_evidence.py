@@ -241,3 +241,30 @@ def test_bad_damage_evidence_on_the_command_line_exits_2(tmp_path):
                              + (["--out", str(tmp_path / "out")] if command == "infer" else []),
                              capture_output=True, text=True, timeout=300)
         assert_one_error_line(res, path, "evidence.damage.V1.width", ["structure width"])
+
+
+def test_a_profile_without_residual_crush_is_scored_as_an_upper_bound(tmp_path):
+    """All depths 0: the CRASH3 energy G L (the most the front absorbs without residual crush) bounds the EES from
+    above; a run below it is no misfit, one above it scores only its excess (the bound written here from A, B and
+    the width, independent of crashlab.damage). Before, it was scored as a measurement: a light touch counted
+    several sigma below."""
+    zero = [0.0] * 4
+    text = MEASURED.replace(f"profile = {PROFILE}", f"profile = {zero}")
+    study = load_study(write(tmp_path, text))
+    it = study.evidence_set.items[1]
+    spec = study.scene.vehicle("V1").spec
+    s = spec.structure["front"]
+    bound = math.sqrt(2.0 * s.A ** 2 / (2.0 * s.B) * WIDTH / spec.mass) * 3.6
+    assert it.upper_bound and it.values[0] == pytest.approx(bound, rel=1e-9)
+    assert not any("sigma_crush" in w for w in it.warnings)  # the first-order note needs a crush to compare with
+    problem = study.make_problem()
+    X = np.array([[8.0, 0.0], [50.0, 30.0]])  # a light touch, a hard impact
+    R = problem.evaluate(X, return_values_of=["residuals"])
+    model = get_model("impulse")
+    sims = [simulated_ees(model.simulate(sc), "V1", sc) for sc in problem.scenes_for(X)]
+    assert sims[0] < bound < sims[1]
+    assert R[0, -1] == 0.0
+    assert R[1, -1] == pytest.approx((sims[1] - bound) / it.sigmas[0], rel=1e-4)
+    evidence = DamageEvidence(side="front", profile=zero, width=WIDTH, sigma_crush=SIGMA_C, sigma_stiffness=SIGMA_S)
+    assert damage_residual(sims[0], evidence, spec) == 0.0
+    assert damage_residual(sims[1], evidence, spec) == pytest.approx(R[1, -1], rel=1e-6)
