@@ -92,7 +92,8 @@ def summary_lines(post, res) -> list[str]:
               "Files: posterior.csv (a row per sample, a column per variable "
               + ("in file units" if system != "us" else "in US units, each named with its unit")
               + ", log_likelihood), "
-              "corner.png, posterior_top_view.png; all of it with the figures embedded: report.html."]
+              "corner.png" + (", posterior_top_view.png" if post.settings.draws_plotted else "")
+              + "; all of it with the figures embedded: report.html."]
     return lines
 
 
