@@ -393,6 +393,29 @@ def test_nan_anywhere_in_a_trajectory_fails_with_vehicle_column_and_time():
     assert out.violations == ["non_finite"] and "vx is inf" in out.warnings[-1]
 
 
+@pytest.mark.parametrize("z_min, verdict", [
+    ({(30, 33): -0.08}, None),  # a landing: 8 cm for 30 ms, then carried
+    ({(30, 30): -0.12}, "0.12 m below the road at t = 0.30 s"),  # one sample through the road
+    ({(30, 50): -0.06}, "stays 0.06 m below the road from t = 0.30 s for 0.20 s"),  # held below 5 cm
+    ({(30, 38): -0.06}, None),  # below 5 cm for 80 ms: a bounce
+    ({(95, 100): -0.06}, "stays 0.06 m below the road from t = 0.95 s to the end"),  # resting below 5 cm
+])
+def test_below_road_tells_a_landing_from_a_body_through_the_road(z_min, verdict):
+    """docs/physics.md §19: deeper than 0.10 m at any sample, or below 0.05 m for 0.1 s or to the end, fails; a
+    landing bounce off the road contact (brief, less than 10 cm) does not. Samples every 10 ms over 1 s."""
+    scene = _two_cars()
+    t = np.linspace(0, 1, 101)
+    z = np.full_like(t, 0.2)
+    for (a, b), depth in z_min.items():
+        z[a:b + 1] = depth
+    traj = {"V1": _traj(t, np.zeros_like(t), z=np.full_like(t, 0.5), z_min=z), "V2": _traj(t, np.zeros_like(t))}
+    out = Scripted(lambda s: _outcome(s, [[20, 0, 0], [30, 0, math.pi]], trajectories=traj)).simulate(scene)
+    if verdict is None:
+        assert out.outcome_ok, out.warnings
+    else:
+        assert out.violations == ["below_road"] and verdict in out.warnings[-1], out.warnings
+
+
 def test_one_nan_z_min_sample_does_not_hide_a_car_below_the_road():
     scene = _two_cars()
     t = np.linspace(0, 1, 11)

@@ -49,7 +49,9 @@ OVERLAP_TOL = 0.05  # m of outline overlap at rest (the guard's PENETRATION_TOL)
 TILT_MAX = math.radians(30)  # rad of roll or pitch at the end beyond which a 3D body's plan shadow is another
 REST_SPEED = 0.1  # m/s: at rest
 BOX = 400.0  # m: 90 km/h for 6 s is 150 m
-ROAD_TOL = 0.05  # m below the road
+# below the road (docs/physics.md §19): deeper than ROAD_TOL_DEEP at any sample, or than ROAD_TOL for
+# ROAD_SUSTAINED_S or more or at the last sample (a landing bounce off the road contact is brief)
+ROAD_TOL, ROAD_TOL_DEEP, ROAD_SUSTAINED_S = 0.05, 0.10, 0.1  # m, m, s
 END_POSE_TOL, END_VEL_TOL = 1.0, 1.0  # m, m/s: end state against the trajectory's last sample
 
 COUNTS = {"impulse": 300, "pymunk": 60, "multibody": 30, "exudyn": 12}
@@ -196,6 +198,21 @@ def _touching(scene, out, t) -> np.ndarray:
     return touch
 
 
+def _below_road(t, z) -> bool:
+    """A body deeper than ROAD_TOL_DEEP at a sample, or below ROAD_TOL from a sample on for ROAD_SUSTAINED_S or to
+    the last sample."""
+    if np.min(z) < -ROAD_TOL_DEEP:
+        return True
+    start = None
+    for k in range(len(z)):
+        if z[k] < -ROAD_TOL:
+            start = k if start is None else start
+            if t[k] - t[start] >= ROAD_SUSTAINED_S or k == len(z) - 1:
+                return True
+        else:
+            start = None
+    return False
+
 def audit(scene, out, rounded: bool, worst: dict | None = None) -> list[str]:
     """Every violation of physics the independent checks find in `out` (empty: clean). `worst`, if given,
     keeps the largest value / tolerance seen per check (how near a clean run came to a finding)."""
@@ -248,7 +265,7 @@ def audit(scene, out, rounded: bool, worst: dict | None = None) -> list[str]:
             found.append(f"end_state: {v.name}'s end state is not its trajectory's end")
         if np.max(np.hypot(tr["x"], tr["y"])) > BOX:
             found.append(f"box: {v.name} leaves the {BOX:.0f} m box")
-        if "z_min" in tr and np.min(tr["z_min"]) < -ROAD_TOL:
+        if "z_min" in tr and _below_road(np.asarray(tr["t"]), np.asarray(tr["z_min"])):
             found.append(f"below_road: {v.name} {-np.min(tr['z_min']):.2f} m below the road")
     # energy outside contact, per vehicle
     if out.trajectories and all(v.name in out.trajectories for v in vs):
