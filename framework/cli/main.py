@@ -32,8 +32,8 @@ class HelpFormatter(argparse.HelpFormatter):
 
 
 def cmd_vehicles(args):
-    from .vehicles import format_library_table
-    print(format_library_table())
+    from .vehicles import format_library_table, library_json
+    print(library_json() if args.json else format_library_table())
     return 0
 
 
@@ -210,8 +210,11 @@ def build_parser():
     mo.add_argument("--options", metavar="NAME", help="list the options of model NAME with unit, range, default "
                     "and accuracy direction (without it: the names of every model and optimizer)")
     mo.set_defaults(fn=cmd_models)
-    ve = command("vehicles", "list the vehicle library: class, mass, size, wheelbase, yaw inertia and whether it "
-                 "is measured, published or an estimate")
+    ve = command("vehicles", "list the vehicle library: class, mass, size, wheelbase, yaw inertia, the CRASH3 "
+                 "structure (A, B, width) of the front, rear and side, and whether each is measured, published or "
+                 "an estimate")
+    ve.add_argument("--json", action="store_true", help="print one JSON list of the vehicles (SI), with the "
+                    "source text of the yaw inertia and of each side's structure")
     ve.set_defaults(fn=cmd_vehicles)
     s = command("simulate", "simulate a scene file and print the end poses, final velocities and impacts")
     s.add_argument("scene", help="scene TOML file (docs/reference.md)")
