@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -31,9 +32,57 @@ class HelpFormatter(argparse.HelpFormatter):
         return text + " (default: %(default)s)"
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are the project's one line (crashlab.errors): "crashlab: error: command
+    line: KEY: problem (PROG --help)", exit 2, instead of argparse's usage and message; --help is unchanged.
+    Its subcommands' parsers are of this class too (argparse makes them with the parent's class)."""
+
+    def error(self, message):
+        key, problem = _key_and_problem(" ".join(str(message).split()))
+        err = InputError("command line", key, f"{problem} ({self.prog} --help)")
+        self.exit(2, f"crashlab: error: {err}\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """argparse's parse_args, with the unknown arguments refused by the parser of their command (its
+        --help lists the options they are not)."""
+        args, extra = self.parse_known_args(args, namespace)
+        if extra:
+            command = getattr(args, "command", None)
+            sub = _subparsers(self).get(command, self)
+            sub.error(f"unrecognized arguments: {' '.join(extra)}")
+        return args
+
+
+def _subparsers(parser) -> dict:
+    """name -> parser of each subcommand of `parser` (none: {})."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+# argparse's messages -> (key, problem) of the one error line
+_ARGPARSE_MESSAGES = (
+    (re.compile(r"^argument (?P<key>[^:]+): (?P<problem>.*)$"), "{problem}"),
+    (re.compile(r"^the following arguments are required: (?P<key>.*)$"), "required"),
+    (re.compile(r"^unrecognized arguments: (?P<key>.*)$"), "not an option of this command"),
+    (re.compile(r"^ambiguous option: (?P<key>\S+) could match (?P<problem>.*)$"), "ambiguous: could match {problem}"),
+)
+
+
+def _key_and_problem(message: str) -> tuple[str, str]:
+    """(key, problem) of an argparse error message: the argument it names and what is wrong with it; a message of
+    another shape keeps its text under the key "arguments"."""
+    for pattern, problem in _ARGPARSE_MESSAGES:
+        m = pattern.match(message)
+        if m:
+            return m["key"], problem.format(**m.groupdict())
+    return "arguments", message
+
+
 def cmd_vehicles(args):
-    from .vehicles import format_library_table
-    print(format_library_table())
+    from .vehicles import format_library_table, library_json
+    print(library_json() if args.json else format_library_table())
     return 0
 
 
@@ -198,7 +247,7 @@ def _units_option(parser) -> None:
 
 
 def build_parser():
-    p = argparse.ArgumentParser(prog="crashlab", description=__doc__.splitlines()[0], formatter_class=HelpFormatter)
+    p = OneLineParser(prog="crashlab", description=__doc__.splitlines()[0], formatter_class=HelpFormatter)
     p.add_argument("--version", action="version", version=f"crashlab {package_version()}",
                    help="print the installed version and exit")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -210,8 +259,11 @@ def build_parser():
     mo.add_argument("--options", metavar="NAME", help="list the options of model NAME with unit, range, default "
                     "and accuracy direction (without it: the names of every model and optimizer)")
     mo.set_defaults(fn=cmd_models)
-    ve = command("vehicles", "list the vehicle library: class, mass, size, wheelbase, yaw inertia and whether it "
-                 "is measured, published or an estimate")
+    ve = command("vehicles", "list the vehicle library: class, mass, size, wheelbase, yaw inertia, the CRASH3 "
+                 "structure (A, B, width) of the front, rear and side, and whether each is measured, published or "
+                 "an estimate")
+    ve.add_argument("--json", action="store_true", help="print one JSON list of the vehicles (SI), with the "
+                    "source text of the yaw inertia and of each side's structure")
     ve.set_defaults(fn=cmd_vehicles)
     s = command("simulate", "simulate a scene file and print the end poses, final velocities and impacts")
     s.add_argument("scene", help="scene TOML file (docs/reference.md)")
