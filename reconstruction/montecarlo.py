@@ -277,7 +277,9 @@ def figure(result: MonteCarloResult, path, system: str = "si") -> None:
     ax.set_ylabel("y [m]")
     length_axes_in(ax, system)
     failed = result.n - len(ok)
-    ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed\n"
+    warned = int((tab["warnings"] != "").sum())  # the kinds and their counts: warnings.csv, the summary
+    ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed"
+                 + (f", {warned} with model warnings (warnings.csv)" if warned else "") + "\n"
                  "rest CG clouds, 90 % ellipses (dashed), median with 5-95 % (cross)", fontsize=9)
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, markerscale=4)
     ax.grid(alpha=0.3)
