@@ -19,22 +19,26 @@ NUMBER = re.compile(r"\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")  # unsigned: a sign or hy
 def group(runs: Iterable[Iterable[str]]) -> list[tuple[str, list[int]]]:
     """Each kind of warning (its text without numbers) once, with the indices of the runs that gave it (a run
     that gave it twice listed once) and its numbers as they were, or their range where the runs differ."""
-    kinds: dict[tuple, dict] = {}
+    by_text: dict[str, list[int]] = {}  # each distinct text once (draws repeat texts): the runs that gave it
     for run, warnings in enumerate(runs):
         for w in warnings:
-            text = str(w)
-            key = tuple(NUMBER.split(text))
-            numbers = NUMBER.findall(text)
-            g = kinds.setdefault(key, {"runs": [], "low": list(numbers), "high": list(numbers)})
-            for k, s in enumerate(numbers):
-                if float(s) < float(g["low"][k]):
-                    g["low"][k] = s
-                if float(s) > float(g["high"][k]):
-                    g["high"][k] = s
-            if not g["runs"] or g["runs"][-1] != run:
-                g["runs"].append(run)
+            which = by_text.setdefault(str(w), [])
+            if not which or which[-1] != run:
+                which.append(run)
+    kinds: dict[tuple, dict] = {}
+    for text, which in by_text.items():
+        key = tuple(NUMBER.split(text))
+        numbers = NUMBER.findall(text)
+        g = kinds.setdefault(key, {"runs": set(), "low": list(numbers), "high": list(numbers)})
+        g["runs"].update(which)
+        for k, s in enumerate(numbers):
+            if float(s) < float(g["low"][k]):
+                g["low"][k] = s
+            if float(s) > float(g["high"][k]):
+                g["high"][k] = s
     out = []
     for key, g in kinds.items():
         shown = [lo if lo == hi else f"{lo} to {hi}" for lo, hi in zip(g["low"], g["high"])]
-        out.append(("".join(part + (shown[k] if k < len(shown) else "") for k, part in enumerate(key)), g["runs"]))
+        out.append(("".join(part + (shown[k] if k < len(shown) else "") for k, part in enumerate(key)),
+                    sorted(g["runs"])))
     return out

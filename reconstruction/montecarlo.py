@@ -56,6 +56,7 @@ class MonteCarloResult:
     nominal: object  # Outcome
     wall_time_s: float
     sim_time_s: float
+    _warning_counts: list | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     @property
     def names(self) -> list[str]:
@@ -80,8 +81,10 @@ class MonteCarloResult:
         """Each kind of the model's warning in the draws once (numbers that differ between the draws as their
         range, crashlab.warning_groups) with the number of draws that gave it, in the order they first occur."""
         from crashlab.warning_groups import group
-        return [(text, len(draws)) for text, draws in group(w.split("\n") if w else () for w in
-                                                             self.table["warnings"])]
+        if self._warning_counts is None:  # (the summary, the JSON, the files and stderr all tell them)
+            self._warning_counts = [(text, len(draws)) for text, draws in
+                                    group(w.split("\n") if w else () for w in self.table["warnings"])]
+        return self._warning_counts
 
     def summary(self):
         """Per vehicle and quantity (x, y [m], heading [deg], delta_v [km/h]): the median and the 5 and 95 %
