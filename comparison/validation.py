@@ -22,15 +22,19 @@ Quantities (simulated side):
   rebound_speed  speed right after the impact [km/h]: velocity at first contact + the summed delta-V
   post_vx        global x velocity right after the impact [km/h] (same construction)
   pdof           principal direction of force of the vehicle's largest impact row [deg]
-  crush_dynamic, crush_residual   deepest contact overlap of the run [m] (Diagnostics.max_penetration;
-                 0 for an impulse model, which has no contact depth)
-Per run also: impacts (impact rows' distinct times) and slip_reversed (any impact row flagged: the slip
-stops and reverses, where kudlich-slibar and brach are outside their assumptions, docs/physics.md §3).
+  crush_dynamic, crush_residual   deepest contact overlap of the run [m] (Diagnostics.max_penetration);
+                 none for a model without a contact depth (NO_CONTACT_DEPTH_MODELS, or max_penetration None):
+                 simulated NaN, ok None ("n/a"), neither pass nor fail
+Per run also: impacts (impact rows' distinct times), slip_reversed (any impact row flagged: the slip
+stops and reverses, where kudlich-slibar and brach are outside their assumptions, docs/physics.md §3) and
+warnings (the Outcome's warnings, e.g. restitution = "speed" held at its end value outside the law's data,
+§13b): in the CSV, numbered in validation.md, and per test and model on stderr.
 
 Writes DIR/validation.csv (model, test, quantity, published, simulated, error, error_pct, then unit,
-source, ok, kind, vehicle, law, restitution, contact, impacts), DIR/validation.md and DIR/validation_dv.png
-(simulated against measured delta-V of the crash tests). A run that fails (an exception, or outcome_ok
-False) gives rows with simulated NaN and ok False; the study goes on.
+source, ok, kind, vehicle, law, restitution, contact, impacts, slip_reversed, warnings), DIR/validation.md and
+DIR/validation_dv.png (simulated against measured delta-V of the crash tests), and the runs' warnings on stderr.
+A run that fails (an exception, or outcome_ok False) gives rows with simulated NaN and ok False; the study
+goes on.
 """
 from __future__ import annotations
 
@@ -49,7 +53,7 @@ from .base import STUDIES_DIR, shown_rows
 VALIDATION_DIR = STUDIES_DIR / "validation"
 TESTS_FILE = VALIDATION_DIR / "published" / "tests.toml"
 COLUMNS = ["model", "test", "quantity", "published", "simulated", "error", "error_pct", "unit", "source", "ok",
-           "kind", "vehicle", "law", "restitution", "contact", "impacts", "slip_reversed"]
+           "kind", "vehicle", "law", "restitution", "contact", "impacts", "slip_reversed", "warnings"]
 FULL_MODELS = ("impulse", "pymunk")  # --quick runs every test for these, QUICK_TESTS for the others
 QUICK_TESTS = ("nhtsa10146",)
 
@@ -68,6 +72,9 @@ ENGAGEMENT_MODELS = ("impulse",)  # the models that read [impact] point = "engag
 RESTITUTION_VARIANTS: tuple = (0.1, "speed")
 APPROACH_GAP = 0.1  # m of closing travel between the cars at the start of an approach_scene
 DV_QUANTITIES = ("delta_v", "impact_delta_v")  # the delta-V quantities (figure, goal check)
+# the models without a contact depth (rigid outlines, the impact resolved at first touch): no crush to compare
+NO_CONTACT_DEPTH_MODELS = ("impulse",)
+CRUSH_QUANTITIES = ("crush_dynamic", "crush_residual")
 GOAL_PCT = {"impulse": 10.0, "multibody": 15.0, "exudyn": 15.0}  # issue 24's goal on car-to-car delta-V
 FIGURE = "validation_dv.png"
 
@@ -145,6 +152,14 @@ def _post_velocity(outcome, scene, name: str) -> tuple[float, float]:
             speed * math.sin(head) + sum(r["dvy"] for r in rows))
 
 
+def has_quantity(model: str, outcome, quantity: str) -> bool:
+    """False when the model cannot give this quantity at all (a crush of a model without a contact depth): its
+    row is "n/a", neither pass nor fail."""
+    if quantity in CRUSH_QUANTITIES:
+        return model not in NO_CONTACT_DEPTH_MODELS and outcome.diagnostics.max_penetration is not None
+    return True
+
+
 def simulated_quantity(outcome, scene, quantity: str, vehicle: str) -> float:
     """One quantity of `outcome` in the study's units (km/h, deg, deg/s, m); NaN when the run has none."""
     rows = _vehicle_rows(outcome, vehicle)
@@ -220,15 +235,19 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                 outcome, reason = _simulate(model, scene)
                 impacts = 0 if outcome is None else len({r["t"] for r in outcome.impact_rows})
                 reversed_ = outcome is not None and any(r.get("slip_reversed", False) for r in outcome.impact_rows)
+                warnings = () if outcome is None else tuple(dict.fromkeys(str(w) for w in outcome.warnings))
                 for q in t["quantity"]:
-                    sim = math.nan
-                    if outcome is not None:
+                    sim, why = math.nan, reason
+                    if outcome is not None and not has_quantity(model, outcome, q["name"]):
+                        why = f"n/a: the {model} model has no contact depth"
+                    elif outcome is not None:
                         try:
                             sim = simulated_quantity(outcome, scene, q["name"], q["vehicle"])
                         except Exception as err:  # a broken outcome: failed cell, not a failed study
-                            reason = f"{type(err).__name__}: {err}"[:200]
+                            why = f"{type(err).__name__}: {err}"[:200]
                     pub = float(q["published"])
-                    ok = outcome is not None and math.isfinite(sim)
+                    # None: the model has no such quantity (n/a), neither pass nor fail
+                    ok = None if why.startswith("n/a") else outcome is not None and math.isfinite(sim)
                     err = sim - pub if ok else math.nan
                     rows.append({"model": model, "test": t["id"], "quantity": q["name"], "published": pub,
                                  "simulated": sim, "error": err,
@@ -236,7 +255,7 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                                  "unit": q.get("unit", ""), "source": t["source"], "ok": ok, "kind": t["kind"],
                                  "vehicle": q["vehicle"], "law": run_["law"], "restitution": run_["restitution"],
                                  "contact": run_["contact"], "impacts": impacts, "slip_reversed": reversed_,
-                                 "car_to_car": len(scene.vehicles) > 1, "_reason": reason})
+                                 "warnings": warnings, "car_to_car": len(scene.vehicles) > 1, "_reason": why})
     return rows
 
 
@@ -247,8 +266,40 @@ def write_csv(rows: list[dict], path: Path, system: str = "si") -> Path:
         w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
         for r in shown_rows(rows, system):
-            w.writerow({**r, **{k: repr(float(r[k])) for k in ("published", "simulated", "error", "error_pct")}})
+            w.writerow({**r, **{k: repr(float(r[k])) for k in ("published", "simulated", "error", "error_pct")},
+                        "warnings": "\n".join(r.get("warnings", ()))})  # one a line; ok None: "" (n/a)
     return path
+
+
+def _shown_ok(ok) -> str:
+    return "n/a" if ok is None else str(ok)
+
+
+def run_warnings(rows: list[dict]) -> list[dict]:
+    """Per test and model, each kind of warning its runs gave (crashlab.warning_groups: numbers that differ
+    between the runs as their range), the number of runs that gave it, of how many, and the variants (law,
+    restitution, contact) that gave it: dicts test, model, warning, runs, of, variants."""
+    from crashlab.warning_groups import group
+    per_run = {}  # (test, model) -> {variant: warnings}; a run's warnings are on each of its rows
+    for r in rows:
+        per_run.setdefault((r["test"], r["model"]), {})[(r["law"], r["restitution"], r["contact"])] = \
+            r.get("warnings", ())
+    out = []
+    for (test, model), runs_ in per_run.items():
+        variants = list(runs_)
+        for text, which in group(runs_.values()):
+            out.append({"test": test, "model": model, "warning": text, "runs": len(which), "of": len(runs_),
+                        "variants": [variants[k] for k in which]})
+    return out
+
+
+def print_warnings(rows: list[dict], file=None) -> None:
+    """The runs' warnings (run_warnings) on `file` (stderr): one line per test, model and kind."""
+    import sys
+    file = file or sys.stderr
+    for w in run_warnings(rows):
+        print(f"validation warning: {w['test']}, {w['model']}, {w['runs']} of {w['of']} runs: {w['warning']}",
+              file=file)
 
 
 def goal_rows(rows: list[dict]) -> list[dict]:
@@ -295,6 +346,8 @@ def side_by_side(rows: list[dict]) -> list[str]:
                 r = cells.get((*key, c))
                 if r is None:
                     vals.append("")
+                elif r["ok"] is None:
+                    vals.append("n/a")
                 elif not r["ok"]:
                     vals.append("fail")
                 else:
@@ -311,16 +364,30 @@ def write_markdown(rows: list[dict], path: Path, wall_time_s: float | None = Non
              "studies/validation/README.md. law: the impulse law (\"-\": the model does not read it); contact: "
              "\"given\" = at the published point of impact, \"found\" = the model finds its own contact; "
              "\"engagement\" = [impact] point = \"engagement\" (default depth); impacts: impact rows (contact "
-             "episodes) of the run; rev: an impact flagged slip_reversed.", "",
+             "episodes) of the run; rev: an impact flagged slip_reversed; warnings: the run's warnings, listed "
+             "below the table; ok n/a: the model has no such quantity (a crush without a contact depth), "
+             "neither pass nor fail.", "",
              "| model | law | e | contact | test | quantity | vehicle | unit | published | simulated | error | "
-             "error % | impacts | rev | ok |",
-             "|---|---|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|---|"]
+             "error % | impacts | rev | warnings | ok |",
+             "|---|---|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|---|---|"]
+    warned = run_warnings(rows)
     for r in rows:
-        sim = _fmt(r["simulated"]) if r["ok"] else f"NaN ({r['_reason']})"
+        if r["ok"] is None:
+            sim = r["_reason"]
+        else:
+            sim = _fmt(r["simulated"]) if r["ok"] else f"NaN ({r['_reason']})"
+        variant = (r["law"], r["restitution"], r["contact"])
+        marks = ", ".join(f"W{k + 1}" for k, w in enumerate(warned)
+                          if (w["test"], w["model"]) == (r["test"], r["model"]) and variant in w["variants"])
         lines.append(f"| {r['model']} | {r['law']} | {r['restitution']} | {r['contact']} | {r['test']} | "
                      f"{r['quantity']} | {r['vehicle']} | {r['unit']} | {_fmt(r['published'])} | {sim} | "
                      f"{_fmt(r['error'])} | {_fmt(r['error_pct'], 1)} | {r['impacts']} | "
-                     f"{'yes' if r.get('slip_reversed') else ''} | {r['ok']} |")
+                     f"{'yes' if r.get('slip_reversed') else ''} | {marks} | {_shown_ok(r['ok'])} |")
+    if warned:
+        lines += ["", "## Warnings of the runs (per test and model; numbers that differ between the runs as their "
+                  "range)", ""]
+        lines += [f"- W{k + 1}: {w['test']}, {w['model']}, {w['runs']} of {w['of']} runs: {w['warning']}"
+                  for k, w in enumerate(warned)]
     lines += side_by_side(rows)
     goals = goal_rows(rows)
     if goals:
@@ -394,6 +461,7 @@ def run(models: list[str], out: Path, quick: bool = False, tests: list[dict] | N
     out = output_dir(out)
     t0 = time.perf_counter()
     rows = validation_rows(models, quick=quick, tests=tests)
+    print_warnings(rows)
     path = write_csv(rows, out / "validation.csv", system)
     shown = shown_rows(rows, system)
     write_figure(shown, out / FIGURE, unit_in("km/h", system))

@@ -11,6 +11,12 @@ do not touch is no failure (delta-V 0).
 
 delta_v of a vehicle is the change of its CG velocity in its first impact [km/h] (what an event data
 recorder reports), 0 without contact. Headings are continuous (turns counted), as the model reports them.
+
+The model's warnings of each draw (a law used outside its assumptions: restitution = "speed" held at its end
+value outside the law's data, docs/physics.md §13b; a slip that reverses, §3; no contact) are kept from the
+population (crashlab.population, column warnings) and told once per kind with the number of draws that gave
+it (crashlab.warning_groups; numbers that differ between the draws as their range): warning_counts(),
+print_summary, print_warnings (stderr), warnings.csv, the JSON; never one line per draw.
 """
 from __future__ import annotations
 
@@ -40,8 +46,9 @@ SUMMARY_UNITS = {"x": "m", "y": "m", "heading": "deg", "delta_v": "km/h"}  # fil
 class MonteCarloResult:
     """table: one row per draw: draw, the sampled parameters (columns named by their field paths, file
     units), per vehicle `V.x`, `V.y` [m], `V.heading` [deg, continuous], `V.delta_v` [km/h], `V.ok` (at rest
-    at the end of a run that did not fail), then `ok` and `reason` of the draw. nominal: the Outcome of the
-    scene as written."""
+    at the end of a run that did not fail), then `ok`, `no_contact` and `reason` of the draw, and `warnings`
+    (the model's warnings of the draw, one a line; not in montecarlo.csv: warning_counts() tells them). nominal:
+    the Outcome of the scene as written."""
     scene: Scene
     model: str
     seed: int | None
@@ -49,6 +56,7 @@ class MonteCarloResult:
     nominal: object  # Outcome
     wall_time_s: float
     sim_time_s: float
+    _warning_counts: list | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     @property
     def names(self) -> list[str]:
@@ -68,6 +76,15 @@ class MonteCarloResult:
 
     def failure_reasons(self) -> dict[str, int]:
         return dict(collections.Counter(self.failed["reason"]).most_common())
+
+    def warning_counts(self) -> list[tuple[str, int]]:
+        """Each kind of the model's warning in the draws once (numbers that differ between the draws as their
+        range, crashlab.warning_groups) with the number of draws that gave it, in the order they first occur."""
+        from crashlab.warning_groups import group
+        if self._warning_counts is None:  # (the summary, the JSON, the files and stderr all tell them)
+            self._warning_counts = [(text, len(draws)) for text, draws in
+                                    group(w.split("\n") if w else () for w in self.table["warnings"])]
+        return self._warning_counts
 
     def summary(self):
         """Per vehicle and quantity (x, y [m], heading [deg], delta_v [km/h]): the median and the 5 and 95 %
@@ -103,6 +120,8 @@ class MonteCarloResult:
         return {"scene": self.scene.name, "model": self.model, "draws": self.n, "seed": self.seed,
                 "failed": int((~self.table["ok"]).sum()), "failure_reasons": self.failure_reasons(),
                 "no_contact": int(self.table["no_contact"].sum()),
+                "warnings": [{"warning": w, "draws": k} for w, k in self.warning_counts()],
+                "nominal_warnings": [str(w) for w in self.nominal.warnings],
                 "uncertain": [uncertain_text(e, system) for e in self.scene.uncertain],
                 "summary": [{k: (num(v) if isinstance(v, float) else v) for k, v in r.items()}
                             for r in self.shown_summary(system).to_dict(orient="records")],
@@ -154,6 +173,8 @@ def run(scene: Scene, model, n: int, seed: int | None = None, progress: bool = F
     cols["ok"] = reasons == ""
     cols["no_contact"] = pop.ok & (pop.n_impacts == 0)
     cols["reason"] = reasons
+    # the draws' model warnings (a population without the column, of an older model: none known)
+    cols["warnings"] = getattr(pop, "warnings", np.full(n, "", dtype=object))
     return MonteCarloResult(scene, model.name, seed, pd.DataFrame(cols), nominal,
                             time.perf_counter() - t0, sim)
 
@@ -181,16 +202,22 @@ def _simulate(model, draws: Variants) -> Population:
 
 # ---------------------------------------------------------------- output
 def write(result: MonteCarloResult, out_dir, system: str = "si") -> list[Path]:
-    """DIR/montecarlo.csv, DIR/montecarlo.png (rest clouds and delta-V histograms), DIR/summary.csv; in US units
-    with system "us" (montecarlo.csv's converted columns named with their unit, summary.csv with a unit column)."""
+    """DIR/montecarlo.csv, DIR/montecarlo.png (rest clouds and delta-V histograms), DIR/summary.csv,
+    DIR/warnings.csv (each kind of the model's warnings, the draws that gave it, of how many; a header only
+    without any); in US units with system "us" (montecarlo.csv's converted columns named with their unit,
+    summary.csv with a unit column)."""
+    import pandas as pd
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        paths = [out / "montecarlo.csv", out / "summary.csv", out / "montecarlo.png"]
-        frame_in(result.table, system, result.table_units()).to_csv(paths[0], index=False, float_format="%.6g")
+        paths = [out / "montecarlo.csv", out / "summary.csv", out / "montecarlo.png", out / "warnings.csv"]
+        frame_in(result.table.drop(columns="warnings"), system, result.table_units()).to_csv(
+            paths[0], index=False, float_format="%.6g")
         (result.summary() if system == "si" else result.shown_summary(system)).to_csv(paths[1], index=False,
                                                                                       float_format="%.6g")
         figure(result, paths[2], system)
+        pd.DataFrame([{"warning": w, "draws": k, "of": result.n} for w, k in result.warning_counts()],
+                     columns=["warning", "draws", "of"]).to_csv(paths[3], index=False)
     except OSError as err:
         raise InputError(out_dir, "--out", err.strerror or str(err)) from None
     return paths
@@ -253,7 +280,9 @@ def figure(result: MonteCarloResult, path, system: str = "si") -> None:
     ax.set_ylabel("y [m]")
     length_axes_in(ax, system)
     failed = result.n - len(ok)
-    ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed\n"
+    warned = int((tab["warnings"] != "").sum())  # the kinds and their counts: warnings.csv, the summary
+    ax.set_title(f"{scene.name} ({result.model}): {result.n} draws, {failed} failed"
+                 + (f", {warned} with model warnings (warnings.csv)" if warned else "") + "\n"
                  "rest CG clouds, 90 % ellipses (dashed), median with 5-95 % (cross)", fontsize=9)
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, markerscale=4)
     ax.grid(alpha=0.3)
@@ -298,3 +327,20 @@ def print_summary(result: MonteCarloResult, file=None, system: str = "si") -> No
     print(f"failed draws: {nfail} of {result.n}" + (":" if nfail else ""), file=file)
     for why, count in result.failure_reasons().items():
         print(f"  {count} x {why}", file=file)
+    counts = result.warning_counts()
+    print("the model's warnings in the draws" + (":" if counts else ": none"), file=file)
+    for w, k in counts:
+        print(f"  in {k} of {result.n} draws: {w}", file=file)
+    for w in result.nominal.warnings:
+        print(f"  the scene as written: {w}", file=file)
+
+
+def print_warnings(result: MonteCarloResult, file=None) -> None:
+    """The model's warnings of the draws on `file` (stderr), a line per kind with the number of draws that gave
+    it (warning_counts), and the nominal run's (the scene as written)."""
+    import sys
+    file = file or sys.stderr
+    for w, k in result.warning_counts():
+        print(f"warning (Monte Carlo, {result.model}): in {k} of {result.n} draws: {w}", file=file)
+    for w in result.nominal.warnings:
+        print(f"warning ({result.model}, the scene as written): {w}", file=file)
