@@ -19,6 +19,9 @@ Columns (SI; nv vehicles in scene order):
   energy_impacts (N,) dissipated by all impacts, lowest_impact_energy (N,) of the impact that dissipated least
   (the guard: below zero an impact created energy)
   scores (N, k) a scorer's numbers (crashlab.execution; k = 0 without one)
+  warnings (N,) str the model's warnings of a run that did not fail, one a line ("" none): a law used outside its
+  assumptions (restitution = "speed" held at its end value, docs/physics.md §13b; a slip that reverses, §3), no
+  contact (the Outcome's warnings; a failed run's are its reason)
 """
 from __future__ import annotations
 
@@ -32,7 +35,7 @@ from .structure import STRUCK_FACES
 SIDE_INDEX = {face: k for k, face in enumerate(STRUCK_FACES)}
 ARRAYS = ("ok", "reason", "rest", "final", "rest_speed", "at_rest", "contact", "n_impacts", "mass", "delta_v",
           "first_delta_v", "crush_energy", "first_impact_t", "first_impact_point", "energy_start", "energy_end",
-          "energy_impacts", "lowest_impact_energy", "scores")
+          "energy_impacts", "lowest_impact_energy", "scores", "warnings")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,6 +87,7 @@ class Population:
     energy_impacts: np.ndarray
     lowest_impact_energy: np.ndarray
     scores: np.ndarray
+    warnings: np.ndarray
     # what it was made of and by which model (CollisionModel.simulate_population), for `outcome`
     variants: Variants | None = dataclasses.field(default=None, repr=False, compare=False)
     model: object = dataclasses.field(default=None, repr=False, compare=False)
@@ -98,7 +102,8 @@ class Population:
                    nan((n, nv, 4), np.nan), np.zeros(n, int), nan((n, nv), np.nan), nan((n, nv), np.nan),
                    nan((n, nv), np.nan), nan((n, nv, len(STRUCK_FACES)), np.nan), nan((n, nv), np.nan),
                    nan((n, nv, 2), np.nan),
-                   nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan((n, k), np.nan))
+                   nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan((n, k), np.nan),
+                   np.array([""] * n, dtype=object))
 
     def __len__(self) -> int:
         return len(self.ok)
@@ -162,6 +167,7 @@ class Population:
                                  "left or right; crashlab.models.common.impact_rows.pair_rows builds them)")
                 continue
             pop.ok[r] = True
+            pop.warnings[r] = "\n".join(str(w) for w in getattr(o, "warnings", ()) or ())
             pop.rest[r] = rest
             pop.final[r] = o.final_si
             pop.contact[r] = o.contact_si

@@ -48,7 +48,8 @@ def range_warning(closing_speed: float) -> str | None:
         return None
     end = V_MIN if v < V_MIN else V_MAX
     return (f"restitution = \"speed\": closing speed {v * 3.6:.1f} km/h is outside the data of the law "
-            f"(Cipriani et al. 2002, {V_MIN * 3.6:.1f}-{V_MAX * 3.6:.1f} km/h); its end value "
+            f"(Cipriani et al. 2002, {V_MIN * 3.6:.1f}-{V_MAX * 3.6:.1f} km/h), {'below' if v < V_MIN else 'above'} "
+            f"it; its end value "
             f"e = {speed_restitution(end):.3f} at {end * 3.6:.1f} km/h is used (docs/physics.md §13b)")
 
 

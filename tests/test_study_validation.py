@@ -28,7 +28,8 @@ def test_validation_csv_and_rebound(tmp_path):
     assert reader.fieldnames[:6] == ["model", "test", "quantity", "published", "simulated", "error"]
     assert {"unit", "source", "ok"} <= set(reader.fieldnames)
     assert (tmp_path / "validation.md").is_file()
-    assert rows and all(r["ok"] == "True" for r in rows)
+    # the crush rows of the impulse model (no contact depth) are n/a: ok empty, neither pass nor fail
+    assert rows and all(r["ok"] == ("" if r["quantity"] in validation.CRUSH_QUANTITIES else "True") for r in rows)
     rebound = {r["restitution"]: float(r["simulated"]) for r in rows
                if r["quantity"] == "rebound_speed" and r["law"] == "kudlich-slibar"}
     scene = load_scene(tests[0]["scene"])
@@ -36,7 +37,7 @@ def test_validation_csv_and_rebound(tmp_path):
     assert math.isclose(rebound["0.1"], scene.impact.restitution * impact_speed, rel_tol=0.01)
     # restitution = "speed": 57 km/h is above the law's data, its end value at 8 m/s (docs/physics.md §13b)
     assert math.isclose(rebound["speed"], cipriani(8.0) * impact_speed, rel_tol=0.01)
-    for r in rows:
+    for r in (r for r in rows if r["ok"] == "True"):
         assert math.isclose(float(r["error"]), float(r["simulated"]) - float(r["published"]), abs_tol=1e-9)
 
 

@@ -150,6 +150,7 @@ def cmd_monte_carlo(args, scene, model):
         result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
                                 progress=sys.stderr.isatty())
         written = montecarlo.write(result, args.out, args.units) if args.out else []
+    montecarlo.print_warnings(result)  # stderr: each kind of the model's warnings once, with its count of draws
     if args.json:
         print(json.dumps(result.to_json_dict(args.units), indent=2))
     else:

@@ -11,18 +11,18 @@ from pydantic import model_validator
 from crashlab.diagnostics import Diagnostics
 from crashlab.model import CollisionModel
 from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
-from crashlab.models.common.impact_rows import barrier_name, pair_rows, struck_compliance
+from crashlab.models.common.impact_rows import pair_rows, struck_compliance
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
 from crashlab.outcome import Outcome
-from crashlab.restitution import SPEED, kernel_value, range_warning
+from crashlab.restitution import kernel_value
 from crashlab.scene import given_pair
-from crashlab.units import ms_to_kmh
 
 from . import kernel as K
 from . import layout as L
 from .laws import BRACH, FULL, KUDLICH_SLIBAR, REVERSED, ROUTH, SLIDING
 from .population import simulate_variants
+from .run_warnings import run_warnings
 
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH, "routh": ROUTH}
 KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed"}
@@ -250,14 +250,7 @@ class ImpulseModel(CollisionModel):
                    # the work: awake vehicles integrated (summed over steps), outline tests of pairs the
                    # bounding circles did not reject (sleeping vehicles and distant pairs skipped)
                    "vehicle_steps": int(d[L.D_VEHICLE_STEPS]), "outline_tests": int(d[L.D_NARROW])})
-        if n_imp == 0:
-            warnings.append("no contact between the vehicles")
-        if scene.impact.law != "routh":
-            warnings += _slip_warnings(names, P[:, P_MASS], imp, scene.impact.law)
-        if scene.impact.engagement:
-            warnings += _engagement_warnings(names, imp, scene.impact.engagement_depth)
-        if scene.impact.restitution_law == SPEED:
-            warnings += [w for w in map(range_warning, imp[:, L.I_CLOSING].tolist()) if w]
+        warnings += run_warnings(scene, names, P[:, P_MASS], imp)
         return Outcome(names, rest.copy(), final.copy(), contact.copy(), d[L.D_CONTACT_T], None, rows,
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
                        impact_energy=imp[:, L.I_ENERGY].copy())
@@ -279,53 +272,3 @@ def _impact_rows(names, mass, imp, specs):
                           KIND_TEXT[int(r[L.I_KIND])], (r[L.I_SIDE_I], r[L.I_SIDE_J]), compliance, t_end=r[L.I_T_END],
                           contact_impulses=int(r[L.I_N_FOLLOW]), slip_reversed=bool(r[L.I_REVERSED]))
     return rows
-
-
-def _slip_warnings(names, mass, imp, law):
-    """A warning per impact whose slip stops and reverses on Routh's path (I_REVERSED), which `law`
-    (friction against the initial slip throughout) gets wrong: its delta-V, direction and yaw-rate changes
-    beside Routh's for the impact's own impulse (docs/physics.md §3)."""
-    out = []
-    nv = len(names)
-    for n, r in enumerate(imp):
-        if r[L.I_REVERSED] < 0.5:
-            continue
-        i, j = int(r[L.I_I]), int(r[L.I_J])
-        own, alt = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT]), math.hypot(r[L.I_ALT_PN], r[L.I_ALT_PT])
-        off = math.degrees(abs(math.remainder(math.atan2(r[L.I_OWN_PT], r[L.I_OWN_PN])
-                                              - math.atan2(r[L.I_ALT_PT], r[L.I_ALT_PN]), 2.0 * math.pi)))
-        sides = [(i, L.I_OWN_DR_I, L.I_ALT_DR_I)] + ([(j, L.I_OWN_DR_J, L.I_ALT_DR_J)] if j < nv else [])
-        dv = ", ".join(f"{names[q]} {ms_to_kmh(own / mass[q]):.1f} instead of {ms_to_kmh(alt / mass[q]):.1f} km/h"
-                       for q, _, _ in sides)
-        yaw = ", ".join(f"{names[q]} {math.degrees(r[o]):.0f} instead of {math.degrees(r[a]):.0f} deg/s"
-                        for q, o, a in sides)
-        other = names[j] if j < nv else barrier_name(j - nv)
-        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the slip at the point of impact "
-                   f"stops and reverses, which law = \"{law}\" does not follow (friction against the initial slip, or "
-                   f"sticking where it cannot stick): delta-V "
-                   f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
-                   f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
-    return out
-
-
-def _engagement_warnings(names, imp, depth):
-    """A warning per impact that [impact] point = "engagement" could not place as asked (I_ENGAGE,
-    contact._engagement, docs/physics.md §4)."""
-    out = []
-    nv = len(names)
-    for n, r in enumerate(imp):
-        flag = int(r[L.I_ENGAGE])
-        if flag not in (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK):
-            continue
-        i, j = int(r[L.I_I]), int(r[L.I_J])
-        what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[L.I_T]:.3f} s)"
-        if flag == L.ENGAGE_AMBIGUOUS:
-            out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal "
-                       f"value is {100.0 * r[L.I_ENGAGE_RATIO]:.0f} % of the larger, above "
-                       f"{100.0 * L.AMBIGUOUS_RATIO:.0f} %): the plane of the struck edge at first touch is used; give "
-                       "[impact] point and plane_angle, or another engagement_depth (docs/physics.md §4)")
-        else:
-            out.append(f"{what}: the outlines moved along their velocities never overlap engagement_depth = "
-                       f"{depth:g} m (or would not approach there): the contact-zone point and the first-touch "
-                       "contact plane are used (docs/physics.md §4)")
-    return out

@@ -21,6 +21,7 @@ from crashlab.population import Population
 
 from . import kernel as K
 from . import layout as L
+from .run_warnings import run_warnings
 
 _STATE = ("x", "y", "heading", "speed", "yaw_rate")
 _SETTING = {"restitution": "restitution", "friction": "impact_friction", "engagement_depth": "engagement_depth"}
@@ -72,8 +73,38 @@ def simulate_variants(model, scene, fs, values) -> Population:
     # (the impact records beyond each run's count are never read: no zeroing of n x max_impacts rows)
     imp, diag = np.empty((n, model.impact_cap(nv), L.N_IMP)), np.zeros((n, L.N_DIAG))
     K.simulate_many(*arrays, rest, final, contact, imp, diag)
-    return population_of(model, scene.vehicle_names, rest, final, contact, imp, diag,
-                         struck_compliance(v.spec for v in scene.vehicles))
+    pop = population_of(model, scene.vehicle_names, rest, final, contact, imp, diag,
+                        struck_compliance(v.spec for v in scene.vehicles))
+    _warnings(pop, scene, fs, arrays[0], imp, diag)
+    return pop
+
+
+def _warnings(pop, scene, fs, P, imp, diag) -> None:
+    """pop.warnings of the runs that did not fail, as their Outcomes would carry them (model.run_warnings), built
+    only for the runs whose records call for one (a vectorised screen: no Python per quiet run; a run whose only
+    warnings are restitution = "speed" outside its data gets them straight from range_warning)."""
+    from crashlab.restitution import SPEED, V_MAX, V_MIN, range_warning
+
+    n_imp = diag[:, L.D_IMPACTS].astype(int)
+    recs = imp[:, :max(int(n_imp.max(initial=0)), 1)]
+    valid = np.arange(recs.shape[1])[None, :] < n_imp[:, None]
+    # a variant with its own constant restitution (field impact.restitution) does not use the law
+    speed_law = scene.impact.restitution_law == SPEED and \
+        not any(getattr(f, "path", f) == "impact.restitution" for f in fs)
+    other = n_imp == 0
+    if scene.impact.law != "routh":
+        other |= (valid & (recs[..., L.I_REVERSED] >= 0.5)).any(1)
+    if scene.impact.engagement:
+        other |= (valid & np.isin(recs[..., L.I_ENGAGE], (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK))).any(1)
+    held = np.zeros(len(n_imp), bool)
+    if speed_law:
+        closing = np.abs(recs[..., L.I_CLOSING])
+        held = (valid & ((closing < V_MIN) | (closing > V_MAX))).any(1)
+        for k in np.flatnonzero(pop.ok & held & ~other):
+            pop.warnings[k] = "\n".join(filter(None, map(range_warning, recs[k, :n_imp[k], L.I_CLOSING].tolist())))
+    for k in np.flatnonzero(pop.ok & other):
+        pop.warnings[k] = "\n".join(run_warnings(scene, scene.vehicle_names, P[k, :, P_MASS], imp[k, :n_imp[k]],
+                                                  speed_law))
 
 
 def population_of(model, names, rest, final, contact, imp, diag, compliance) -> Population:

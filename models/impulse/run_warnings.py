@@ -1,0 +1,78 @@
+"""The warnings of a finished run of the impulse model, from its impact records: no contact, a slip that reverses
+under a law that does not follow it (docs/physics.md §3), an engagement not placed as asked (§4), restitution =
+"speed" held at its end value outside the law's data (§13b). One home for the Outcome (model.py) and the population
+(population.py), so both carry the same words."""
+from __future__ import annotations
+
+import math
+
+from crashlab.models.common.impact_rows import barrier_name
+from crashlab.restitution import SPEED, range_warning
+from crashlab.units import ms_to_kmh
+
+from . import layout as L
+
+
+def run_warnings(scene, names, mass, imp, speed_law: bool | None = None) -> list[str]:
+    """The warnings of a finished run from its impact records imp (its n_impacts rows) and the vehicles' masses:
+    no contact, a slip that reverses under a law that does not follow it (§3), an engagement not placed as asked
+    (§4), restitution = "speed" held at its end value (§13b; speed_law None: the scene's [impact] restitution says
+    whether the law applies). The Outcome's and the population's (population.py) alike."""
+    warnings = [] if len(imp) else ["no contact between the vehicles"]
+    if scene.impact.law != "routh":
+        warnings += _slip_warnings(names, mass, imp, scene.impact.law)
+    if scene.impact.engagement:
+        warnings += _engagement_warnings(names, imp, scene.impact.engagement_depth)
+    if scene.impact.restitution_law == SPEED if speed_law is None else speed_law:
+        warnings += [w for w in map(range_warning, imp[:, L.I_CLOSING].tolist()) if w]
+    return warnings
+
+
+def _slip_warnings(names, mass, imp, law):
+    """A warning per impact whose slip stops and reverses on Routh's path (I_REVERSED), which `law`
+    (friction against the initial slip throughout) gets wrong: its delta-V, direction and yaw-rate changes
+    beside Routh's for the impact's own impulse (docs/physics.md §3)."""
+    out = []
+    nv = len(names)
+    for n, r in enumerate(imp):
+        if r[L.I_REVERSED] < 0.5:
+            continue
+        i, j = int(r[L.I_I]), int(r[L.I_J])
+        own, alt = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT]), math.hypot(r[L.I_ALT_PN], r[L.I_ALT_PT])
+        off = math.degrees(abs(math.remainder(math.atan2(r[L.I_OWN_PT], r[L.I_OWN_PN])
+                                              - math.atan2(r[L.I_ALT_PT], r[L.I_ALT_PN]), 2.0 * math.pi)))
+        sides = [(i, L.I_OWN_DR_I, L.I_ALT_DR_I)] + ([(j, L.I_OWN_DR_J, L.I_ALT_DR_J)] if j < nv else [])
+        dv = ", ".join(f"{names[q]} {ms_to_kmh(own / mass[q]):.1f} instead of {ms_to_kmh(alt / mass[q]):.1f} km/h"
+                       for q, _, _ in sides)
+        yaw = ", ".join(f"{names[q]} {math.degrees(r[o]):.0f} instead of {math.degrees(r[a]):.0f} deg/s"
+                        for q, o, a in sides)
+        other = names[j] if j < nv else barrier_name(j - nv)
+        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the slip at the point of impact "
+                   f"stops and reverses, which law = \"{law}\" does not follow (friction against the initial slip, or "
+                   f"sticking where it cannot stick): delta-V "
+                   f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
+                   f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
+    return out
+
+
+def _engagement_warnings(names, imp, depth):
+    """A warning per impact that [impact] point = "engagement" could not place as asked (I_ENGAGE,
+    contact._engagement, docs/physics.md §4)."""
+    out = []
+    nv = len(names)
+    for n, r in enumerate(imp):
+        flag = int(r[L.I_ENGAGE])
+        if flag not in (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK):
+            continue
+        i, j = int(r[L.I_I]), int(r[L.I_J])
+        what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[L.I_T]:.3f} s)"
+        if flag == L.ENGAGE_AMBIGUOUS:
+            out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal "
+                       f"value is {100.0 * r[L.I_ENGAGE_RATIO]:.0f} % of the larger, above "
+                       f"{100.0 * L.AMBIGUOUS_RATIO:.0f} %): the plane of the struck edge at first touch is used; give "
+                       "[impact] point and plane_angle, or another engagement_depth (docs/physics.md §4)")
+        else:
+            out.append(f"{what}: the outlines moved along their velocities never overlap engagement_depth = "
+                       f"{depth:g} m (or would not approach there): the contact-zone point and the first-touch "
+                       "contact plane are used (docs/physics.md §4)")
+    return out
