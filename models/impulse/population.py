@@ -75,11 +75,11 @@ def simulate_variants(model, scene, fs, values) -> Population:
     K.simulate_many(*arrays, rest, final, contact, imp, diag)
     pop = population_of(model, scene.vehicle_names, rest, final, contact, imp, diag,
                         struck_compliance(v.spec for v in scene.vehicles))
-    _warnings(pop, scene, fs, arrays[0], imp, diag)
+    _warnings(pop, scene, fs, arrays[0], arrays[3], imp, diag)
     return pop
 
 
-def _warnings(pop, scene, fs, P, imp, diag) -> None:
+def _warnings(pop, scene, fs, P, cfg, imp, diag) -> None:
     """pop.warnings of the runs that did not fail, as their Outcomes would carry them (model.run_warnings), built
     only for the runs whose records call for one (a vectorised screen: no Python per quiet run; a run whose only
     warnings are restitution = "speed" outside its data gets them straight from range_warning)."""
@@ -104,7 +104,7 @@ def _warnings(pop, scene, fs, P, imp, diag) -> None:
             pop.warnings[k] = "\n".join(filter(None, map(range_warning, recs[k, :n_imp[k], L.I_CLOSING].tolist())))
     for k in np.flatnonzero(pop.ok & other):
         pop.warnings[k] = "\n".join(run_warnings(scene, scene.vehicle_names, P[k, :, P_MASS], imp[k, :n_imp[k]],
-                                                  speed_law))
+                                                  speed_law, float(cfg["engagement_depth"][k])))
 
 
 def population_of(model, names, rest, final, contact, imp, diag, compliance) -> Population:

@@ -13,16 +13,19 @@ from crashlab.units import ms_to_kmh
 from . import layout as L
 
 
-def run_warnings(scene, names, mass, imp, speed_law: bool | None = None) -> list[str]:
+def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
+                 engagement_depth: float | None = None) -> list[str]:
     """The warnings of a finished run from its impact records imp (its n_impacts rows) and the vehicles' masses:
     no contact, a slip that reverses under a law that does not follow it (§3), an engagement not placed as asked
-    (§4), restitution = "speed" held at its end value (§13b; speed_law None: the scene's [impact] restitution says
-    whether the law applies). The Outcome's and the population's (population.py) alike."""
+    (§4; engagement_depth None: the scene's), restitution = "speed" held at its end value (§13b; speed_law None:
+    the scene's [impact] restitution says whether the law applies). The Outcome's and the population's
+    (population.py, a variant's own depth) alike."""
     warnings = [] if len(imp) else ["no contact between the vehicles"]
     if scene.impact.law != "routh":
         warnings += _slip_warnings(names, mass, imp, scene.impact.law)
     if scene.impact.engagement:
-        warnings += _engagement_warnings(names, imp, scene.impact.engagement_depth)
+        depth = scene.impact.engagement_depth if engagement_depth is None else engagement_depth
+        warnings += _engagement_warnings(names, imp, depth)
     if scene.impact.restitution_law == SPEED if speed_law is None else speed_law:
         warnings += [w for w in map(range_warning, imp[:, L.I_CLOSING].tolist()) if w]
     return warnings
