@@ -316,10 +316,11 @@ class DamageEvidence(BaseModel):
         return value
 
 
-def ees_is_upper_bound(profile: Sequence[float]) -> bool:
-    """A profile without residual crush (every depth 0): its CRASH3 EES (G L, the energy the side absorbs without
-    residual crush) bounds the impact's from above, it does not measure it (docs/physics.md §28)."""
-    return max(profile) == 0.0
+def ees_is_upper_bound(profile: Sequence[float], sigma_crush: float = 0.0) -> bool:
+    """A profile without residual crush, its mean depth within the measurement's sigma_crush of 0 (0: every depth
+    0): its CRASH3 EES (about G L, the energy the side absorbs without residual crush) bounds the impact's from
+    above, it does not measure it (docs/physics.md §28)."""
+    return sum(profile) / len(profile) <= sigma_crush
 
 
 def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: float) -> list[float]:
@@ -359,7 +360,8 @@ def damage_ees_report(evidence: DamageEvidence, spec: VehicleSpec, where: str = 
     ees_kmh = rep["ees_kmh"]
     mean_crush = sum(rep["profile"]) / len(rep["profile"])
     if evidence.sigma_stiffness > SIGMA_FIRST_ORDER[0] or (
-            evidence.sigma_crush > SIGMA_FIRST_ORDER[1] * mean_crush and not ees_is_upper_bound(rep["profile"])):
+            evidence.sigma_crush > SIGMA_FIRST_ORDER[1] * mean_crush
+            and not ees_is_upper_bound(rep["profile"], evidence.sigma_crush)):
         rep["warnings"].append(
             f"sigma_stiffness {evidence.sigma_stiffness:g}, sigma_crush {evidence.sigma_crush:g} m against a mean "
             f"crush of {mean_crush:.3g} m: the first order sigma holds for sigma_stiffness <= "
@@ -377,13 +379,15 @@ def damage_residual(ees_simulated: float, damage_evidence: DamageEvidence, spec:
                     where: str = "study", prefix: str = "evidence.damage.") -> float:
     """(EES_simulated - EES_damage) / sigma [sigma units] for a vehicle's simulated EES [km/h] (its impact
     rows' `combined_ees`); NaN when the simulated EES is not finite (a run that cannot be scored). A profile
-    without residual crush bounds the EES from above (`ees_is_upper_bound`): only the excess is scored,
+    within its sigma_crush of no residual crush bounds the EES from above (`ees_is_upper_bound`): only the excess
+    is scored,
     max(0, EES_simulated - EES_damage) / sigma."""
     if ees_simulated is None or not math.isfinite(ees_simulated):
         return math.nan
     value, sigma = damage_ees(damage_evidence, spec, where, prefix)
     excess = ees_simulated - value
-    return (max(excess, 0.0) if ees_is_upper_bound(damage_evidence.profile) else excess) / sigma
+    bound = ees_is_upper_bound(damage_evidence.profile, damage_evidence.sigma_crush)
+    return (max(excess, 0.0) if bound else excess) / sigma
 
 
 def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, n: int = 6,

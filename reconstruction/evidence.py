@@ -182,13 +182,18 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
             profile = np.maximum(profile + rng.normal(0.0, e.sigma_crush, len(profile)), 0.0)
         e = e.model_copy(update={"profile": [float(c) for c in profile]})
     value, sigma, rep = damage_ees_report(e, vspec, path, f"{key}.")
+    bound = ees_is_upper_bound(rep["profile"], e.sigma_crush)
+    if bound and max(rep["profile"]) > 0.0:  # (all zero: report's own warning says it)
+        rep["warnings"].append(f"mean residual crush {sum(rep['profile']) / len(rep['profile']):.3f} m, within "
+                               f"sigma_crush {e.sigma_crush:g} m of none: the EES is an upper bound, scored one-sided "
+                               "(docs/physics.md §28)")
     detail = (f"CRASH3, {rep['side']} crush {', '.join(f'{c:.3f}' for c in rep['profile'])} m over "
               f"{rep['width']:g} m, A {rep['A'] / 1e3:.1f} kN/m, B {rep['B'] / 1e3:.0f} kN/m^2, PDOF factor "
               f"{rep['pdof_factor']:.2f}; sigma from {e.sigma_crush:g} m per depth and {e.sigma_stiffness:.0%} "
               "stiffness" + "".join(f"; warning: {w}" for w in rep["warnings"]))
     return EvidenceItem("damage", f"damage.{n}", (n,), ("ees",), (float(value),), (float(sigma),),
                         mass=float(vspec.mass), side=e.side, detail=detail, warnings=tuple(rep["warnings"]),
-                        upper_bound=ees_is_upper_bound(rep["profile"]))
+                        upper_bound=bound)
 
 
 __all__ = ["UNITS", "EvidenceItem", "EvidenceSet", "build_evidence", "cg_path", "crush_ees", "delta_v",

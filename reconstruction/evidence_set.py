@@ -29,8 +29,8 @@ Residual components (simulated minus measured, each divided by its sigma; file u
                  simulated energy at that mass makes the residual exactly the one at the candidate's own mass
                  when the mass is uncertain (both EES and sigma scale as 1/sqrt(m)). No impact of the vehicle
                  on that side: it cannot be scored (the damage says it was struck there). A profile without
-                 residual crush bounds EES_damage from above (crashlab.damage.ees_is_upper_bound): the residual
-                 is max(0, EES_sim - EES_damage) / sigma, one-sided.
+                 residual crush (its mean depth within sigma_crush of 0) bounds EES_damage from above
+                 (crashlab.damage.ees_is_upper_bound): the residual is max(0, EES_sim - EES_damage) / sigma.
 A candidate that cannot be scored (Outcome not ok, None or an exception, no impact where the point of impact,
 an EDR speed or a vehicle's damage is evidence, no CG path where marks are) has NaN residuals and log-likelihood -inf.
 
@@ -249,7 +249,8 @@ class EvidenceSet:
                              f" {m} of {pts} {m}")
                 continue
             detail = it.detail and (f"computed in SI: {it.detail}" if system == "us" else it.detail)
-            lines.append(f"{it.label}: " + ", ".join(f"{c} = {value_in(v, UNITS[c], system):.2f} ± "
+            rel = "<=" if it.upper_bound else "="  # (an upper bound is scored one-sided: its excess only)
+            lines.append(f"{it.label}: " + ", ".join(f"{c} {rel} {value_in(v, UNITS[c], system):.2f} ± "
                                                       f"{value_in(s, UNITS[c], system):.3g} {unit_in(UNITS[c], system)}"
                                                       for c, v, s in zip(it.components, it.values, it.sigmas))
                          + (f" ({detail})" if detail else ""))

@@ -243,20 +243,22 @@ def test_bad_damage_evidence_on_the_command_line_exits_2(tmp_path):
         assert_one_error_line(res, path, "evidence.damage.V1.width", ["structure width"])
 
 
-def test_a_profile_without_residual_crush_is_scored_as_an_upper_bound(tmp_path):
-    """All depths 0: the CRASH3 energy G L (the most the front absorbs without residual crush) bounds the EES from
-    above; a run below it is no misfit, one above it scores only its excess (the bound written here from A, B and
-    the width, independent of crashlab.damage). Before, it was scored as a measurement: a light touch counted
-    several sigma below."""
-    zero = [0.0] * 4
+@pytest.mark.parametrize("zero", [[0.0] * 4, [0.001] * 4])
+def test_a_profile_without_residual_crush_is_scored_as_an_upper_bound(tmp_path, zero):
+    """All depths 0 (or 1 mm, within the 20 mm measurement's sigma of none): the CRASH3 energy, about G L (the most
+    the front absorbs without residual crush), bounds the EES from above; a run below it is no misfit, one above it
+    scores only its excess (the bound written here from A, B and the width, independent of crashlab.damage).
+    Before, it was scored as a measurement: a light touch counted several sigma below."""
     text = MEASURED.replace(f"profile = {PROFILE}", f"profile = {zero}")
     study = load_study(write(tmp_path, text))
     it = study.evidence_set.items[1]
     spec = study.scene.vehicle("V1").spec
     s = spec.structure["front"]
-    bound = math.sqrt(2.0 * s.A ** 2 / (2.0 * s.B) * WIDTH / spec.mass) * 3.6
+    c = zero[0]
+    bound = math.sqrt(2.0 * (s.A * c + s.B * c * c / 2 + s.A ** 2 / (2.0 * s.B)) * WIDTH / spec.mass) * 3.6
     assert it.upper_bound and it.values[0] == pytest.approx(bound, rel=1e-9)
-    assert not any("sigma_crush" in w for w in it.warnings)  # the first-order note needs a crush to compare with
+    assert "damage.V1: ees <= " in study.evidence_set.describe()[1]
+    assert not any("first order" in w for w in it.warnings)  # the first-order note needs a crush to compare with
     problem = study.make_problem()
     X = np.array([[8.0, 0.0], [50.0, 30.0]])  # a light touch, a hard impact
     R = problem.evaluate(X, return_values_of=["residuals"])
