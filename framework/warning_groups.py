@@ -13,7 +13,8 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
-NUMBER = re.compile(r"\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")  # unsigned: a sign or hyphen stays in the kind
+# unsigned (a sign or hyphen stays in the kind); not a name's digits (V1, barrier_2: another kind)
+NUMBER = re.compile(r"(?<![A-Za-z_\d.])\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
 
 
 def group(runs: Iterable[Iterable[str]]) -> list[tuple[str, list[int]]]:

@@ -78,6 +78,9 @@ def test_a_kind_of_warning_once_with_its_runs_and_ranges():
     assert group([[], []]) == []
     # words that differ are different kinds, even with the same numbers
     assert [n for _, n in group([["a 1 below"], ["a 1 above"]])] == [[0], [1]]
+    # a name's digits are the name (the review: V1-V2 and V2-V3 read "V1 to 2-V2 to 3")
+    assert group([["impact 1 (V1-V2 at t = 0.1 s)"], ["impact 1 (V2-V3 at t = 0.3 s)"]]) == [
+        ("impact 1 (V1-V2 at t = 0.1 s)", [0]), ("impact 1 (V2-V3 at t = 0.3 s)", [1])]
 
 
 # ---------------------------------------------------------------- the Monte Carlo
