@@ -49,8 +49,8 @@ OVERLAP_TOL = 0.05  # m of outline overlap at rest (the guard's PENETRATION_TOL)
 TILT_MAX = math.radians(30)  # rad of roll or pitch at the end beyond which a 3D body's plan shadow is another
 REST_SPEED = 0.1  # m/s: at rest
 BOX = 400.0  # m: 90 km/h for 6 s is 150 m
-# below the road (docs/physics.md §19): deeper than ROAD_TOL_DEEP at any sample, or than ROAD_TOL for
-# ROAD_SUSTAINED_S or more or at the last sample (a landing bounce off the road contact is brief)
+# below the road (docs/physics.md §19): deeper than ROAD_TOL_DEEP at any sample, or the depth below the road
+# averaging more than ROAD_TOL over ROAD_SUSTAINED_S (a landing bounce off the road contact is brief)
 ROAD_TOL, ROAD_TOL_DEEP, ROAD_SUSTAINED_S = 0.05, 0.10, 0.1  # m, m, s
 END_POSE_TOL, END_VEL_TOL = 1.0, 1.0  # m, m/s: end state against the trajectory's last sample
 
@@ -199,19 +199,18 @@ def _touching(scene, out, t) -> np.ndarray:
 
 
 def _below_road(t, z) -> bool:
-    """A body deeper than ROAD_TOL_DEEP at a sample, or below ROAD_TOL from a sample on for ROAD_SUSTAINED_S or to
-    the last sample."""
-    if np.min(z) < -ROAD_TOL_DEEP:
+    """A body deeper than ROAD_TOL_DEEP at a sample, or its depth below the road (linear between the samples,
+    resampled every millisecond here) averaging more than ROAD_TOL over a window of ROAD_SUSTAINED_S."""
+    if np.nanmin(z) < -ROAD_TOL_DEEP:
         return True
-    start = None
-    for k in range(len(z)):
-        if z[k] < -ROAD_TOL:
-            start = k if start is None else start
-            if t[k] - t[start] >= ROAD_SUSTAINED_S or k == len(z) - 1:
-                return True
-        else:
-            start = None
-    return False
+    grid = np.arange(t[0], t[-1] + 1e-12, 1e-3)
+    depth = np.interp(grid, t, np.nan_to_num(np.maximum(-z, 0.0)))
+    n = int(round(ROAD_SUSTAINED_S / 1e-3))
+    if len(grid) <= n:
+        return False
+    mean = np.convolve(depth, np.ones(n) / n, mode="valid")
+    return bool(mean.max() > ROAD_TOL + 1e-4)  # (the millisecond grid's own error is below it)
+
 
 def audit(scene, out, rounded: bool, worst: dict | None = None) -> list[str]:
     """Every violation of physics the independent checks find in `out` (empty: clean). `worst`, if given,

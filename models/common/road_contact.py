@@ -21,7 +21,8 @@ J. Appl. Mech. 42:440-445, damping a material constant):
 K_v = m_v g / DELTA_STATIC^n: a vehicle resting on its roof or side sinks DELTA_STATIC = 5 mm into the road.
 Why not the vehicle-barrier stiffness (1.35e6 N/m^1.5, a crush-zone value): a 3,000 kg car would rest 8 cm
 deep in the road and land from a roll 10-15 cm deep; the road contact is a support, not a crush model (the
-physics guard fails a body held 5 cm below the road, or 10 cm at any moment: docs/physics.md §19). Landing
+physics guard fails a body 5 cm below the road on average over 0.1 s, or 10 cm at any moment: docs/physics.md
+§19). Landing
 after a roll (a third of the mass at the touching corner, vertical speed v): delta_max = (1.25 v^2
 DELTA_STATIC^1.5 / (3 g))^0.4, 5 cm at 6 m/s, 10 cm at 15 m/s (1 cm static would allow 4 m/s only for 5 cm:
 the rollovers of the tests touched down at 3-4 m/s and reached 4.6-4.9 cm).
