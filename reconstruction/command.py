@@ -54,6 +54,8 @@ def run_cli(args) -> int:
           f"{res.wall_time_s:.2f} s" + (f", outputs in {args.out}" if args.out else ""))
     if refined is not None:
         print(refined.summary_line(study.variables, wrote=bool(args.out), system=args.units))
+    for w in getattr(res, "report_warnings", ()):  # summary.md's warnings (Pareto row 0's run, ...), also here
+        print("crashlab: warning: " + w.replace("**", "").removeprefix("Warning").lstrip(": "), file=sys.stderr)
     return _no_feasible(args, res)
 
 

@@ -213,6 +213,7 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
             bar.close()
         result = _result(study, problem, algorithm, name, n_search, budget, t0)
         page = write_outputs(study, result, problem.archive_arrays(), out_dir) if out_dir else None
+        result.report_warnings = list(page["warnings"]) if page is not None else []  # (the CLI says them too)
         if spec.refine is not None:  # the second opinion (refine.py); the search model on the same executor
             result.refine = refine(study, result.pareto, out_dir, executor=executor, progress=progress)
         if page is not None:  # report.html last: it shows every file above

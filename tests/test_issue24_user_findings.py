@@ -63,8 +63,7 @@ def test_speed_restitution_outside_its_data_is_said_by_reconstruct_and_infer(tmp
         assert res.returncode == 0, res.stderr
         assert "outside the data of the law" in (out / "summary.md").read_text(), command
         assert "outside the data of the law" in (out / "report.html").read_text(), command
-        if command == "infer":
-            assert "outside the data of the law" in res.stderr
+        assert "outside the data of the law" in res.stderr, command
 
 
 def test_damage_evidence_warnings_reach_the_terminal(tmp_path):
