@@ -150,8 +150,8 @@ def cmd_monte_carlo(args, scene, model):
         result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
                                 progress=sys.stderr.isatty())
         written = montecarlo.write(result, args.out, args.units) if args.out else []
-    montecarlo.print_warnings(result)  # stderr: each kind of the model's warnings once, with its count of draws
-    if args.json:
+    if args.json:  # stderr: each kind of the model's warnings once, with its count of draws (the summary has them)
+        montecarlo.print_warnings(result)
         print(json.dumps(result.to_json_dict(args.units), indent=2))
     else:
         montecarlo.print_summary(result, system=args.units)
