@@ -211,6 +211,19 @@ class EvidenceSet:
         docstring); -inf for a candidate that cannot be scored."""
         return log_likelihood_of(self.residuals(outcomes))
 
+    def unstruck_damage(self, pop) -> list[tuple[EvidenceItem, list[str]]]:
+        """Each damage item that no run of a Population (crashlab.population) can score, as no run that did not
+        fail struck its vehicle on the damaged side (a crush energy there, docs/physics.md §28; `_simulated` is NaN
+        then), with the sides those runs did strike."""
+        out = []
+        for it in self.items:
+            if it.kind != "damage":
+                continue
+            energy = pop.crush_energy[pop.ok, self.names.index(it.vehicles[0])]
+            if not (energy[:, SIDE_INDEX[it.side]] > 0).any():
+                out.append((it, [s for s, k in SIDE_INDEX.items() if (energy[:, k] > 0).any()]))
+        return out
+
     # ---------------------------------------------------------------- per item, per vehicle
     def item_slices(self) -> list[slice]:
         out, c = [], 0

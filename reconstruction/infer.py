@@ -198,28 +198,20 @@ def _initial(post: Posterior, nw: int, rng) -> tuple[np.ndarray, np.ndarray]:
 
 def _unscored_damage(post: Posterior, X) -> list[tuple[str, str]]:
     """(key, reason) of each [evidence.damage.<vehicle>] that no collision among the draws X can score: none of
-    them strikes the vehicle on the damaged side (docs/physics.md §28), the sides they strike named."""
+    them strikes the vehicle on the damaged side (EvidenceSet.unstruck_damage, docs/physics.md §28)."""
     from crashlab import fields
-    from crashlab.population import SIDE_INDEX
     X = X[fields.row_problems(post.study.scene, post.fields, X) == ""]
     if not len(X):
         return []
     pop, _ = post.problem.simulate(X, post.fields)
-    hit = pop.ok & (pop.n_impacts > 0)
-    out = []
-    for it in post.study.evidence_set.items:
-        if it.kind != "damage" or not hit.any():
-            continue
-        i = post.problem.names.index(it.vehicles[0])
-        energy = pop.crush_energy[hit, i]
-        if (energy[:, SIDE_INDEX[it.side]] > 0).any():
-            continue
-        struck = [s for s, k in SIDE_INDEX.items() if (energy[:, k] > 0).any()]
-        out.append((f"evidence.damage.{it.vehicles[0]}.side",
-                    f"{it.side}: none of {int(hit.sum())} collisions drawn from the prior strikes "
-                    f"{it.vehicles[0]} there (they strike its {', '.join(struck) or 'nothing'}); damage on a side "
-                    "no run strikes cannot be scored (docs/physics.md §28): check the side and pdof"))
-    return out
+    n = int((pop.ok & (pop.n_impacts > 0)).sum())
+    if not n:
+        return []
+    return [(f"evidence.damage.{it.vehicles[0]}.side",
+             f"{it.side}: none of {n} collisions drawn from the prior strikes {it.vehicles[0]} there (they strike "
+             f"its {', '.join(struck) or 'nothing'}); damage on a side no run strikes cannot be scored "
+             "(docs/physics.md §28): check the side and pdof")
+            for it, struck in post.study.evidence_set.unstruck_damage(pop)]
 
 
 def _run_emcee(post, nw, total, s, ckpt, fingerprint, resume, stream, t0, stop_after):

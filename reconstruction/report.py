@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from crashlab.population import Population
 from crashlab.units import frame_in, ms_to_kmh, rad_to_deg, unit_in, value_in, wrap_deg
 
 from .evidence import log_likelihood_of
@@ -345,18 +346,9 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
 
 
 def unscored_damage(evidence_set, outcome) -> list[str]:
-    """Why a run cannot score its damage evidence: one sentence per [evidence.damage.<vehicle>] whose side no
-    impact of the run struck with a dissipated energy (docs/physics.md §28), naming the sides it did strike."""
-    out = []
-    for it in evidence_set.items:
-        if it.kind != "damage":
-            continue
-        n = it.vehicles[0]
-        rows = [r for r in outcome.impact_rows if r.get("vehicle") == n]
-        if any(r.get("side") == it.side and r.get("crush_energy", 0.0) > 0.0 for r in rows):
-            continue
-        struck = sorted({str(r.get("side")) for r in rows})
-        out.append(f"{it.label}: Pareto row 0 strikes {n} on its {', '.join(struck) or 'nothing'}, not on its "
-                   f"{it.side}, where the damage was measured: no run like it can be scored (check "
-                   f"evidence.damage.{n}.side and pdof)")
-    return out
+    """Why a run cannot score its damage evidence: one sentence per [evidence.damage.<vehicle>] whose side the run
+    did not strike (EvidenceSet.unstruck_damage, docs/physics.md §28), naming the sides it did strike."""
+    pop = Population.of_outcomes([outcome], evidence_set.names)
+    return [f"{it.label}: Pareto row 0 strikes {it.vehicles[0]} on its {', '.join(struck) or 'nothing'}, not on "
+            f"its {it.side}, where the damage was measured: no run like it can be scored (check "
+            f"evidence.damage.{it.vehicles[0]}.side and pdof)" for it, struck in evidence_set.unstruck_damage(pop)]
