@@ -23,7 +23,7 @@ Quantities (simulated side):
   post_vx        global x velocity right after the impact [km/h] (same construction)
   pdof           principal direction of force of the vehicle's largest impact row [deg]
   crush_dynamic, crush_residual   deepest contact overlap of the run [m] (Diagnostics.max_penetration);
-                 none for a model without a contact depth (NO_CONTACT_DEPTH_MODELS, or max_penetration None):
+                 none for a model without a contact depth (CollisionModel.contact_depth False):
                  simulated NaN, ok None ("n/a"), neither pass nor fail
 Per run also: impacts (impact rows' distinct times), slip_reversed (any impact row flagged: the slip
 stops and reverses, where kudlich-slibar and brach are outside their assumptions, docs/physics.md §3) and
@@ -72,8 +72,6 @@ ENGAGEMENT_MODELS = ("impulse",)  # the models that read [impact] point = "engag
 RESTITUTION_VARIANTS: tuple = (0.1, "speed")
 APPROACH_GAP = 0.1  # m of closing travel between the cars at the start of an approach_scene
 DV_QUANTITIES = ("delta_v", "impact_delta_v")  # the delta-V quantities (figure, goal check)
-# the models without a contact depth (rigid outlines, the impact resolved at first touch): no crush to compare
-NO_CONTACT_DEPTH_MODELS = ("impulse",)
 CRUSH_QUANTITIES = ("crush_dynamic", "crush_residual")
 GOAL_PCT = {"impulse": 10.0, "multibody": 15.0, "exudyn": 15.0}  # issue 24's goal on car-to-car delta-V
 FIGURE = "validation_dv.png"
@@ -152,12 +150,11 @@ def _post_velocity(outcome, scene, name: str) -> tuple[float, float]:
             speed * math.sin(head) + sum(r["dvy"] for r in rows))
 
 
-def has_quantity(model: str, outcome, quantity: str) -> bool:
-    """False when the model cannot give this quantity at all (a crush of a model without a contact depth): its
-    row is "n/a", neither pass nor fail."""
-    if quantity in CRUSH_QUANTITIES:
-        return model not in NO_CONTACT_DEPTH_MODELS and outcome.diagnostics.max_penetration is not None
-    return True
+def has_quantity(model: str, quantity: str) -> bool:
+    """False when the model cannot give this quantity at all (a crush of a model without a contact depth,
+    CollisionModel.contact_depth): its row of a run that succeeded is "n/a", neither pass nor fail."""
+    from crashlab.registry import get_model
+    return quantity not in CRUSH_QUANTITIES or get_model(model).contact_depth
 
 
 def simulated_quantity(outcome, scene, quantity: str, vehicle: str) -> float:
@@ -238,7 +235,7 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                 warnings = () if outcome is None else tuple(dict.fromkeys(str(w) for w in outcome.warnings))
                 for q in t["quantity"]:
                     sim, why = math.nan, reason
-                    if outcome is not None and not has_quantity(model, outcome, q["name"]):
+                    if outcome is not None and not has_quantity(model, q["name"]):  # (a failed run: failed rows)
                         why = f"n/a: the {model} model has no contact depth"
                     elif outcome is not None:
                         try:

@@ -154,6 +154,9 @@ class CollisionModel(abc.ABC):
     # True: the model honours driver actions and friction zones (docs/physics.md §2a); a model that does not
     # is refused scenes that have them instead of quietly ignoring them
     driver_inputs: bool = False
+    # True: Diagnostics.max_penetration is a contact depth (a crush to compare with a crash test's); False: rigid
+    # outlines resolved at first touch (the impulse model), no crush to compare
+    contact_depth: bool = True
     # the package (folder name) whose numba kernels the model compiles on first use (about 30 s once per install;
     # the command line says so before a cold compile and keeps the compile out of the simulation's time), or None
     compiles: str | None = None

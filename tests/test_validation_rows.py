@@ -90,3 +90,11 @@ def test_no_restitution_warning_within_the_data(capsys):
     assert rows and not any(w.startswith('restitution = "speed"') for r in rows for w in r["warnings"])
     validation.print_warnings(rows)
     assert "restitution" not in capsys.readouterr().err
+
+
+def test_n_a_is_the_models_own_property():
+    """CollisionModel.contact_depth decides n/a, for every model alike (a plugin's default: it has a contact depth),
+    not a list of model names in the study."""
+    assert not validation.has_quantity("impulse", "crush_dynamic")
+    assert validation.has_quantity("impulse", "delta_v")
+    assert all(validation.has_quantity(m, "crush_residual") for m in ("pymunk", "multibody", "exudyn"))

@@ -113,6 +113,7 @@ class ImpulseModel(CollisionModel):
 
     name = "impulse"
     compiles = "impulse"
+    contact_depth = False  # rigid outlines, the impact resolved at first touch: no crush depth
     driver_inputs = True  # actions and friction zones (docs/physics.md §2a): the kernel's _motion and step policy
 
     class Options(ModelOptions):
