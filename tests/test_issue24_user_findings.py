@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from conftest import FREE_SPEEDS, assert_one_error_line
 
 REPO = Path(__file__).resolve().parent.parent
@@ -74,7 +75,9 @@ def test_damage_evidence_warnings_reach_the_terminal(tmp_path):
     assert f"crashlab: warning: {path}: evidence.damage.V1: no residual crush" in res.stderr, res.stderr
 
 
-def test_a_negative_first_crush_depth_is_one_line_naming_the_key():
-    """argparse took "-0.1,0.2" for an option and printed its usage; now crashlab.damage refuses it by name."""
-    res = crashlab("damage", "saloon", "--side", "front", "--profile", "-0.1,0.2", "--width", "1.0")
+@pytest.mark.parametrize("option", ["--profile", "--prof"])
+def test_a_negative_first_crush_depth_is_one_line_naming_the_key(option):
+    """argparse took "-0.1,0.2" for an option and printed its usage; now crashlab.damage refuses it by name, also
+    after an abbreviation of the option (argparse's allow_abbrev; it gave the usage before 2026-11-27)."""
+    res = crashlab("damage", "saloon", "--side", "front", option, "-0.1,0.2", "--width", "1.0")
     assert_one_error_line(res, "command line", "--profile[1]", ["negative"])

@@ -390,8 +390,9 @@ DASH_VALUE_OPTIONS = ("--profile", "--with")
 def _glue_dash_values(argv: list[str]) -> list[str]:
     out, i = [], 0
     while i < len(argv):
-        if argv[i] in DASH_VALUE_OPTIONS and i + 1 < len(argv) and argv[i + 1][:1] == "-" \
-                and argv[i + 1][1:2] in tuple("0123456789.,"):
+        # an option argparse would take: one of them or an abbreviation of one (argparse's allow_abbrev)
+        named = argv[i].startswith("--") and len(argv[i]) > 2 and any(o.startswith(argv[i]) for o in DASH_VALUE_OPTIONS)
+        if named and i + 1 < len(argv) and argv[i + 1][:1] == "-" and argv[i + 1][1:2] in tuple("0123456789.,"):
             out.append(f"{argv[i]}={argv[i + 1]}")
             i += 2
             continue
