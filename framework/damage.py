@@ -27,7 +27,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator
 
 from .errors import InputError
-from .structure import FACE_STRUCTURE, STRUCK_FACES, Structure
+from .structure import FACE_STRUCTURE, STRUCK_FACES, Structure, crush_zone_warning
 from .units import kmh_to_ms, ms_to_kmh, wrap_deg
 from .vehicle import VehicleSpec
 
@@ -231,6 +231,9 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
                         f"kg vehicle, and this one is {spec.mass:g} kg: the crush energy is off by about their "
                         f"ratio (docs/physics.md §28); give the vehicle file's [structure.{FACE_STRUCTURE[side]}] or "
                         "its class")
+    deep = crush_zone_warning(spec.name, spec, side, max(profile), measured=True)
+    if deep:
+        warnings.append(deep)
     if ees_is_upper_bound(profile):
         warnings.append("no residual crush: the CRASH3 energy is then G L, the most the side absorbs without "
                         "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "

@@ -128,3 +128,28 @@ def structure_of(v) -> dict:
             out[side] = Structure(given.A, given.B, extent if given.width is None else given.width,
                                   given.source or "not given")
     return out
+
+
+def crush_zone(spec, face: str) -> tuple[float, str, str]:
+    """(depth [m], what bounds it, what lies behind it) of the crush zone behind a struck face of a vehicle
+    (crashlab.vehicle.VehicleSpec): the front or rear overhang (bumper to axle), half the width for a flank (its
+    centreline). A CRASH3 line comes from crash tests whose crush stays within it (docs/physics.md §28 "Crush zone")."""
+    if face == "front":
+        return spec.cg_to_front - spec.cg_to_front_axle, "front overhang", "wheels, engine and bulkhead"
+    if face == "rear":
+        return spec.cg_to_rear - spec.cg_to_rear_axle, "rear overhang", "rear axle and cabin floor"
+    return spec.width / 2.0, "half width", "the car's far half"
+
+
+def crush_zone_warning(vehicle: str, spec, face: str, crush: float, measured: bool = False) -> str | None:
+    """The warning for a crush deeper than the struck face's crush zone (crush_zone), else None: the CRASH3 line is
+    then extrapolated past the structure it was measured on (docs/physics.md §28 "Crush zone")."""
+    depth, what, behind = crush_zone(spec, face)
+    if crush <= depth:
+        return None
+    tail = (f"its crush energy extrapolates the CRASH3 line past the structure it holds for; the stiffer parts "
+            f"behind it ({behind}) absorb more, so the energy is likely low" if measured else
+            f"the contact extrapolates the CRASH3 line past the structure it holds for; the stiffer parts behind it "
+            f"({behind}) are not modelled, so the crush is likely too deep")
+    return (f"{vehicle}'s {face}: {'measured ' if measured else ''}crush {crush:.2f} m is deeper than its crush zone "
+            f"({what} {depth:.2f} m): {tail} (docs/physics.md §28 \"Crush zone\")")

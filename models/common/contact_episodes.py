@@ -149,7 +149,8 @@ def impact_rows(names, mass, imp, compliance, heads=None):
     from the impulse on the vehicle (heading at the episode start, from heads[v] = (t, heading) records),
     point_x/y = contact point at peak force, plane_angle = tangent of the contact plane at peak force; plus:
     peak_force [N] (normal), duration [s], impulse [N s] (magnitude of the contact impulse on the vehicle) and
-    its global components impulse_x, impulse_y, impulse_z, max_penetration [m], approach_speed /
+    its global components impulse_x, impulse_y, impulse_z, max_penetration [m] (the pair's largest total crush),
+    crush [m] (the vehicle's share of it, pair_rows), approach_speed /
     separation_speed [m/s] (relative normal velocity at the contact point at onset and at separation;
     restitution = separation/approach), open (contact still active when the run ended)."""
     nv = len(names)
@@ -162,7 +163,7 @@ def impact_rows(names, mass, imp, compliance, heads=None):
                    for q in (i, j)]
         pair = pair_rows(names, mass, i, j, r[I_T0], r[I_ENERGY], (r[I_DVI:I_DVI + 3], r[I_DVJ:I_DVJ + 3]),
                          ((J[0], J[1]), (-J[0], -J[1])), heading, (r[I_PX], r[I_PY]), r[I_TH] + math.pi / 2,
-                         "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance, peak_force=r[I_PEAK],
+                         "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance, crush=r[I_MAXPEN], peak_force=r[I_PEAK],
                          duration=r[I_T1] - r[I_T0], impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],

@@ -1,8 +1,10 @@
 """What the 3D models' chassis contact (chassis_contact.py) reports after a run: the guard's interpenetration check
-with the contact bodies, and the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b)."""
+with the contact bodies, the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b), and
+the crushes deeper than the struck face's crush zone (§28 "Crush zone")."""
 from __future__ import annotations
 
 from crashlab.restitution import range_warning
+from crashlab.structure import crush_zone_warning
 
 from .chassis_contact import G_DEL, P_I, P_J, S_CMAX, S_VCLOSE
 
@@ -30,4 +32,20 @@ def speed_law_warnings(PST) -> list:
             why = range_warning(PST[p, S_VCLOSE])
             if why and why not in out:
                 out.append(why)
+    return out
+
+
+def crush_zone_warnings(scene, rows) -> list:
+    """The warning (crashlab.structure.crush_zone_warning) for each vehicle face whose deepest crush in the impact
+    rows (their "crush", the vehicle's share of the pair's) lies beyond its crush zone."""
+    deepest: dict = {}
+    for r in rows:
+        key = (r["vehicle"], r["side"])
+        deepest[key] = max(deepest.get(key, 0.0), r["crush"])
+    specs = {vs.name: vs.spec for vs in scene.vehicles}
+    out = []
+    for (name, face), crush in deepest.items():
+        why = crush_zone_warning(name, specs[name], face, crush)
+        if why:
+            out.append(why)
     return out

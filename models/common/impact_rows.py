@@ -36,7 +36,7 @@ def struck_compliance(specs) -> np.ndarray:
                      for spec in specs]).reshape(-1, len(STRUCK_FACES))
 
 
-def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, sides, compliance,
+def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kind, sides, compliance, crush=None,
               **extra) -> list[dict]:
     """Impact-table rows of one impact of vehicle i with vehicle or barrier j: one row for i, and one for j
     if it is a vehicle.
@@ -47,9 +47,10 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     used, for the PDOF), heading[s] [rad] the heading the PDOF is measured from; point = (x, y) [m],
     plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; sides = (s_i, s_j) the
     struck face codes of i and j (crush_structure.side_code: 0 front, 1 rear, 2 left, 3 right; s_j not read for a
-    barrier); compliance: the vehicles' (nv, 4) crush compliance table (struck_compliance); extra: further keys of
-    every row
-    (the impulse model: slip_reversed).
+    barrier); compliance: the vehicles' (nv, 4) crush compliance table (struck_compliance); crush [m]: the pair's
+    largest total crush (the 3D models; None for an impulse), shared as the energy is (the same force on both:
+    C_q = crush (1/B_q) / (1/B_i + 1/B_j), all of it the vehicle's against a barrier), each row's "crush"; extra:
+    further keys of every row (the impulse model: slip_reversed).
     """
     nv = len(names)
     c_i = compliance[i, int(sides[0])]
@@ -60,7 +61,10 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     rows = []
     for s, (q, other, c_q, side) in enumerate(struck):
         # §21: the struck structures in series carry the same force f, each absorbing f^2/2B: E_q ~ 1/B_q
-        e_q = max(energy, 0.0) * c_q / (c_i + c_j)
+        share = c_q / (c_i + c_j)
+        e_q = max(energy, 0.0) * share
+        if crush is not None:
+            extra["crush"] = crush * share
         rows.append({"t": t, "vehicle": names[q], "other": other, "dvx": dv[s][0], "dvy": dv[s][1],
                      "d_yaw_rate": dv[s][2], "energy": energy, "crush_energy": e_q,
                      "ees": math.sqrt(2.0 * e_q / mass[q]),

@@ -10,6 +10,7 @@ import numpy as np
 
 from crashlab.models.common import chassis_contact as C
 from crashlab.models.common import contact_episodes as EP
+from crashlab.models.common import contact_report
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.impact_rows import struck_compliance
 from crashlab.models.common.vehicle_3d import CORNERS
@@ -168,6 +169,7 @@ class Records:
                               struck_compliance(vs.spec for vs in self.scene.vehicles), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
+        warnings += contact_report.crush_zone_warnings(self.scene, rows)
         if self.n_unsettled:
             ok = False
             warnings.append(f"the contact loads did not settle at the shortest step ({o['min_step']:g} s) in "
