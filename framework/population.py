@@ -12,8 +12,9 @@ Columns (SI; nv vehicles in scene order):
   contact (N, nv, 4) x, y, heading, speed at first contact; n_impacts (N,) impacts (contact episodes)
   mass (N, nv) [kg]; delta_v (N, nv) |sum of the vehicle's impact-row velocity changes| [m/s];
   first_delta_v (N, nv) the velocity change of its first impact [m/s] (what an event data recorder reports)
-  crush_energy (N, nv, 4) the vehicle's share of the dissipated energy summed over its impacts [J], per face it
-  was struck on (front, rear, left, right: crashlab.structure.STRUCK_FACES; 0 where none struck it; ees: the EES of
+  crush_energy (N, nv, 6) the vehicle's share of the dissipated energy summed over its impacts [J], per face it
+  was struck on (front, rear, left, right, and a tilted vehicle's roof, underbody: crashlab.structure.IMPACT_FACES;
+  0 where none struck it; ees: the EES of
   the sum, docs/physics.md §21); first_impact_t (N, nv) [s], first_impact_point (N, nv, 2) [m]
   of the vehicle's first impact (NaN without one); energy_start, energy_end (N,) planar kinetic energy [J];
   energy_impacts (N,) dissipated by all impacts, lowest_impact_energy (N,) of the impact that dissipated least
@@ -30,9 +31,9 @@ import math
 
 import numpy as np
 
-from .structure import STRUCK_FACES
+from .structure import IMPACT_FACES
 
-SIDE_INDEX = {face: k for k, face in enumerate(STRUCK_FACES)}
+SIDE_INDEX = {face: k for k, face in enumerate(IMPACT_FACES)}
 ARRAYS = ("ok", "reason", "rest", "final", "rest_speed", "at_rest", "contact", "n_impacts", "mass", "delta_v",
           "first_delta_v", "crush_energy", "first_impact_t", "first_impact_point", "energy_start", "energy_end",
           "energy_impacts", "lowest_impact_energy", "scores", "warnings")
@@ -100,7 +101,7 @@ class Population:
         return cls(tuple(names), np.zeros(n, bool), np.array([reason] * n, dtype=object),
                    nan((n, nv, 3), np.nan), nan((n, nv, 3), np.nan), nan((n, nv), np.nan), np.zeros((n, nv), bool),
                    nan((n, nv, 4), np.nan), np.zeros(n, int), nan((n, nv), np.nan), nan((n, nv), np.nan),
-                   nan((n, nv), np.nan), nan((n, nv, len(STRUCK_FACES)), np.nan), nan((n, nv), np.nan),
+                   nan((n, nv), np.nan), nan((n, nv, len(IMPACT_FACES)), np.nan), nan((n, nv), np.nan),
                    nan((n, nv, 2), np.nan),
                    nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan(n, np.nan), nan((n, k), np.nan),
                    np.array([""] * n, dtype=object))
@@ -164,7 +165,8 @@ class Population:
             unnamed = sorted({str(row.get("vehicle")) for row in rows if row.get("side") not in SIDE_INDEX})
             if unnamed:  # (its energy could not be booked to the side damage evidence compares)
                 pop.reason[r] = (f"the model's impact rows of {', '.join(unnamed)} name no struck face (front, rear, "
-                                 "left or right; crashlab.models.common.impact_rows.pair_rows builds them)")
+                                 "left, right, roof or underbody; crashlab.models.common.impact_rows.pair_rows "
+                                 "builds them)")
                 continue
             pop.ok[r] = True
             pop.warnings[r] = "\n".join(str(w) for w in getattr(o, "warnings", ()) or ())

@@ -13,7 +13,13 @@ STRUCTURE_SIDES = ("front", "rear", "side")
 # crashlab.models.common.crush_structure.side_code): a flank is the left (+y in vehicle axes) or the right one, and
 # both have the one side structure; FACE_STRUCTURE names the structure of each (and of "side" itself)
 STRUCK_FACES = ("front", "rear", "left", "right")
-FACE_STRUCTURE = {"front": "front", "rear": "rear", "left": "side", "right": "side", "side": "side"}
+# and the faces of a tilted vehicle (on its side, nose or roof) a 3D model's impact may strike (codes 4, 5:
+# crush_structure.face_code), which no CRASH3 structure describes: the contact and the energy split take the side
+# structure for them, with a warning (docs/physics.md §13a "A tilted body"); not damage evidence
+TILTED_FACES = ("roof", "underbody")
+IMPACT_FACES = STRUCK_FACES + TILTED_FACES
+FACE_STRUCTURE = {"front": "front", "rear": "rear", "left": "side", "right": "side", "side": "side",
+                  "roof": "side", "underbody": "side"}
 A_RANGE = (0.0, 2e6)   # N/m: cars 20-80e3 (front), a bus or truck front some 1e5-5e5
 B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
 # m/s, the largest no-damage speed b0 = sqrt(2 G w / m) a side may imply (G = A^2 / 2B over its width w): tests
@@ -133,11 +139,14 @@ def structure_of(v) -> dict:
 def crush_zone(spec, face: str) -> tuple[float, str, str]:
     """(depth [m], what bounds it, what lies behind it) of the crush zone behind a struck face of a vehicle
     (crashlab.vehicle.VehicleSpec): the front or rear overhang (bumper to axle), half the width for a flank (its
-    centreline). A CRASH3 line comes from crash tests whose crush stays within it (docs/physics.md §28 "Crush zone")."""
+    centreline), half the height for a tilted vehicle's roof or underbody. A CRASH3 line comes from crash tests
+    whose crush stays within it (docs/physics.md §28 "Crush zone")."""
     if face == "front":
         return spec.cg_to_front - spec.cg_to_front_axle, "front overhang", "wheels, engine and bulkhead"
     if face == "rear":
         return spec.cg_to_rear - spec.cg_to_rear_axle, "rear overhang", "rear axle and cabin floor"
+    if face in ("roof", "underbody"):
+        return spec.height / 2.0, "half height", "the car's far half"
     return spec.width / 2.0, "half width", "the car's far half"
 
 

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from crashlab.population import SIDE_INDEX, Population
+from crashlab.structure import STRUCK_FACES
 from crashlab.units import ms_to_kmh, unit_in, value_in, wrap_deg
 
 # units of the residual components (file units), for the tables that list the evidence
@@ -73,7 +74,7 @@ class EvidenceItem:
     side: str = ""
 
     def __post_init__(self):
-        if self.kind == "damage" and self.side not in SIDE_INDEX:
+        if self.kind == "damage" and self.side not in STRUCK_FACES:
             raise ValueError(f"{self.label}: damage evidence needs the side it was measured on (front, rear, "
                              f"left or right), got {self.side!r}")
     detail: str = field(default="", compare=False)

@@ -55,9 +55,8 @@ from .crush_structure import (
     E_LO,
     N_STR,
     engagement_normal,
-    face_normal_angle,
+    face_code,
     permanent_crush,
-    side_code,
     structure_force,
     structure_slot,
 )
@@ -79,14 +78,14 @@ CONTACT_LAWS = ("structure", "generic")
 (S_TH, S_THOK, S_ACT, S_DD0, S_T0, S_JX, S_JY, S_JZ, S_PEAK, S_MAXPEN, S_WORK, S_PX, S_PY, S_PTH,
  S_VI, S_VJ) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17
 # the pair's crush memory (structure law, kept across its episodes): largest crush, struck sides of i and j
-# (crush_structure.side_code) latched while the pair is not in contact; a new contact on other sides forgets it
+# (crush_structure.face_code) latched while the pair is not in contact; a new contact on other sides forgets it
 # (the generic law sets the sides at each episode's first touch: they share its energy in the impact rows, §21)
 S_CMAX, S_SIDE_I, S_SIDE_J = 20, 21, 22
 # restitution = "speed" (cfg_e = crashlab.restitution.E_SPEED_LAW): the unloading's e, set from the law at the
 # normal closing speed S_VCLOSE of the pair's first crush (while S_CMAX is 0) and kept for it (docs/physics.md §13b)
 S_E, S_VCLOSE = 23, 24
-# engagement (structure law, §13a): the outward normal angles of the struck faces in the body frames of i and j
-# (face_normal_angle; latched with the sides), and the crush offset along their engagement normal at the first
+# engagement (structure law, §13a): the struck faces of i and j (crush_structure.face_code; latched with the sides;
+# a barrier's own face, where S_SIDE_J is 0), and the crush offset along their engagement normal at the first
 # touch (-1: not engaged, the minimum-translation normal is used)
 S_FACE_I, S_FACE_J, S_C0 = 25, 26, 27
 # the crush of an open episode kept continuous (structure law, §13a "Work of the engaged force"): S_CI the crush at
@@ -129,12 +128,14 @@ def chassis_pose(y, nq, A):
 
 
 @njit(cache=True, inline="always")
-def _struck_face(A, rc, M, a, b):
-    """(side code, outward face normal angle) of the point M on a body of rotation A, shape centre rc, half length a
-    and half width b: crush_structure.side_code and face_normal_angle in its frame."""
+def _struck_face(A, rc, M, sh, box):
+    """The struck face (crush_structure.face_code) of the point M on a body of rotation A, shape centre rc, shape
+    row sh (half length, width, height first): a tilted vehicle's roof or underbody too, a barrier box (box True)
+    one of its four upright faces."""
     xl = A[0, 0] * (M[0] - rc[0]) + A[1, 0] * (M[1] - rc[1]) + A[2, 0] * (M[2] - rc[2])
     yl = A[0, 1] * (M[0] - rc[0]) + A[1, 1] * (M[1] - rc[1]) + A[2, 1] * (M[2] - rc[2])
-    return side_code(xl, yl, a, b), face_normal_angle(xl, yl, a, b)
+    zl = A[0, 2] * (M[0] - rc[0]) + A[1, 2] * (M[1] - rc[1]) + A[2, 2] * (M[2] - rc[2])
+    return face_code(xl, yl, zl, sh[0], sh[1], 0.0 if box else sh[2])
 
 
 @njit(cache=True)
@@ -437,9 +438,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             # (a crushed pair keeps them while its shapes still overlap: the crushed zones are still the ones in
             # touch; re-chosen once the shapes have separated, g >= 0)
             if PST[p, S_ACT] == 0.0 and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
-                si, fi = _struck_face(A1, rc1, M, sh1[0], sh1[1])
-                sj, fj = _struck_face(A2, rc2, M, sh2[0], sh2[1])
-                sj = sj if k2 == 0 else 0
+                fi = _struck_face(A1, rc1, M, sh1, False)
+                fj = _struck_face(A2, rc2, M, sh2, k2 == 1)
+                si, sj = fi, fj if k2 == 0 else 0
                 if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
                         or fj != PST[p, S_FACE_J]:
                     PST[p, S_CMAX] = 0.0
@@ -487,8 +488,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             psg[p, G_CRUSH] = crush
         elif PST[p, S_ACT] == 0.0 and g < 0.0:  # the struck sides at the first touch, which share the episode's
             # energy in its impact rows (§21)
-            PST[p, S_SIDE_I] = _struck_face(A1, rc1, M, sh1[0], sh1[1])[0]
-            PST[p, S_SIDE_J] = _struck_face(A2, rc2, M, sh2[0], sh2[1])[0] if k2 == 0 else 0
+            PST[p, S_SIDE_I] = _struck_face(A1, rc1, M, sh1, False)
+            PST[p, S_SIDE_J] = _struck_face(A2, rc2, M, sh2, False) if k2 == 0 else 0
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
         a2 = (M[0] - r2[0], M[1] - r2[1], M[2] - r2[2])
         u1 = (v1[0] + om1[1] * a1[2] - om1[2] * a1[1], v1[1] + om1[2] * a1[0] - om1[0] * a1[2],

@@ -54,7 +54,7 @@ from .impact_rows import pair_rows
 # episode records IMP[k]: pair, onset and end time, impulse on i (3), peak normal force, max penetration,
 # energy dissipated (-work), point and normal angle at the peak, velocity changes of i and j (vx, vy, yaw
 # rate), approach velocity at onset, normal velocity at the end, still open at the end of the run, the struck sides
-# of i and j (crush_structure.side_code; 0 for a barrier), whose structures share the energy (§21)
+# of i and j (crush_structure.face_code; 0 for a barrier), whose structures share the energy (§21)
 (I_I, I_J, I_T0, I_T1, I_JX, I_JY, I_JZ, I_PEAK, I_MAXPEN, I_ENERGY, I_PX, I_PY, I_TH, I_DVI, I_DVJ,
  I_DD0, I_DD1, I_OPEN, I_SIDE_I, I_SIDE_J) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21, 22, 23
 N_IMP = 24
@@ -143,7 +143,7 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
 
 def impact_rows(names, mass, imp, compliance, heads=None):
     """Impact table rows (SI; impact_rows.pair_rows: delta-V, EES from the energy split by the struck sides'
-    compliance (nv, 4), impact_rows.struck_compliance, PDOF), one per vehicle per
+    compliance (nv, 6), impact_rows.struck_compliance, PDOF), one per vehicle per
     contact episode (kind "continuous"): t = episode start, dvx, dvy, d_yaw_rate = CG velocity / yaw-rate
     change over the episode, energy = work dissipated by the contact forces over the episode (whole pair), pdof
     from the impulse on the vehicle (heading at the episode start, from heads[v] = (t, heading) records),

@@ -1,10 +1,11 @@
 """What the 3D models' chassis contact (chassis_contact.py) reports after a run: the guard's interpenetration check
 with the contact bodies, the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b), and
-the crushes deeper than the struck face's crush zone (§28 "Crush zone")."""
+the structures the contact used where they do not hold: a tilted vehicle's roof or underbody, a crush deeper than
+the struck face's crush zone (§13a "A tilted body", §28 "Crush zone")."""
 from __future__ import annotations
 
 from crashlab.restitution import range_warning
-from crashlab.structure import crush_zone_warning
+from crashlab.structure import TILTED_FACES, crush_zone_warning
 
 from .chassis_contact import G_DEL, P_I, P_J, S_CMAX, S_VCLOSE
 
@@ -35,9 +36,11 @@ def speed_law_warnings(PST) -> list:
     return out
 
 
-def crush_zone_warnings(scene, rows) -> list:
-    """The warning (crashlab.structure.crush_zone_warning) for each vehicle face whose deepest crush in the impact
-    rows (their "crush", the vehicle's share of the pair's) lies beyond its crush zone."""
+def structure_warnings(scene, rows) -> list:
+    """What the impact rows say of the structures the contact used: each tilted vehicle's roof or underbody
+    struck, which no CRASH3 structure describes (its side structure is used; §13a "A tilted body"), and each
+    vehicle face whose deepest crush (the rows' "crush", the vehicle's share of the pair's) lies beyond its crush
+    zone (crashlab.structure.crush_zone_warning, §28)."""
     deepest: dict = {}
     for r in rows:
         key = (r["vehicle"], r["side"])
@@ -45,6 +48,10 @@ def crush_zone_warnings(scene, rows) -> list:
     specs = {vs.name: vs.spec for vs in scene.vehicles}
     out = []
     for (name, face), crush in deepest.items():
+        if face in TILTED_FACES:
+            out.append(f"{name} was struck on its {face} (the vehicle tilted): no CRASH3 structure describes a "
+                       f"{face}, so the contact and the energy split took its side structure (docs/physics.md §13a "
+                       f"\"A tilted body\")")
         why = crush_zone_warning(name, specs[name], face, crush)
         if why:
             out.append(why)

@@ -75,34 +75,57 @@ def side_code(x, y, a, b):
 
 
 @njit(cache=True)
+def face_code(x, y, z, a, b, c):
+    """Struck face of a point (x, y, z) in the chassis frame relative to the shape centre, a, b, c the half length,
+    width and height: side_code's four faces, or 4 the roof (z >= 0), 5 the underbody where the point is nearer to
+    those in proportion (crashlab.structure.IMPACT_FACES; a tilted body, docs/physics.md §13a "A tilted body");
+    c <= 0: the plan's four faces only (a barrier)."""
+    if c > 0.0 and abs(z) * a >= abs(x) * c and abs(z) * b >= abs(y) * c:
+        return 4 if z >= 0.0 else 5
+    return side_code(x, y, a, b)
+
+
+@njit(cache=True)
 def structure_slot(code):
-    """The structure of a struck face (side_code): 0 front, 1 rear, 2 side for either flank (the rows of
-    structure_row, crashlab.structure.FACE_STRUCTURE)."""
+    """The structure of a struck face (face_code): 0 front, 1 rear, 2 side for either flank, and for the roof and
+    the underbody, which have no CRASH3 structure (docs/physics.md §13a "A tilted body"; the rows of structure_row,
+    crashlab.structure.FACE_STRUCTURE)."""
     return code if code < 2 else 2
 
 
 @njit(cache=True)
-def face_normal_angle(x, y, a, b):
-    """Outward normal angle, in the body frame, of the bounding-box face nearest in proportion to the point (x, y)
-    (side_code's rule): 0 front (+x), pi rear, pi/2 left side (+y), -pi/2 right side."""
-    if abs(x) * b >= abs(y) * a:
-        return 0.0 if x >= 0.0 else math.pi
-    return 0.5 * math.pi if y >= 0.0 else -0.5 * math.pi
+def face_normal(code):
+    """Outward unit normal, in the body frame, of a struck face (face_code): front +x, rear -x, left +y, right -y,
+    roof +z, underbody -z."""
+    if code == 0:
+        return 1.0, 0.0, 0.0
+    if code == 1:
+        return -1.0, 0.0, 0.0
+    if code == 2:
+        return 0.0, 1.0, 0.0
+    if code == 3:
+        return 0.0, -1.0, 0.0
+    if code == 4:
+        return 0.0, 0.0, 1.0
+    return 0.0, 0.0, -1.0
 
 
 @njit(cache=True)
 def engagement_normal(fi, fj, A1, A2, barrier):
     """The plan contact normal (from i towards j) of an engaged crush (docs/physics.md §13a): the bisector of the
-    struck faces' outward normals n_i and -n_j, each turned with its body (face angles fi, fj in the body frames,
-    rotations A1, A2); against a barrier (rigid: it does not crush) its face's normal alone. Returns (e0, e1, ok);
-    ok False where two vehicles' faces do not face each other (n_i . n_j >= 0)."""
-    c, s = math.cos(fj), math.sin(fj)
-    nj0, nj1 = A2[0, 0] * c + A2[0, 1] * s, A2[1, 0] * c + A2[1, 1] * s
+    plan components of the struck faces' outward normals n_i and -n_j, each turned with its body (face codes fi,
+    fj, face_code; rotations A1, A2); against a barrier (rigid: it does not crush) its face's normal alone. Returns
+    (e0, e1, ok); ok False where two vehicles' faces do not face each other (n_i . n_j >= 0) or the normals have
+    no plan direction."""
+    x, y, z = face_normal(int(fj))
+    nj0 = A2[0, 0] * x + A2[0, 1] * y + A2[0, 2] * z
+    nj1 = A2[1, 0] * x + A2[1, 1] * y + A2[1, 2] * z
     if barrier:
         e0, e1 = -nj0, -nj1
     else:
-        c, s = math.cos(fi), math.sin(fi)
-        ni0, ni1 = A1[0, 0] * c + A1[0, 1] * s, A1[1, 0] * c + A1[1, 1] * s
+        x, y, z = face_normal(int(fi))
+        ni0 = A1[0, 0] * x + A1[0, 1] * y + A1[0, 2] * z
+        ni1 = A1[1, 0] * x + A1[1, 1] * y + A1[1, 2] * z
         if ni0 * nj0 + ni1 * nj1 >= 0.0:
             return 0.0, 0.0, False
         e0, e1 = ni0 - nj0, ni1 - nj1

@@ -169,7 +169,7 @@ class Records:
                               struck_compliance(vs.spec for vs in self.scene.vehicles), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
-        warnings += contact_report.crush_zone_warnings(self.scene, rows)
+        warnings += contact_report.structure_warnings(self.scene, rows)
         if self.n_unsettled:
             ok = False
             warnings.append(f"the contact loads did not settle at the shortest step ({o['min_step']:g} s) in "

@@ -109,7 +109,7 @@ def _warnings(pop, scene, fs, P, cfg, imp, diag) -> None:
 
 def population_of(model, names, rest, final, contact, imp, diag, compliance) -> Population:
     """The kernel's outputs of n runs as a Population (the columns the Outcome route reads from impact rows,
-    models/common/impact_rows.py: crush energy split by the struck faces' compliance (nv, 4) and booked per struck
+    models/common/impact_rows.py: crush energy split by the struck faces' compliance (nv, 6) and booked per struck
     face, a barrier takes none)."""
     n, nv = rest.shape[0], rest.shape[1]
     pop = Population.empty(n, names, "")
