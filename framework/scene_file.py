@@ -113,8 +113,9 @@ class ImpactFile(_Strict):
         "stops, sticks or reverses; energetic restitution)")
     force_law: Literal["hertz", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier",
                        "exact-restitution"] = Field(
-        default="flores", description="normal contact-force law of the continuous-contact models (multibody, "
-        "exudyn); its damping follows the restitution")
+        default="flores", description="normal contact-force law of the generic chassis contact of multibody "
+        "and exudyn (their contact_law = \"generic\"; the default structure law does not use it); its damping "
+        "follows the restitution")
     friction_law: Literal["coulomb", "threlfall", "ambrosio"] = Field(
         default="ambrosio", description="regularised friction law of the continuous-contact models")
     point: Annotated[tuple[Position, Position] | None, WrapValidator(_point_or_engagement)] = Field(

@@ -92,3 +92,24 @@ def test_the_generic_3d_contact_law_warns_that_it_keeps_a_constant():
     assert 'contact_law = "structure"' in speed_law_setting(Impact(restitution_law="speed"), "generic", None)
     assert speed_law_setting(Impact(restitution=0.9), "structure", "clamped") == "clamped"
     assert speed_law_setting(Impact(restitution=0.9), "generic", "clamped") is None
+
+
+@pytest.mark.parametrize("model", ["multibody", "exudyn"])
+def test_the_generic_law_run_says_only_that_it_keeps_the_constant(model):
+    """A head-on at 50/50 km/h (closing 100 km/h) with contact_law = "generic" and restitution = "speed": the run
+    warns that the constant is kept, and no more: before 2026-11-27 it also said the law was held at its end value
+    e = 0.475 at a closing speed of 0.0 km/h (the generic law never sets the pair's closing speed), neither of
+    which was so."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).parent))
+    from conftest import build_scene
+
+    from crashlab.registry import get_model
+    sc = build_scene([{"vehicle": "saloon", "speed": 50.0},
+                      {"vehicle": "saloon", "x": 5.2, "heading": 180.0, "speed": 50.0}],
+                     impact={"restitution": "speed"}, duration=1.0)
+    out = get_model(model, contact_law="generic").simulate(sc)
+    assert out.outcome_ok
+    law = [w for w in out.warnings if "restitution" in w]
+    assert len(law) == 1 and 'needs contact_law = "structure"' in law[0], out.warnings

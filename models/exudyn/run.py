@@ -77,8 +77,8 @@ class ExudynRun(StepLoads, DriverLoads, Records):
         self.claw = float(C.CONTACT_LAWS.index(opts["contact_law"]))
         self.rest, why = clamp_restitution(imp.restitution)
         why = speed_law_setting(imp, opts["contact_law"], why)
-        if imp.restitution_law == SPEED:  # the law at each pair's closing speed (chassis_contact, §13b)
-            self.rest = E_SPEED_LAW
+        if imp.restitution_law == SPEED and opts["contact_law"] == "structure":
+            self.rest = E_SPEED_LAW  # the law at each pair's closing speed (chassis_contact, §13b)
         self.law_warnings = [why] if why else []
         STR = []
         for veh, vs in zip(self.vehs, scene.vehicles):

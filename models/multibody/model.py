@@ -229,8 +229,8 @@ class MultibodyModel(CollisionModel):
         cfg[E.C_LAW] = CONTACT_LAWS.index(self.options.contact_law)
         cfg[E.C_REST], why = clamp_restitution(imp.restitution)
         why = speed_law_setting(imp, self.options.contact_law, why)
-        if imp.restitution_law == SPEED:  # the law at each pair's closing speed (chassis_contact, §13b)
-            cfg[E.C_REST] = E_SPEED_LAW
+        if imp.restitution_law == SPEED and self.options.contact_law == "structure":
+            cfg[E.C_REST] = E_SPEED_LAW  # the law at each pair's closing speed (chassis_contact, §13b)
         STR = []
         for veh, vs in zip(vehs, scene.vehicles):
             row, notes = structure_row(vs.spec)
