@@ -152,6 +152,12 @@ def effective_mass_factor(yaw_inertia: float, mass: float, moment_arm: float) ->
     return k2 / (k2 + moment_arm * moment_arm)
 
 
+# the largest restitution published for vehicle impacts: about 0.5 at the lowest closing speeds (Cipriani et al.
+# 2002, SAE 2002-01-0540: 0.475 at 1 m/s; Howard et al. 1993, SAE 931842: 0.2-0.4 at delta-V 2-5 mph); beyond it the
+# delta-V from a crush energy, which grows as sqrt((1 + e) / (1 - e)), rests on no vehicle data (docs/physics.md §28)
+RESTITUTION_PUBLISHED_MAX = 0.5
+
+
 def pair_delta_v(e_total: float, m1: float, m2: float, gamma1: float = 1.0, gamma2: float = 1.0,
                  restitution: float = 0.0) -> tuple[float, float]:
     """m/s, (dV1, dV2): the CG speed changes of two vehicles whose crush absorbed e_total [J] together, from
@@ -255,8 +261,14 @@ def pair_report(r1: dict, r2: dict, restitution: float = 0.0) -> dict:
     (pair_delta_v with their effective-mass factors), JSON-serialisable."""
     total = r1["energy"] + r2["energy"]
     dv1, dv2 = pair_delta_v(total, r1["mass"], r2["mass"], r1["gamma"], r2["gamma"], restitution)
+    warnings = []
+    if restitution > RESTITUTION_PUBLISHED_MAX:
+        warnings.append(f"restitution {restitution:g} is above the values published for vehicle impacts (at most "
+                        f"about {RESTITUTION_PUBLISHED_MAX:g}, at the lowest speeds): the delta-V, which grows as "
+                        "sqrt((1 + e) / (1 - e)) at a given crush energy, rests on no vehicle data "
+                        "(docs/physics.md §28)")
     return {"vehicles": [r1, r2], "energy_total": total, "restitution": restitution,
-            "delta_v": [dv1, dv2], "delta_v_kmh": [ms_to_kmh(dv1), ms_to_kmh(dv2)]}
+            "delta_v": [dv1, dv2], "delta_v_kmh": [ms_to_kmh(dv1), ms_to_kmh(dv2)], "warnings": warnings}
 
 
 def format_report(rep: dict) -> str:
@@ -266,7 +278,7 @@ def format_report(rep: dict) -> str:
         lines.append(f"both: crush energy {rep['energy_total'] / 1e3:.1f} kJ, restitution {rep['restitution']:g}; "
                      + ", ".join(f"{r['vehicle']} delta-V {dv:.1f} km/h"
                                  for r, dv in zip(rep["vehicles"], rep["delta_v_kmh"])))
-        return "\n".join(lines)
+        return "\n".join(lines + [f"  warning: {w}" for w in rep["warnings"]])
     src = rep["structure_source"]
     src = ("class default" if rep["structure_default"] else "estimate, docs/physics.md §28"
            if src.startswith("estimate") else src if len(src) <= 60 else src[:57] + "...")

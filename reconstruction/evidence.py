@@ -185,8 +185,10 @@ def _damage_item(path, n, e, names, vspec, twin_outcome, rng) -> EvidenceItem:
     bound = ees_is_upper_bound(rep["profile"], e.sigma_crush)
     if bound and max(rep["profile"]) > 0.0:  # (all zero: report's own warning says it)
         rep["warnings"].append(f"mean residual crush {sum(rep['profile']) / len(rep['profile']):.3f} m, within "
-                               f"sigma_crush {e.sigma_crush:g} m of none: the EES is an upper bound, scored one-sided "
-                               "(docs/physics.md §28)")
+                               f"sigma_crush {e.sigma_crush:g} m of none: the measurement cannot tell this crush from "
+                               "none, so the damage is scored one-sided, as the most the impact may have been (a "
+                               "simulated EES above this profile's counts against a run, one below it does not; "
+                               "docs/physics.md §28)")
     detail = (f"CRASH3, {rep['side']} crush {', '.join(f'{c:.3f}' for c in rep['profile'])} m over "
               f"{rep['width']:g} m, A {rep['A'] / 1e3:.1f} kN/m, B {rep['B'] / 1e3:.0f} kN/m^2, PDOF factor "
               f"{rep['pdof_factor']:.2f}; sigma from {e.sigma_crush:g} m per depth and {e.sigma_stiffness:.0%} "

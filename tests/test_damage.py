@@ -430,3 +430,19 @@ def test_the_command_line_answers_bad_profiles_with_one_line(capsys):
                  "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["energy"] > 0
+
+
+def test_a_restitution_above_the_published_values_warns():
+    """e 0.99 turns a crush energy into any delta-V (sqrt((1 + e)/(1 - e)): 14 x that of e = 0): above the published
+    values for vehicles (about 0.5 at most) it warns; 0.5 does not."""
+    spec = load_vehicle("clio")
+    r = damage.report(spec, "front", [0.3, 0.3], 1.5)
+    plain, high = damage.pair_report(r, r, 0.5), damage.pair_report(r, r, 0.99)
+    assert plain["warnings"] == [] and len(high["warnings"]) == 1 and "0.99" in high["warnings"][0]
+    assert high["delta_v"][0] / damage.pair_report(r, r, 0.0)["delta_v"][0] == pytest.approx(math.sqrt(1.99 / 0.01))
+    assert "warning: restitution 0.99" in damage.format_report(high)
+
+
+def test_two_vehicles_of_one_model_are_told_apart():
+    out = damage_command.command("clio", "front", "0.3,0.3", 1.5, other="clio:front:0.3,0.3:1.5")
+    assert "(the first) delta-V" in out and "(--with) delta-V" in out

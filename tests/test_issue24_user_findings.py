@@ -81,3 +81,12 @@ def test_a_negative_first_crush_depth_is_one_line_naming_the_key(option):
     after an abbreviation of the option (argparse's allow_abbrev; it gave the usage before 2026-11-27)."""
     res = crashlab("damage", "saloon", "--side", "front", option, "-0.1,0.2", "--width", "1.0")
     assert_one_error_line(res, "command line", "--profile[1]", ["negative"])
+
+
+@pytest.mark.parametrize("argv, key", [
+    (["--with", "clio:front:0.3,0.3:1.5", "--with", "saloon:front:0.3,0.3:1.5"], "--with"),
+    (["--prof", "0.1,0.1"], "--profile")])
+def test_an_option_given_twice_is_one_line_naming_it(argv, key):
+    """The last of two --with (or --profile and --prof) won silently before 2026-11-27: the first vehicle dropped."""
+    res = crashlab("damage", "clio", "--side", "front", "--profile", "0.3,0.3", "--width", "1.5", *argv)
+    assert_one_error_line(res, "command line", key, ["given twice"])

@@ -88,6 +88,8 @@ def command(target: str, side: str, profile: str, width: float, offset: float = 
                       "--with ")
         if is_scene(target):
             rep2["vehicle"] = f"{name} ({rep2['vehicle']})"
+        elif rep2["vehicle"] == rep["vehicle"]:  # two of one model: told apart by where they were given
+            rep["vehicle"], rep2["vehicle"] = f"{rep['vehicle']} (the first)", f"{rep2['vehicle']} (--with)"
         if not (isinstance(restitution, (int, float)) and 0.0 <= restitution < 1.0):
             raise InputError("command line", "--restitution", f"in [0, 1), got {restitution!r}")
         rep = pair_report(rep, rep2, restitution)

@@ -1,5 +1,4 @@
-"""Command line: crashlab models | vehicles | simulate | compare | reconstruct | infer | avoid | study | bench |
-stress | schema
+"""Command line: crashlab COMMAND, each command below with its --help.
 
 Bad input exits with status 2 and one line naming the file, the key and the problem; a simulation that
 failed (the model's own failure or a physics-guard violation) exits with status 3 and one line; a
@@ -32,10 +31,31 @@ class HelpFormatter(argparse.HelpFormatter):
         return text + " (default: %(default)s)"
 
 
+class _StoreOnce(argparse._StoreAction):
+    """argparse's store, refusing an option given twice: the last one won silently (a second --with dropped the
+    first vehicle). The options given are marked in the namespace (GIVEN), which parse_args takes out again."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = namespace.__dict__.setdefault(GIVEN, set())
+        if option_string is not None and self.dest in given:
+            parser.error(f"argument {'/'.join(self.option_strings)}: given twice; give it once")
+        given.add(self.dest)
+        super().__call__(parser, namespace, values, option_string)
+
+
+GIVEN = "_options_given"
+
+
 class OneLineParser(argparse.ArgumentParser):
     """An argument parser whose errors are the project's one line (crashlab.errors): "crashlab: error: command
-    line: KEY: problem (PROG --help)", exit 2, instead of argparse's usage and message; --help is unchanged.
-    Its subcommands' parsers are of this class too (argparse makes them with the parent's class)."""
+    line: KEY: problem (PROG --help)", exit 2, instead of argparse's usage and message; --help is unchanged; an
+    option given twice is refused (_StoreOnce, every plain option's action). Its subcommands' parsers are of this
+    class too (argparse makes them with the parent's class)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
 
     def error(self, message):
         key, problem = _key_and_problem(" ".join(str(message).split()))
@@ -46,6 +66,7 @@ class OneLineParser(argparse.ArgumentParser):
         """argparse's parse_args, with the unknown arguments refused by the parser of their command (its
         --help lists the options they are not)."""
         args, extra = self.parse_known_args(args, namespace)
+        vars(args).pop(GIVEN, None)
         if extra:
             command = getattr(args, "command", None)
             sub = _subparsers(self).get(command, self)
