@@ -10,6 +10,8 @@ the row of the episode has V1's delta-V = v0, and m1 dv1 + m2 dv2 = 0.
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -154,3 +156,18 @@ def test_mass_override_sets_the_delta_v_split(model, make_scene):
     assert imp["V1"] / imp["V2"] == pytest.approx(suv / 700.0, rel=0.10)
     first = out.impacts[out.impacts.t == out.impacts.t.min()].set_index("vehicle")
     assert first.at["V1", "delta_v"] / first.at["V2", "delta_v"] == pytest.approx(suv / 700.0, rel=1e-9)
+
+
+def test_a_push_says_that_its_row_is_the_push_s(model, make_scene, pc_crash_dir):
+    """The collinear push (v_c / a = 1.6 s of contact): its row's delta-V is V1's whole 30 km/h, the push's, not
+    the collision's (m2 / (m1 + m2) of it, 12 km/h, at e = 0): the run says so, with the duration and both
+    delta-Vs (a saloon at 30 km/h into a standing car's side reported the struck car's delta-V as 44.9 km/h, its
+    momentum's 20, without a word before 2026-11-27); a single impact says nothing of it."""
+    out = model.simulate(_push_scene(make_scene))
+    vc, a = 1500.0 * 30.0 * KMH / 2500.0, 0.8 * G * 1000.0 / 2500.0
+    (why,) = [w for w in out.warnings if "pushing" in w]
+    assert float(re.search(r"stayed in contact ([\d.]+) s", why)[1]) == pytest.approx(vc / a, rel=0.03)
+    assert float(re.search(r"V1 ([\d.]+) km/h", why)[1]) == pytest.approx(30.0, rel=0.01)
+    assert "not the collision's" in why
+    side = model.simulate(load_scene(pc_crash_dir / "side.toml"))
+    assert not [w for w in side.warnings if "pushing" in w]
