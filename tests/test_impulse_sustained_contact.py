@@ -10,13 +10,12 @@ the row of the episode has V1's delta-V = v0, and m1 dv1 + m2 dv2 = 0.
 """
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import pytest
 
 import crashlab
 from crashlab.geometry import penetration
+from crashlab.models.impulse.layout import PUSH_TIME
 from crashlab.scene import barrier_outline, vehicle_outline
 from crashlab.scene_file import load_scene
 from crashlab.units import G
@@ -67,28 +66,36 @@ def test_collinear_push_matches_the_analytic_push(model, make_scene, m1, m2):
     s1, s2 = scene.vehicles[0].spec, scene.vehicles[1].spec
     gap = out.rest_si[1, 0] - out.rest_si[0, 0] - (s1.cg_to_front + s2.cg_to_rear)
     assert abs(gap) < 0.01
-    # one contact episode: one row per vehicle, V1's summed delta-V is all of its speed
-    imp = out.impacts.set_index("vehicle")
-    assert len(imp) == 2
-    assert imp.at["V1", "delta_v"] == pytest.approx(30.0, rel=0.01)
-    assert m1 * imp.at["V1", "dvx"] + m2 * imp.at["V2", "dvx"] == pytest.approx(0.0, abs=1e-9 * m1 * 30.0)
-    assert imp.at["V1", "kind"] == "full"
-    # the episode lasts the push, v_c / a; reported as a contact interval
+    # one contact episode: the impact's row (its impulses up to PUSH_TIME after it) and the push's, per vehicle;
+    # V1's delta-V summed over both is all of its speed; each row balances momentum
+    imp = out.impacts
+    assert list(imp["kind"]) == ["full", "full", "push", "push"] and list(imp["vehicle"]) == ["V1", "V2"] * 2
+    assert imp["dvx"][imp["vehicle"] == "V1"].sum() == pytest.approx(-30.0, rel=0.01)
+    for k in (0, 2):
+        assert m1 * imp["dvx"][k] + m2 * imp["dvx"][k + 1] == pytest.approx(0.0, abs=1e-9 * m1 * 30.0)
+    # the impact's row: the common speed v_c, then the impulses that keep V2 (braked by mu g, the pair by a) with
+    # V1 until PUSH_TIME (the follow-ups of the first 0.3 s: a collision's pulse)
+    t_imp = out.impact_rows[0]["t"]
+    span = out.impact_rows[0]["t_end"] - t_imp
+    assert PUSH_TIME - 0.01 < span <= PUSH_TIME and out.impact_rows[2]["t"] > t_imp + PUSH_TIME
+    assert imp["dvx"][1] == pytest.approx((vc + (mu * G - a) * span) / KMH, rel=0.02)
+    # the episode lasts the push, v_c / a; reported as one contact interval
     (t0, t1), = out.contact_intervals
-    assert t0 == pytest.approx(imp.at["V1", "t"])
+    assert t0 == pytest.approx(t_imp)
     assert t1 - t0 == pytest.approx(vc / a, rel=0.03)
     assert np.all(out.final_si == 0.0)
 
 
 def test_intersection_crash_has_real_impacts_only(model, pc_crash_dir):
     """The side collision with the striker rolling on (wheels free) into a standing car: it pushes V2
-    sideways for a while. Before: 20 impacts (40 rows) of 0.3 km/h, then the contact was ignored."""
+    sideways for a while. Before: 20 impacts (40 rows) of 0.3 km/h, then the contact was ignored. The push
+    beyond PUSH_TIME has rows of its own (kind "push"), within its impact's contact interval."""
     scene = load_scene(pc_crash_dir / "side.toml")
     scene = scene.with_vehicle("V1", wheels="rolling").with_vehicle("V2", speed=0.0, wheels="rolling")
     out = model.simulate(scene)
     assert out.outcome_ok, out.warnings
-    imp = out.impacts
-    assert len(imp) <= 4, imp
+    imp = out.impacts[out.impacts.kind != "push"]
+    assert len(imp) <= 4 and len(out.impacts) - len(imp) <= 4, out.impacts
     assert (imp.delta_v > 1.0).all(), imp
     assert _end_overlap(scene, out) < 0.05
     assert out.contact_intervals is not None and len(out.contact_intervals) == len(imp) // 2
@@ -156,18 +163,3 @@ def test_mass_override_sets_the_delta_v_split(model, make_scene):
     assert imp["V1"] / imp["V2"] == pytest.approx(suv / 700.0, rel=0.10)
     first = out.impacts[out.impacts.t == out.impacts.t.min()].set_index("vehicle")
     assert first.at["V1", "delta_v"] / first.at["V2", "delta_v"] == pytest.approx(suv / 700.0, rel=1e-9)
-
-
-def test_a_push_says_that_its_row_is_the_push_s(model, make_scene, pc_crash_dir):
-    """The collinear push (v_c / a = 1.6 s of contact): its row's delta-V is V1's whole 30 km/h, the push's, not
-    the collision's (m2 / (m1 + m2) of it, 12 km/h, at e = 0): the run says so, with the duration and both
-    delta-Vs (a saloon at 30 km/h into a standing car's side reported the struck car's delta-V as 44.9 km/h, its
-    momentum's 20, without a word before 2026-11-27); a single impact says nothing of it."""
-    out = model.simulate(_push_scene(make_scene))
-    vc, a = 1500.0 * 30.0 * KMH / 2500.0, 0.8 * G * 1000.0 / 2500.0
-    (why,) = [w for w in out.warnings if "pushing" in w]
-    assert float(re.search(r"stayed in contact ([\d.]+) s", why)[1]) == pytest.approx(vc / a, rel=0.03)
-    assert float(re.search(r"V1 ([\d.]+) km/h", why)[1]) == pytest.approx(30.0, rel=0.01)
-    assert "not the collision's" in why
-    side = model.simulate(load_scene(pc_crash_dir / "side.toml"))
-    assert not [w for w in side.warnings if "pushing" in w]

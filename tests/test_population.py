@@ -256,4 +256,6 @@ def test_a_run_whose_impact_rows_name_no_struck_side_fails_with_the_reason():
     assert list(pop.ok) == [False, False, True]
     assert pop.reason[0].startswith("the model's impact rows of V1, V2 name no struck face")
     assert pop.reason[1].startswith("the model's impact rows of V2 name no struck face")
-    np.testing.assert_array_equal(pop.crush_energy[2], [[400.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 600.0]])
+    # front, rear, left, right, roof, underbody (crashlab.structure.IMPACT_FACES)
+    np.testing.assert_array_equal(pop.crush_energy[2], [[400.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                                                        [0.0, 0.0, 0.0, 600.0, 0.0, 0.0]])

@@ -46,7 +46,7 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
     per side s (0: i, 1: j; side 1 is not read for a barrier): dv[s] = (dvx, dvy, d_yaw_rate) [m/s, rad/s],
     push[s] = (fx, fy) the impulse or summed contact force on that vehicle (global; only its direction is
     used, for the PDOF), heading[s] [rad] the heading the PDOF is measured from; point = (x, y) [m],
-    plane [rad] the contact plane; kind: "full", "sliding", "reversed" or "continuous"; sides = (s_i, s_j) the
+    plane [rad] the contact plane; kind: "full", "sliding", "reversed", "push" or "continuous"; sides = (s_i, s_j) the
     struck face codes of i and j (crush_structure.face_code: 0 front, 1 rear, 2 left, 3 right, 4 roof, 5 underbody
     (a tilted vehicle in a 3D model); s_j not read for a
     barrier); compliance: the vehicles' (nv, 6) crush compliance table (struck_compliance); crush [m]: the pair's

@@ -24,9 +24,14 @@ from .layout import (
     D_MAX_DEPTH,
     D_NARROW,
     D_PROJECTED,
+    I_CLOSING,
     I_ENGAGE,
     I_ENGAGE_RATIO,
+    I_KIND,
+    I_REVERSED,
     I_T,
+    PUSH,
+    PUSH_TIME,
     STATUS_NOT_APPROACHING,
     STATUS_OK,
 )
@@ -204,9 +209,10 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
     impact table (its point: the middle of the contact zone the approach will crush, or with [impact] point =
     "engagement" the overlap's centroid at engagement with its contact plane); a pair in an open episode that
     approaches gets a plastic contact impulse at the overlap's fastest approaching point, booked into the episode's
-    row. Several contacts at once (a car squeezed between a car and a wall) are resolved together by sweeps of
-    sequential impulses (projected Gauss-Seidel): after the first sweep a pair is approaching again only through its
-    neighbours' impulses of this instant, so its further impulses are plastic and booked into its row. Returns
+    row; later than PUSH_TIME after the impact, into a push row of its own (layout.PUSH, §5). Several contacts at
+    once (a car squeezed between a car and a wall) are resolved together by sweeps of sequential impulses
+    (projected Gauss-Seidel): after the first sweep a pair is approaching again only through its neighbours'
+    impulses of this instant, so its further impulses are plastic and booked into its row. Returns
     (n_imp, capped: the impact table is full, woke: a sleeping vehicle was struck)."""
     nv = P.shape[0]
     e, mu_imp, law, max_imp = cfg.restitution, cfg.impact_friction, cfg.law, min(cfg.max_impacts, imp.shape[0])
@@ -224,10 +230,12 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
             if approach <= V_EPS:
                 continue
             is_impact = row < 0
+            # the contact outlasts a collision's pulse: from here on the episode is a push, in its own row (§5)
+            push = not is_impact and imp[row, I_KIND] != PUSH and t - imp[row, I_T] > PUSH_TIME
+            if (is_impact or push) and n_imp >= max_imp:
+                stop = True
+                break
             if is_impact:
-                if n_imp >= max_imp:
-                    stop = True
-                    break
                 zx, e_flag, e_ratio = math.nan, 0, math.nan
                 if cfg.engagement:
                     zx, zy, nx, ny, e_flag, e_ratio = _engagement(P, S, B, i, k, nv, cfg.engagement_depth, nx, ny,
@@ -251,6 +259,12 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
                 imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
                 episode[i, k] = n_imp
                 n_imp += 1
+            elif push:
+                _record_impact(imp, n_imp, t, i, k, nv, P, S_before, S, pn, pt, PUSH, energy, px, py, nx, ny)
+                imp[n_imp, I_REVERSED], imp[n_imp, I_CLOSING] = 0.0, math.nan
+                episode[i, k] = n_imp
+                n_imp += 1
+                diag[D_FOLLOW] += 1
             else:
                 _merge_impact(imp, row, t, i, k, nv, S_before, S, pn, pt, energy, nx, ny)
                 diag[D_FOLLOW] += 1

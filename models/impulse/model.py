@@ -25,7 +25,7 @@ from .population import simulate_variants
 from .run_warnings import run_warnings
 
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH, "routh": ROUTH}
-KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed"}
+KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed", L.PUSH: "push"}
 STATUS_TEXT = {L.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
                L.STATUS_NAN: "the state became NaN",
                L.STATUS_STEP_LIMIT: "step limit reached (the time step collapsed)"}
@@ -94,7 +94,8 @@ class ImpulseModel(CollisionModel):
         approaches: Moreau's velocity-level non-penetration (Moreau 1988; Stewart & Trinkle 1996),
         normal approach stopped, friction Coulomb-limited (sticking, or sliding at mu_imp). They are
         booked into the episode's row (summed delta-V, yaw-rate change and energy; kind, point and plane
-        stay the impact's); `contact_intervals` gives each episode's first and last impulse.
+        stay the impact's), those later than layout.PUSH_TIME after the impact into a row of kind "push"
+        (one car pushing the other); `contact_intervals` gives each episode's first and last impulse.
     Why 5 cm and plastic: a pair that parts by less than that has not left its crash, its crush zones
     (tens of cm deep at crash speeds: 0.5 m at 50 km/h with crush_time) are still engaged, so a
     re-approach is the same crash pulse, not a new impact with its own rebound; a new impact needs a
@@ -238,7 +239,7 @@ class ImpulseModel(CollisionModel):
         imp = imp[:n_imp].copy()
         rows = functools.partial(_impact_rows, names, P[:, P_MASS].copy(), imp,
                                  tuple(v.spec for v in scene.vehicles))
-        intervals = list(zip(imp[:, L.I_T].tolist(), imp[:, L.I_T_END].tolist()))
+        intervals = _episode_intervals(imp)
         d = diag.tolist()
         # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps; built
         # directly, not from a dict (a batch builds thousands)
@@ -256,10 +257,25 @@ class ImpulseModel(CollisionModel):
                        diagnostics, warnings, ok, self.name, wall, contact_intervals=intervals,
                        impact_energy=imp[:, L.I_ENERGY].copy())
 
+def _episode_intervals(imp) -> list[tuple[float, float]]:
+    """(first, last impulse) [s] of each contact episode: an impact's row, through its push row if it has one (§5)."""
+    out, last = [], {}
+    for r in imp.tolist():
+        pair = (r[L.I_I], r[L.I_J])
+        if r[L.I_KIND] == L.PUSH and pair in last:
+            k = last[pair]
+            out[k] = (out[k][0], r[L.I_T_END])
+        else:
+            last[pair] = len(out)
+            out.append((r[L.I_T], r[L.I_T_END]))
+    return out
+
+
 def _impact_rows(names, mass, imp, specs):
     """Impact table rows (SI), one per vehicle per impact; an impact's row holds the sums over its contact
     episode (the impact and its follow-up contact impulses, `contact_impulses` of them, the last at
-    `t_end`); kind, point and plane are the impact's; the energy shared by the struck sides' structures (the
+    `t_end`), up to layout.PUSH_TIME after the impact, the rest of a longer episode in a row of kind "push"
+    (§5); kind, point and plane are the impact's; the energy shared by the struck sides' structures (the
     vehicles' specs, impact_rows.struck_compliance)."""
     compliance = struck_compliance(specs)
     rows = []

@@ -101,7 +101,9 @@ def _warnings(pop, scene, fs, P, cfg, imp, diag) -> None:
         closing = np.abs(recs[..., L.I_CLOSING])
         held = (valid & ((closing < V_MIN) | (closing > V_MAX))).any(1)
         for k in np.flatnonzero(pop.ok & held & ~other):
-            pop.warnings[k] = "\n".join(filter(None, map(range_warning, recs[k, :n_imp[k], L.I_CLOSING].tolist())))
+            rows = recs[k, :n_imp[k]]
+            pop.warnings[k] = "\n".join(filter(None, map(range_warning, rows[rows[:, L.I_KIND] != L.PUSH,
+                                                                              L.I_CLOSING].tolist())))
     for k in np.flatnonzero(pop.ok & other):
         pop.warnings[k] = "\n".join(run_warnings(scene, scene.vehicle_names, P[k, :, P_MASS], imp[k, :n_imp[k]],
                                                   speed_law, float(cfg["engagement_depth"][k])))

@@ -27,36 +27,9 @@ def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
         depth = scene.impact.engagement_depth if engagement_depth is None else engagement_depth
         warnings += _engagement_warnings(names, imp, depth)
     if scene.impact.restitution_law == SPEED if speed_law is None else speed_law:
-        warnings += [w for w in map(range_warning, imp[:, L.I_CLOSING].tolist()) if w]
-    warnings += _push_warnings(names, imp)
+        impacts = imp[imp[:, L.I_KIND] != L.PUSH]  # (a push row has no closing speed)
+        warnings += [w for w in map(range_warning, impacts[:, L.I_CLOSING].tolist()) if w]
     return warnings
-
-
-# s: a contact longer than this after its impact is a push, not the collision's pulse (crash pulses last about
-# 0.1-0.2 s: NHTSA 10146's maximum crush at 74 ms; docs/physics.md §5)
-PUSH_TIME = 0.3
-
-
-def _push_warnings(names, imp):
-    """A warning per impact whose pair stayed in contact longer than PUSH_TIME after it (one car pushing the other):
-    its row sums the push's plastic contact impulses into the delta-V and the energy (§5), which then are not the
-    collision's."""
-    out = []
-    nv = len(names)
-    for n, r in enumerate(imp):
-        if r[L.I_N_FOLLOW] < 1 or r[L.I_T_END] - r[L.I_T] <= PUSH_TIME:
-            continue
-        i, j = int(r[L.I_I]), int(r[L.I_J])
-        dv = [(names[i], math.hypot(r[L.I_DVX_I], r[L.I_DVY_I]))]
-        if j < nv:
-            dv.append((names[j], math.hypot(r[L.I_DVX_J], r[L.I_DVY_J])))
-        other = names[j] if j < nv else barrier_name(j - nv)
-        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the pair stayed in contact "
-                   f"{r[L.I_T_END] - r[L.I_T]:.2f} s (one pushing the other; a collision's pulse lasts about "
-                   f"0.1-0.2 s), and the impact's row sums the push's {int(r[L.I_N_FOLLOW])} contact impulses: its "
-                   f"delta-V ({', '.join(f'{q} {ms_to_kmh(v):.1f} km/h' for q, v in dv)}) and energy are the "
-                   f"contact's over the push, not the collision's (docs/physics.md §5)")
-    return out
 
 
 def _slip_warnings(names, mass, imp, law):
