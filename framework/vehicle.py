@@ -19,7 +19,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .errors import InputError
 from .file_numbers import Real, bounded
 from .input_files import pydantic_error, read_toml
-from .structure import NO_DAMAGE_SPEED_MAX, STRUCTURE_SIDES, StructureSection, structure_of
+from .structure import (
+    CRUSH_56_RANGE,
+    CRUSH_56_SPEED,
+    NO_DAMAGE_SPEED_MAX,
+    STRUCTURE_SIDES,
+    StructureSection,
+    structure_of,
+)
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
@@ -156,6 +163,27 @@ class VehicleFile(BaseModel):
 
 
 
+def crush_56(A: float, B: float, w: float, mass: float) -> float:
+    """m, the full-width residual crush of a 56 km/h rigid-barrier impact (CRUSH_56_SPEED) that a side of CRASH3
+    stiffness A [N/m], B [N/m^2] over the width w [m] implies for a vehicle of `mass` [kg]: Campbell's crash plot
+    EBS = b0 + b1 C with b0 = sqrt(2 G w / m), b1 = sqrt(B w / m) (docs/physics.md §28), C56 = (15.6 - b0) / b1."""
+    b0, b1 = math.sqrt(A * A / B * w / mass), math.sqrt(B * w / mass)
+    return (CRUSH_56_SPEED - b0) / b1
+
+
+def crush_56_problem(A: float, B: float, w: float, mass: float) -> str | None:
+    """Why a side's A, B over w at `mass` is no vehicle structure (its C56 outside CRUSH_56_RANGE), else None."""
+    c56, (lo, hi) = crush_56(A, B, w, mass), CRUSH_56_RANGE
+    if lo <= c56 <= hi:
+        return None
+    hint = "B too small for the mass, or not in N/m^2?" if c56 > hi else "B too large for the mass?"
+    return (f"A = {A:g} N/m and B = {B:g} N/m^2 over the side's {w:g} m at {mass:g} kg give a residual crush of "
+            f"{c56:.3g} m at a 56 km/h full-width rigid-barrier impact (C56 = ({CRUSH_56_SPEED:g} m/s - b0) / b1, "
+            f"b0 = sqrt(2 G w / m) = {math.sqrt(A * A / B * w / mass):.3g} m/s, b1 = sqrt(B w / m) = "
+            f"{math.sqrt(B * w / mass):.3g} 1/s; docs/physics.md §28): outside {lo:g}-{hi:g} m is no vehicle "
+            f"structure ({hint})")
+
+
 def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
     """Bounds that join several fields: (the fields involved, the problem), first the first one checked."""
     out = []
@@ -168,7 +196,7 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
         out.append((("cg_to_front_axle", "wheelbase", "cg_to_front", "length"),
                     "the axles must lie inside the outline (cg_to_front_axle < cg_to_front and "
                     "wheelbase - cg_to_front_axle < length - cg_to_front)"))
-    section = getattr(v, "structure", None)
+    section, late = getattr(v, "structure", None), []
     for side in STRUCTURE_SIDES if isinstance(section, StructureSection) else ():
         given = getattr(section, side)
         limit, name = (v.length, "length") if side == "side" else (v.width, "width")
@@ -185,6 +213,10 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                             f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg (the speed "
                             f"whose energy the side absorbs without residual crush): more than "
                             f"{NO_DAMAGE_SPEED_MAX:g} m/s is no vehicle structure (B too small for A?)"))
+            else:  # after the other bounds: a mass or inertia they name is the likelier slip (e.g. 60 t on a car)
+                problem = crush_56_problem(given.A, given.B, given.width or limit, v.mass)
+                if problem:
+                    late.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"), problem))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
     if v.cg_height >= v.height:
@@ -199,7 +231,7 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                         f"{key} {getattr(v, key):g} kg m^2 with mass {v.mass:g} kg: radius of gyration "
                         f"sqrt(I/m) = {k:.3g} m lies outside {lo:g}-{hi:g} x the diagonal of {da} and {db} "
                         f"({diag:.3g} m) (an inertia in other units, or not scaled with an overridden mass?)"))
-    return out
+    return out + late
 
 
 def _non_finite(data, path=()):
