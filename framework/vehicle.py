@@ -301,9 +301,53 @@ def _has_key(data: dict, dotted: str) -> bool:
     return True
 
 
+def known_keys() -> list[str]:
+    """The top-level keys of a vehicle file's schema (by name and by alias: `class`)."""
+    fields = VehicleFile.model_fields
+    return sorted(set(fields) | {f.alias for f in fields.values() if f.alias})
+
+
+def _close_key(key: str) -> str | None:
+    import difflib
+    close = difflib.get_close_matches(key, known_keys(), n=1)
+    return close[0] if close else None
+
+
+def _is_table(value) -> bool:
+    """A table ([name]) or an array of tables ([[name]]): what a model's own section may be."""
+    return isinstance(value, dict) or (isinstance(value, list) and bool(value)
+                                       and all(isinstance(v, dict) for v in value))
+
+
+def unknown_key_problem(data: dict) -> tuple[str, str] | None:
+    """(key, problem) of the first top-level key of a vehicle file that its schema does not name and that is no
+    model's own section: a value (`cg_to_frnt = 2.9`, `units = "us"`), or a table whose name is close to a known
+    key (difflib: `[structures.front]`, a typo that silently left the class default); other tables are kept as
+    sections of the models that read them ([multibody] and a third party's own), None if there is none."""
+    known = set(known_keys())
+    for key, value in data.items():
+        if key in known:
+            continue
+        close = _close_key(key)
+        if _is_table(value):
+            if close:
+                return key, (f"unknown key; did you mean {close!r}? (a table of a name of its own is kept for a "
+                             f"model that reads it; one this close to a known key is taken for a typo)")
+            continue
+        if key == "units":  # crashlab.file_units reads a scene's or a study's, not a vehicle file's
+            return key, ("unknown key: a vehicle file is read in SI units (m, kg, N/m; docs/reference.md's unit "
+                         "column); units = \"us\" is read in scene and study files")
+        return key, "unknown key" + (f"; did you mean {close!r}?" if close else "")
+    return None
+
+
 def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None) -> VehicleFile:
     """VehicleFile of `data`, every bad number blamed on `file` under `prefix` (the file itself, or the
-    scene's overrides: then the problem is named by an overridden key where one is involved)."""
+    scene's overrides: then the problem is named by an overridden key where one is involved). The file's own
+    top-level keys are checked first (unknown_key_problem; the overrides' in load_vehicle)."""
+    unknown = unknown_key_problem(data) if overridden is None else None
+    if unknown is not None:
+        raise InputError(file, prefix + unknown[0], unknown[1])
     try:
         spec = VehicleFile.model_validate(data)
     except ValidationError as err:
@@ -357,7 +401,9 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
         known = set(VehicleFile.model_fields) | set(data)
         for key, val in overrides.items():
             if key not in known:
-                raise InputError(scene_file, f"{where}.overrides.{key}", "unknown vehicle key")
+                close = _close_key(key)
+                raise InputError(scene_file, f"{where}.overrides.{key}",
+                                 "unknown vehicle key" + (f"; did you mean {close!r}?" if close else ""))
             if key in data and isinstance(data[key], dict) != isinstance(val, dict):
                 raise InputError(scene_file, f"{where}.overrides.{key}",
                                  "a table is overridden by a table, a value by a value")
