@@ -307,9 +307,17 @@ def known_keys() -> list[str]:
     return sorted(set(fields) | {f.alias for f in fields.values() if f.alias})
 
 
-def _close_key(key: str) -> str | None:
+# difflib's similarity from which an unknown table is taken for a typo of a known key: a letter missed, added or
+# swapped in structure, multibody or sources is 0.89-0.95 (`structures` 0.947, `mulitbody` 0.889); a model's own
+# section of a word of its own stays below (`wheels` 0.80 to wheelbase, `inertia` 0.78, `chassis` 0.67 to class,
+# `body` 0.62 to multibody: the default cutoff 0.6 took them all for typos)
+TABLE_TYPO_CUTOFF = 0.85
+
+
+def _close_key(key: str, cutoff: float = 0.6) -> str | None:
+    """The known top-level key nearest to `key` (difflib, case ignored) with at least `cutoff` similarity."""
     import difflib
-    close = difflib.get_close_matches(key, known_keys(), n=1)
+    close = difflib.get_close_matches(key.lower(), known_keys(), n=1, cutoff=cutoff)
     return close[0] if close else None
 
 
@@ -328,8 +336,8 @@ def unknown_key_problem(data: dict) -> tuple[str, str] | None:
     for key, value in data.items():
         if key in known:
             continue
-        close = _close_key(key)
         if _is_table(value):
+            close = _close_key(key, TABLE_TYPO_CUTOFF)
             if close:
                 return key, (f"unknown key; did you mean {close!r}? (a table of a name of its own is kept for a "
                              f"model that reads it; one this close to a known key is taken for a typo)")
@@ -337,6 +345,7 @@ def unknown_key_problem(data: dict) -> tuple[str, str] | None:
         if key == "units":  # crashlab.file_units reads a scene's or a study's, not a vehicle file's
             return key, ("unknown key: a vehicle file is read in SI units (m, kg, N/m; docs/reference.md's unit "
                          "column); units = \"us\" is read in scene and study files")
+        close = _close_key(key)
         return key, "unknown key" + (f"; did you mean {close!r}?" if close else "")
     return None
 
