@@ -19,7 +19,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .errors import InputError
 from .file_numbers import Real, bounded
 from .input_files import pydantic_error, read_toml
-from .structure import NO_DAMAGE_SPEED_MAX, STRUCTURE_SIDES, StructureSection, structure_of
+from .structure import (
+    CRUSH_56_RANGE,
+    CRUSH_56_SPEED,
+    NO_DAMAGE_SPEED_MAX,
+    STRUCTURE_SIDES,
+    StructureSection,
+    structure_of,
+)
 
 MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articulated truck (EU limit 44 t)
 # radius of gyration sqrt(I/m) about an axis, as a share of the diagonal of the vehicle's box in the plane
@@ -156,6 +163,27 @@ class VehicleFile(BaseModel):
 
 
 
+def crush_56(A: float, B: float, w: float, mass: float) -> float:
+    """m, the full-width residual crush of a 56 km/h rigid-barrier impact (CRUSH_56_SPEED) that a side of CRASH3
+    stiffness A [N/m], B [N/m^2] over the width w [m] implies for a vehicle of `mass` [kg]: Campbell's crash plot
+    EBS = b0 + b1 C with b0 = sqrt(2 G w / m), b1 = sqrt(B w / m) (docs/physics.md §28), C56 = (15.6 - b0) / b1."""
+    b0, b1 = math.sqrt(A * A / B * w / mass), math.sqrt(B * w / mass)
+    return (CRUSH_56_SPEED - b0) / b1
+
+
+def crush_56_problem(A: float, B: float, w: float, mass: float) -> str | None:
+    """Why a side's A, B over w at `mass` is no vehicle structure (its C56 outside CRUSH_56_RANGE), else None."""
+    c56, (lo, hi) = crush_56(A, B, w, mass), CRUSH_56_RANGE
+    if lo <= c56 <= hi:
+        return None
+    hint = "B too small for the mass, or not in N/m^2?" if c56 > hi else "B too large for the mass?"
+    return (f"A = {A:g} N/m and B = {B:g} N/m^2 over the side's {w:g} m at {mass:g} kg give a residual crush of "
+            f"{c56:.3g} m at a 56 km/h full-width rigid-barrier impact (C56 = ({CRUSH_56_SPEED:g} m/s - b0) / b1, "
+            f"b0 = sqrt(2 G w / m) = {math.sqrt(A * A / B * w / mass):.3g} m/s, b1 = sqrt(B w / m) = "
+            f"{math.sqrt(B * w / mass):.3g} 1/s; docs/physics.md §28): outside {lo:g}-{hi:g} m is no vehicle "
+            f"structure ({hint})")
+
+
 def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
     """Bounds that join several fields: (the fields involved, the problem), first the first one checked."""
     out = []
@@ -168,7 +196,7 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
         out.append((("cg_to_front_axle", "wheelbase", "cg_to_front", "length"),
                     "the axles must lie inside the outline (cg_to_front_axle < cg_to_front and "
                     "wheelbase - cg_to_front_axle < length - cg_to_front)"))
-    section = getattr(v, "structure", None)
+    section, late = getattr(v, "structure", None), []
     for side in STRUCTURE_SIDES if isinstance(section, StructureSection) else ():
         given = getattr(section, side)
         limit, name = (v.length, "length") if side == "side" else (v.width, "width")
@@ -185,6 +213,10 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                             f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg (the speed "
                             f"whose energy the side absorbs without residual crush): more than "
                             f"{NO_DAMAGE_SPEED_MAX:g} m/s is no vehicle structure (B too small for A?)"))
+            else:  # after the other bounds: a mass or inertia they name is the likelier slip (e.g. 60 t on a car)
+                problem = crush_56_problem(given.A, given.B, given.width or limit, v.mass)
+                if problem:
+                    late.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"), problem))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
     if v.cg_height >= v.height:
@@ -199,7 +231,7 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                         f"{key} {getattr(v, key):g} kg m^2 with mass {v.mass:g} kg: radius of gyration "
                         f"sqrt(I/m) = {k:.3g} m lies outside {lo:g}-{hi:g} x the diagonal of {da} and {db} "
                         f"({diag:.3g} m) (an inertia in other units, or not scaled with an overridden mass?)"))
-    return out
+    return out + late
 
 
 def _non_finite(data, path=()):
@@ -269,9 +301,62 @@ def _has_key(data: dict, dotted: str) -> bool:
     return True
 
 
+def known_keys() -> list[str]:
+    """The top-level keys of a vehicle file's schema (by name and by alias: `class`)."""
+    fields = VehicleFile.model_fields
+    return sorted(set(fields) | {f.alias for f in fields.values() if f.alias})
+
+
+# difflib's similarity from which an unknown table is taken for a typo of a known key: a letter missed, added or
+# swapped in structure, multibody or sources is 0.89-0.95 (`structures` 0.947, `mulitbody` 0.889); a model's own
+# section of a word of its own stays below (`wheels` 0.80 to wheelbase, `inertia` 0.78, `chassis` 0.67 to class,
+# `body` 0.62 to multibody: the default cutoff 0.6 took them all for typos)
+TABLE_TYPO_CUTOFF = 0.85
+
+
+def _close_key(key: str, cutoff: float = 0.6) -> str | None:
+    """The known top-level key nearest to `key` (difflib, case ignored) with at least `cutoff` similarity."""
+    import difflib
+    close = difflib.get_close_matches(key.lower(), known_keys(), n=1, cutoff=cutoff)
+    return close[0] if close else None
+
+
+def _is_table(value) -> bool:
+    """A table ([name]) or an array of tables ([[name]]): what a model's own section may be."""
+    return isinstance(value, dict) or (isinstance(value, list) and bool(value)
+                                       and all(isinstance(v, dict) for v in value))
+
+
+def unknown_key_problem(data: dict) -> tuple[str, str] | None:
+    """(key, problem) of the first top-level key of a vehicle file that its schema does not name and that is no
+    model's own section: a value (`cg_to_frnt = 2.9`, `units = "us"`), or a table whose name is close to a known
+    key (difflib: `[structures.front]`, a typo that silently left the class default); other tables are kept as
+    sections of the models that read them ([multibody] and a third party's own), None if there is none."""
+    known = set(known_keys())
+    for key, value in data.items():
+        if key in known:
+            continue
+        if _is_table(value):
+            close = _close_key(key, TABLE_TYPO_CUTOFF)
+            if close:
+                return key, (f"unknown key; did you mean {close!r}? (a table of a name of its own is kept for a "
+                             f"model that reads it; one this close to a known key is taken for a typo)")
+            continue
+        if key == "units":  # crashlab.file_units reads a scene's or a study's, not a vehicle file's
+            return key, ("unknown key: a vehicle file is read in SI units (m, kg, N/m; docs/reference.md's unit "
+                         "column); units = \"us\" is read in scene and study files")
+        close = _close_key(key)
+        return key, "unknown key" + (f"; did you mean {close!r}?" if close else "")
+    return None
+
+
 def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None) -> VehicleFile:
     """VehicleFile of `data`, every bad number blamed on `file` under `prefix` (the file itself, or the
-    scene's overrides: then the problem is named by an overridden key where one is involved)."""
+    scene's overrides: then the problem is named by an overridden key where one is involved). The file's own
+    top-level keys are checked first (unknown_key_problem; the overrides' in load_vehicle)."""
+    unknown = unknown_key_problem(data) if overridden is None else None
+    if unknown is not None:
+        raise InputError(file, prefix + unknown[0], unknown[1])
     try:
         spec = VehicleFile.model_validate(data)
     except ValidationError as err:
@@ -325,7 +410,9 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
         known = set(VehicleFile.model_fields) | set(data)
         for key, val in overrides.items():
             if key not in known:
-                raise InputError(scene_file, f"{where}.overrides.{key}", "unknown vehicle key")
+                close = _close_key(key)
+                raise InputError(scene_file, f"{where}.overrides.{key}",
+                                 "unknown vehicle key" + (f"; did you mean {close!r}?" if close else ""))
             if key in data and isinstance(data[key], dict) != isinstance(val, dict):
                 raise InputError(scene_file, f"{where}.overrides.{key}",
                                  "a table is overridden by a table, a value by a value")
