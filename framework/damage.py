@@ -222,6 +222,8 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
                          f"{'CG' if flank else 'centreline'})")
     if pdof is not None:
         pdof = _finite(pdof, prefix + "pdof", where)
+        if not -180.0 <= pdof <= 180.0:  # (as [evidence.damage.V] holds it)
+            raise InputError(where, prefix + "pdof", f"{pdof:g} deg: the PDOF lies in [-180, 180] deg")
     pdof_used = SIDE_NORMAL[side] if pdof is None else pdof
     alpha = pdof_angle(side, pdof_used) + 0.0  # no -0
     factor, warning = pdof_factor(alpha, prefix + "pdof", where)

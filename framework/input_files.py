@@ -117,7 +117,11 @@ def unit_at(schema, loc) -> str:
 def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) -> InputError:
     """The first validation error as one InputError line (file, dotted key, problem); with the file's pydantic
     `schema`, an unknown key gets the nearest known one ("did you mean").)"""
-    first = err.errors()[0]
+    errors = err.errors()
+    first = errors[0]
+    if first["type"] == "missing":  # a misspelt key is both missing and unknown: the unknown one names the typo
+        first = next((e for e in errors if e["type"] == "extra_forbidden" and e["loc"][:-1] == first["loc"][:-1]),
+                     first)
     key = ".".join(str(p) for p in first["loc"]) or "(top level)"
     msg = first["msg"].removeprefix("Value error, ")
     if first["type"] == "extra_forbidden":

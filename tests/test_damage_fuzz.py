@@ -169,6 +169,7 @@ CLI_BAD = [  # (crashlab.cli.damage.command's arguments after `clio --side front
     (dict(profile="0.2,0.2", width=1.5, pdof=-90.0), "--pdof", ["cannot have crushed"]),
     (dict(profile="0.2,0.2", width=1.5, pdof=180.0), "--pdof", ["cannot have crushed"]),
     (dict(profile="0.2,0.2", width=1.5, pdof=math.nan), "--pdof", ["finite"]),
+    (dict(profile="0.2,0.2", width=1.5, pdof=405.0), "--pdof", ["[-180, 180]"]),  # (accepted as 45 before 2026-11-27)
     (dict(profile="0.2,0.2", width=1.5, other="saloon:side:0.2,0.2:1.5", restitution=1.0), "--restitution", []),
     (dict(profile="0.2,0.2", width=1.5, other="saloon:side:0.2,0.2:1.5:0:nan"), "--with pdof", ["finite"]),
     (dict(profile="0.2,0.2", width=1.5, other="saloon:roof:0.2,0.2:1.5"), "--with side", ["unknown side"]),

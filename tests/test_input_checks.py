@@ -281,3 +281,17 @@ def test_a_range_error_gives_the_bound_in_the_keys_unit(tmp_path, capsys, extra,
     f = tmp_path / "s.toml"
     f.write_text(scene_text(extra))
     assert refused(capsys, f, key).endswith(expected)
+
+
+def test_a_misspelt_required_key_is_named_as_the_typo():
+    """`sigma_stiffnes` for the required sigma_stiffness is both an unknown key and a missing one: the one line names
+    the typo with the key meant (before 2026-11-27 it said only "sigma_stiffness: missing key")."""
+    from pydantic import ValidationError
+
+    from crashlab.damage import DamageEvidence
+    from crashlab.input_files import pydantic_error
+    with pytest.raises(ValidationError) as err:
+        DamageEvidence.model_validate({"side": "front", "profile": [0.1, 0.2], "width": 1.5, "sigma_crush": 0.02,
+                                       "sigma_stiffnes": 0.1})
+    text = str(pydantic_error("study.toml", err.value, "evidence.damage.V1.", DamageEvidence))
+    assert "evidence.damage.V1.sigma_stiffnes" in text and "did you mean 'sigma_stiffness'" in text, text
