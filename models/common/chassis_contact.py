@@ -20,9 +20,10 @@ vehicles at different heights apart. The 1D maximisation over th is a golden-sec
 (+-0.15 rad window, re-centred when the optimum hits its edge) from the previous evaluation while a pair
 is in contact (it follows the contact branch), global (72-angle scan + golden refinement) otherwise
 (narrow_phase.horizontal_gap).
-Contact point: the midpoint of the two support points sigma1(d), sigma2(-d) (for a box: of sigma1(d) and
-its projection on the box face). No Newton / SLSQP is needed in the loop (narrow_phase.py stays the
-general 3D tool and its tests).
+Contact point: in plan, the midpoint of the two support points sigma1(d), sigma2(-d) (for a box: of sigma1(d)
+and its projection on the box face); its height the middle of the band where the two bodies' z-ranges overlap
+(§13a "point's height"). No Newton / SLSQP is needed in the loop (narrow_phase.py stays the general 3D tool and
+its tests).
 
 Engagement (structure law, §13a): from the first touch the normal is the bisector of the two struck faces'
 outward normals (crush_structure.engagement_normal; a barrier's face alone), turning with the vehicles, and the
@@ -425,11 +426,14 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         psg[p, G_CRUSH] = -g
         d0, d1 = math.cos(th), math.sin(th)
         P1 = support_global(d0, d1, 0.0, sh1, rc1, A1)
+        # the point's height: the middle of the band where the two bodies' heights overlap (the structures meet
+        # only there; §13a "point's height"), for a barrier too
+        zm = 0.5 * (max(z1a, z2a) + min(z1b, z2b))
         if k2 == 0:
             P2 = support_global(-d0, -d1, 0.0, sh2, rc2, A2)
-            M = (0.5 * (P1[0] + P2[0]), 0.5 * (P1[1] + P2[1]), 0.5 * (P1[2] + P2[2]))
+            M = (0.5 * (P1[0] + P2[0]), 0.5 * (P1[1] + P2[1]), zm)
         else:
-            M = (P1[0] + 0.5 * g * d0, P1[1] + 0.5 * g * d1, P1[2])
+            M = (P1[0] + 0.5 * g * d0, P1[1] + 0.5 * g * d1, zm)
         crush = -g
         gd0, gd1, Mg = d0, d1, M  # the overlap's own normal and point
         if cfg_law == LAW_STRUCTURE:
