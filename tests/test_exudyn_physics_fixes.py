@@ -187,14 +187,22 @@ def test_end_overlap_is_judged_with_the_contact_bodies():
 def test_tumbling_car_is_judged_on_its_full_energy():
     """A car tumbling in free flight trades roll for yaw (angular momentum is kept, its body-axis parts are
     not): its planar energy rose by 53 kJ without contact and the guard failed the run (stress scene 1:5);
-    the model records the nine bodies' full mechanical energy, which does not rise."""
+    the model records the nine bodies' full mechanical energy, which does not rise after the last contact
+    between the cars (0.1 % of it: the integrator's step) and whose sum over the pair falls. (V2's own energy at
+    the end against its start is no test: V1 at 3.7 MJ gives it energy; since the contact point lies in the
+    bodies' shared height, 2026-11-27, V2 ends at rest on its side with 21.7 kJ against its 9.6 kJ at the start,
+    on its roof with 6.7 kJ before.)"""
     from crashlab import simulate
     from crashlab.tools import stress
     scene = stress.random_scenes(15, seed=1)[5]
     out = simulate(scene, model="exudyn")
     assert out.outcome_ok, out.warnings
-    e = out.trajectories["V2"]["energy"]
-    assert e[-1] < e[0]
+    t_last = max(r["t"] + r["duration"] for r in out.impact_rows)
+    tr = out.trajectories["V2"]
+    free = tr["energy"][tr["t"] >= t_last]
+    assert len(free) > 100 and free.max() <= free[0] * (1 + 1e-3) and free[-1] < free[0]
+    assert sum(out.trajectories[n]["energy"][-1] for n in out.names) < \
+        sum(out.trajectories[n]["energy"][0] for n in out.names)
 
 
 def test_max_penetration_reports_the_dynamic_crush():
