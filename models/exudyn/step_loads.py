@@ -16,6 +16,7 @@ from .chassis_state import chassis_states
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
 LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
 MAX_LOAD_ITER = 4      # load passes per step before the step is halved (exudyn allows 5 iterations)
+ALL = np.zeros(0, np.bool_)  # road_contacts: every vehicle (exudyn does not put vehicles to sleep)
 
 
 class StepLoads:
@@ -39,13 +40,13 @@ class StepLoads:
         mu = self.scene.road.friction
         if self.zones is None:
             R.road_contacts(self.Y, 7, self.CSH, self.KR, R.N_ROAD, self.road_chi, mu,
-                            R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG)
+                            R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX, self.RSG, ALL)
         else:  # each chassis on the friction of the zone under its CG (§2a)
             for v in range(self.nv):
                 mv = DI.road_friction(self.Y[v, 0], self.Y[v, 1], mu, *self.zones)
                 w = slice(v, v + 1)
                 R.road_contacts(self.Y[w], 7, self.CSH[w], self.KR[w], R.N_ROAD, self.road_chi, mv,
-                                R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX[w], self.RSG[w])
+                                R.ROAD_FRICTION_LAW, FRICTION_V0, FRICTION_V1, FRICTION_VS, FX[w], self.RSG[w], ALL)
         return FX.copy(), psg.copy(), self.RSG.copy()
 
     def _apply(self, L):

@@ -264,8 +264,9 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
             for s in range(7):
                 if RSG[s, v, R_DEL] > 0.0:
                     road[v] = 1.0
-            for k in range(RSG.shape[2]):
-                RSG[0, v, k] = RSG[6, v, k]
+            if awake[v]:  # (a sleeping vehicle's stage outputs are not computed: RSG[0] keeps its last)
+                for k in range(RSG.shape[2]):
+                    RSG[0, v, k] = RSG[6, v, k]
         if at_break:
             # a driver's law changes at t (next_break): new wheel states, new brake / steer law from t on
             for v in range(nv):

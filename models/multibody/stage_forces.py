@@ -54,7 +54,7 @@ def eval_all(Y, K, s, te, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
         FX[:, :] = 0.0
     # chassis-road contact (regularised Coulomb with the road's friction)
     road_contacts(Y, 7 * BODY.shape[1], CSH, KR, cfg[C_ROAD_N], cfg[C_ROAD_CHI], cfg[C_MU], ROAD_FRICTION_LAW,
-                  cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], FX, RSG[s])
+                  cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], FX, RSG[s], awake)
     for v in range(Y.shape[0]):
         if awake[v]:
             brake = 0.0

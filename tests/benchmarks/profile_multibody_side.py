@@ -75,7 +75,7 @@ def _contact(n, Y, CT, cfg, awake):
 def _road(n, Y, CT, RD, cfg):
     for _ in range(n):
         road_contacts(Y, NQ, CT[0], RD[0], cfg[E.C_ROAD_N], cfg[E.C_ROAD_CHI], cfg[E.C_MU], ROAD_FRICTION_LAW,
-                      cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS], CT[7], RD[1][1])
+                      cfg[E.C_FV0], cfg[E.C_FV1], cfg[E.C_FVS], CT[7], RD[1][1], np.zeros(0, np.bool_))
 
 
 @njit(cache=True)
