@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import copy
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -161,3 +163,16 @@ def assert_refused_with_one_line(load, path, key, words=()):
     assert line.startswith(f"{path}: {key}: ") and "\n" not in line, line
     for w in words:
         assert w in line, line
+
+
+def write_vehicle_file(tmp_path, text: str, name: str = "car.toml") -> Path:
+    """A vehicle file of `text` in tmp_path."""
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def damage_cli(*args, cwd=None):
+    """`crashlab damage ARGS` as a user runs it (a subprocess)."""
+    return subprocess.run([sys.executable, "-m", "crashlab.cli", "damage", *map(str, args)], capture_output=True,
+                          text=True, timeout=120, cwd=cwd)

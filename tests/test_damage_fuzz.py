@@ -7,12 +7,10 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from conftest import FREE_SPEEDS, assert_one_error_line, assert_refused_with_one_line
+from conftest import FREE_SPEEDS, assert_one_error_line, assert_refused_with_one_line, damage_cli, write_vehicle_file
 
 from crashlab.cli.damage import command
 from crashlab.errors import InputError
@@ -39,14 +37,10 @@ STRUCTURE = f"[structure.front]\nA = {A_FRONT}\nB = {B_FRONT}\nsource = \"test\"
 
 
 def car(tmp_path, extra: str = STRUCTURE, name: str = "car.toml") -> Path:
-    path = tmp_path / name
-    path.write_text(CAR + extra)
-    return path
+    return write_vehicle_file(tmp_path, CAR + extra, name)
 
 
-def cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "crashlab.cli", "damage", *map(str, args)], capture_output=True,
-                          text=True, timeout=120, cwd=cwd)
+cli = damage_cli
 
 
 def strict_json(text: str):

@@ -13,14 +13,12 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 import tomllib
 from importlib import resources
 from pathlib import Path
 
 import pytest
-from conftest import assert_one_error_line, assert_refused_with_one_line
+from conftest import assert_one_error_line, assert_refused_with_one_line, damage_cli, write_vehicle_file
 
 from crashlab.scene_file import load_scene
 from crashlab.structure import CLASS_REFERENCE, STRUCTURE_SIDES, class_structure
@@ -47,14 +45,10 @@ DAMAGE = ("--side", "front", "--profile", "0.3,0.3,0.3,0.3", "--width", "1.5")
 
 
 def car(tmp_path, extra: str = GOOD, name: str = "car.toml", head: str = CAR) -> Path:
-    path = tmp_path / name
-    path.write_text(head + extra)
-    return path
+    return write_vehicle_file(tmp_path, head + extra, name)
 
 
-def cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "crashlab.cli", "damage", *map(str, args)], capture_output=True,
-                          text=True, timeout=120, cwd=cwd)
+cli = damage_cli
 
 
 def load(path: Path):
