@@ -218,12 +218,14 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
         # contact episodes: accumulate (DP weights), then open / close
         need_k0 = False
         for p in range(npair):
+            i, j = int(PP[p, P_I]), int(PP[p, P_J])
+            if PST[p, S_ACT] == 0.0 and not awake[i] and (j >= nv or not awake[j]):
+                continue  # two sleepers (or a sleeper and a barrier) not in contact: contacts left their rows empty
             for s in range(7):
                 if s < 6:
                     accumulate(PST, p, h * bw[s], PSG[s, p])
                 track_peak(PST, p, PSG[s, p])
             d6 = PSG[6, p, G_DEL]
-            i, j = int(PP[p, P_I]), int(PP[p, P_J])
             if PST[p, S_ACT] == 0.0:
                 if d6 > 0.0:
                     open_episode(PST, p, t, max(PSG[6, p, G_DDOT], cfg[C_VMIN]), velocity(Y, BODY, i),
