@@ -24,8 +24,9 @@ count divided), one knob at a time, within the option's declared range. --quick 
 only (the model's first accuracy knob with unit s, else its first knob); the full run coarsens every knob.
 
 Per run (DIR/stability.csv, one row per run): ok (the Outcome's outcome_ok), violation (the guard's kinds,
-Outcome.violations, joined by "|"), failure (a run not ok without a violation: its first warning; a model
-that raises: "exception: Type: message"), step_collapse, wall_time_s, seed. A step collapse is a run whose
+Outcome.violations, joined by "|"), failure (a run not ok without a violation: its warnings, as a population
+gives them, crashlab.population.outcome_reason: the first alone could be a note beside the reason; a model that
+raises: "exception: Type: message"), step_collapse, wall_time_s, seed. A step collapse is a run whose
 warnings say the step hit a limit (the step limit, the shortest step) or whose error control rejected at
 least as many steps as it accepted (Diagnostics rejected_steps >= steps); it is reported, and it is a
 failure only where the model says so.
@@ -52,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from crashlab.options import accuracy_knobs, describe
+from crashlab.population import outcome_reason
 from crashlab.registry import get_model
 from crashlab.scene import WHEEL_STATES
 from crashlab.tools.stress import crash_scene as stress_scene  # the placement `crashlab stress` uses
@@ -153,7 +155,7 @@ def run_setting(name: str, setting: dict, scenes) -> list[dict]:
         try:
             out = model.simulate(scene)
             ok, violation = out.outcome_ok, "|".join(out.violations)
-            failure = "" if ok or violation else (out.warnings[0] if out.warnings else "not ok, no reason given")
+            failure = "" if ok or violation else outcome_reason(out)
             collapse = step_collapse(out)
         except Exception as err:  # a model that raises fails this run; the study goes on
             ok, violation, collapse = False, "", False

@@ -43,3 +43,20 @@ def test_coarse_settings_stay_inside_the_declared_range():
     settings = stability.coarse_settings("pymunk", factors=(2, 4, 8, 64))
     assert ("dt", 64, {"dt": 0.016}) not in settings, "pymunk's dt is at most 0.01 s"
     assert ("iterations", 8, {"iterations": 12}) in settings, "an iteration count is divided"
+
+
+def test_a_failed_run_gives_its_reason_not_only_its_first_note(monkeypatch):
+    """exudyn's 189 km/h side impact (seed 4) failed on 'the contact loads did not settle' after a crush-zone note:
+    the csv said only the note (its first warning) before 2026-11-27."""
+    import numpy as np
+
+    from crashlab.comparison import stability as S
+    from crashlab.outcome import Outcome
+
+    class Failing:
+        def simulate(self, scene):
+            return Outcome(["V1"], np.zeros((1, 3)), np.zeros((1, 3)), warnings=["a note", "the reason"], ok=False)
+
+    monkeypatch.setattr(S, "get_model", lambda name, **kw: Failing())
+    (row,) = S.run_setting("failing", {}, [(4, {}, None)])
+    assert not row["ok"] and "the reason" in row["failure"] and "a note" in row["failure"]
