@@ -230,7 +230,7 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                 if run_["contact"] == "engagement":
                     scene = scene.replace(impact=dataclasses.replace(scene.impact, engagement=True))
                 outcome, reason = _simulate(model, scene)
-                impacts = 0 if outcome is None else len({r["t"] for r in outcome.impact_rows})
+                impacts = 0 if outcome is None else len({r["t"] for r in outcome.impact_rows if r["kind"] != "push"})
                 reversed_ = outcome is not None and any(r.get("slip_reversed", False) for r in outcome.impact_rows)
                 warnings = () if outcome is None else tuple(dict.fromkeys(str(w) for w in outcome.warnings))
                 for q in t["quantity"]:

@@ -3,6 +3,7 @@ the vehicle file's [structure.<side>] or the class default (docs/physics.md §28
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -64,6 +65,13 @@ CLASS_REFERENCE = {"small": (971.0, 1.630), "compact": (1171.0, 1.702), "mid-siz
                    "large": (1638.0, 1.850), "SUV": (1742.0, 1.796), "pickup": (1764.0, 1.842),
                    "van": (2045.0, 1.962), "heavy": (18000.0, 2.550)}
 DEFAULT_CLASS = "mid-size"  # for a vehicle file without a class
+
+
+def crash_plot(A: float, B: float, width: float, mass: float) -> tuple[float, float]:
+    """(b0 [m/s], b1 [1/s]) of Campbell's crash plot EBS = b0 + b1 C that the stiffness A [N/m], B [N/m^2] over
+    `width` [m] gives a vehicle of `mass` [kg]: b0 = sqrt(2 G w / m) (G = A^2 / 2B), b1 = sqrt(B w / m), the
+    inverse of A = m b0 b1 / w, B = m b1^2 / w (docs/physics.md §28)."""
+    return math.sqrt(A * A / B * width / mass), math.sqrt(B * width / mass)
 
 
 def crash_plot_coefficients(side: str, mass: float, width: float) -> tuple[float, float]:

@@ -25,6 +25,7 @@ from .structure import (
     NO_DAMAGE_SPEED_MAX,
     STRUCTURE_SIDES,
     StructureSection,
+    crash_plot,
     structure_of,
 )
 
@@ -167,21 +168,20 @@ def crush_56(A: float, B: float, w: float, mass: float) -> float:
     """m, the full-width residual crush of a 56 km/h rigid-barrier impact (CRUSH_56_SPEED) that a side of CRASH3
     stiffness A [N/m], B [N/m^2] over the width w [m] implies for a vehicle of `mass` [kg]: Campbell's crash plot
     EBS = b0 + b1 C with b0 = sqrt(2 G w / m), b1 = sqrt(B w / m) (docs/physics.md §28), C56 = (15.6 - b0) / b1."""
-    b0, b1 = math.sqrt(A * A / B * w / mass), math.sqrt(B * w / mass)
+    b0, b1 = crash_plot(A, B, w, mass)
     return (CRUSH_56_SPEED - b0) / b1
 
 
 def crush_56_problem(A: float, B: float, w: float, mass: float) -> str | None:
     """Why a side's A, B over w at `mass` is no vehicle structure (its C56 outside CRUSH_56_RANGE), else None."""
-    c56, (lo, hi) = crush_56(A, B, w, mass), CRUSH_56_RANGE
+    c56, (lo, hi), (b0, b1) = crush_56(A, B, w, mass), CRUSH_56_RANGE, crash_plot(A, B, w, mass)
     if lo <= c56 <= hi:
         return None
     hint = "B too small for the mass, or not in N/m^2?" if c56 > hi else "B too large for the mass?"
     return (f"A = {A:g} N/m and B = {B:g} N/m^2 over the side's {w:g} m at {mass:g} kg give a residual crush of "
             f"{c56:.3g} m at a 56 km/h full-width rigid-barrier impact (C56 = ({CRUSH_56_SPEED:g} m/s - b0) / b1, "
-            f"b0 = sqrt(2 G w / m) = {math.sqrt(A * A / B * w / mass):.3g} m/s, b1 = sqrt(B w / m) = "
-            f"{math.sqrt(B * w / mass):.3g} 1/s; docs/physics.md §28): outside {lo:g}-{hi:g} m is no vehicle "
-            f"structure ({hint})")
+            f"b0 = sqrt(2 G w / m) = {b0:.3g} m/s, b1 = sqrt(B w / m) = {b1:.3g} 1/s; docs/physics.md §28): "
+            f"outside {lo:g}-{hi:g} m is no vehicle structure ({hint})")
 
 
 def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
@@ -205,7 +205,7 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                         f"structure.{side}.width ({given.width:g} m) must not exceed the vehicle's {name} "
                         f"({limit:g} m)"))
         if given is not None:  # docs/physics.md §28: the side's G w is the vehicle's energy at this speed
-            b0 = math.sqrt(given.A * given.A / given.B * (given.width or limit) / v.mass)
+            b0 = crash_plot(given.A, given.B, given.width or limit, v.mass)[0]
             if not b0 <= NO_DAMAGE_SPEED_MAX:
                 out.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"),
                             f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "

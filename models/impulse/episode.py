@@ -28,6 +28,7 @@ from .layout import (
     I_ENGAGE,
     I_ENGAGE_RATIO,
     I_KIND,
+    I_N_FOLLOW,
     I_REVERSED,
     I_T,
     PUSH,
@@ -231,8 +232,9 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
                 continue
             is_impact = row < 0
             # the contact outlasts a collision's pulse: from here on the episode is a push, in its own row (§5)
-            push = not is_impact and imp[row, I_KIND] != PUSH and t - imp[row, I_T] > PUSH_TIME
-            if (is_impact or push) and n_imp >= max_imp:
+            # (a full table keeps the push in its impact's row: a push never fails a run)
+            push = not is_impact and imp[row, I_KIND] != PUSH and t - imp[row, I_T] > PUSH_TIME and n_imp < max_imp
+            if is_impact and n_imp >= max_imp:
                 stop = True
                 break
             if is_impact:
@@ -261,7 +263,7 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
                 n_imp += 1
             elif push:
                 _record_impact(imp, n_imp, t, i, k, nv, P, S_before, S, pn, pt, PUSH, energy, px, py, nx, ny)
-                imp[n_imp, I_REVERSED], imp[n_imp, I_CLOSING] = 0.0, math.nan
+                imp[n_imp, I_REVERSED], imp[n_imp, I_CLOSING], imp[n_imp, I_N_FOLLOW] = 0.0, math.nan, 1.0
                 episode[i, k] = n_imp
                 n_imp += 1
                 diag[D_FOLLOW] += 1

@@ -244,7 +244,8 @@ class ImpulseModel(CollisionModel):
         # core (crashlab.diagnostics): the onset and deepening bisections are the rejected steps; built
         # directly, not from a dict (a batch builds thousands)
         diagnostics = Diagnostics(
-            steps=int(d[L.D_STEPS]), rejected_steps=int(d[L.D_BISECT]), episodes=n_imp, t_end=d[L.D_T_END],
+            steps=int(d[L.D_STEPS]), rejected_steps=int(d[L.D_BISECT]), t_end=d[L.D_T_END],
+            episodes=int((imp[:, L.I_KIND] != L.PUSH).sum()),  # (a push row continues its impact's episode, §5)
             max_penetration=d[L.D_MAX_DEPTH],
             extra={"coarse_steps": int(d[L.D_COARSE]), "kinetic_energy_start": d[L.D_KE0],
                    "energy_dissipated_impacts": d[L.D_E_IMPACT], "contact_impulses": int(d[L.D_FOLLOW]),

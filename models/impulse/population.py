@@ -121,12 +121,13 @@ def population_of(model, names, rest, final, contact, imp, diag, compliance) -> 
     pop.reason[~ok] = [texts[s] for s in status[~ok]]
     n_imp = diag[:, L.D_IMPACTS].astype(int)
     imp = imp[:, :max(int(n_imp.max(initial=0)), 1)]  # the records in use
-    pop.ok[:], pop.n_impacts[:] = ok, n_imp  # (pop.mass: the simulate_population wrapper's)
+    valid = np.arange(imp.shape[1])[None, :] < n_imp[:, None]  # (n, impacts)
+    # impacts (contact episodes): a push row continues its impact's episode (§5)
+    pop.ok[:], pop.n_impacts[:] = ok, (valid & (imp[..., L.I_KIND] != L.PUSH)).sum(1)  # (pop.mass: the wrapper's)
     good = np.flatnonzero(ok)
     pop.rest[good], pop.final[good], pop.contact[good] = rest[good], final[good], contact[good]
     pop.rest_speed[good] = np.hypot(final[good, :, 0], final[good, :, 1])
     pop.at_rest[good] = at_rest(final[good])
-    valid = np.arange(imp.shape[1])[None, :] < n_imp[:, None]  # (n, impacts)
     imp = np.where(valid[..., None], imp, 0.0)  # (unwritten records)
     energy = imp[..., L.I_ENERGY]
     pop.energy_impacts[good] = energy.sum(1)[good]
