@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from crashlab.outcome import collision_rows
 from crashlab.units import unit_in, value_in
 
 from .base import STUDIES_DIR, shown_table
@@ -76,7 +77,7 @@ def outcome_rows(case: str, model: str, variant: dict, scene, outcome, reason: s
                      **{c: float(mine.at[name, f"d_{REFERENCE}_{u}"]) if f"d_{REFERENCE}_{u}" in mine else math.nan
                         for c, u in (("d_pc_crash_m", "m"), ("d_pc_crash_deg", "deg"))},
                      "delta_v": math.hypot(dvx, dvy) if imp else math.nan, "dvx": dvx, "dvy": dvy,
-                     "impacts": sum(r["kind"] != "push" for r in imp), "kinds": ";".join(str(r["kind"]) for r in imp),
+                     "impacts": len(collision_rows(imp)), "kinds": ";".join(str(r["kind"]) for r in imp),
                      "slip_reversed": any(bool(r.get("slip_reversed", False)) for r in imp),
                      "warnings": " | ".join(outcome.warnings)[:300]})
     return rows

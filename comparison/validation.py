@@ -46,6 +46,7 @@ import tomllib
 import typing
 from pathlib import Path
 
+from crashlab.outcome import collision_rows
 from crashlab.units import unit_in
 
 from .base import STUDIES_DIR, shown_rows
@@ -153,8 +154,8 @@ def _post_velocity(outcome, scene, name: str) -> tuple[float, float]:
 def has_quantity(model: str, quantity: str) -> bool:
     """False when the model cannot give this quantity at all (a crush of a model without a contact depth,
     CollisionModel.contact_depth): its row of a run that succeeded is "n/a", neither pass nor fail."""
-    from crashlab.registry import get_model
-    return quantity not in CRUSH_QUANTITIES or get_model(model).contact_depth
+    from crashlab.registry import MODELS, load
+    return quantity not in CRUSH_QUANTITIES or load(MODELS, model).contact_depth
 
 
 def simulated_quantity(outcome, scene, quantity: str, vehicle: str) -> float:
@@ -230,7 +231,7 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
                 if run_["contact"] == "engagement":
                     scene = scene.replace(impact=dataclasses.replace(scene.impact, engagement=True))
                 outcome, reason = _simulate(model, scene)
-                impacts = 0 if outcome is None else len({r["t"] for r in outcome.impact_rows if r["kind"] != "push"})
+                impacts = 0 if outcome is None else len({r["t"] for r in collision_rows(outcome.impact_rows)})
                 reversed_ = outcome is not None and any(r.get("slip_reversed", False) for r in outcome.impact_rows)
                 warnings = () if outcome is None else tuple(dict.fromkeys(str(w) for w in outcome.warnings))
                 for q in t["quantity"]:

@@ -27,6 +27,16 @@ IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_ya
                 "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
 
 
+# an impact row's kind for the contact of a pair that outlasts its impact's pulse (one car pushing the other, the
+# impulse model, docs/physics.md §5): it continues its impact's episode, it is no impact of its own
+PUSH = "push"
+
+
+def collision_rows(rows) -> list[dict]:
+    """The impact rows of impacts: every row but a push's (PUSH)."""
+    return [r for r in rows if r["kind"] != PUSH]
+
+
 def at_rest(final: np.ndarray) -> np.ndarray:
     """(..., nv) at rest at the end from the final velocities (..., nv, 3: vx, vy, yaw rate): speed <=
     REST_SPEED and |yaw rate| <= REST_YAW_RATE."""

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from crashlab.outcome import collision_rows
 from crashlab.units import frame_in, unit_in, value_in
 
 TIME_DISTANCE_CAPTION = ("each vehicle's distance to the point of impact along its CG path (positive: still to go) and "
@@ -57,7 +58,7 @@ def time_distance_figure(table, outcome, path: Path, title: str, system: str = "
         c = colours[i % len(colours)]
         top.plot(part["t"], value_in(part["to_impact"], "m", system), color=c, label=name)
         bottom.plot(part["t"], value_in(part["speed"], "km/h", system), color=c, label=name)
-    for t in sorted({r["t"] for r in outcome.impact_rows if r["kind"] != "push"}):  # (a push: no new impact)
+    for t in sorted({r["t"] for r in collision_rows(outcome.impact_rows)}):
         for ax in (top, bottom):
             ax.axvline(t, color="grey", ls="--", lw=0.8)
     top.axhline(0.0, color="black", lw=0.5)

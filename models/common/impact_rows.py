@@ -65,11 +65,10 @@ def pair_rows(names, mass, i, j, t, energy, dv, push, heading, point, plane, kin
         # §21: the struck structures in series carry the same force f, each absorbing f^2/2B: E_q ~ 1/B_q
         share = c_q / (c_i + c_j)
         e_q = max(energy, 0.0) * share
-        if crush is not None:
-            extra["crush"] = crush * share
+        own = {} if crush is None else {"crush": crush * share}
         rows.append({"t": t, "vehicle": names[q], "other": other, "dvx": dv[s][0], "dvy": dv[s][1],
                      "d_yaw_rate": dv[s][2], "energy": energy, "crush_energy": e_q,
                      "ees": math.sqrt(2.0 * e_q / mass[q]),
                      "pdof": pdof(push[s][0], push[s][1], heading[s]), "kind": kind, "side": IMPACT_FACES[side],
-                     "point_x": point[0], "point_y": point[1], "plane_angle": plane, **extra})
+                     "point_x": point[0], "point_y": point[1], "plane_angle": plane, **own, **extra})
     return rows

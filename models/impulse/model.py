@@ -14,7 +14,7 @@ from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
 from crashlab.models.common.impact_rows import pair_rows, struck_compliance
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_MASS, pack_vehicle
 from crashlab.options import ModelOptions, option
-from crashlab.outcome import Outcome
+from crashlab.outcome import PUSH, Outcome
 from crashlab.restitution import kernel_value
 from crashlab.scene import given_pair
 
@@ -25,7 +25,7 @@ from .population import simulate_variants
 from .run_warnings import run_warnings
 
 LAWS = {"kudlich-slibar": KUDLICH_SLIBAR, "brach": BRACH, "routh": ROUTH}
-KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed", L.PUSH: "push"}
+KIND_TEXT = {FULL: "full", SLIDING: "sliding", REVERSED: "reversed", L.PUSH: PUSH}
 STATUS_TEXT = {L.STATUS_NOT_APPROACHING: "the vehicles do not approach at the given point of impact",
                L.STATUS_NAN: "the state became NaN",
                L.STATUS_STEP_LIMIT: "step limit reached (the time step collapsed)"}
