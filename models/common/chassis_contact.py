@@ -60,6 +60,7 @@ from .crush_structure import (
     permanent_crush,
     structure_force,
     structure_slot,
+    swept_faces,
 )
 from .narrow_phase import horizontal_gap, support_value_body
 from .rotations import rot_z, rotation_matrix_into
@@ -129,6 +130,14 @@ def chassis_pose(y, nq, A):
 
 
 @njit(cache=True, inline="always")
+def _point_velocity(r, v, om, M):
+    """Velocity of the body point M (CG r, velocity v, angular velocity om): v + om x (M - r)."""
+    a = (M[0] - r[0], M[1] - r[1], M[2] - r[2])
+    return (v[0] + om[1] * a[2] - om[2] * a[1], v[1] + om[2] * a[0] - om[0] * a[2],
+            v[2] + om[0] * a[1] - om[1] * a[0])
+
+
+@njit(cache=True, inline="always")
 def _struck_face(A, rc, M, sh, box):
     """The struck face (crush_structure.face_code) of the point M on a body of rotation A, shape centre rc, shape
     row sh (half length, width, height first): a tilted vehicle's roof or underbody too, a barrier box (box True)
@@ -137,6 +146,25 @@ def _struck_face(A, rc, M, sh, box):
     yl = A[0, 1] * (M[0] - rc[0]) + A[1, 1] * (M[1] - rc[1]) + A[2, 1] * (M[2] - rc[2])
     zl = A[0, 2] * (M[0] - rc[0]) + A[1, 2] * (M[1] - rc[1]) + A[2, 2] * (M[2] - rc[2])
     return face_code(xl, yl, zl, sh[0], sh[1], 0.0 if box else sh[2])
+
+
+@njit(cache=True)
+def _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g):
+    """The struck faces (crush_structure.face_code) of a pair at its first touch at M (gap g < 0): for two upright
+    vehicles those of their approach (crush_structure.swept_faces, §13a "Struck faces"), else (a barrier, a tilted
+    body's roof or underbody, no approach) and before the touch each body's face nearest M in proportion."""
+    fi = _struck_face(A1, rc1, M, sh1, False)
+    fj = _struck_face(A2, rc2, M, sh2, k2 == 1)
+    if g >= 0.0 or k2 != 0 or fi > 3 or fj > 3:
+        return fi, fj
+    u1 = _point_velocity(r1, v1, om1, M)
+    u2 = _point_velocity(r2, v2, om2, M)
+    h1, h2 = math.hypot(A1[0, 0], A1[1, 0]), math.hypot(A2[0, 0], A2[1, 0])
+    if h1 < 0.5 or h2 < 0.5:  # a body pitched past 60 deg: no plan heading
+        return fi, fj
+    si, sj, ok = swept_faces(rc2[0] - rc1[0], rc2[1] - rc1[1], u2[0] - u1[0], u2[1] - u1[1], A1[0, 0] / h1,
+                             A1[1, 0] / h1, sh1[0], sh1[1], A2[0, 0] / h2, A2[1, 0] / h2, sh2[0], sh2[1])
+    return (si, sj) if ok else (fi, fj)
 
 
 @njit(cache=True)
@@ -442,8 +470,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             # (a crushed pair keeps them while its shapes still overlap: the crushed zones are still the ones in
             # touch; re-chosen once the shapes have separated, g >= 0)
             if PST[p, S_ACT] == 0.0 and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
-                fi = _struck_face(A1, rc1, M, sh1, False)
-                fj = _struck_face(A2, rc2, M, sh2, k2 == 1)
+                fi, fj = _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g)
                 si, sj = fi, fj if k2 == 0 else 0
                 if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
                         or fj != PST[p, S_FACE_J]:
@@ -492,14 +519,12 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             psg[p, G_CRUSH] = crush
         elif PST[p, S_ACT] == 0.0 and g < 0.0:  # the struck sides at the first touch, which share the episode's
             # energy in its impact rows (§21)
-            PST[p, S_SIDE_I] = _struck_face(A1, rc1, M, sh1, False)
-            PST[p, S_SIDE_J] = _struck_face(A2, rc2, M, sh2, False) if k2 == 0 else 0
+            fi, fj = _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g)
+            PST[p, S_SIDE_I], PST[p, S_SIDE_J] = fi, fj if k2 == 0 else 0
         a1 = (M[0] - r1[0], M[1] - r1[1], M[2] - r1[2])
         a2 = (M[0] - r2[0], M[1] - r2[1], M[2] - r2[2])
-        u1 = (v1[0] + om1[1] * a1[2] - om1[2] * a1[1], v1[1] + om1[2] * a1[0] - om1[0] * a1[2],
-              v1[2] + om1[0] * a1[1] - om1[1] * a1[0])
-        u2 = (v2[0] + om2[1] * a2[2] - om2[2] * a2[1], v2[1] + om2[2] * a2[0] - om2[0] * a2[2],
-              v2[2] + om2[0] * a2[1] - om2[1] * a2[0])
+        u1 = _point_velocity(r1, v1, om1, M)
+        u2 = _point_velocity(r2, v2, om2, M)
         vr = (u1[0] - u2[0], u1[1] - u2[1], u1[2] - u2[2])
         dd = vr[0] * d0 + vr[1] * d1
         psg[p, G_DDOT] = dd

@@ -86,6 +86,41 @@ def face_code(x, y, z, a, b, c):
 
 
 @njit(cache=True)
+def swept_faces(dx, dy, wx, wy, c1, s1, a1, b1, c2, s2, a2, b2):
+    """The struck faces of two upright bodies at their first touch, from their approach (docs/physics.md §13a
+    "Struck faces"): their plan bounding boxes (half length a, half width b, heading axis (c, s); centre j less
+    centre i (dx, dy)) moved back along the velocity of j relative to i at the touch (wx, wy). Along each box
+    axis the projections began to overlap a time tau ago (the overlap left over the closing speed along it, the
+    separating-axis test in time); each body's struck face is the one of its own two axes whose overlap began the
+    later, on the side facing the other. Returns (fi, fj, ok) (side_code's codes); ok False where a body's
+    axes do not close (no approach)."""
+    fi, fj, tau_i, tau_j = -1, -1, np.inf, np.inf
+    for k in range(4):
+        if k == 0:
+            ux, uy = c1, s1
+        elif k == 1:
+            ux, uy = -s1, c1
+        elif k == 2:
+            ux, uy = c2, s2
+        else:
+            ux, uy = -s2, c2
+        reach = (a1 * abs(ux * c1 + uy * s1) + b1 * abs(-ux * s1 + uy * c1)
+                 + a2 * abs(ux * c2 + uy * s2) + b2 * abs(-ux * s2 + uy * c2))
+        s0 = ux * dx + uy * dy
+        sgn = 1.0 if s0 >= 0.0 else -1.0
+        closing = -sgn * (ux * wx + uy * wy)
+        if closing <= 1e-9:
+            continue
+        tau = max(reach - abs(s0), 0.0) / closing
+        # the face towards the other body: i's along +sgn u, j's along -sgn u
+        if k < 2 and tau < tau_i:
+            tau_i, fi = tau, (0 if sgn > 0.0 else 1) if k == 0 else (2 if sgn > 0.0 else 3)
+        elif k >= 2 and tau < tau_j:
+            tau_j, fj = tau, (0 if sgn < 0.0 else 1) if k == 2 else (2 if sgn < 0.0 else 3)
+    return fi, fj, fi >= 0 and fj >= 0
+
+
+@njit(cache=True)
 def structure_slot(code):
     """The structure of a struck face (face_code): 0 front, 1 rear, 2 side for either flank, and for the roof and
     the underbody, which have no CRASH3 structure (docs/physics.md §13a "A tilted body"; the rows of structure_row,
