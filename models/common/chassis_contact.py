@@ -26,7 +26,8 @@ and its projection on the box face); its height the middle of the band where the
 its tests).
 
 Engagement (structure law, §13a): from the first touch the normal is the bisector of the two struck faces'
-outward normals (crush_structure.engagement_normal; a barrier's face alone), turning with the vehicles, and the
+outward normals (crush_structure.engagement_normal; a barrier's face alone; two upright vehicles' faces from their
+approach, crush_structure.swept_faces, §13a "Struck faces"), turning with the vehicles, and the
 crush is the two shapes' projection overlap along it counted from the episode's first touch (PST[:, S_C0]), at
 least their overlap -g, and kept continuous within an episode (S_CI, S_CR, S_CM); the point lies on the line of
 action of that crush's gradient, midway between the two support points across the normal, so that the force does
