@@ -27,9 +27,13 @@ IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_ya
                 "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
 
 
-# an impact row's kind for the contact of a pair that outlasts its impact's pulse (one car pushing the other, the
-# impulse model, docs/physics.md §5): it continues its impact's episode, it is no impact of its own
+# an impact row's kind for the contact of a pair that outlasts its impact's pulse (one car pushing the other; every
+# model, docs/physics.md §5, §15): it continues its impact's episode, it is no impact of its own. A contact episode
+# lasts until the pair is SEPARATION [m] apart (a re-touch before continues it); its contact later than PUSH_TIME
+# [s] after the impact is the push (a collision's pulse lasts about 0.1-0.2 s: NHTSA 10146's maximum crush at 74 ms)
 PUSH = "push"
+PUSH_TIME = 0.3
+SEPARATION = 0.05
 
 
 def collision_rows(rows) -> list[dict]:

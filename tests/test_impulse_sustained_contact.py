@@ -15,7 +15,7 @@ import pytest
 
 import crashlab
 from crashlab.geometry import penetration
-from crashlab.models.impulse.layout import PUSH_TIME
+from crashlab.outcome import PUSH_TIME
 from crashlab.scene import barrier_outline, vehicle_outline
 from crashlab.scene_file import load_scene
 from crashlab.units import G

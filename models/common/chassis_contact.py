@@ -96,14 +96,20 @@ S_FACE_I, S_FACE_J, S_C0 = 25, 26, 27
 # minimum-translation overlap, 0 none yet: the geometric crush is used); an evaluation adds the measure's change
 # since, none where the measure has switched (contact_episodes.track_peak keeps them)
 S_CI, S_CR, S_CM = 28, 29, 30
-N_PST = 31
+# an episode whose contact has ended while the pair is not yet SEPARATION apart (S_ACT = 2, contact_episodes.py): its
+# end (time, normal velocity, the velocities (vx, vy, yaw rate) of i and j there), and whether the open episode is
+# a push (contact later than PUSH_TIME after its impact; crashlab.outcome, docs/physics.md §15)
+S_T1, S_DD1, S_VEI, S_VEJ, S_PUSH = 31, 32, 33, 36, 39
+N_PST = 40
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
 (G_FN, G_DEL, G_FX, G_FY, G_FZ, G_POW, G_PX, G_PY, G_TH, G_DDOT, G_CRUSH, G_WIDTH) = range(12)
-# structure law: the geometric crush measure of the evaluation and which one (S_CR, S_CM)
-G_RAW, G_MEAS = 12, 13
-N_PSG = 14
+# structure law: the geometric crush measure of the evaluation and which one (S_CR, S_CM); the shapes' plan gap g
+# (GAP_FAR where the gates found them apart)
+G_RAW, G_MEAS, G_GAP = 12, 13, 14
+N_PSG = 15
+GAP_FAR = 1.0
 # broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
 # by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
 B_PAIRS, B_CIRCLE, B_HEIGHT, B_OBB, B_NARROW = range(5)
@@ -384,6 +390,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
         psg[p, :] = 0.0
         psg[p, G_DEL] = -1.0
+        psg[p, G_GAP] = GAP_FAR
         if use_awake and PST[p, S_ACT] == 0.0 and not awake[i] and (j >= nv or not awake[j]):
             PST[p, S_THOK] = 0.0
             continue
@@ -452,6 +459,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         PST[p, S_THOK] = 1.0
         psg[p, G_TH] = th
         psg[p, G_DEL] = -g
+        psg[p, G_GAP] = g
         psg[p, G_CRUSH] = -g
         d0, d1 = math.cos(th), math.sin(th)
         P1 = support_global(d0, d1, 0.0, sh1, rc1, A1)

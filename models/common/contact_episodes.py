@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
+from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
+
 from .chassis_contact import (
     G_CRUSH,
     G_DEL,
@@ -36,15 +38,20 @@ from .chassis_contact import (
     S_CMAX,
     S_CR,
     S_DD0,
+    S_DD1,
     S_JX,
     S_MAXPEN,
     S_PEAK,
     S_PTH,
+    S_PUSH,
     S_PX,
     S_PY,
     S_SIDE_I,
     S_SIDE_J,
     S_T0,
+    S_T1,
+    S_VEI,
+    S_VEJ,
     S_VI,
     S_VJ,
     S_WORK,
@@ -57,7 +64,12 @@ from .impact_rows import pair_rows
 # of i and j (crush_structure.face_code; 0 for a barrier), whose structures share the energy (§21)
 (I_I, I_J, I_T0, I_T1, I_JX, I_JY, I_JZ, I_PEAK, I_MAXPEN, I_ENERGY, I_PX, I_PY, I_TH, I_DVI, I_DVJ,
  I_DD0, I_DD1, I_OPEN, I_SIDE_I, I_SIDE_J) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21, 22, 23
-N_IMP = 24
+# I_PUSH: 1 for a push's record (the pair's contact later than PUSH_TIME after its impact, kind "push")
+I_PUSH = 24
+N_IMP = 25
+# a pair's episode state PST[p, S_ACT]: NONE, IN_CONTACT, or ENDED: its contact has ended but the pair is not yet
+# SEPARATION apart, a re-touch continues the episode (docs/physics.md §15 "Episodes and pushes")
+NONE, IN_CONTACT, ENDED = 0.0, 1.0, 2.0
 EPISODES_PER_PAIR = 64  # records per pair of bodies that can touch (two vehicles, a vehicle and a barrier)
 
 
@@ -136,9 +148,66 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
         r[I_PX], r[I_PY], r[I_TH] = PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH]
         r[I_DD0], r[I_DD1], r[I_OPEN] = PST[p, S_DD0], dd1, is_open
         r[I_SIDE_I], r[I_SIDE_J] = PST[p, S_SIDE_I], PST[p, S_SIDE_J]
-    PST[p, S_ACT] = 0.0
+        r[I_PUSH] = PST[p, S_PUSH]
+    PST[p, S_ACT] = NONE
+    PST[p, S_PUSH] = 0.0
     reset_sums(PST, p)
     return n + 1
+
+
+@njit(cache=True)
+def _close_ended(IMP, n, PP, PST, p):
+    """Write the ended episode of pair p with its end (S_T1, S_DD1, the velocities there)."""
+    return close_episode(IMP, n, PP, PST, p, PST[p, S_T1], PST[p, S_DD1], 0.0,
+                         (PST[p, S_VEI], PST[p, S_VEI + 1], PST[p, S_VEI + 2]),
+                         (PST[p, S_VEJ], PST[p, S_VEJ + 1], PST[p, S_VEJ + 2]))
+
+
+@njit(cache=True)
+def _open_push(PST, p, t0, dd, vel_i, vel_j):
+    """Open the push of pair p at t0 (its episode's contact later than PUSH_TIME after the impact)."""
+    open_episode(PST, p, t0, max(dd, 0.0), vel_i, vel_j)
+    PST[p, S_PUSH] = 1.0
+
+
+@njit(cache=True)
+def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_j):
+    """The episode of an active pair p at the end of an accepted step at t (docs/physics.md §15 "Episodes and
+    pushes"): in contact d = G_DEL > 0, shapes' gap `gap`, normal velocity dd, velocities vel_i, vel_j (vx, vy, yaw
+    rate); t_part, t_touch: when within the step the contact ended or began again. A contact that ends is kept
+    (ENDED, its end remembered) until the pair is SEPARATION apart, then written; a re-touch before continues the
+    episode. The contact later than PUSH_TIME after the episode's start is a push: the episode is written there
+    and a push record opened, which later re-touches continue. Returns the number of records written so far."""
+    state = PST[p, S_ACT]
+    late = PST[p, S_PUSH] == 0.0
+    if state == IN_CONTACT:
+        if d <= 0.0:
+            PST[p, S_ACT], PST[p, S_T1], PST[p, S_DD1] = ENDED, t_part, dd
+            for k in range(3):
+                PST[p, S_VEI + k], PST[p, S_VEJ + k] = vel_i[k], vel_j[k]
+        elif late and t - PST[p, S_T0] >= PUSH_TIME:
+            n = close_episode(IMP, n, PP, PST, p, t, dd, 0.0, vel_i, vel_j)
+            _open_push(PST, p, t, dd, vel_i, vel_j)
+    elif state == ENDED:
+        if d > 0.0:
+            if late and t_touch - PST[p, S_T0] >= PUSH_TIME:
+                n = _close_ended(IMP, n, PP, PST, p)
+                _open_push(PST, p, t_touch, dd, vel_i, vel_j)
+            else:
+                PST[p, S_ACT] = IN_CONTACT
+        elif gap >= SEPARATION:
+            n = _close_ended(IMP, n, PP, PST, p)
+    return n
+
+
+@njit(cache=True)
+def finish_episode(IMP, n, PP, PST, p, t, dd, vel_i, vel_j):
+    """At the run's end: an ENDED episode written with its end, one still in contact as open at t."""
+    if PST[p, S_ACT] == ENDED:
+        return _close_ended(IMP, n, PP, PST, p)
+    if PST[p, S_ACT] == IN_CONTACT:
+        return close_episode(IMP, n, PP, PST, p, t, dd, 1.0, vel_i, vel_j)
+    return n
 
 
 def impact_rows(names, mass, imp, compliance, heads=None):
@@ -152,7 +221,8 @@ def impact_rows(names, mass, imp, compliance, heads=None):
     its global components impulse_x, impulse_y, impulse_z, max_penetration [m] (the pair's largest total crush),
     crush [m] (the vehicle's share of it, pair_rows), approach_speed /
     separation_speed [m/s] (relative normal velocity at the contact point at onset and at separation;
-    restitution = separation/approach), open (contact still active when the run ended)."""
+    restitution = separation/approach; None for a push, no impact), open (contact still active when the run
+    ended). A push's record (I_PUSH) gives rows of kind "push" (crashlab.outcome.PUSH)."""
     nv = len(names)
     rows = []
     for r in imp:
@@ -163,12 +233,14 @@ def impact_rows(names, mass, imp, compliance, heads=None):
                    for q in (i, j)]
         pair = pair_rows(names, mass, i, j, r[I_T0], r[I_ENERGY], (r[I_DVI:I_DVI + 3], r[I_DVJ:I_DVJ + 3]),
                          ((J[0], J[1]), (-J[0], -J[1])), heading, (r[I_PX], r[I_PY]), r[I_TH] + math.pi / 2,
-                         "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance, crush=r[I_MAXPEN], peak_force=r[I_PEAK],
+                         PUSH if r[I_PUSH] else "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance, crush=r[I_MAXPEN],
+                         peak_force=r[I_PEAK],
                          duration=r[I_T1] - r[I_T0], impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],
                        max_penetration=r[I_MAXPEN], approach_speed=dd0, separation_speed=-dd1,
-                       restitution=(-dd1 / dd0) if dd0 > 0 else math.nan, open=bool(r[I_OPEN]))
+                       restitution=None if r[I_PUSH] else (-dd1 / dd0) if dd0 > 0 else math.nan,
+                       open=bool(r[I_OPEN]))
         rows += pair
     return rows
 

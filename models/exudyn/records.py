@@ -98,9 +98,9 @@ class Records:
             for q in (psg0, psg1):
                 EP.accumulate(PST, p, 0.5 * h, q[p])
                 EP.track_peak(PST, p, q[p])
-            if d1 <= 0.0:
-                t1 = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 else s
-                self._close(p, t1, 0.0, psg1)
+            t_part = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 else s
+            t_touch = s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0) if d1 > 0.0 else t
+            self._episode(p, t, t_part, t_touch, psg1)
         for v in range(self.nv):
             on = rsg1[v, R.R_DEL] > 0.0
             if on and not self.road_on[v]:
@@ -119,11 +119,20 @@ class Records:
         p = self._pose(v)
         return (float(p[6]), float(p[7]), float(p[8]))
 
-    def _close(self, p, s, is_open, psg):
+    def _episode(self, p, t, t_part, t_touch, psg, finish=False):
+        """The contact episode of an active pair p at the end of an accepted step at t (contact ended at t_part,
+        began again at t_touch within it), or at the run's end (finish): common/contact_episodes.py's
+        episode_step, finish_episode; each record written adds its contact interval."""
         PP, PST = self.CT[4], self.CT[5]
-        self.intervals.append((PST[p, C.S_T0], s))
-        self.n_episodes = EP.close_episode(self.IMP, self.n_episodes, PP, PST, p, s, psg[p, C.G_DDOT], is_open,
-                                           self._velocity(int(PP[p, C.P_I])), self._velocity(int(PP[p, C.P_J])))
+        vi, vj = self._velocity(int(PP[p, C.P_I])), self._velocity(int(PP[p, C.P_J]))
+        n = self.n_episodes
+        if finish:
+            self.n_episodes = EP.finish_episode(self.IMP, n, PP, PST, p, t, psg[p, C.G_DDOT], vi, vj)
+        else:
+            self.n_episodes = EP.episode_step(self.IMP, n, PP, PST, p, t, t_part, t_touch, psg[p, C.G_DEL],
+                                              psg[p, C.G_GAP], psg[p, C.G_DDOT], vi, vj)
+        for k in range(n, min(self.n_episodes, len(self.IMP))):
+            self.intervals.append((self.IMP[k, EP.I_T0], self.IMP[k, EP.I_T1]))
 
     def _record(self, s):
         for v in range(self.nv):
@@ -134,7 +143,7 @@ class Records:
         if not self.scene.stop_at_rest:
             return True
         PST = self.CT[5]
-        active = bool(PST.shape[0]) and bool((PST[:, C.S_ACT] > 0.0).any())
+        active = bool(PST.shape[0]) and bool((PST[:, C.S_ACT] == EP.IN_CONTACT).any())
         still = not active and all(math.hypot(self.Y[v, 7], self.Y[v, 8]) < self.o["v_rest"]
                                    and abs((self.chassisA[v] @ self.Y[v, 10:13])[2]) < self.o["w_rest"]
                                    for v in range(self.nv))

@@ -166,7 +166,7 @@ class ExudynRun(StepLoads, DriverLoads, Records):
         PST = self.CT[5]
         for p in range(self.PP.shape[0]):
             if PST[p, C.S_ACT] > 0.0:
-                self._close(p, t_end, 1.0, psg)
+                self._episode(p, t_end, t_end, t_end, psg, finish=True)
         if self.rest == E_SPEED_LAW:
             warnings += contact_report.speed_law_warnings(PST)
         for v in range(nv):

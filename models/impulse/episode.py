@@ -13,6 +13,7 @@ import math
 from numba import njit
 
 from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration
+from crashlab.outcome import PUSH_TIME, SEPARATION
 
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart
 from .impacts import _apply_impulse, _merge_impact, _record_impact, _struck
@@ -32,7 +33,6 @@ from .layout import (
     I_REVERSED,
     I_T,
     PUSH,
-    PUSH_TIME,
     STATUS_NOT_APPROACHING,
     STATUS_OK,
 )
@@ -43,7 +43,6 @@ V_EPS = 1e-6  # m/s: an overlapping pair approaching slower needs no contact imp
 # point velocity of ~30 m/s, a physically negligible difference
 V_TIE = 1e-12
 CONTACT_SLOP = 0.002  # m: overlap tolerated in sustained contact (no bisection, no projection below it)
-SEPARATION = 0.05  # m: a pair further apart than this has ended its contact episode
 DEEPEN = 2.0 * CONTACT_SLOP  # m: a touching pair's overlap deepening past this within a step is bisected
 MAX_SWEEPS = 50  # sequential-impulse sweeps over simultaneous contacts per step
 

@@ -38,10 +38,9 @@ N_IMP = 34  # I_CLOSING: the normal closing speed at the impact, m/s (restitutio
 # follow-up impulses); I_ENGAGE_RATIO: the crushed faces' smaller principal value over the larger (_engagement)
 ENGAGE_USED, ENGAGE_AMBIGUOUS, ENGAGE_FALLBACK = 1, 2, 3
 # I_KIND: the impact's (laws.FULL, SLIDING, REVERSED), or PUSH: the episode's contact impulses later than PUSH_TIME
-# [s] after its impact, one car pushing the other, in a row of their own (a collision's pulse lasts about 0.1-0.2 s:
-# NHTSA 10146's maximum crush at 74 ms; docs/physics.md §5); its I_CLOSING is NaN (no impact)
+# (crashlab.outcome) after its impact, one car pushing the other, in a row of their own (docs/physics.md §5); its
+# I_CLOSING is NaN (no impact)
 PUSH = 3
-PUSH_TIME = 0.3
 AMBIGUOUS_RATIO = 0.9  # principal values within 10 % of each other: the faces give no plane (docs/physics.md §4)
 # diagnostics
 (D_STEPS, D_IMPACTS, D_NREC, D_T_END, D_STATUS, D_CONTACT_T, D_BISECT, D_COARSE, D_MAX_DEPTH, D_KE0,

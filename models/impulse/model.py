@@ -94,7 +94,7 @@ class ImpulseModel(CollisionModel):
         approaches: Moreau's velocity-level non-penetration (Moreau 1988; Stewart & Trinkle 1996),
         normal approach stopped, friction Coulomb-limited (sticking, or sliding at mu_imp). They are
         booked into the episode's row (summed delta-V, yaw-rate change and energy; kind, point and plane
-        stay the impact's), those later than layout.PUSH_TIME after the impact into a row of kind "push"
+        stay the impact's), those later than crashlab.outcome.PUSH_TIME after the impact into a row of kind "push"
         (one car pushing the other); `contact_intervals` gives each episode's first and last impulse.
     Why 5 cm and plastic: a pair that parts by less than that has not left its crash, its crush zones
     (tens of cm deep at crash speeds: 0.5 m at 50 km/h with crush_time) are still engaged, so a
@@ -275,7 +275,7 @@ def _episode_intervals(imp) -> list[tuple[float, float]]:
 def _impact_rows(names, mass, imp, specs):
     """Impact table rows (SI), one per vehicle per impact; an impact's row holds the sums over its contact
     episode (the impact and its follow-up contact impulses, `contact_impulses` of them, the last at
-    `t_end`), up to layout.PUSH_TIME after the impact, the rest of a longer episode in a row of kind "push"
+    `t_end`), up to crashlab.outcome.PUSH_TIME after the impact, the rest of a longer episode in a row of kind "push"
     (§5); kind, point and plane are the impact's; the energy shared by the struck sides' structures (the
     vehicles' specs, impact_rows.struck_compliance)."""
     compliance = struck_compliance(specs)

@@ -18,8 +18,16 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, P_I, P_J, S_ACT
-from crashlab.models.common.contact_episodes import accumulate, close_episode, open_episode, reset_sums, track_peak
+from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, G_GAP, P_I, P_J, S_ACT
+from crashlab.models.common.contact_episodes import (
+    IN_CONTACT,
+    accumulate,
+    episode_step,
+    finish_episode,
+    open_episode,
+    reset_sums,
+    track_peak,
+)
 from crashlab.models.common.road_contact import R_DEL
 
 from .dormand_prince import DP_A, dp_step, error_norm, normalise
@@ -84,10 +92,15 @@ def _new_penetration(PST, PSG6):
 
 
 @njit(cache=True)
-def _close(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, is_open):
-    """Close the contact episode of pair p at t (common/contact_episodes.py), counted in diag[D_NIMP]."""
-    diag[D_NIMP] = close_episode(IMP, int(diag[D_NIMP]), PP, PST, p, t, PSG6[p, G_DDOT], is_open,
-                                 velocity(Y, BODY, int(PP[p, P_I])), velocity(Y, BODY, int(PP[p, P_J])))
+def _episode(IMP, diag, p, PP, PST, PSG6, Y, BODY, t, finish):
+    """The contact episode of an active pair p at the end of an accepted step at t, or at the run's end (finish)
+    (common/contact_episodes.py: episode_step, finish_episode), its records counted in diag[D_NIMP]."""
+    vi, vj = velocity(Y, BODY, int(PP[p, P_I])), velocity(Y, BODY, int(PP[p, P_J]))
+    if finish:
+        diag[D_NIMP] = finish_episode(IMP, int(diag[D_NIMP]), PP, PST, p, t, PSG6[p, G_DDOT], vi, vj)
+    else:
+        diag[D_NIMP] = episode_step(IMP, int(diag[D_NIMP]), PP, PST, p, t, t, t, PSG6[p, G_DEL], PSG6[p, G_GAP],
+                                    PSG6[p, G_DDOT], vi, vj)
 
 
 @njit(cache=True)
@@ -251,9 +264,9 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
                             need_k0 = True
                 else:
                     reset_sums(PST, p)
-            elif d6 <= 0.0:
-                _close(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, 0.0)
-            if PST[p, S_ACT] > 0.0:
+            else:
+                _episode(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, False)
+            if PST[p, S_ACT] == IN_CONTACT:
                 for v in (i, j):
                     if v < nv and not awake[v]:
                         awake[v] = True
@@ -314,7 +327,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
             h = max(h, h_free)    # the step was shortened to end at the change, not for accuracy
     for p in range(npair):
         if PST[p, S_ACT] > 0.0:
-            _close(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, 1.0)
+            _episode(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, True)
     for v in range(nv):
         if awake[v]:
             fz_end[v, :] = aux[v, AUX_FZ:AUX_FZ + 4]

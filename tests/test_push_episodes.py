@@ -1,0 +1,108 @@
+"""Contact episodes and pushes of the 3D models (docs/physics.md §15 "Episodes and pushes"): an episode lasts until
+the pair is SEPARATION apart (a re-touch before continues it), and its contact later than PUSH_TIME after the
+impact is a push row of its own, as in the impulse model (§5; crashlab.outcome).
+
+A rolling bus that strikes a standing car's side pushes it: the car slides ahead on its tyres, the bus catches it
+up, the crushed structures touch again and again. Each touch was an episode and an impact row of its own (21 in
+5 s); the multibody model failed the run at 12 s ("more than 64 contact episodes", exit 3).
+
+References written here: the records a given sequence of contact states makes, by the rule above; the 1D momentum
+of a central impact with restitution e, dV2 = (1 + e) m1 / (m1 + m2) v."""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from crashlab.models.common import chassis_contact as C
+from crashlab.models.common import contact_episodes as EP
+from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION, collision_rows
+
+sys.path.insert(0, str(Path(__file__).parent))
+from conftest import build_scene  # noqa: E402
+
+
+def _pair():
+    PP = C.pair_table(2, 0, 1e6, 1.5)
+    return PP, np.zeros((1, C.N_PST)), np.zeros((8, EP.N_IMP))
+
+
+def _step(IMP, n, PP, PST, t, d, gap, v):
+    """One accepted step's end at t: in contact d, gap `gap`, vehicle 1 moving at v (vehicle 2 at -v)."""
+    return EP.episode_step(IMP, n, PP, PST, 0, t, t, t, d, gap, 1.0, (v, 0.0, 0.0), (-v, 0.0, 0.0))
+
+
+def test_a_retouch_within_the_separation_continues_the_episode():
+    """Touch at 0, contact ends at 0.10 s (V1 at 3 m/s there), the pair 2 cm apart, touches again at 0.15 s
+    (before PUSH_TIME), ends at 0.20 s (V1 at 2 m/s), then parts by more than SEPARATION at 0.30 s: one record from
+    0 to 0.20 s whose delta-V runs to the second end."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = _step(IMP, 0, PP, PST, 0.05, 0.1, -0.1, 6.0)
+    n = _step(IMP, n, PP, PST, 0.10, -0.01, -0.01, 3.0)
+    assert PST[0, C.S_ACT] == EP.ENDED and n == 0
+    n = _step(IMP, n, PP, PST, 0.12, -0.02, 0.02, 3.0)
+    n = _step(IMP, n, PP, PST, 0.15, 0.01, -0.01, 2.5)
+    assert PST[0, C.S_ACT] == EP.IN_CONTACT and n == 0
+    n = _step(IMP, n, PP, PST, 0.20, -0.01, -0.005, 2.0)
+    n = _step(IMP, n, PP, PST, 0.25, -0.03, 0.03, 1.5)
+    assert n == 0
+    n = _step(IMP, n, PP, PST, 0.30, -0.08, SEPARATION + 0.01, 1.0)
+    assert n == 1 and PST[0, C.S_ACT] == EP.NONE
+    r = IMP[0]
+    assert (r[EP.I_T0], r[EP.I_T1]) == (0.0, 0.20)
+    assert r[EP.I_DVI] == pytest.approx(2.0 - 10.0) and r[EP.I_DVJ] == pytest.approx(-2.0 + 10.0)
+    assert r[EP.I_PUSH] == 0.0 and r[EP.I_OPEN] == 0.0
+
+
+def test_contact_later_than_push_time_is_a_push_record():
+    """Touch at 0; ended at 0.1 s; touches again at 0.5 s (> PUSH_TIME after the impact): the impact's record
+    ends at 0.1 s and a push opens at 0.5 s, which every later re-touch continues until the run ends in contact."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = _step(IMP, 0, PP, PST, 0.10, -0.01, -0.01, 3.0)
+    n = _step(IMP, n, PP, PST, 0.50, 0.01, -0.01, 2.0)
+    assert n == 1 and IMP[0, EP.I_T1] == 0.10 and IMP[0, EP.I_PUSH] == 0.0
+    assert PST[0, C.S_ACT] == EP.IN_CONTACT and PST[0, C.S_PUSH] == 1.0 and PST[0, C.S_T0] == 0.50
+    for t in (1.0, 1.5, 2.0):
+        n = _step(IMP, n, PP, PST, t, -0.01, 0.01, 1.0)
+        n = _step(IMP, n, PP, PST, t + 0.2, 0.01, -0.01, 0.5)
+    assert n == 1
+    n = EP.finish_episode(IMP, n, PP, PST, 0, 3.0, 0.0, (0.2, 0.0, 0.0), (-0.2, 0.0, 0.0))
+    assert n == 2 and IMP[1, EP.I_PUSH] == 1.0 and IMP[1, EP.I_OPEN] == 1.0
+    assert (IMP[1, EP.I_T0], IMP[1, EP.I_T1]) == (0.50, 3.0)
+    assert IMP[1, EP.I_DVI] == pytest.approx(0.2 - 2.0)
+
+
+def test_a_contact_that_outlasts_push_time_splits_there():
+    """A contact that never ends: the impact's record up to PUSH_TIME after its start, the push from there."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = 0
+    for k in range(1, 11):
+        n = _step(IMP, n, PP, PST, 0.1 * k, 0.01, -0.01, 10.0 - k)
+    assert n == 1 and IMP[0, EP.I_T1] == pytest.approx(PUSH_TIME) and PST[0, C.S_PUSH] == 1.0
+    assert IMP[0, EP.I_DVI] == pytest.approx(-3.0)
+
+
+@pytest.mark.parametrize("model", ["multibody", "exudyn"])
+def test_a_bus_pushing_a_car_is_one_impact_and_one_push(model):
+    """A Citaro bus (18 t) at 30 km/h into a standing Clio's side, wheels rolling, 12 s: one impact row per
+    vehicle (the Clio's delta-V within 5 % of the central 1D momentum value (1 + e) m1 / (m1 + m2) v = 31.3 km/h)
+    and one push row per vehicle, starting later than PUSH_TIME after it; before, 64 episodes and more."""
+    from crashlab.registry import get_model
+
+    sc = build_scene([{"vehicle": "citaro_bus", "speed": 30.0},
+                      {"vehicle": "clio", "x": 9.0, "y": 0.0, "heading": 90.0, "speed": 0.0}],
+                     impact={"restitution": 0.1, "friction": 0.3}, road={"friction": 0.8}, duration=12.0)
+    m1, m2 = (v.spec.mass for v in sc.vehicles)
+    out = get_model(model).simulate(sc)
+    assert out.outcome_ok, out.warnings
+    impacts = collision_rows(out.impact_rows)
+    pushes = [r for r in out.impact_rows if r["kind"] == PUSH]
+    assert sorted(r["vehicle"] for r in impacts) == ["V1", "V2"]
+    assert sorted(r["vehicle"] for r in pushes) == ["V1", "V2"]
+    clio = next(r for r in impacts if r["vehicle"] == "V2")
+    assert 3.6 * math.hypot(clio["dvx"], clio["dvy"]) == pytest.approx(1.1 * m1 / (m1 + m2) * 30.0, rel=0.05)
+    assert clio["duration"] <= PUSH_TIME and min(r["t"] for r in pushes) >= clio["t"] + PUSH_TIME
