@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from crashlab.models.common import chassis_contact as C
+from crashlab.models.common import contact_episodes as EP
 from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS
@@ -116,11 +117,12 @@ class StepLoads:
         return [max(err, BIG_ERROR), -1.0]
 
     def _onset_depth(self, psg1, rsg1):
-        """Deepest penetration of a contact not yet open (pairs, road)."""
+        """Deepest penetration of a contact not yet open (pairs: none yet, or an episode whose contact has ended;
+        road)."""
         PST = self.CT[5]
         d = 0.0
         for p in range(PST.shape[0]):
-            if PST[p, C.S_ACT] == 0.0:
+            if PST[p, C.S_ACT] != EP.IN_CONTACT:
                 d = max(d, psg1[p, C.G_DEL])
         for v in range(self.nv):
             if not self.road_on[v]:

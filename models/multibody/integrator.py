@@ -83,10 +83,11 @@ STATUS_OK, STATUS_NAN, STATUS_STEP = 0, 2, 3
 
 @njit(cache=True)
 def _new_penetration(PST, PSG6):
-    """Largest penetration at the end of a trial step among pairs not yet in contact."""
+    """Largest penetration at the end of a trial step among pairs not in contact (none yet, or an episode whose
+    contact has ended: its re-touch is located as a first touch)."""
     best = -1e300
     for p in range(PST.shape[0]):
-        if PST[p, S_ACT] == 0.0 and PSG6[p, G_DEL] > best:
+        if PST[p, S_ACT] != IN_CONTACT and PSG6[p, G_DEL] > best:
             best = PSG6[p, G_DEL]
     return best
 
