@@ -99,13 +99,14 @@ def _first_row(out, name):
     return min((r for r in out.impact_rows if r["vehicle"] == name), key=lambda r: r["t"])
 
 
+@pytest.mark.parametrize("model", ["multibody", "exudyn"])
 @pytest.mark.parametrize("overlap", [0.26, 0.28])
-def test_small_overlap_head_on_has_no_cliff(overlap):
+def test_small_overlap_head_on_has_no_cliff(overlap, model):
     """A saloon and a Clio head-on at 50/50 km/h with 0.26 and 0.28 m of overlap across (restitution 0.1, impact
     friction 0.3): both engage on their fronts, the Clio's delta-V within 15 % of the frictionless impact along the
     fronts' normal at the middle of the engaged width (Clio 48.2 / 48.6 km/h; was 3.3 km/h at 0.26 m, a sideswipe,
-    and 22.8 at 0.28 m)."""
-    from crashlab.models.multibody import MultibodyModel
+    and 22.8 at 0.28 m), in both 3D models."""
+    from crashlab.registry import get_model
 
     y2 = 0.5 * (1.832 + 1.64) - overlap
     sc = build_scene([{"vehicle": "saloon", "speed": 50.0},
@@ -114,7 +115,7 @@ def test_small_overlap_head_on_has_no_cliff(overlap):
     s, c = (v.spec for v in sc.vehicles)
     r1, r2 = 0.5 * (s.width - overlap), 0.5 * (c.width - overlap)
     P = 1.1 * (100 / 3.6) / (1 / s.mass + 1 / c.mass + r1 ** 2 / s.yaw_inertia + r2 ** 2 / c.yaw_inertia)
-    out = MultibodyModel().simulate(sc)
+    out = get_model(model).simulate(sc)
     assert out.outcome_ok, out.warnings
     row1, row2 = _first_row(out, "V1"), _first_row(out, "V2")
     assert (row1["side"], row2["side"]) == ("front", "front")
