@@ -9,6 +9,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from crashlab.structure import STRUCTURE_SIDES, crush_zone
 from crashlab.units import G
 
 from .crush_structure import side_code
@@ -17,7 +18,10 @@ from .wheel_states import BRAKED, LOCKED, WHEEL_CODES
 
 # vehicle parameter vector layout
 P_MASS, P_IZ, P_A, P_B, P_TRACK, P_H, P_FRR, P_CALPHA, P_FRONT, P_REAR, P_HALFW, P_WHEELS, P_STEER = range(13)
-N_PARAMS = 13
+# the crush structures' B [N/m^2] (P_STR_B) and crush zones [m] (P_STR_D) of the front, rear and side
+# (crashlab.structure: STRUCTURE_SIDES, crush_zone), for an impact's crush capacity (engaged_capacity)
+P_STR_B, P_STR_D = 13, 16
+N_PARAMS = 19
 
 V_REG = 0.05  # m/s: regularisation of Coulomb friction and rolling resistance near zero slip speed
 V_LOW = 2.0  # m/s: floor of the longitudinal speed in the slip angle, keeps it defined near standstill
@@ -257,4 +261,41 @@ def pack_vehicle(spec, wheels: str, steer: float) -> np.ndarray:
     p[P_FRR], p[P_CALPHA] = spec.rolling_resistance, spec.cornering_stiffness
     p[P_FRONT], p[P_REAR], p[P_HALFW] = spec.cg_to_front, spec.cg_to_rear, spec.width / 2
     p[P_WHEELS], p[P_STEER] = WHEEL_CODES[wheels], steer
+    for k, side in enumerate(STRUCTURE_SIDES):
+        p[P_STR_B + k] = spec.structure[side].B
+        p[P_STR_D + k] = crush_zone(spec, "left" if side == "side" else side)[0]
     return p
+
+
+@register_jitable
+def _extent(p, x, y, heading, tx, ty):
+    """The interval the vehicle's outline rectangle (parameters p, CG at x, y, heading) covers along (tx, ty)."""
+    c, sn = math.cos(heading), math.sin(heading)
+    lo, hi = math.inf, -math.inf
+    for u in (p[P_FRONT], -p[P_REAR]):
+        for v in (p[P_HALFW], -p[P_HALFW]):
+            a = (x + u * c - v * sn) * tx + (y + u * sn + v * c) * ty
+            lo, hi = min(lo, a), max(hi, a)
+    return lo, hi
+
+
+@register_jitable
+def engaged_capacity(pi, si, fi, pj, sj, fj, barrier, tx, ty):
+    """The engaged width [m] of an impact, the overlap of the two outline rectangles (parameters p, states s: x,
+    y, heading; a barrier as wide as the vehicle) along the contact plane's tangent (tx, ty), and the energy [J]
+    the struck structures (faces fi, fj: struck_side's codes) absorb over it before the first is crushed through
+    its crush zone D: in series they carry the same force per width f (CRASH3's line through zero force, f = B C,
+    docs/physics.md §13a), so f reaches min(B D) and each absorbs f^2 / 2B per width (a rigid barrier nothing;
+    docs/physics.md §4 "Engaged width")."""
+    lo_i, hi_i = _extent(pi, si[0], si[1], si[2], tx, ty)
+    lo_j, hi_j = (lo_i, hi_i) if barrier else _extent(pj, sj[0], sj[1], sj[2], tx, ty)
+    width = max(0.0, min(hi_i, hi_j) - max(lo_i, lo_j))
+    ki, kj = min(int(fi), 2), min(int(fj), 2)
+    bi = pi[P_STR_B + ki]
+    f = bi * pi[P_STR_D + ki]
+    cap = 0.0
+    if not barrier:
+        bj = pj[P_STR_B + kj]
+        f = min(f, bj * pj[P_STR_D + kj])
+        cap = f * f / (2.0 * bj)
+    return width, width * (cap + f * f / (2.0 * bi))

@@ -5,7 +5,7 @@ import math
 
 from numba import njit
 
-from crashlab.models.common.planar_vehicle import P_IZ, P_MASS, struck_side
+from crashlab.models.common.planar_vehicle import P_IZ, P_MASS, engaged_capacity, struck_side
 from crashlab.models.common.restitution_law import kernel_restitution
 
 from .contact import _point_velocity
@@ -15,6 +15,7 @@ from .layout import (
     I_ALT_DR_J,
     I_ALT_PN,
     I_ALT_PT,
+    I_CAPACITY,
     I_CLOSING,
     I_DR_I,
     I_DR_J,
@@ -45,6 +46,7 @@ from .layout import (
     I_SIDE_J,
     I_T,
     I_T_END,
+    I_WIDTH,
 )
 
 
@@ -116,6 +118,9 @@ def _record_impact(imp, n, t, i, j, nv, P, S_before, S, pn, pt, kind, energy, px
     imp[n, I_PX], imp[n, I_PY], imp[n, I_PLANE] = px, py, math.atan2(nx, -ny)  # tangent t = k x n
     imp[n, I_HEAD_I] = S[i, 2]
     imp[n, I_HEAD_J] = S[j, 2] if j < nv else 0.0
+    q = j if j < nv else i
+    imp[n, I_WIDTH], imp[n, I_CAPACITY] = engaged_capacity(P[i], S[i], imp[n, I_SIDE_I], P[q], S[q], imp[n, I_SIDE_J],
+                                                           j >= nv, -ny, nx)
     imp[n, I_T_END], imp[n, I_N_FOLLOW] = t, 0.0
     imp[n, I_ENGAGE], imp[n, I_ENGAGE_RATIO] = 0.0, math.nan  # not placed at engagement (the caller sets them)
 

@@ -30,8 +30,11 @@ SETTINGS = np.dtype([
 # that does not follow the reversal (model._slip_warnings)
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
- I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO, I_SIDE_I, I_SIDE_J) = range(34)
-N_IMP = 34  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+ I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO, I_SIDE_I, I_SIDE_J, I_WIDTH,
+ I_CAPACITY) = range(36)
+N_IMP = 36  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+# I_WIDTH, I_CAPACITY: the impact's engaged width [m] and the energy [J] it absorbs within the struck crush zones
+# (planar_vehicle.engaged_capacity; run_warnings: an impact that dissipates more, §4 "Engaged width")
 # I_SIDE_I, I_SIDE_J: the face of i and of j the impact strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 left,
 # 3 right; 0 for a barrier), whose structures share the energy (§21)
 # I_ENGAGE: how [impact] point = "engagement" placed the impact (ENGAGE_*; 0 for every other placement and for

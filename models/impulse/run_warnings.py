@@ -1,5 +1,6 @@
 """The warnings of a finished run of the impulse model, from its impact records: no contact, a slip that reverses
-under a law that does not follow it (docs/physics.md §3), an engagement not placed as asked (§4), restitution =
+under a law that does not follow it (docs/physics.md §3), an engagement not placed as asked (§4), an impact that
+dissipates more energy than its engaged width absorbs within the crush zones (§4 "Engaged width"), restitution =
 "speed" held at its end value outside the law's data (§13b). One home for the Outcome (model.py) and the population
 (population.py), so both carry the same words."""
 from __future__ import annotations
@@ -8,6 +9,7 @@ import math
 
 from crashlab.models.common.impact_rows import barrier_name
 from crashlab.restitution import SPEED, range_warning
+from crashlab.structure import STRUCK_FACES, crush_zone
 from crashlab.units import ms_to_kmh
 
 from . import layout as L
@@ -26,6 +28,8 @@ def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
     if scene.impact.engagement:
         depth = scene.impact.engagement_depth if engagement_depth is None else engagement_depth
         warnings += _engagement_warnings(names, imp, depth)
+    warnings += [_capacity_warning(scene, names, n, r) for n, r in enumerate(imp)  # (over_capacity, per row)
+                 if r[L.I_KIND] != L.PUSH and r[L.I_ENERGY] > r[L.I_CAPACITY]]
     if scene.impact.restitution_law == SPEED if speed_law is None else speed_law:
         impacts = imp[imp[:, L.I_KIND] != L.PUSH]  # (a push row has no closing speed)
         warnings += [w for w in map(range_warning, impacts[:, L.I_CLOSING].tolist()) if w]
@@ -80,3 +84,25 @@ def _engagement_warnings(names, imp, depth):
                        f"{depth:g} m (or would not approach there): the contact-zone point and the first-touch "
                        "contact plane are used (docs/physics.md §4)")
     return out
+
+
+def over_capacity(recs):
+    """Impact records (not a push's) that dissipate more energy than their engaged width absorbs within the struck
+    crush zones (I_CAPACITY, planar_vehicle.engaged_capacity); any shape (..., N_IMP), the population's too."""
+    return (recs[..., L.I_KIND] != L.PUSH) & (recs[..., L.I_ENERGY] > recs[..., L.I_CAPACITY])
+
+
+def _capacity_warning(scene, names, n, r):
+    """The structures of impact n cannot stop its overlap: the cars likely pass each other (a small overlap or a
+    glance), where the impulse model's impact engages fully (docs/physics.md §4 "Engaged width")."""
+    nv = len(names)
+    i, j = int(r[L.I_I]), int(r[L.I_J])
+    parts = [(names[q], scene.vehicles[q].spec, STRUCK_FACES[int(r[k])]) for q, k in ((i, L.I_SIDE_I), (j, L.I_SIDE_J))
+             if q < nv]
+    zones = " and ".join(f"{name}'s {face} ({crush_zone(spec, face)[0]:.2f} m)" for name, spec, face in parts)
+    other = names[j] if j < nv else barrier_name(j - nv)
+    return (f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): its engaged width {r[L.I_WIDTH]:.2f} m "
+            f"absorbs at most {r[L.I_CAPACITY] / 1e3:.0f} kJ within the crush zones of {zones}, the impact dissipates "
+            f"{r[L.I_ENERGY] / 1e3:.0f} kJ: the structures cannot stop the overlap and the cars likely pass each other "
+            f"(a small overlap or a glance), which the impulse model's impact, fully engaged, does not follow "
+            f"(docs/physics.md §4 \"Engaged width\")")
