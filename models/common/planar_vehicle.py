@@ -12,7 +12,7 @@ from numba.extending import register_jitable
 from crashlab.structure import STRUCTURE_SIDES, crush_zone
 from crashlab.units import G
 
-from .crush_structure import side_code
+from .crush_structure import series_stiffness, side_code, structure_slot
 from .driver_inputs import wheel_frictions
 from .wheel_states import BRAKED, LOCKED, WHEEL_CODES
 
@@ -290,12 +290,7 @@ def engaged_capacity(pi, si, fi, pj, sj, fj, barrier, tx, ty):
     lo_i, hi_i = _extent(pi, si[0], si[1], si[2], tx, ty)
     lo_j, hi_j = (lo_i, hi_i) if barrier else _extent(pj, sj[0], sj[1], sj[2], tx, ty)
     width = max(0.0, min(hi_i, hi_j) - max(lo_i, lo_j))
-    ki, kj = min(int(fi), 2), min(int(fj), 2)
-    bi = pi[P_STR_B + ki]
-    f = bi * pi[P_STR_D + ki]
-    cap = 0.0
-    if not barrier:
-        bj = pj[P_STR_B + kj]
-        f = min(f, bj * pj[P_STR_D + kj])
-        cap = f * f / (2.0 * bj)
-    return width, width * (cap + f * f / (2.0 * bi))
+    ki, kj = structure_slot(int(fi)), structure_slot(int(fj))
+    bi, bj = pi[P_STR_B + ki], 0.0 if barrier else pj[P_STR_B + kj]
+    f = bi * pi[P_STR_D + ki] if barrier else min(bi * pi[P_STR_D + ki], bj * pj[P_STR_D + kj])
+    return width, width * f * f / (2.0 * series_stiffness(bi, bj))  # f^2/2B1 + f^2/2B2 (a rigid barrier B2 <= 0)

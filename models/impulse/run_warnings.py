@@ -28,8 +28,7 @@ def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
     if scene.impact.engagement:
         depth = scene.impact.engagement_depth if engagement_depth is None else engagement_depth
         warnings += _engagement_warnings(names, imp, depth)
-    warnings += [_capacity_warning(scene, names, n, r) for n, r in enumerate(imp)  # (over_capacity, per row)
-                 if r[L.I_KIND] != L.PUSH and r[L.I_ENERGY] > r[L.I_CAPACITY]]
+    warnings += [_capacity_warning(scene, names, n, r) for n, r in enumerate(imp) if over_capacity(r)]
     if scene.impact.restitution_law == SPEED if speed_law is None else speed_law:
         impacts = imp[imp[:, L.I_KIND] != L.PUSH]  # (a push row has no closing speed)
         warnings += [w for w in map(range_warning, impacts[:, L.I_CLOSING].tolist()) if w]
@@ -88,7 +87,8 @@ def _engagement_warnings(names, imp, depth):
 
 def over_capacity(recs):
     """Impact records (not a push's) that dissipate more energy than their engaged width absorbs within the struck
-    crush zones (I_CAPACITY, planar_vehicle.engaged_capacity); any shape (..., N_IMP), the population's too."""
+    crush zones (I_CAPACITY, planar_vehicle.engaged_capacity); any shape (..., N_IMP): a run's row, the population's
+    records."""
     return (recs[..., L.I_KIND] != L.PUSH) & (recs[..., L.I_ENERGY] > recs[..., L.I_CAPACITY])
 
 
