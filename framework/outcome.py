@@ -206,8 +206,8 @@ class Outcome:
         straight ahead], pdof_clock [h, SAE J224: 12 from straight ahead, 3 from the right], side (the face it
         is struck on: front, rear, left or right, and in the 3D models a tilted car's roof or underbody, whose
         structure takes its share of the energy, docs/physics.md §21, §13a), kind
-        (impulse model: full, sliding or, law routh, reversed; push: the contact later than 0.3 s after the
-        impact, one car pushing the other, §5; continuous-contact models: continuous),
+        (impulse model: full, sliding or, law routh, reversed; continuous-contact models: continuous; every model:
+        push, the contact later than PUSH_TIME after the impact, one car pushing the other, §5, §15),
         slip_reversed (impulse model: the slip at the point stops and reverses in this impact, which
         the laws kudlich-slibar and brach do not follow; docs/physics.md §3), point_x, point_y [m],
         plane_angle [deg]."""
