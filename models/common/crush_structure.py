@@ -112,11 +112,12 @@ def swept_faces(dx, dy, wx, wy, c1, s1, a1, b1, c2, s2, a2, b2):
         if closing <= 1e-9:
             continue
         tau = max(reach - abs(s0), 0.0) / closing
-        # the face towards the other body: i's along +sgn u, j's along -sgn u
+        # the face towards the other body: i's along +sgn u, j's along -sgn u (u its x axis for k = 0, 2, else y)
+        along, across = (sgn, 0.0) if k % 2 == 0 else (0.0, sgn)
         if k < 2 and tau < tau_i:
-            tau_i, fi = tau, (0 if sgn > 0.0 else 1) if k == 0 else (2 if sgn > 0.0 else 3)
+            tau_i, fi = tau, side_code(along, across, a1, b1)
         elif k >= 2 and tau < tau_j:
-            tau_j, fj = tau, (0 if sgn < 0.0 else 1) if k == 2 else (2 if sgn < 0.0 else 3)
+            tau_j, fj = tau, side_code(-along, -across, a2, b2)
     return fi, fj, fi >= 0 and fj >= 0
 
 
