@@ -67,3 +67,29 @@ def test_the_population_says_it_as_the_outcome():
         got = [w for w in (pop.warnings[k] or "").split("\n") if "engaged width" in w]
         assert got == want
     assert [bool(w and "engaged width" in w) for w in pop.warnings] == [False, True]
+
+
+def _into_barrier(length, width, y=0.0, speed=50.0):
+    """The saloon (its nose 2.072 m ahead of its CG) at `speed` into a barrier `length` x `width` (its length across
+    the car's path) 3 m ahead of the nose, centred `y` to the side."""
+    return build_scene([{"vehicle": "saloon", "speed": speed}],
+                       barriers=[{"x": 2.072 + 3.0 + 0.5 * width, "y": y, "heading": 90.0, "length": length,
+                                  "width": width}],
+                       impact={"restitution": 0.1, "friction": 0.3}, road={"friction": 0.8}, duration=3.0)
+
+
+def test_a_narrow_barrier_is_judged_by_its_own_width():
+    """A 0.3 m pole at 50 km/h: the width is the pole's (it was the car's before), 0.3 x B D^2 / 2 of the saloon's
+    front (rigid barrier: f = B D) = 72 kJ against about 143 kJ dissipated; a wall as wide as the road at the same
+    speed absorbs it (1.832 m: 438 kJ) and is quiet."""
+    model = get_model("impulse")
+    out = model.simulate(_into_barrier(0.3, 0.3))
+    said = [w for w in out.warnings if "engaged width" in w]
+    assert len(said) == 1, out.warnings
+    spec = _into_barrier(0.3, 0.3).vehicles[0].spec
+    B, D = spec.structure["front"].B, spec.cg_to_front - spec.cg_to_front_axle
+    assert "engaged width 0.30 m" in said[0]
+    assert f"at most {0.3 * B * D * D / 2.0 / 1e3:.0f} kJ" in said[0]
+    assert "slides off the barrier" in said[0]
+    wall = model.simulate(_into_barrier(20.0, 0.5))
+    assert not [w for w in wall.warnings if "engaged width" in w], wall.warnings

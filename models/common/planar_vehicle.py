@@ -268,27 +268,33 @@ def pack_vehicle(spec, wheels: str, steer: float) -> np.ndarray:
 
 
 @register_jitable
-def _extent(p, x, y, heading, tx, ty):
-    """The interval the vehicle's outline rectangle (parameters p, CG at x, y, heading) covers along (tx, ty)."""
+def _extent(x, y, heading, front, rear, halfw, tx, ty):
+    """The interval a rectangle (centre x, y, heading; reaching `front` ahead, `rear` behind, `halfw` to either side
+    of it) covers along (tx, ty)."""
     c, sn = math.cos(heading), math.sin(heading)
     lo, hi = math.inf, -math.inf
-    for u in (p[P_FRONT], -p[P_REAR]):
-        for v in (p[P_HALFW], -p[P_HALFW]):
+    for u in (front, -rear):
+        for v in (halfw, -halfw):
             a = (x + u * c - v * sn) * tx + (y + u * sn + v * c) * ty
             lo, hi = min(lo, a), max(hi, a)
     return lo, hi
 
 
 @register_jitable
-def engaged_capacity(pi, si, fi, pj, sj, fj, barrier, tx, ty):
+def engaged_capacity(pi, si, fi, pj, sj, fj, bar, tx, ty):
     """The engaged width [m] of an impact, the overlap of the two outline rectangles (parameters p, states s: x,
-    y, heading; a barrier as wide as the vehicle) along the contact plane's tangent (tx, ty), and the energy [J]
+    y, heading; for a barrier, bar its row x, y, heading, half length, half width, else empty) along the contact
+    plane's tangent (tx, ty), and the energy [J]
     the struck structures (faces fi, fj: struck_side's codes) absorb over it before the first is crushed through
     its crush zone D: in series they carry the same force per width f (CRASH3's line through zero force, f = B C,
     docs/physics.md §13a), so f reaches min(B D) and each absorbs f^2 / 2B per width (a rigid barrier nothing;
     docs/physics.md §4 "Engaged width")."""
-    lo_i, hi_i = _extent(pi, si[0], si[1], si[2], tx, ty)
-    lo_j, hi_j = (lo_i, hi_i) if barrier else _extent(pj, sj[0], sj[1], sj[2], tx, ty)
+    barrier = bar.shape[0] > 0
+    lo_i, hi_i = _extent(si[0], si[1], si[2], pi[P_FRONT], pi[P_REAR], pi[P_HALFW], tx, ty)
+    if barrier:
+        lo_j, hi_j = _extent(bar[0], bar[1], bar[2], bar[3], bar[3], bar[4], tx, ty)
+    else:
+        lo_j, hi_j = _extent(sj[0], sj[1], sj[2], pj[P_FRONT], pj[P_REAR], pj[P_HALFW], tx, ty)
     width = max(0.0, min(hi_i, hi_j) - max(lo_i, lo_j))
     ki, kj = structure_slot(int(fi)), structure_slot(int(fj))
     bi, bj = pi[P_STR_B + ki], 0.0 if barrier else pj[P_STR_B + kj]

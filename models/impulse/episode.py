@@ -193,7 +193,7 @@ def _given_impact(P, S, B, cfg, e, mu_imp, law, S_before, contact, imp, hit, asl
     pn, pt, kind, energy, gn = _apply_impulse(P, S, i0, j, nv, px, py, nx, ny, e, mu_imp, law, imp[0])
     if kind < 0:
         return 0, STATUS_NOT_APPROACHING
-    _record_impact(imp, 0, 0.0, i0, j, nv, P, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+    _record_impact(imp, 0, 0.0, i0, j, nv, P, B, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
     # the given impulse keeps its own row (the collision position's impulse as given); contact after it, where
     # the pair's overlap deepens, opens an episode of its own
     diag[D_E_IMPACT] += energy
@@ -256,12 +256,12 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
             if is_impact:
                 if n_imp == 0:
                     _contact_state(contact, S_before, diag, t)
-                _record_impact(imp, n_imp, t, i, k, nv, P, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
+                _record_impact(imp, n_imp, t, i, k, nv, P, B, S_before, S, pn, pt, kind, energy, px, py, nx, ny)
                 imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
                 episode[i, k] = n_imp
                 n_imp += 1
             elif push:
-                _record_impact(imp, n_imp, t, i, k, nv, P, S_before, S, pn, pt, PUSH, energy, px, py, nx, ny)
+                _record_impact(imp, n_imp, t, i, k, nv, P, B, S_before, S, pn, pt, PUSH, energy, px, py, nx, ny)
                 imp[n_imp, I_REVERSED], imp[n_imp, I_CLOSING], imp[n_imp, I_N_FOLLOW] = 0.0, math.nan, 1.0
                 episode[i, k] = n_imp
                 n_imp += 1

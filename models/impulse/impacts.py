@@ -103,7 +103,7 @@ def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law, alt):
 
 
 @njit(cache=True)
-def _record_impact(imp, n, t, i, j, nv, P, S_before, S, pn, pt, kind, energy, px, py, nx, ny):
+def _record_impact(imp, n, t, i, j, nv, P, B, S_before, S, pn, pt, kind, energy, px, py, nx, ny):
     imp[n, I_T], imp[n, I_I], imp[n, I_J] = t, i, j
     imp[n, I_SIDE_I] = struck_side(P[i], S[i, 0], S[i, 1], S[i, 2], px, py)
     imp[n, I_SIDE_J] = struck_side(P[j], S[j, 0], S[j, 1], S[j, 2], px, py) if j < nv else 0.0
@@ -119,8 +119,9 @@ def _record_impact(imp, n, t, i, j, nv, P, S_before, S, pn, pt, kind, energy, px
     imp[n, I_HEAD_I] = S[i, 2]
     imp[n, I_HEAD_J] = S[j, 2] if j < nv else 0.0
     q = j if j < nv else i
+    bar = B[j - nv] if j >= nv else S[i, :0]  # a barrier's row (its own extent), else none
     imp[n, I_WIDTH], imp[n, I_CAPACITY] = engaged_capacity(P[i], S[i], imp[n, I_SIDE_I], P[q], S[q], imp[n, I_SIDE_J],
-                                                           j >= nv, -ny, nx)
+                                                           bar, -ny, nx)
     imp[n, I_T_END], imp[n, I_N_FOLLOW] = t, 0.0
     imp[n, I_ENGAGE], imp[n, I_ENGAGE_RATIO] = 0.0, math.nan  # not placed at engagement (the caller sets them)
 

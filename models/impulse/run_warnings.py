@@ -94,15 +94,18 @@ def over_capacity(recs):
 
 def _capacity_warning(scene, names, n, r):
     """The structures of impact n cannot stop its overlap: the cars likely pass each other (a small overlap or a
-    glance), where the impulse model's impact engages fully (docs/physics.md §4 "Engaged width")."""
+    glance), or a vehicle crushes past its crush zone into a narrow barrier, where the impulse model's impact
+    engages fully (docs/physics.md §4 "Engaged width")."""
     nv = len(names)
     i, j = int(r[L.I_I]), int(r[L.I_J])
     parts = [(names[q], scene.vehicles[q].spec, STRUCK_FACES[int(r[k])]) for q, k in ((i, L.I_SIDE_I), (j, L.I_SIDE_J))
              if q < nv]
     zones = " and ".join(f"{name}'s {face} ({crush_zone(spec, face)[0]:.2f} m)" for name, spec, face in parts)
     other = names[j] if j < nv else barrier_name(j - nv)
+    likely = ("the cars likely pass each other (a small overlap or a glance)" if j < nv else
+              f"{names[i]} likely crushes past its crush zone or slides off the barrier (a narrow one, or its end)")
     return (f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): its engaged width {r[L.I_WIDTH]:.2f} m "
-            f"absorbs at most {r[L.I_CAPACITY] / 1e3:.0f} kJ within the crush zones of {zones}, the impact dissipates "
-            f"{r[L.I_ENERGY] / 1e3:.0f} kJ: the structures cannot stop the overlap and the cars likely pass each other "
-            f"(a small overlap or a glance), which the impulse model's impact, fully engaged, does not follow "
+            f"absorbs at most {r[L.I_CAPACITY] / 1e3:.0f} kJ within the crush zone{'s' if j < nv else ''} of {zones}, "
+            f"the impact dissipates {r[L.I_ENERGY] / 1e3:.0f} kJ: the structures cannot stop the overlap and "
+            f"{likely}, which the impulse model's impact, fully engaged, does not follow "
             f"(docs/physics.md §4 \"Engaged width\")")
