@@ -39,9 +39,9 @@ delta_dot = (v_i(M) - v_j(M)).d (> 0 approaching):
     F_N = K delta^n (1 + chi delta_dot / delta_dot0),  F_N >= 0   (contact_force.normal_force_chi)
     F_T = -mu c(|v_T|) F_N v_T/|v_T|                               (contact_force.friction_ratio_code)
     F_i = -F_N d + F_T at M on the chassis of i, F_j = -F_i on j (a barrier takes its share).
-delta_dot0 is the approach velocity stored at onset (PST[:, S_DD0]) while the pair is active; for a pair
-not yet active (only within the integrator's trial stages, delta <= onset tolerance) the current
-delta_dot is used.
+delta_dot0 is the approach velocity stored at the touch (PST[:, S_DDT]: the episode's onset, or a re-touch's
+own after its contact ended within the episode) while the pair is in contact; for a pair not in contact (only
+within the integrator's trial stages, delta <= onset tolerance) the current delta_dot is used.
 """
 import math
 
@@ -100,7 +100,10 @@ S_CI, S_CR, S_CM = 28, 29, 30
 # end (time, normal velocity, the velocities (vx, vy, yaw rate) of i and j there), and whether the open episode is
 # a push (contact later than PUSH_TIME after its impact; crashlab.outcome, docs/physics.md §15)
 S_T1, S_DD1, S_VEI, S_VEJ, S_PUSH = 31, 32, 33, 36, 39
-N_PST = 40
+# the approach velocity of the episode's current touch (generic law's delta_dot0): S_DD0 at onset, a re-touch's own
+# after an ENDED contact (contact_episodes.episode_step); S_DD0 stays the episode's (its impact row)
+S_DDT = 40
+N_PST = 41
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -563,7 +566,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         else:
             if g >= 0.0:
                 continue
-            dd0 = PST[p, S_DD0] if PST[p, S_ACT] > 0.0 else max(dd, cfg_vmin)
+            # in contact (S_ACT 1): the current touch's approach velocity; a first touch or a re-touch of an ended
+            # contact (only within trial stages) its current one
+            dd0 = PST[p, S_DDT] if PST[p, S_ACT] == 1.0 else max(dd, cfg_vmin)
             fn = normal_force_chi(-g, dd, dd0, PP[p, P_K], cfg_chi, cfg_n, cfg_vmin)
         vt = (vr[0] - dd * d0, vr[1] - dd * d1, vr[2])
         st = math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2)

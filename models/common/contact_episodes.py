@@ -39,6 +39,7 @@ from .chassis_contact import (
     S_CR,
     S_DD0,
     S_DD1,
+    S_DDT,
     S_JX,
     S_MAXPEN,
     S_PEAK,
@@ -85,7 +86,7 @@ def open_episode(PST, p, t0, dd0, vel_i, vel_j):
     """Mark pair p active from t0 with the approach velocity dd0 and the velocities (vx, vy, yaw rate) of its
     vehicles (vel_j is ignored by the records of a barrier pair)."""
     PST[p, S_ACT] = 1.0
-    PST[p, S_DD0] = dd0
+    PST[p, S_DD0] = PST[p, S_DDT] = dd0
     PST[p, S_T0] = t0
     for k in range(3):
         PST[p, S_VI + k] = vel_i[k]
@@ -193,8 +194,8 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
             if late and t_touch - PST[p, S_T0] >= PUSH_TIME:
                 n = _close_ended(IMP, n, PP, PST, p)
                 _open_push(PST, p, t_touch, dd, vel_i, vel_j)
-            else:
-                PST[p, S_ACT] = IN_CONTACT
+            else:  # a re-touch within the episode: the generic law's delta_dot0 is its own (chassis_contact S_DDT)
+                PST[p, S_ACT], PST[p, S_DDT] = IN_CONTACT, max(dd, 0.0)
         elif gap >= SEPARATION:
             n = _close_ended(IMP, n, PP, PST, p)
     return n
