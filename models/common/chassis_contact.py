@@ -369,9 +369,10 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
                    cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, awake):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
     CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
-    awake (nv flags, or empty: all awake): a pair not in contact whose vehicles both sleep (a barrier
-    counts as asleep) is skipped (no force, psg[p, G_DEL] = -1, not counted in BPC): neither moves, so
-    it cannot come into contact (the integrator wakes a vehicle only through a pair evaluated with it awake).
+    awake (nv flags, or empty: all awake): a pair not in contact (no episode, or one whose contact ended) whose
+    vehicles both sleep (a barrier counts as asleep) is skipped (no force, psg[p, G_DEL] = -1, not counted in
+    BPC): neither moves, so it cannot come into contact (the integrator wakes a vehicle only through a pair
+    evaluated with it awake).
     Broad phase (§11), cheapest first: plan bounding circles (first a looser test on the chassis CGs with
     the radii grown by the shapes' offsets, before any rotation is built), height ranges, oriented boxes (a
     superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
@@ -394,8 +395,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         psg[p, :] = 0.0
         psg[p, G_DEL] = -1.0
         psg[p, G_GAP] = GAP_FAR
-        if use_awake and PST[p, S_ACT] == 0.0 and not awake[i] and (j >= nv or not awake[j]):
-            PST[p, S_THOK] = 0.0
+        if use_awake and PST[p, S_ACT] != 1.0 and not awake[i] and (j >= nv or not awake[j]):
+            if PST[p, S_ACT] == 0.0:  # an ended episode's pair keeps its warm start: it may still overlap
+                PST[p, S_THOK] = 0.0
             continue
         BPC[B_PAIRS] += 1
         # cheap circle gate on the CGs: the shape centre lies within |(x_off, z_off)| of the CG

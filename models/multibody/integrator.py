@@ -131,6 +131,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
     ACT, NACT = DV[0], DV[1]
     t_lim = next_break(ACT, NACT, 0.0)
     still = np.zeros(nv)
+    woken = np.zeros(nv, np.bool_)  # vehicles an accepted step's contact wakes (after its bookkeeping)
     hnew = np.empty(nv)
     rtol, atol, hmax = cfg[C_RTOL], cfg[C_ATOL], cfg[C_HMAX]
     t_end, rec_dt, tol = cfg[C_TEND], cfg[C_REC_DT], cfg[C_ONSET_TOL]
@@ -233,8 +234,10 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
         need_k0 = False
         for p in range(npair):
             i, j = int(PP[p, P_I]), int(PP[p, P_J])
-            if PST[p, S_ACT] == 0.0 and not awake[i] and (j >= nv or not awake[j]):
-                continue  # two sleepers (or a sleeper and a barrier) not in contact: contacts left their rows empty
+            if PST[p, S_ACT] != IN_CONTACT and not awake[i] and (j >= nv or not awake[j]):
+                continue  # two sleepers (or a sleeper and a barrier) not in contact, their episode ended or none:
+                # contacts left their rows empty, nothing changes until one wakes (an ended one is written then,
+                # or at the run's end)
             for s in range(7):
                 if s < 6:
                     accumulate(PST, p, h * bw[s], PSG[s, p])
@@ -260,9 +263,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
                             if apply_modes(Y[v], JNT[v], TYR[v], ACT[v], NACT[v], t, True, nb):
                                 need_k0 = True
                         if not awake[v]:
-                            awake[v] = True
-                            still[v] = 0.0
-                            need_k0 = True
+                            woken[v] = True
                 else:
                     reset_sums(PST, p)
             else:
@@ -270,9 +271,13 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
             if PST[p, S_ACT] == IN_CONTACT:
                 for v in (i, j):
                     if v < nv and not awake[v]:
-                        awake[v] = True
-                        still[v] = 0.0
-                        need_k0 = True
+                        woken[v] = True
+        # woken only now: the pairs above are booked with the awake flags their contacts were evaluated with (a
+        # pair of two sleepers was skipped there, its outputs empty: booked, an ended episode would close)
+        for v in range(nv):
+            if woken[v]:
+                awake[v], still[v], woken[v] = True, 0.0, False
+                need_k0 = True
         for p in range(npair):
             for k in range(PSG.shape[2]):
                 PSG[0, p, k] = PSG[6, p, k]
