@@ -38,9 +38,9 @@ GYRATION_SHARE = (0.1, 1.0)
 
 
 class _MultibodyPart(BaseModel):
-    """A [multibody.*] table: the keys the multibody model reads are typed and bounded; other keys are kept
-    (a model may read more) but must be finite numbers where they are numbers (checked in load_vehicle)."""
-    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    """A [multibody.*] table: the keys the 3D models read (models/common/vehicle_3d.py), typed and bounded; any
+    other key is an error (a misspelt `[multibody.knuckel]` or `mas` left the default silently)."""
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 Positive3 = tuple[Annotated[Real, Field(gt=0, le=1e7)], Annotated[Real, Field(gt=0, le=1e7)],
@@ -104,7 +104,9 @@ class MultibodyTyre(_MultibodyPart):
                                                default=None)
     camber_stiffness: Real | None = bounded(0.0, 1e7, "N/rad, camber stiffness of one tyre", default=None)
     rolling_resistance: Real | None = bounded(0.0, 1.0, "-, rolling resistance coefficient", default=None)
-    radial_damping: Real | None = bounded(0.0, 1e8, "N s/m, radial tyre damping", default=None)
+    radial_damping: Real | None = bounded(0.0, 1e8, "N s/m, radial tyre damping: kept for the record, not used (the "
+                                          "3D models damp the tyre at 1 % of critical; models/multibody/README.md)",
+                                          default=None)
 
 
 class MultibodySection(_MultibodyPart):
@@ -123,8 +125,8 @@ METADATA_KEYS = ("class", "sources")
 
 
 class VehicleFile(BaseModel):
-    """Schema of a vehicle file (SI units). Per-model sections (e.g. [multibody]) are kept as they are,
-    after the checks of their known keys."""
+    """Schema of a vehicle file (SI units). [multibody] takes only the keys below; a third party's own section
+    (a table of a name of its own) is kept as it is for the model that reads it."""
 
     model_config = ConfigDict(extra="allow", allow_inf_nan=False, populate_by_name=True)
 
@@ -231,7 +233,56 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                         f"{key} {getattr(v, key):g} kg m^2 with mass {v.mass:g} kg: radius of gyration "
                         f"sqrt(I/m) = {k:.3g} m lies outside {lo:g}-{hi:g} x the diagonal of {da} and {db} "
                         f"({diag:.3g} m) (an inertia in other units, or not scaled with an overridden mass?)"))
-    return out + late
+    # the 3D models' parts after the vehicle's own dimensions, which they are checked against
+    return out + _multibody_problems(v, front) + late
+
+
+# the 3D models' parts against the vehicle's own dimensions: a share the body may exceed its outline by
+# (rounding of a dimension written twice)
+OUTLINE_TOL = 0.05
+
+
+def _multibody_problems(v: VehicleFile, front: float) -> list[tuple[tuple[str, ...], str]]:
+    """[multibody] data that contradict the vehicle's dimensions (models/common/vehicle_3d.py reads them as
+    given): the chassis body and the strut mounts inside the outline, the tyre torus as large as the wheel,
+    the wheels and knuckles given at most half the mass (the chassis body takes the rest)."""
+    mb, out = v.multibody, []
+    if mb is None:
+        return out
+    grow = 1.0 + OUTLINE_TOL
+    half = {"length": max(front, v.length - front), "width": v.width / 2, "height": v.height / 2}
+    if mb.chassis is not None and mb.chassis.semi_axes is not None:
+        for q, (axis, name) in enumerate(zip(mb.chassis.semi_axes, half)):
+            if axis > half[name] * grow:
+                out.append((("multibody.chassis.semi_axes", name),
+                            f"multibody.chassis.semi_axes[{q}] ({axis:g} m) exceeds the vehicle's half {name} "
+                            f"({half[name]:g} m; the chassis body lies inside the outline)"))
+    pts = mb.suspension.chassis_points if mb.suspension is not None else None
+    for q, (x, y, z) in enumerate(pts or ()):
+        if not (-(v.length - front) * grow <= x <= front * grow and abs(y) <= v.width / 2 * grow
+                and -v.cg_height * grow <= z <= (v.height - v.cg_height) * grow):
+            out.append((("multibody.suspension.chassis_points",),
+                        f"multibody.suspension.chassis_points[{q}] ({x:g}, {y:g}, {z:g}) m lies outside the "
+                        f"vehicle (from the CG: {-(v.length - front):g} to {front:g} m along, +-{v.width / 2:g} m "
+                        f"across, {-v.cg_height:g} to {v.height - v.cg_height:g} m up)"))
+    tyre = mb.tyre
+    if tyre is not None and tyre.torus_radius_1 is not None and tyre.torus_radius_2 is not None:
+        r = tyre.torus_radius_1 + tyre.torus_radius_2
+        if abs(r - v.wheel_radius) > OUTLINE_TOL * v.wheel_radius:
+            out.append((("multibody.tyre.torus_radius_1", "multibody.tyre.torus_radius_2", "wheel_radius"),
+                        f"multibody.tyre.torus_radius_1 + torus_radius_2 ({r:g} m) must be the wheel_radius "
+                        f"({v.wheel_radius:g} m) within {OUTLINE_TOL:.0%}"))
+    elif tyre is not None and (tyre.torus_radius_1 or 0.0) >= v.wheel_radius:
+        out.append((("multibody.tyre.torus_radius_1", "wheel_radius"),
+                    f"multibody.tyre.torus_radius_1 ({tyre.torus_radius_1:g} m) must be less than the "
+                    f"wheel_radius ({v.wheel_radius:g} m)"))
+    wheel = mb.wheel.mass if mb.wheel is not None and mb.wheel.mass is not None else 0.0
+    knuckle = mb.knuckle.mass if mb.knuckle is not None and mb.knuckle.mass is not None else 0.0
+    if 4.0 * (wheel + knuckle) > 0.5 * v.mass:
+        out.append((("multibody.wheel.mass", "multibody.knuckle.mass", "mass"),
+                    f"four wheels and knuckles of {wheel:g} + {knuckle:g} kg weigh more than half the mass "
+                    f"({v.mass:g} kg): the chassis body needs at least half"))
+    return out
 
 
 def _non_finite(data, path=()):

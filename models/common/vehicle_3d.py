@@ -143,6 +143,10 @@ def build(spec) -> Vehicle:
     m_u = m_w + m_k
     # radial damping: the thesis's 78 kN s/m (zeta ~ 28 on a 10 kg wheel) is not used, see README
     cz = 2.0 * DEFAULTS["radial_damping_ratio"] * math.sqrt(m_u * kz)
+    if "radial_damping" in ty:
+        notes.append(f"tyre.radial_damping {ty['radial_damping']} of [multibody.tyre] ignored: the radial damping "
+                     f"is {cz:.0f} N s/m, {DEFAULTS['radial_damping_ratio']:g} of critical (models/multibody/"
+                     f"README.md, 'Tyre radial damping')")
     sig = DEFAULTS["relaxation_over_radius"] * (r1 + r2)
     m_spin = I_w[1] / (r1 + r2) ** 2
     cs = 2.0 * DEFAULTS["tread_damping_ratio_spin"] * math.sqrt(ks / sig * m_spin)
