@@ -161,6 +161,8 @@ def resolve(scene: Scene, path: str | Field) -> Field:
         raise ValueError(f"no vehicle {f.vehicle!r} in the scene ({', '.join(scene.vehicle_names)})")
     if f.kind == "zone" and f.index >= len(scene.road.zones):
         raise ValueError(f"the scene has {len(scene.road.zones)} friction zone(s), counted from 0")
+    if f.kind == "impact" and f.quantity == "engagement_depth" and not scene.impact.engagement:
+        raise ValueError('impact.engagement_depth acts only with [impact] point = "engagement" (docs/physics.md §4)')
     if f.kind == "action":
         acts = scene.vehicle(f.vehicle).actions
         if f.index >= len(acts):

@@ -9,7 +9,7 @@ import re
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, WrapValidator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictBool, ValidationError, WrapValidator
 
 from . import uncertainty
 from .errors import InputError
@@ -129,8 +129,16 @@ class ImpactFile(_Strict):
                                    "km/h into a rigid barrier, the calibration of crush_time (docs/physics.md §4)")
 
 
+def _trimmed(name: str) -> str:
+    """A name without spaces at its ends: "V1 " would be a second name that looks like "V1"."""
+    if name != name.strip():
+        raise ValueError(f"no spaces at the start or end, got {name!r}")
+    return name
+
+
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[^\x00-\x1f\x7f]+$",
-                            description="1-64 characters, no control characters (it labels tables and plots)")]
+                            description="1-64 characters, no control characters, no spaces at its ends (it labels "
+                            "tables and plots)"), AfterValidator(_trimmed)]
 
 
 class ActionFile(_Strict):
@@ -290,6 +298,8 @@ def _scene_from_dict(data: dict, source, base_dir) -> Scene:
     engagement = imp.point == "engagement"
     if engagement and imp.plane_angle is not None:
         raise InputError(source, "impact.plane_angle", 'not with point = "engagement" (the plane follows the overlap)')
+    if not engagement and "engagement_depth" in imp.model_fields_set:
+        raise InputError(source, "impact.engagement_depth", 'acts only with point = "engagement" (docs/physics.md §4)')
     if engagement:
         imp = imp.model_copy(update={"point": None})
     if (imp.point is None) != (imp.plane_angle is None):
