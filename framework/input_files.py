@@ -15,15 +15,19 @@ from pydantic import BaseModel, ValidationError
 from .errors import InputError
 from .units import split_unit
 
+TOML_BYTES_MAX = 64 << 20  # bytes: a scene, study or vehicle file is a few kB
+
 
 def read_toml(path: Path, what: str = "file") -> dict:
     """A TOML file as a dict; anything that keeps it from being read is an InputError naming the file: not
     found, a path the system refuses (too long: a name of more than 255 bytes), malformed, not UTF-8, an
     integer of more than Python's 4,300 digits, arrays or tables nested deeper than Python's recursion
-    allows (the line and its key named)."""
+    allows (the line and its key named), larger than TOML_BYTES_MAX (a device such as /dev/zero read forever)."""
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            data = fh.read(TOML_BYTES_MAX + 1)
+        if len(data) <= TOML_BYTES_MAX:
+            return tomllib.loads(data.decode())
     except FileNotFoundError:
         raise InputError(path, what, "file not found") from None
     except tomllib.TOMLDecodeError as err:
@@ -38,6 +42,7 @@ def read_toml(path: Path, what: str = "file") -> dict:
     except RecursionError:
         raise InputError(path, _line_key(path, r"(?:[\[{]\s*){100,}"),
                          "arrays or tables nested too deep (hundreds of levels)") from None
+    raise InputError(path, what, f"larger than {TOML_BYTES_MAX >> 20} MB: not a scene, study or vehicle file")
 
 
 # pydantic's error types of a violated bound (ge, gt, le, lt)

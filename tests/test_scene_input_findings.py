@@ -47,3 +47,13 @@ def test_engagement_depth_as_a_field_needs_the_engagement_point():
         fields.resolve(plain, "impact.engagement_depth")
     engaged = build_scene([{}, {"x": 6.0}], impact={"point": "engagement"})
     assert fields.get(engaged, "impact.engagement_depth") == 0.5
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+def test_a_device_that_never_ends_is_refused_not_read_forever():
+    """`crashlab simulate /dev/zero` read until the process was killed; a TOML input is read up to 64 MB."""
+    from crashlab.input_files import TOML_BYTES_MAX, read_toml
+    with pytest.raises(crashlab.InputError) as err:
+        read_toml(Path("/dev/zero"), "scene")
+    assert str(err.value) == (f"/dev/zero: scene: larger than {TOML_BYTES_MAX >> 20} MB: not a scene, study or "
+                              "vehicle file")
