@@ -246,7 +246,9 @@ def _multibody_problems(v: VehicleFile, front: float) -> list[tuple[tuple[str, .
     """[multibody] data that contradict the vehicle's dimensions (models/common/vehicle_3d.py reads them as
     given): the chassis body and the strut mounts inside the outline, the tyre torus as large as the wheel,
     the wheels and knuckles given at most half the mass (the chassis body takes the rest)."""
-    mb, out = v.multibody, []
+    mb, out = getattr(v, "multibody", None), []
+    if mb is None and isinstance(getattr(v, "sections", None), dict) and v.sections.get("multibody"):
+        mb = MultibodySection.model_validate(v.sections["multibody"])  # a VehicleSpec (fields.with_spec)
     if mb is None:
         return out
     grow = 1.0 + OUTLINE_TOL

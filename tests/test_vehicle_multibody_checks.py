@@ -69,3 +69,14 @@ def test_the_tyre_radial_damping_written_but_not_used_is_noted():
     said = [n for n in notes if n.startswith("tyre.radial_damping")]
     assert len(said) == 1, notes
     assert "78000.0 of [multibody.tyre] ignored: the radial damping is 28 N s/m" in said[0]
+
+
+def test_a_drawn_mass_meets_the_same_checks():
+    """A study's or Monte Carlo's mass (fields.with_spec, the spec without its file's schema): 75 kg (its radii of
+    gyration still within their bounds) for the Clio's 4 x (9 + 1) kg of wheels and knuckles is refused as the
+    file would be (it failed with an AttributeError in every draw of a first version)."""
+    from crashlab.fields import with_spec
+    spec = load_vehicle("clio")
+    assert with_spec(spec, mass=900.0).mass == 900.0
+    with pytest.raises(ValueError, match="weigh more than half the mass"):
+        with_spec(spec, mass=75.0)
