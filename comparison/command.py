@@ -14,6 +14,8 @@ def run_cli(args) -> int:
     if args.name != "all" and args.name not in STUDIES:
         raise InputError("command line", "study", f"unknown study {args.name!r}; known: "
                          f"{', '.join(STUDIES)}, all")
+    if args.models is not None and not [m for m in args.models.split(",") if m.strip()]:
+        raise InputError("command line", "--models", "give at least one model name (or no --models: every model)")
     models = resolve_models(args.models)
     out = output_dir(args.out)
     for name in names:

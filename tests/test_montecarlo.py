@@ -77,16 +77,19 @@ def test_delta_v_of_every_draw_conserves_momentum_with_an_uncertain_mass(tmp_pat
 
 def test_failed_draws_are_counted_not_dropped(tmp_path, capsys):
     """A run too short for the cars to stop: every draw's end pose is no rest pose, each is a failed draw
-    with its reason, kept in the table and counted in the summary."""
+    with its reason, kept in the table; with every draw failed the command fails (exit 3, one line with the
+    count and the first reason; it printed a summary of nan over 0 draws and exited 0 before)."""
     p = _scene_file(tmp_path, '[[uncertain]]\nfield = "road.friction"\ndistribution = "uniform"\n'
                     "lower = 0.7\nupper = 0.9\n", base=BASE.replace("duration = 10.0", "duration = 0.3"))
     out = tmp_path / "out"
-    assert main(["simulate", str(p), "--monte-carlo", "8", "--out", str(out)]) == 0
-    text = capsys.readouterr().out
+    assert main(["simulate", str(p), "--monte-carlo", "8", "--out", str(out)]) == 3
+    captured = capsys.readouterr()
     df = pd.read_csv(out / "montecarlo.csv")
     assert len(df) == 8 and not df["ok"].any()
     assert df["reason"].str.contains("still moving at the end").all()
-    assert "failed draws: 8 of 8" in text and "8 x V1, V2 still moving" in text
+    err = [line for line in captured.err.splitlines() if "all 8 draws failed" in line]
+    assert len(err) == 1 and "V1, V2 still moving" in err[0], captured.err
+    assert "nan" not in captured.out
 
 
 def test_monte_carlo_without_uncertain_parameters_is_refused(capsys):

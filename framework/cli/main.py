@@ -140,9 +140,15 @@ def cmd_models(args):
 
 def cmd_bench(args):
     from ..tools.bench import run_bench
+    if args.scene is not None:
+        if not args.scene:
+            raise InputError("command line", "--scene", "an empty path; give a scene file (or no --scene: the "
+                             "bundled side collision)")
+        refuse_other_kind(args.scene, "scene", "bench takes")
     _get_model(args.model, args.scene or "crashlab bench")
-    if args.batch < 1 or args.repeat < 1:
-        raise InputError("crashlab bench", "--batch/--repeat", "must be at least 1")
+    for option, value in (("--batch", args.batch), ("--repeat", args.repeat)):
+        if value < 1:
+            raise InputError("command line", option, f"must be at least 1, got {value}")
     run_bench(args.model, args.scene, args.batch, args.repeat)
     return 0
 
@@ -176,13 +182,22 @@ def cmd_stress(args):
     from ..tools import stress
     model = _get_model(args.model, "crashlab stress")
     if args.runs < 0:
-        raise InputError("crashlab stress", "--runs", "must be at least 0")
+        raise InputError("command line", "--runs", f"must be at least 0, got {args.runs}")
+    if not 0 <= args.seed < 2**32:
+        raise InputError("command line", "--seed", f"in [0, 2^32), got {args.seed}")
+    if args.csv is not None:  # refused before the sweep, not after it
+        csv = Path(args.csv)
+        if csv.is_dir():
+            raise InputError(args.csv, "--csv", "a folder; give a file name")
+        if not csv.parent.is_dir():
+            raise InputError(args.csv, "--csv", f"cannot write there: {csv.parent} is not a folder")
     df = stress.sweep(model, stress.random_scenes(args.runs, args.seed) + stress.extreme_scenes())
-    if args.csv:
+    if args.csv is not None:
         try:
             df.to_csv(args.csv, index=False)
         except OSError as err:
-            raise InputError(args.csv, "--csv", str(err)) from None
+            raise InputError(args.csv, "--csv", f"cannot write there ({err.strerror or err})") from None
+        print(f"wrote {args.csv}", file=sys.stderr)
     s = stress.summary(df)
     print(f"model {args.model}: {s['runs']} runs (seed {args.seed}, + {len(stress.extreme_scenes())} extremes), "
           f"{s['caught']} caught by the guard or failed: {s['by_kind'] or 'none'}; "
@@ -296,10 +311,12 @@ def build_parser():
                    "[deg, continuous], vx, vy [km/h], yaw_rate [deg/s]) and DIR/impacts.csv")
     s.add_argument("--animate", metavar="FILE", help="write an animation, FILE.gif (Pillow) or FILE.mp4 (needs "
                    "ffmpeg on PATH): outlines with headings, growing CG paths, impacts flashed, time stamp")
-    s.add_argument("--fps", type=float, default=25.0, help="--animate: frames per second of playback")
-    s.add_argument("--slow-motion", type=float, default=1.0, metavar="FACTOR",
+    # (None unless given: refused without --animate; the defaults are cmd_simulate's)
+    s.add_argument("--fps", type=float, default=None, help="--animate: frames per second of playback (default: "
+                   "25.0)")
+    s.add_argument("--slow-motion", type=float, default=None, metavar="FACTOR",
                    help="--animate: play FACTOR times slower than real time (at most 300 frames: a long run "
-                   "plays faster)")
+                   "plays faster) (default: 1.0)")
     s.add_argument("--monte-carlo", type=int, default=None, metavar="N",
                    help="draw the scene's [[uncertain]] parameters N times and simulate each draw (default: "
                    "one run of the nominal scene)")
@@ -422,9 +439,16 @@ def _glue_dash_values(argv: list[str]) -> list[str]:
     return out
 
 
+# options naming a file or folder to write: an empty one would be no file at all, or the current folder
+PATH_OPTIONS = {"out": "--out", "plot": "--plot", "csv": "--csv", "animate": "--animate"}
+
+
 def main(argv=None):
     args = build_parser().parse_args(_glue_dash_values(sys.argv[1:] if argv is None else list(argv)))
     try:
+        for dest, option in PATH_OPTIONS.items():
+            if getattr(args, dest, None) == "":
+                raise InputError("command line", option, "an empty path; give a file or folder name")
         from ..outdir import lock_out_dir
         with lock_out_dir(getattr(args, "out", None), args.command):  # one writer per --out folder
             return args.fn(args)

@@ -80,15 +80,15 @@ def _get_model(name, where, option: str = "--model"):
         raise InputError(where, option, str(err)) from None
 
 
-def refuse_other_kind(path, expected: str) -> None:
+def refuse_other_kind(path, expected: str, takes: str = "simulate and compare take") -> None:
     """InputError when the file is of the other kind than the command takes: a study (it names its scene and
     has [[free]] or [evidence]) given where a scene is expected, or a scene (it has [[vehicles]] and names
-    no scene) given where a study is."""
+    no scene) given where a study is. `takes`: the commands that take a scene, for the message."""
     from ..input_files import read_toml
     data = read_toml(Path(path), "scene" if expected == "scene" else "study")
     if expected == "scene" and "vehicles" not in data and {"scene", "free", "evidence"} & set(data):
         raise InputError(path, "(top level)", "this is a study file (it names a scene and what to search): run it "
-                         "with crashlab reconstruct or crashlab infer; simulate and compare take a scene file")
+                         f"with crashlab reconstruct or crashlab infer; {takes} a scene file")
     if expected == "study" and "vehicles" in data and "scene" not in data:
         raise InputError(path, "(top level)", "this is a scene file (it has [[vehicles]]): run it with crashlab "
                          "simulate or compare; reconstruct and infer take a study file that names a scene "
@@ -150,6 +150,17 @@ def cmd_monte_carlo(args, scene, model):
         result = montecarlo.run(scene, model, args.monte_carlo, 1 if args.seed is None else args.seed,
                                 progress=sys.stderr.isatty())
         written = montecarlo.write(result, args.out, args.units) if args.out else []
+    if not result.table["ok"].any():  # no draw to summarise (medians of none): the run failed
+        reasons = result.failure_reasons()
+        why = f", for {len(reasons)} reasons" if len(reasons) > 1 else ""
+        failed = (f"crashlab: simulation failed: {args.scene}: model {result.model}: all {result.n} draws failed{why} "
+                  f"(the first: {result.table['reason'].iloc[0]})")
+        if args.json:  # the JSON says why each failed (failure_reasons), as a failed single run's does
+            print(json.dumps(result.to_json_dict(args.units), indent=2))
+        elif written:
+            print("wrote " + ", ".join(str(p) for p in written))
+        print(failed, file=sys.stderr)
+        return 3
     if args.json:  # stderr: each kind of the model's warnings once, with its count of draws (the summary has them)
         montecarlo.print_warnings(result)
         print(json.dumps(result.to_json_dict(args.units), indent=2))
@@ -231,13 +242,19 @@ def _rest_table(scene, out):
 
 def cmd_simulate(args):
     from ..scene_file import load_scene
+    from ..tools.plotting import pose_text  # (the end-pose note in the tables' units)
     animate = None
+    fps = 25.0 if args.fps is None else args.fps
+    slow_motion = 1.0 if args.slow_motion is None else args.slow_motion
     if args.animate:
         from ..tools.animation import check_animation_path
         animate = check_animation_path(args.animate, "--animate")  # before the run: refused at once
-        if not args.fps > 0 or not args.slow_motion > 0:
-            raise InputError("command line", "--fps" if not args.fps > 0 else "--slow-motion",
-                             f"must be positive, got {args.fps if not args.fps > 0 else args.slow_motion}")
+        for option, value in (("--fps", fps), ("--slow-motion", slow_motion)):
+            if not (math.isfinite(value) and value > 0):
+                raise InputError("command line", option, f"must be positive and finite, got {value}")
+    elif args.fps is not None or args.slow_motion is not None:
+        raise InputError("command line", "--fps" if args.fps is not None else "--slow-motion",
+                         "only with --animate FILE")
     refuse_other_kind(args.scene, "scene")
     scene = load_scene(args.scene)
     model = _get_model(args.model, args.scene)
@@ -251,6 +268,9 @@ def cmd_simulate(args):
     if args.seed is not None or args.out is not None:
         raise InputError("command line", "--seed" if args.seed is not None else "--out",
                          "only with --monte-carlo N")
+    if args.plot:
+        from ..tools.plotting import check_plot_path
+        check_plot_path(args.plot, "--plot")  # before the run: refused at once
     if timeout is None:
         loaded(model, scene)
         out = model.simulate(scene)
@@ -282,7 +302,7 @@ def cmd_simulate(args):
     if animate and out.trajectories:
         from ..tools.animation import write_animation
         try:
-            write_animation(scene, out, animate, fps=args.fps, speed=1.0 / args.slow_motion,
+            write_animation(scene, out, animate, fps=fps, speed=1.0 / slow_motion,
                             system=args.units)
         except (OSError, ValueError) as err:
             raise InputError(str(animate), "--animate", str(err).splitlines()[0]) from None
@@ -303,7 +323,7 @@ def cmd_simulate(args):
     print(_table_text(table_in(_rest_table(scene, out).reset_index(), args.units), digits=3))
     for i, n in enumerate(out.names):
         if not out.at_rest_mask[i]:
-            print(f"{n}: {out.pose_label(i)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
+            print(f"{n}: {pose_text(out, i, args.units)} at t = {out.diagnostics.get('t_end', scene.duration):.2f} s, "
                   "not a rest pose")
     print("final velocity:")
     final = out.final.rename(columns={"vx": "vx [km/h]", "vy": "vy [km/h]", "yaw_rate": "yaw_rate [deg/s]"})
@@ -331,6 +351,9 @@ def cmd_compare(args):
     if not models:
         raise InputError("command line", "--models", "give at least one model name")
     resolved = {m: _get_model(m, args.scene, "--models") for m in models}
+    if args.plot:
+        from ..tools.plotting import check_plot_path
+        check_plot_path(args.plot, "--plot")  # before the runs: refused at once
     for model in resolved.values():
         loaded(model, scene)
     outcomes = {m: model.simulate(scene) for m, model in resolved.items()}

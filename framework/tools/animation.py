@@ -35,6 +35,11 @@ def check_animation_path(path, key: str = "path") -> Path:
         raise InputError(str(path), key, f"an animation is written as .gif or .mp4, not {ext or 'no extension'!r}")
     if ext == ".mp4" and shutil.which("ffmpeg") is None:
         raise InputError(str(path), key, "an .mp4 needs ffmpeg on PATH, which is not there; write a .gif instead")
+    if path.is_dir():
+        raise InputError(str(path), key, "a folder; give a file name")
+    folder = next((p for p in path.parents if p.exists()), None)  # missing folders are made; a file is no folder
+    if folder is not None and not folder.is_dir():
+        raise InputError(str(path), key, f"cannot write there: {folder} is not a folder")
     return path
 
 
@@ -130,6 +135,7 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
     crashlab.InputError for a bad extension or a missing ffmpeg, ValueError when the outcome has no
     trajectories (a batch run records none)."""
     path = check_animation_path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)  # before the animation: one deleted unsaved warns on stderr
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -235,7 +241,6 @@ def write_animation(scene, outcome, path, fps: float = 25.0, speed: float = 1.0,
     # writer's frame is all that is needed (the MP4 writer draws the whole figure itself)
     fig.canvas.draw_idle = lambda *args, **kwargs: None
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
         anim.save(str(path), writer=writer, dpi=dpi)
     finally:
         plt.close(fig)

@@ -63,9 +63,14 @@ def copy(dest: str | Path) -> list[Path]:
     if dest.exists() and (not dest.is_dir() or any(dest.iterdir())):
         raise InputError("command line", "examples copy DIR", f"{dest} exists and is not an empty folder")
     written = []
-    for rel, src in files():
-        out = dest / rel
-        out.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(src, out)
-        written.append(out)
+    try:
+        dest.mkdir(parents=True, exist_ok=True)
+        for rel, src in files():
+            out = dest / rel
+            out.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, out)
+            written.append(out)
+    except OSError as err:  # a parent that is a file, a folder that cannot be created or written
+        where = f": {err.filename}" if err.filename else ""
+        raise InputError(str(dest), "examples copy DIR", f"cannot write there ({err.strerror or err}{where})") from None
     return written

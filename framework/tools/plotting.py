@@ -3,10 +3,33 @@ helpers the other figures share (crashlab.tools.animation, the Monte Carlo figur
 and road lines), barriers, the point of impact, a scale bar."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..scene import barrier_outline, vehicle_outline
 from ..units import deg_to_rad, length_axes_in, ms_to_kmh, unit_in, us_factor, value_in, wrap_deg
+
+
+def check_plot_path(path, key: str = "--plot") -> Path:
+    """The path of a figure as a Path when its extension names a format matplotlib writes (.png, .pdf, .svg, ...),
+    it is no folder and its folder exists; otherwise crashlab.InputError naming the path and `key` (the CLI checks
+    before the run: a name without an extension is refused, as --animate refuses one, not written as NAME.png)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from ..errors import InputError
+    path = Path(path)
+    ext = path.suffix.lower()
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    if ext[1:] not in formats:
+        raise InputError(str(path), key, f"a figure is written as .png, .pdf, .svg or another format matplotlib "
+                         f"writes ({', '.join(formats)}), not {ext or 'no extension'!r}")
+    if path.is_dir():
+        raise InputError(str(path), key, "a folder; give a file name")
+    if not path.parent.is_dir():
+        raise InputError(str(path), key, f"cannot write there: {path.parent} "
+                         f"{'is not a folder' if path.parent.exists() else 'does not exist'}")
+    return path
 
 
 def _arrow(ax, x, y, h, length, colour, **kw):
