@@ -8,6 +8,7 @@ One module per reason to change:
   problem  the pymoo Problem: free variables <-> scenes, objectives, constraints, failed evaluations;
   repair   the pymoo Repair that backs overlapping starts off and brings near misses onto a collision;
   run      the search (pymoo's Algorithm.run with a Callback: checkpoints, resume, progress);
+  study_executor  the executor of a run, an unanswering Dask scheduler named by its key;
   polish   the least-squares polish of the best candidates after the search;
   refine   the second opinion ([refine]): the best candidates re-simulated and polished with another model;
   report   the Pareto table, failures.csv, figures, summary.md, the result and its JSON form;

@@ -26,6 +26,10 @@ def run_cli(args) -> int:
     study.shown_units = args.units
     for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
         print(f"crashlab: note: {args.study}: {note}", file=sys.stderr)
+    for key, n in (("questions", len(study.questions)), ("counterfactuals", len(study.counterfactuals))):
+        if n:  # checked when loaded (study.py), answered from a posterior only: said, not dropped in silence
+            print(f"crashlab: note: {args.study}: {key}: {n} [[{key}]] checked, not answered by reconstruct: "
+                  "crashlab infer answers them from the posterior's draws", file=sys.stderr)
     evidence_warnings(args.study, study)
     if args.optimizer and args.optimizer not in available_optimizers():
         raise InputError(args.study, "--optimizer",
@@ -98,7 +102,7 @@ def cmd_infer(args) -> int:
     a line per variable (median, 90 % interval, ESS) in the shown units; bad input raises InputError (the CLI
     prints its one line and exits 2), no draw that explains the evidence exits EXIT_NO_FEASIBLE."""
     from .infer import run_posterior
-    from .infer_report import chain_warnings
+    from .infer_report import chain_warnings, number
     from .posterior import load_posterior
     post = load_posterior(args.study)
     post.study.shown_units = args.units
@@ -114,7 +118,7 @@ def cmd_infer(args) -> int:
         unit = unit_in(v.unit, args.units)
         lab = f"{v.label} [{unit}]" if unit and unit != "-" else v.label
         lo_j, med_j, hi_j = (value_in(q[j], v.unit, args.units) for q in (lo, med, hi))
-        print(f"{lab:24s} {med_j:10.3f}  90 % [{lo_j:.3f}, {hi_j:.3f}]  ESS {res.ess[j]:.0f}")
+        print(f"{lab:24s} {med_j:10.3f}  90 % [{lo_j:.3f}, {hi_j:.3f}]  ESS {number(res.ess[j], 0)}")
     print(f"{len(res.samples)} samples, {res.evaluations} model evaluations, {res.wall_time_s:.1f} s, "
           f"outputs in {args.out}")
     if res.refine is not None:

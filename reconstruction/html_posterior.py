@@ -37,13 +37,14 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
     rows = []
     for j, v in enumerate(post.variables):
         r = [v.label, unit_in(v.unit, system), prior_text(v, system), num(value_in(v.lower, v.unit, system)),
-             num(value_in(v.upper, v.unit, system)), num(med[j]), num(lo[j]), num(hi[j]), num(res.tau[j], 1),
-             num(res.ess[j], 0)]
+             num(value_in(v.upper, v.unit, system)), num(med[j]), num(lo[j]), num(hi[j]), num(res.tau[j], 1) or "-",
+             num(res.ess[j], 0) or "-"]  # a dash: too short a chain to estimate them (chain_warnings)
         if truth is not None:
             r += [num(truth[j]), "yes" if lo[j] <= truth[j] <= hi[j] else "**NO**"]
         rows.append(r)
     qtable = (Table(["question", "probability", "MC standard error"],
-                    [[f"`{q}`", num(p), num(se)] for q, p, se in questions], "questions", md_cols=(0,))
+                    [[f"`{q}`", num(p) or "-", num(se) or "-"] for q, p, se in questions], "questions",
+                    md_cols=(0,))
               if questions else None)
     ctable = None
     if counterfactuals:

@@ -42,11 +42,11 @@ from pathlib import Path
 import numpy as np
 
 from crashlab.errors import InputError
-from crashlab.execution import Executor
 
 from .posterior import Posterior
 from .run import read_checkpoint
 from .schema import WORKERS_MAX
+from .study_executor import open_executor
 
 CHECKPOINT_FORMAT = "crashlab posterior checkpoint 1"
 
@@ -85,11 +85,14 @@ def _atomic_pickle(path: Path, obj):
 
 
 def _autocorr(chain: np.ndarray) -> np.ndarray:
-    """(d,) integrated autocorrelation time of a chain (iterations, walkers, d) [iterations]."""
+    """(d,) integrated autocorrelation time of a chain (iterations, walkers, d) [iterations]; NaN where it cannot
+    be estimated: fewer than 2 iterations, or a walker that never moved in them (its autocorrelation is 0 / 0;
+    a short chain at a low acceptance). The reports show a dash and say why (infer_report.chain_warnings)."""
     import emcee
     if len(chain) < 2:
         return np.full(chain.shape[2], np.nan)
-    return np.asarray(emcee.autocorr.integrated_time(chain, c=5, tol=0, quiet=True), float)
+    with np.errstate(divide="ignore", invalid="ignore"):  # that 0 / 0 gives NaN, not numpy's warning
+        return np.asarray(emcee.autocorr.integrated_time(chain, c=5, tol=0, quiet=True), float)
 
 
 def _progress(post, it, total, acc, lp, t0, stream):
@@ -136,7 +139,9 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         backend, nworkers = ("processes" if workers > 1 else "serial"), workers
     stream = sys.stderr if progress else None
     t0 = time.time()
-    with Executor(backend, nworkers, ex.scheduler, ex.timeout_s if backend != "serial" else 0) as executor, \
+    # --workers N: N local processes; the study's Dask scheduler only without it (to Executor any scheduler is Dask)
+    with open_executor(post.path, backend, nworkers, ex.scheduler if backend == "dask" else None,
+                       ex.timeout_s if backend != "serial" else 0, "execution.scheduler") as executor, \
             post.problem.running_on(executor):
         try:
             if s.sampler == "zeus":

@@ -20,6 +20,13 @@ TAU_RELIABLE = 50
 BURN_TAUS = 5
 
 
+def number(value, digits: int) -> str:
+    """A number of summary.md and the terminal with `digits` decimals; a dash where it could not be computed (NaN:
+    tau and the ESS of a chain too short for an autocorrelation estimate, chain_warnings says why)."""
+    value = float(value)
+    return "-" if math.isnan(value) else f"{value:.{digits}f}"
+
+
 def variable_units(post) -> dict:
     """The units map (crashlab.units, shown units) of posterior.csv: each variable's file unit by its label."""
     return {v.label: v.unit for v in post.variables}
@@ -69,16 +76,16 @@ def summary_lines(post, res) -> list[str]:
     for j, v in enumerate(post.variables):
         row = (f"| {v.label} | {unit_in(v.unit, system)} | {prior_text(v, system)} | {med[j]:.3f} | {lo[j]:.3f} | "
                f"{hi[j]:.3f} | "
-               f"{res.tau[j]:.1f} | {res.ess[j]:.0f} |")
+               f"{number(res.tau[j], 1)} | {number(res.ess[j], 0)} |")
         if truth is not None:
             row += f" {truth[j]:.3f} | {'yes' if lo[j] <= truth[j] <= hi[j] else 'NO'} |"
         lines.append(row)
     lines += ["", f"Effective sample size: walkers x kept iterations / tau, tau the integrated autocorrelation "
-              f"time (emcee.autocorr.integrated_time); smallest ESS {np.nanmin(res.ess):.0f}."]
+              f"time (emcee.autocorr.integrated_time); smallest ESS {number(smallest_ess(res), 0)}."]
     lines += chain_warnings(res)
     if post.questions:
         lines += ["", "## Questions", "", "| question | probability | MC standard error |", "|---|---|---|"]
-        lines += [f"| `{q}` | {p:.3f} | {se:.3f} |" for q, p, se in question_rows(post, res)]
+        lines += [f"| `{q}` | {number(p, 3)} | {number(se, 3)} |" for q, p, se in question_rows(post, res)]
     if res.counterfactuals:
         from .counterfactual import summary_lines as counterfactual_lines
         lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
@@ -97,11 +104,24 @@ def summary_lines(post, res) -> list[str]:
     return lines
 
 
+def smallest_ess(res) -> float:
+    """The smallest ESS of the variables; NaN when one of them has none (infer._autocorr)."""
+    return math.nan if np.isnan(res.ess).any() else float(np.min(res.ess))
+
+
 def chain_warnings(res) -> list[str]:
-    """Warnings (markdown) when the emcee chain is short against its autocorrelation time."""
+    """Warnings (markdown) when the chain is short against its autocorrelation time (emcee), or too short to
+    estimate it at all (one line: tau and the ESS are then shown as a dash)."""
     out = []
     kept_iters = res.iterations - res.burn
-    tmax = float(np.nanmax(res.tau)) if np.isfinite(res.tau).any() else math.nan
+    if np.isnan(res.tau).any():
+        why = "fewer than 2" if kept_iters < 2 else "a walker did not move in them"
+        out.append(f"**Warning**: {kept_iters} kept iterations are too few samples for an autocorrelation estimate "
+                   f"({why}): tau and the ESS of {', '.join(np.asarray(res.labels)[np.isnan(res.tau)])} cannot be "
+                   "computed (shown as -); raise --samples.")
+    if not np.isfinite(res.tau).any():
+        return out  # nothing to compare the chain with
+    tmax = float(np.nanmax(res.tau))
     if res.sampler == "emcee" and not kept_iters >= TAU_RELIABLE * tmax:
         out.append(f"**Warning**: {kept_iters} kept iterations are fewer than {TAU_RELIABLE} tau "
                    f"({TAU_RELIABLE * tmax:.0f}): tau and the ESS are rough; raise --samples.")
@@ -196,7 +216,8 @@ def corner_plot(res, path: Path, units=None, system: str = "si") -> None:
     labels = [f"{lab} [{unit_in(u, system)}]" if u else lab for lab, u in zip(res.labels, units)]
     fig = corner.corner(samples, labels=labels, titles=list(res.labels),  # axes with units, short titles
                         truths=truths,
-                        quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".2f")
+                        quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".2f",
+                        quiet=True)  # few samples: points, no contours, without corner's log line
     fig.savefig(path, dpi=80)
     plt.close(fig)
 

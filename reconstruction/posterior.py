@@ -26,35 +26,26 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError
+from pydantic import Strict, ValidationError
 from typing_extensions import Annotated
 
 from crashlab import fields, uncertainty
 from crashlab.errors import InputError
 from crashlab.input_files import pydantic_error
 
-from . import counterfactual
 from .evidence import log_likelihood_of
 from .infer_settings import InferSection
 from .problem import variable_label
-from .questions import parse_question
+from .questions import QuestionFile  # noqa: F401 - the reference's schema (crashlab.cli.schema_docs)
 from .study import Study, _canonical, load_study
 
 Int = Annotated[int, Strict()]
 
 
-class QuestionFile(BaseModel):
-    """A `[[questions]]` table: an expression of the posterior's variables answered with its probability or
-    distribution (crashlab infer)."""
-    model_config = ConfigDict(extra="forbid")
-    expr: str = Field(min_length=1, max_length=2000, description="expression of the variables' labels (as in "
-                      "posterior.csv), e.g. `car.speed > 50`: numbers, + - * /, comparisons, and, or, not, ( )")
-    name: str | None = Field(default=None, description="label of the answer in summary.md; default the expr")
-
-
 # ---------------------------------------------------------------- the study file's sections for the posterior
 def _extras(spec) -> dict:
-    """The sections only the posterior reads (StudyFile keeps them unchecked; checked here)."""
+    """The sections only the posterior reads (StudyFile keeps them unchecked; checked here, the questions and the
+    counterfactuals by the study loader, crashlab.reconstruction.study)."""
     return {k: getattr(spec, k) for k in ("questions", "uncertain", "infer", "counterfactuals")
             if k in spec.model_fields_set}
 
@@ -105,17 +96,8 @@ class Posterior:
         self.fields = [fields.resolve(scene, v.path) for v in self.variables]
         self.problem = study.make_problem()
         self.truth = self._truth()
-        qs = extras.get("questions", [])
-        if not isinstance(qs, list):
-            raise InputError(path, "questions", "a list of tables ([[questions]] expr = \"V1.speed > 50\")")
-        self.questions = []
-        for k, q in enumerate(qs):
-            try:
-                qf = QuestionFile.model_validate(q)
-            except ValidationError as err:
-                raise pydantic_error(path, err, f"questions.{k}.", QuestionFile) from None
-            self.questions.append(parse_question(qf.expr, self.labels, path, f"questions.{k}.expr", name=qf.name))
-        self.counterfactuals = counterfactual.parse(extras.get("counterfactuals", []), scene, path)
+        # checked when the study was loaded, for every command (crashlab.reconstruction.study): its labels are these
+        self.questions, self.counterfactuals = list(study.questions), list(study.counterfactuals)
         self.evaluations = 0
 
     def _truth(self):

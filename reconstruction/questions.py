@@ -13,7 +13,8 @@ when the study is loaded (InputError naming the key). A divisor that is 0 in som
 (V2.speed - 50)`) leaves the question undefined in those draws: its probability is the share among the draws
 where it is defined, and the answer says in how many it was not (`Answer.undefined`, `Answer.note`); in no
 draw is it defined: probability NaN with that note. Every value is checked, not only divisors: a non-finite
-sample or an overflow leaves the draw undefined the same way, never a quiet False of a NaN comparison.
+sample or an overflow leaves the draw undefined the same way, never a quiet False of a NaN comparison. A number
+written beyond the largest float (1e999: infinity) is refused when the study is loaded.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from crashlab.errors import InputError
 
@@ -34,6 +36,15 @@ _SYMBOL = {ast.RShift: ">>", ast.LShift: "<<", ast.Pow: "**", ast.Mod: "%", ast.
            ast.BitAnd: "&", ast.BitOr: "|", ast.BitXor: "^", ast.MatMult: "@", ast.Is: "is", ast.IsNot: "is not",
            ast.In: "in", ast.NotIn: "not in", ast.Invert: "~"}
 _PLACEHOLDER = "_q{}_"
+
+
+class QuestionFile(BaseModel):
+    """A `[[questions]]` table: an expression of the posterior's variables answered with its probability or
+    distribution (crashlab infer)."""
+    model_config = ConfigDict(extra="forbid")
+    expr: str = Field(min_length=1, max_length=2000, description="expression of the variables' labels (as in "
+                      "posterior.csv), e.g. `car.speed > 50`: numbers, + - * /, comparisons, and, or, not, ( )")
+    name: str | None = Field(default=None, description="label of the answer in summary.md; default the expr")
 
 
 @dataclass
@@ -83,10 +94,16 @@ class Question:
 
 def answers(questions, labels, samples, ess) -> list[Answer]:
     """Every question answered on `samples` (draws x variables, columns `labels`), its standard error from the
-    smallest effective sample size `ess` (per variable) of the variables it reads."""
+    smallest effective sample size `ess` (per variable) of the variables it reads (NaN where one of them has
+    none: a chain too short for an autocorrelation estimate; the standard error is then NaN too)."""
     cols = {lab: samples[:, j] for j, lab in enumerate(labels)}
-    return [q.answer(cols, min((ess[labels.index(n)] for n in q.names), default=len(samples)))
-            for q in questions]
+    return [q.answer(cols, _smallest([ess[labels.index(n)] for n in q.names], len(samples))) for q in questions]
+
+
+def _smallest(values, default) -> float:
+    """min(values), NaN when any is NaN (min() itself would depend on the order), default when empty."""
+    values = [float(v) for v in values]
+    return default if not values else math.nan if any(map(math.isnan, values)) else min(values)
 
 
 class _DivisionByZero(ValueError):
@@ -181,6 +198,8 @@ class _Compiler:
             return "bool", fn
         if isinstance(n, ast.Constant) and type(n.value) in (int, float):
             v = float(n.value)
+            if not math.isfinite(v):  # 1e999 is read as infinity: no number a draw can be compared with
+                raise ValueError("a number beyond 1.8e308 (the largest float) is infinite: give a finite number")
             return "num", lambda d, v=v: v
         if isinstance(n, ast.Name) and n.id in self.labels:
             label = self.labels[n.id]
@@ -215,3 +234,19 @@ def parse_question(expr: str, names, source="<study>", key="questions.0.expr", n
     except ValueError as err:
         raise InputError(source, key, f"{expr!r} does not parse: {err}") from None
     return Question(name or expr, expr, fn, tuple(sorted(c.used)))
+
+
+def parse_questions(raw, names, source) -> list[Question]:
+    """The study's `[[questions]]` tables (QuestionFile each) over the variable labels `names`: checked when the
+    study is loaded (crashlab.reconstruction.study, for every command), InputError naming questions.K.key."""
+    from crashlab.input_files import pydantic_error
+    if not isinstance(raw, list):
+        raise InputError(source, "questions", "a list of tables ([[questions]] expr = \"V1.speed > 50\")")
+    out = []
+    for k, q in enumerate(raw):
+        try:
+            qf = QuestionFile.model_validate(q)
+        except ValidationError as err:
+            raise pydantic_error(source, err, f"questions.{k}.", QuestionFile) from None
+        out.append(parse_question(qf.expr, names, source, f"questions.{k}.expr", name=qf.name))
+    return out

@@ -37,10 +37,10 @@ import numpy as np
 import pandas as pd
 
 from crashlab.errors import InputError
-from crashlab.execution import Executor
 from crashlab.units import frame_in, rad_to_deg, unit_in, unit_of, value_in
 
 from .polish import polish, repaired_residuals, spaced_starts
+from .study_executor import open_executor
 
 
 @dataclass
@@ -161,8 +161,9 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
     # both models on the executor given (the search's), else on one of the study's [execution]; each model's
     # first call in a worker has the compile grace (crashlab.execution)
     rows = []
-    with contextlib.nullcontext(executor) if executor is not None else \
-            Executor(ex.backend, ex.workers, ex.scheduler, ex.timeout_s) as live, \
+    own = contextlib.nullcontext(executor) if executor is not None else \
+        open_executor(study.path, ex.backend, ex.workers, ex.scheduler, ex.timeout_s, "execution.scheduler")
+    with own as live, \
             search.running_on(live), ref.running_on(live):
         s0 = _evaluate(search, X) if n else None
         r0 = _evaluate(ref, X) if n else None

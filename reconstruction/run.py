@@ -26,7 +26,7 @@ import numpy as np
 from pymoo.core.callback import Callback
 
 from crashlab.errors import InputError
-from crashlab.execution import Executor, WorkerStartError
+from crashlab.execution import WorkerStartError
 from crashlab.outdir import lock_out_dir
 
 from .html_report import write_reconstruction_report
@@ -34,6 +34,7 @@ from .polish import polish_archive
 from .refine import refine
 from .report import ReconstructionResult, pareto_table, write_outputs
 from .schema import WORKERS_MAX
+from .study_executor import open_executor
 
 CHECKPOINT_FORMAT = "crashlab reconstruction checkpoint 4"  # 3: the archive keeps every residual vector; 4: the
 # problem sets its variables through crashlab.fields (uncertain parameters)
@@ -141,6 +142,10 @@ def _backend(study, workers, scheduler) -> str:
     ex = study.spec.execution
     if workers is not None and not 1 <= workers <= WORKERS_MAX:
         raise InputError(study.path, "--workers", f"must be in [1, {WORKERS_MAX}], got {workers}")
+    if scheduler is not None and not scheduler.strip():
+        raise InputError(study.path, "--scheduler", "an empty address: give a Dask scheduler's (tcp://HOST:8786), "
+                         "or leave the option out for the study's [execution]")
+    # (a study's own scheduler comes with backend = "dask" only: crashlab.reconstruction.study.check_execution)
     if scheduler or ex.scheduler or (workers and ex.backend == "serial"):
         return "dask"
     return ex.backend
@@ -195,7 +200,8 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
         bar.update(done)  # generations done before a resume
     algorithm.callback = GenerationEnd(out_dir / "checkpoint.pkl" if out_dir else None, fingerprint, name, bar,
                                        spec.objective.hv_reference, done, stop_after)
-    with Executor(backend, workers or ex.workers, scheduler or ex.scheduler, ex.timeout_s) as executor:
+    with open_executor(study.path, backend, workers or ex.workers, scheduler or ex.scheduler, ex.timeout_s,
+                       "--scheduler" if scheduler else "execution.scheduler") as executor:
         with problem.running_on(executor):
             try:
                 algorithm.run()

@@ -365,8 +365,9 @@ class StudyFile(_Strict):
                                   "the best solutions")
     refine: RefineSection | None = Field(default=None, description="[refine]: re-simulate and polish the best "
                                          "candidates with another model (absent: no second opinion)")
-    # infer and questions are read by `crashlab infer` (reconstruction/infer.py checks them: InferSection,
-    # QuestionFile); uncertain by both (crashlab.uncertainty checks it when the study is loaded): the
+    # infer, questions and counterfactuals are read by `crashlab infer` and checked by every command when the
+    # study is loaded (study.py: InferSection, questions.QuestionFile, counterfactual.parse); uncertain is read
+    # by both (crashlab.uncertainty checks it when the study is loaded): the
     # posterior's priors, the search's extra free variables within their support (problem.UncertainVariable)
     infer: dict = Field(default_factory=dict, description="the posterior sampler's settings (crashlab infer)")
     questions: list[dict] = Field(default_factory=list, description="[[questions]] expr = ... (crashlab infer)")

@@ -42,9 +42,11 @@ from crashlab.scene_file import load_scene
 from crashlab.units import ms_to_kmh
 from crashlab.version import package_version
 
+from . import counterfactual
 from .evidence import build_evidence
 from .infer_settings import InferSection
 from .problem import ReconstructionProblem, UncertainVariable
+from .questions import parse_questions
 from .repair import CollisionRepair
 from .run import run_study
 from .schema import StudyFile
@@ -77,6 +79,9 @@ class Study:
         # the uncertain parameters the search takes as extra free variables (problem.UncertainVariable)
         self.uncertain = tuple(uncertain)
         self.notes: list[str] = []  # said once when the study is run (free_and_uncertain)
+        # [[questions]] and [[counterfactuals]], checked for every command, answered by crashlab infer and avoid
+        self.questions: list = []  # crashlab.reconstruction.questions.Question
+        self.counterfactuals: list = []  # crashlab.reconstruction.counterfactual.Counterfactual
         # the units of every table, CSV file, figure and report its runs write: "si" (file units) or "us" (ft, mph,
         # lb; crashlab.units, shown units); the command line's --units sets it, the computation never reads it
         self.shown_units = "si"
@@ -229,6 +234,7 @@ def _load_study(path: Path, data: dict) -> Study:
         raise InputError(path, "optimizer.name",
                          str(UnknownPluginError("optimizer", spec.optimizer.name, available_optimizers())))
     _check_infer_table(path, spec)
+    check_execution(path, spec)
     model = _checked_model(path, spec.model, spec.model_options, "model_options")
     if spec.refine is not None:
         if spec.refine.model not in available_models():
@@ -244,10 +250,18 @@ def _load_study(path: Path, data: dict) -> Study:
         raise InputError(path, "scene", f"scene file {spec.scene!r} not found")
     scene = load_scene(scene_path)
     names = scene.vehicle_names
+    seen = {}  # field path -> the [[free]] entry that first searches it
     for k, f in enumerate(spec.free):
         if f.vehicle is not None and f.vehicle not in names:
             raise InputError(path, f"free.{k}.vehicle", f"no vehicle {f.vehicle!r} in the scene ({', '.join(names)})")
+        if f.path in seen:  # two columns of one field, each set in turn: the first's bounds would do nothing
+            raise InputError(path, f"free.{k}", f"{f.label} is already free (free.{seen[f.path]})")
+        seen[f.path] = k
     _check_free_driver_fields(path, spec.free, scene)
+    uncertain = uncertain_variables(path, spec, scene)
+    # checked here, not only by crashlab infer: reconstruct must not accept what infer refuses (before a twin's run)
+    questions = parse_questions(spec.questions, [v.label for v in list(spec.free) + uncertain], path)
+    counterfactuals = counterfactual.parse(spec.counterfactuals, scene, path)
     out = None
     if spec.evidence.twin:
         out = model.simulate(scene)  # simulate, not simulate_batch: a mark needs the recorded CG path
@@ -260,9 +274,9 @@ def _load_study(path: Path, data: dict) -> Study:
                              "is no rest pose (lengthen the scene's duration)")
     evidence_set, evidence, mode = build_evidence(path, spec, names, out,
                                                   specs={v.name: v.spec for v in scene.vehicles})
-    study = Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None,
-                  uncertain_variables(path, spec, scene))
+    study = Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None, uncertain)
     study.notes = free_and_uncertain(path, spec, scene, scene_path)
+    study.questions, study.counterfactuals = questions, counterfactuals
     return study
 
 
@@ -274,6 +288,21 @@ def _checked_model(path, name: str, options: dict, key: str):
         raise InputError(path, f"{key}.{err.key}", err.problem) from None
     except (TypeError, ValueError) as err:
         raise InputError(path, key, str(err)) from None
+
+
+def check_execution(path, spec: StudyFile) -> None:
+    """[execution] scheduler: an address, given with backend = "dask" only (any scheduler made the run a Dask
+    one, a serial run included; crashlab.reconstruction.run._backend). InputError naming execution.scheduler."""
+    ex = spec.execution
+    if ex.scheduler is None:
+        return
+    if not ex.scheduler.strip():
+        raise InputError(path, "execution.scheduler", "an empty address: give a Dask scheduler's (tcp://HOST:8786), "
+                         "or leave the key out")
+    if ex.backend != "dask":
+        raise InputError(path, "execution.scheduler", f"a Dask scheduler's address contradicts execution.backend = "
+                         f"{ex.backend!r} (a scheduler is for backend = \"dask\"): set that backend to run on it, "
+                         "or drop the scheduler")
 
 
 def _check_infer_table(path, spec: StudyFile) -> None:
