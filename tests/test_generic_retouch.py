@@ -85,3 +85,24 @@ def test_the_first_touch_keeps_its_approach_speed():
     EP.open_episode(CT[5], 0, 0.0, IMPACT, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     out = _evaluate(_head_on(_x2_at_depth(), 4.0), CT)
     assert out[C.G_FN] == pytest.approx(_law(out[C.G_DEL], out[C.G_DDOT], IMPACT), rel=1e-9)
+
+
+def test_a_contact_that_goes_on_past_push_time_keeps_its_approach_speed():
+    """A contact still on PUSH_TIME after its impact is written and continued as a push (§15): the same touch, so
+    the law keeps its delta_dot0 (a first version took the normal velocity there, about 0 and floored at v_min:
+    the damping term jumped ten thousand times). A re-touch opening a push takes its own."""
+    CT = _arrays()
+    PST = CT[5]
+    EP.open_episode(PST, 0, 0.0, IMPACT, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    n = EP.episode_step(np.zeros((4, EP.N_IMP)), 0, CT[4], PST, 0, EP.PUSH_TIME + 0.01, 0.0, 0.0, DEPTH, -DEPTH,
+                        0.01, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert n == 1 and PST[0, C.S_PUSH] == 1.0 and PST[0, C.S_ACT] == EP.IN_CONTACT
+    out = _evaluate(_head_on(_x2_at_depth(), 0.5), CT)
+    assert out[C.G_FN] == pytest.approx(_law(out[C.G_DEL], out[C.G_DDOT], IMPACT), rel=1e-9)
+    # the push's contact ends, and touches again within SEPARATION: its own approach speed
+    PST[0, C.S_ACT] = EP.ENDED
+    EP.episode_step(np.zeros((4, EP.N_IMP)), 0, CT[4], PST, 0, 1.0, 1.0, 1.0, DEPTH, -DEPTH, 0.2,
+                    (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert PST[0, C.S_ACT] == EP.IN_CONTACT
+    out = _evaluate(_head_on(_x2_at_depth(), 0.1), CT)
+    assert out[C.G_FN] == pytest.approx(_law(out[C.G_DEL], out[C.G_DDOT], 0.2), rel=1e-9)

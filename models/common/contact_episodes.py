@@ -165,9 +165,13 @@ def _close_ended(IMP, n, PP, PST, p):
 
 
 @njit(cache=True)
-def _open_push(PST, p, t0, dd, vel_i, vel_j):
-    """Open the push of pair p at t0 (its episode's contact later than PUSH_TIME after the impact)."""
+def _open_push(PST, p, t0, dd, vel_i, vel_j, touch):
+    """Open the push of pair p at t0 (its episode's contact later than PUSH_TIME after the impact): at a re-touch
+    (touch) the generic law's delta_dot0 is its approach velocity dd; a contact that goes on keeps its own."""
+    ddt = PST[p, S_DDT]
     open_episode(PST, p, t0, max(dd, 0.0), vel_i, vel_j)
+    if not touch:
+        PST[p, S_DDT] = ddt
     PST[p, S_PUSH] = 1.0
 
 
@@ -188,12 +192,12 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
                 PST[p, S_VEI + k], PST[p, S_VEJ + k] = vel_i[k], vel_j[k]
         elif late and t - PST[p, S_T0] >= PUSH_TIME:
             n = close_episode(IMP, n, PP, PST, p, t, dd, 0.0, vel_i, vel_j)
-            _open_push(PST, p, t, dd, vel_i, vel_j)
+            _open_push(PST, p, t, dd, vel_i, vel_j, False)
     elif state == ENDED:
         if d > 0.0:
             if late and t_touch - PST[p, S_T0] >= PUSH_TIME:
                 n = _close_ended(IMP, n, PP, PST, p)
-                _open_push(PST, p, t_touch, dd, vel_i, vel_j)
+                _open_push(PST, p, t_touch, dd, vel_i, vel_j, True)
             else:  # a re-touch within the episode: the generic law's delta_dot0 is its own (chassis_contact S_DDT)
                 PST[p, S_ACT], PST[p, S_DDT] = IN_CONTACT, max(dd, 0.0)
         elif gap >= SEPARATION:
