@@ -26,6 +26,22 @@ from .errors import InputError
 
 LOCK_NAME = ".crashlab.lock"
 
+
+def check_output_file(path, key: str) -> Path:
+    """A file a command will write (--plot, --animate, --csv FILE), checked before the run: no folder, and the
+    nearest folder on its path that exists a folder (missing ones are made when it is written); otherwise, or for a
+    name the system refuses (longer than 255 bytes), InputError naming the path and `key`."""
+    path = Path(path)
+    try:
+        if path.is_dir():
+            raise InputError(str(path), key, "a folder; give a file name")
+        folder = next((p for p in path.parents if p.exists()), None)
+    except OSError as err:
+        raise InputError(str(path), key, f"cannot write there ({err.strerror or err})") from None
+    if folder is not None and not folder.is_dir():
+        raise InputError(str(path), key, f"cannot write there: {folder} is not a folder")
+    return path
+
 _HELD: dict[str, list] = {}  # real path of a locked folder -> [fd, depth] (this process)
 
 try:

@@ -46,7 +46,17 @@ def refused(capsys, where, key, *args, words=()):
 @pytest.mark.parametrize("seed", [-1, 2**32])
 def test_stress_refuses_a_seed_outside_what_numpy_takes(seed, capsys):
     """-1 was a numpy ValueError traceback; 2^32 was taken although simulate --seed refuses it."""
-    refused(capsys, "command line", "--seed", "stress", "--runs", 0, "--seed", seed, words=("[0, 2^32)", str(seed)))
+    refused(capsys, "command line", "--seed", "stress", "--runs", 0, "--seed", seed,
+            words=("[0, 4294967295]", str(seed)))
+
+
+@pytest.mark.parametrize("option, name", [("--plot", "x.png"), ("--animate", "x.gif"), ("--csv", "x.csv")])
+def test_a_file_name_the_system_refuses_is_one_line(option, name, capsys):
+    """A name of more than 255 bytes: Path.is_dir() raised OSError (a traceback, exit 1) in the checks made before
+    the run (outdir.check_output_file)."""
+    long = "y" * 300 + name
+    args = ("stress", "--runs", 0, "--csv", long) if option == "--csv" else ("simulate", str(SIDE), option, long)
+    refused(capsys, long, option, *args, words=("cannot write there",))
 
 
 # 2

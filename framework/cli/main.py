@@ -14,9 +14,10 @@ import sys
 from pathlib import Path
 
 from ..errors import EXIT_NO_FEASIBLE, InputError
+from ..outdir import check_output_file
 from ..registry import UnknownPluginError
 from ..version import package_version
-from .simulate import _get_model, cmd_compare, cmd_simulate, refuse_other_kind
+from .simulate import _get_model, check_seed, cmd_compare, cmd_simulate, refuse_other_kind
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -183,17 +184,13 @@ def cmd_stress(args):
     model = _get_model(args.model, "crashlab stress")
     if args.runs < 0:
         raise InputError("command line", "--runs", f"must be at least 0, got {args.runs}")
-    if not 0 <= args.seed < 2**32:
-        raise InputError("command line", "--seed", f"in [0, 2^32), got {args.seed}")
+    check_seed(args.seed)
     if args.csv is not None:  # refused before the sweep, not after it
-        csv = Path(args.csv)
-        if csv.is_dir():
-            raise InputError(args.csv, "--csv", "a folder; give a file name")
-        if not csv.parent.is_dir():
-            raise InputError(args.csv, "--csv", f"cannot write there: {csv.parent} is not a folder")
+        check_output_file(args.csv, "--csv")
     df = stress.sweep(model, stress.random_scenes(args.runs, args.seed) + stress.extreme_scenes())
     if args.csv is not None:
         try:
+            Path(args.csv).parent.mkdir(parents=True, exist_ok=True)
             df.to_csv(args.csv, index=False)
         except OSError as err:
             raise InputError(args.csv, "--csv", f"cannot write there ({err.strerror or err})") from None

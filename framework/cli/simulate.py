@@ -80,6 +80,13 @@ def _get_model(name, where, option: str = "--model"):
         raise InputError(where, option, str(err)) from None
 
 
+def check_seed(seed: int) -> None:
+    """A --seed of the command line within numpy's range (crashlab.reconstruction's SEED_MAX); InputError else."""
+    from ..reconstruction.schema import SEED_MAX
+    if not 0 <= seed <= SEED_MAX:
+        raise InputError("command line", "--seed", f"in [0, {SEED_MAX}], got {seed}")
+
+
 def refuse_other_kind(path, expected: str, takes: str = "simulate and compare take") -> None:
     """InputError when the file is of the other kind than the command takes: a study (it names its scene and
     has [[free]] or [evidence]) given where a scene is expected, or a scene (it has [[vehicles]] and names
@@ -134,8 +141,8 @@ def cmd_monte_carlo(args, scene, model):
     from crashlab.reconstruction import montecarlo
     if args.monte_carlo < 1:
         raise InputError("command line", "--monte-carlo", f"at least 1 draw, got {args.monte_carlo}")
-    if args.seed is not None and not 0 <= args.seed < 2**32:
-        raise InputError("command line", "--seed", f"in [0, 2^32), got {args.seed}")
+    if args.seed is not None:
+        check_seed(args.seed)
     if args.plot:
         raise InputError("command line", "--plot", "with --monte-carlo the figure goes to --out DIR")
     if args.csv:

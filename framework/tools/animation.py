@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..outdir import check_output_file
 from ..scene import vehicle_outline
 from ..units import length_axes_in
 
@@ -35,12 +36,7 @@ def check_animation_path(path, key: str = "path") -> Path:
         raise InputError(str(path), key, f"an animation is written as .gif or .mp4, not {ext or 'no extension'!r}")
     if ext == ".mp4" and shutil.which("ffmpeg") is None:
         raise InputError(str(path), key, "an .mp4 needs ffmpeg on PATH, which is not there; write a .gif instead")
-    if path.is_dir():
-        raise InputError(str(path), key, "a folder; give a file name")
-    folder = next((p for p in path.parents if p.exists()), None)  # missing folders are made; a file is no folder
-    if folder is not None and not folder.is_dir():
-        raise InputError(str(path), key, f"cannot write there: {folder} is not a folder")
-    return path
+    return check_output_file(path, key)
 
 
 def animation_times(outcome, fps: float = 25.0, speed: float = 1.0, max_frames: int = 300) -> np.ndarray:

@@ -13,23 +13,20 @@ from ..units import deg_to_rad, length_axes_in, ms_to_kmh, unit_in, us_factor, v
 
 def check_plot_path(path, key: str = "--plot") -> Path:
     """The path of a figure as a Path when its extension names a format matplotlib writes (.png, .pdf, .svg, ...),
-    it is no folder and its folder exists; otherwise crashlab.InputError naming the path and `key` (the CLI checks
-    before the run: a name without an extension is refused, as --animate refuses one, not written as NAME.png)."""
+    and it can be written (outdir.check_output_file); otherwise crashlab.InputError naming the path and `key` (the
+    CLI checks before the run: a name without an extension is refused, as --animate refuses one, not written as
+    NAME.png)."""
     from matplotlib.backend_bases import FigureCanvasBase
 
     from ..errors import InputError
+    from ..outdir import check_output_file
     path = Path(path)
     ext = path.suffix.lower()
     formats = sorted(FigureCanvasBase.get_supported_filetypes())
     if ext[1:] not in formats:
         raise InputError(str(path), key, f"a figure is written as .png, .pdf, .svg or another format matplotlib "
                          f"writes ({', '.join(formats)}), not {ext or 'no extension'!r}")
-    if path.is_dir():
-        raise InputError(str(path), key, "a folder; give a file name")
-    if not path.parent.is_dir():
-        raise InputError(str(path), key, f"cannot write there: {path.parent} "
-                         f"{'is not a folder' if path.parent.exists() else 'does not exist'}")
-    return path
+    return check_output_file(path, key)
 
 
 def _arrow(ax, x, y, h, length, colour, **kw):
@@ -178,6 +175,7 @@ def _finish(fig, ax, title, path):
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)  # (outdir.check_output_file: missing folders are made)
     fig.savefig(path, dpi=120, bbox_inches="tight")
     import matplotlib.pyplot as plt
     plt.close(fig)
