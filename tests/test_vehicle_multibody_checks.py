@@ -33,9 +33,17 @@ def _clio_with(tmp_path, old: str, new: str) -> Path:
     ("[[1.308, 0.7675, 0.03]", "[[25, 0.7675, 0.03]", "multibody.suspension.chassis_points",
      "chassis_points[0] (25, 0.7675, 0.03) m lies outside"),
     ("torus_radius_1 = 0.1975", "torus_radius_1 = 1.4", "multibody.tyre.torus_radius_1",
-     "(1.4825 m) must be the wheel_radius (0.28 m)"),
+     "torus_radius_1 1.4 m + torus_radius_2 0.0825 m, must be the wheel_radius (0.28 m)"),
     ("semi_axes = [1.8875, 0.8200, 0.2500]", "semi_axes = [14, 14, 14]", "multibody.chassis.semi_axes",
      "semi_axes[0] (14 m) exceeds the vehicle's half length (1.8875 m"),
+    # the torus's minor radius alone: the major one is the wheel_radius less it, here -0.22 m
+    ("torus_radius_1 = 0.1975\ntorus_radius_2 = 0.0825", "torus_radius_2 = 0.5", "multibody.tyre.torus_radius_1",
+     "torus_radius_1 -0.22 m + torus_radius_2 0.5 m"),
+    # the knuckle given, the wheel's default 9 kg: 4 x (9 + 115) kg of the Clio's 980 kg (the build refused it
+    # in the run, naming the scene)
+    ("mass = 9.0\ninertia = [3.0580e-2, 3.7103e-1, 3.0580e-2]\n\n[multibody.knuckle]\nmass = 1.0",
+     "inertia = [3.0580e-2, 3.7103e-1, 3.0580e-2]\n\n[multibody.knuckle]\nmass = 115", "multibody.wheel.mass",
+     "four wheels and knuckles of 9 + 115 kg"),
     ("[multibody.wheel]\nsemi_axes = [0.280, 0.080, 0.280]\nshape_exponents = [2.0, 6.0]\nmass = 9.0",
      "[multibody.wheel]\nsemi_axes = [0.280, 0.080, 0.280]\nshape_exponents = [2.0, 6.0]\nmass = 1500",
      "multibody.wheel.mass", "weigh more than half the mass (980 kg)"),
@@ -80,3 +88,21 @@ def test_a_drawn_mass_meets_the_same_checks():
     assert with_spec(spec, mass=900.0).mass == 900.0
     with pytest.raises(ValueError, match="weigh more than half the mass"):
         with_spec(spec, mass=75.0)
+
+
+def test_a_wheel_radius_overridden_in_a_scene_scales_the_files_torus():
+    """The Clio at wheel_radius 0.31 m (a scene's override, for any model): accepted (it was refused, naming the
+    file's torus of 0.28 m); the 3D models scale the torus to it, 0.1975 and 0.0825 x 0.31 / 0.28, and say so."""
+    spec = load_vehicle("clio", overrides={"wheel_radius": 0.31})
+    veh = build(spec)
+    from crashlab.models.common.vehicle_3d import T_R1, T_R2
+    assert veh.TYR[0, T_R1] == pytest.approx(0.1975 * 0.31 / 0.28, rel=1e-12)
+    assert veh.TYR[0, T_R2] == pytest.approx(0.0825 * 0.31 / 0.28, rel=1e-12)
+    assert any(n.startswith("tyre torus 0.1975 + 0.0825 m scaled to the wheel_radius 0.31 m") for n in veh.notes)
+
+
+def test_the_wheels_shape_written_but_not_used_is_noted():
+    """[multibody.wheel] semi_axes and shape_exponents (the Clio's file has them): the 3D tyre is the torus."""
+    notes = build(load_vehicle("clio")).notes
+    assert "wheel.semi_axes of [multibody.wheel] not used: the tyre is the torus of [multibody.tyre]" in notes
+    assert "wheel.shape_exponents of [multibody.wheel] not used: the tyre is the torus of [multibody.tyre]" in notes

@@ -20,6 +20,14 @@ import numpy as np
 
 from crashlab.errors import InputError
 from crashlab.units import G
+from crashlab.vehicle import (
+    MB_REFERENCE_RADIUS,
+    MB_WHEEL_MASS,
+    TORUS_RADIUS_TOL,
+    multibody_corner_masses,
+    multibody_torus,
+    unsprung_problem,
+)
 
 NB, NW = 9, 4
 CORNERS = ("FL", "FR", "RL", "RR")
@@ -35,11 +43,12 @@ N_S = 16
 (T_WHEEL, T_KNUCKLE, T_R1, T_R2, T_KZ, T_CZ, T_KS, T_KA, T_KG, T_FRR, T_SIG_S, T_SIG_A, T_CS, T_CA,
  T_MODE, T_ETA) = range(16)
 N_T = 16
-CLIO_R = 0.28
+CLIO_R = MB_REFERENCE_RADIUS
 DEFAULTS = {
-    # wheel + tyre: the Clio's 9 kg and inertias scaled with (R/0.28)^3 (mass) and m R^2 (inertia)
-    "wheel_mass_clio": 9.0, "wheel_inertia_clio": (3.0580e-2, 3.7103e-1, 3.0580e-2),
-    "knuckle_mass": 1.0, "knuckle_inertia": 0.01,          # kg, kg m^2 (the thesis gives no geometry)
+    # wheel + tyre: the Clio's inertias scaled with m R^2 (its 9 kg, the knuckle's 1 kg and the torus: crashlab.vehicle
+    # multibody_corner_masses, multibody_torus)
+    "wheel_inertia_clio": (3.0580e-2, 3.7103e-1, 3.0580e-2),
+    "knuckle_inertia": 0.01,                                # kg m^2 (the thesis gives no geometry)
     "ride_frequency": 1.36, "damping_ratio": 0.48,          # Hz, -: the Clio's 17.239 kN/m, 1939.4 N s/m
     "free_length": 0.25, "joint_z": -0.22,                  # m (Clio)
     "bump_travel": 0.08,                                    # m of compression beyond static before the stop
@@ -89,19 +98,23 @@ def build(spec) -> Vehicle:
     ch, wh, kn = sec.get("chassis", {}), sec.get("wheel", {}), sec.get("knuckle", {})
     su, ty = sec.get("suspension", {}), sec.get("tyre", {})
     sc = R / CLIO_R
-    m_w = _get(wh, "mass", DEFAULTS["wheel_mass_clio"] * sc ** 3, notes, "wheel.mass")
-    I_w = _get(wh, "inertia", [i * (m_w / 9.0) * sc ** 2 for i in DEFAULTS["wheel_inertia_clio"]], notes,
+    m_w_default, m_k_default = multibody_corner_masses({}, R)
+    m_w = _get(wh, "mass", m_w_default, notes, "wheel.mass")
+    I_w = _get(wh, "inertia", [i * (m_w / MB_WHEEL_MASS) * sc ** 2 for i in DEFAULTS["wheel_inertia_clio"]], notes,
                "wheel.inertia")
-    m_k = _get(kn, "mass", DEFAULTS["knuckle_mass"], notes, "knuckle.mass")
+    m_k = _get(kn, "mass", m_k_default, notes, "knuckle.mass")
     I_k = [DEFAULTS["knuckle_inertia"]] * 3
+    for key in ("semi_axes", "shape_exponents"):
+        if key in wh:
+            notes.append(f"wheel.{key} of [multibody.wheel] not used: the tyre is the torus of [multibody.tyre]")
     # the vehicle's mass and inertias (top level, where a scene override lands) are the parameters' home:
     # the chassis body takes what the wheels and knuckles leave (issue 10: a [multibody.chassis] mass used
     # to win over a mass override)
     m_u4 = 4 * (m_w + m_k)
     m_c = spec.mass - m_u4
-    if m_c < 0.5 * spec.mass:
-        raise ValueError(f"{spec.name}: mass = {spec.mass:g} kg is too small for the multibody vehicle's "
-                         f"four wheels and knuckles ({m_u4:g} kg; the chassis body needs at least half)")
+    problem = unsprung_problem(sec, R, spec.mass)
+    if problem:
+        raise ValueError(f"{spec.name}: {problem} (the multibody vehicle)")
     sprung_ratio = 1.0          # the file's [multibody] data scaled to this mass (dynamic similarity)
     if "mass" in ch:
         m_c_file = float(ch["mass"])
@@ -126,8 +139,13 @@ def build(spec) -> Vehicle:
     axle_y = np.array([t2, -t2, t2, -t2])
     m_tot = BODY[:, B_MASS].sum()
     # tyre
-    r2 = _get(ty, "torus_radius_2", 0.0825 * sc, notes, "tyre.torus_radius_2")
-    r1 = _get(ty, "torus_radius_1", R - r2, notes, "tyre.torus_radius_1")
+    r1, r2 = multibody_torus(sec, R)
+    for key in ("torus_radius_1", "torus_radius_2"):
+        if key not in ty:
+            notes.append(f"tyre.{key} = {r1 if key.endswith('1') else r2:g} (default)")
+    if abs(r1 + r2 - R) > TORUS_RADIUS_TOL * R:  # a wheel_radius overridden in a scene: the file's torus scaled
+        notes.append(f"tyre torus {r1:g} + {r2:g} m scaled to the wheel_radius {R:g} m")
+        r1, r2 = r1 * R / (r1 + r2), r2 * R / (r1 + r2)
     kz = _get(ty, "radial_stiffness", DEFAULTS["radial_stiffness_clio"] * m_tot / 980.0 / mass_ratio, notes,
               "tyre.radial_stiffness") * mass_ratio
     ks = _get(ty, "longitudinal_slip_stiffness", DEFAULTS["slip_stiffness_clio"] * m_tot / 980.0 / mass_ratio,
