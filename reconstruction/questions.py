@@ -197,7 +197,10 @@ class _Compiler:
                 return out, defined
             return "bool", fn
         if isinstance(n, ast.Constant) and type(n.value) in (int, float):
-            v = float(n.value)
+            try:
+                v = float(n.value)
+            except OverflowError:  # an integer of more than 309 digits
+                v = math.inf
             if not math.isfinite(v):  # 1e999 is read as infinity: no number a draw can be compared with
                 raise ValueError("a number beyond 1.8e308 (the largest float) is infinite: give a finite number")
             return "num", lambda d, v=v: v

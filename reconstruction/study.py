@@ -291,15 +291,16 @@ def _checked_model(path, name: str, options: dict, key: str):
 
 
 def check_execution(path, spec: StudyFile) -> None:
-    """[execution] scheduler: an address, given with backend = "dask" only (any scheduler made the run a Dask
-    one, a serial run included; crashlab.reconstruction.run._backend). InputError naming execution.scheduler."""
+    """[execution] scheduler: an address, alone (a Dask run) or with backend = "dask" (any scheduler made the run
+    a Dask one, a backend written "serial" included; crashlab.reconstruction.run._backend). InputError naming
+    execution.scheduler."""
     ex = spec.execution
     if ex.scheduler is None:
         return
     if not ex.scheduler.strip():
         raise InputError(path, "execution.scheduler", "an empty address: give a Dask scheduler's (tcp://HOST:8786), "
                          "or leave the key out")
-    if ex.backend != "dask":
+    if ex.backend != "dask" and "backend" in ex.model_fields_set:  # a scheduler alone: a Dask run (run._backend)
         raise InputError(path, "execution.scheduler", f"a Dask scheduler's address contradicts execution.backend = "
                          f"{ex.backend!r} (a scheduler is for backend = \"dask\"): set that backend to run on it, "
                          "or drop the scheduler")

@@ -115,6 +115,9 @@ def test_a_number_beyond_the_largest_float_is_refused():
     with pytest.raises(InputError, match="infinite"):
         parse_question("-1e400 < V1.speed", ["V1.speed"])
     assert parse_question("V1.speed > 1e300", ["V1.speed"]).probability({"V1.speed": [50.0]}) == 0.0
+    # an integer of 401 digits: float() raised OverflowError, a traceback of every study command
+    with pytest.raises(InputError, match="infinite"):
+        parse_question("V1.speed > 1" + "0" * 400, ["V1.speed"])
 
 
 # ------------------------------------------------------------------ the Dask scheduler
@@ -166,3 +169,12 @@ def test_a_chain_too_short_for_tau_shows_dashes_and_one_warning(tmp_path, capsys
     summary = (out / "summary.md").read_text()
     assert "nan" not in summary.lower() and "| - | - |" in summary and "smallest ESS -." in summary
     assert "| `V1.speed > 50` |" in summary
+
+
+def test_a_scheduler_alone_is_a_dask_study(tmp_path):
+    """[execution] scheduler without a backend written (the default "serial"): the study runs on that scheduler,
+    as before the check of a scheduler with a serial backend (which refused it too in a first version)."""
+    from crashlab.reconstruction.run import _backend
+    p = _study(tmp_path, STUDY.replace(SERIAL, '[execution]\nscheduler = "tcp://127.0.0.1:8786"\n'))
+    study = load_study(p)
+    assert _backend(study, None, None) == "dask"
