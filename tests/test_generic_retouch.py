@@ -90,7 +90,7 @@ def test_the_first_touch_keeps_its_approach_speed():
 def test_a_contact_that_goes_on_past_push_time_keeps_its_approach_speed():
     """A contact still on PUSH_TIME after its impact is written and continued as a push (§15): the same touch, so
     the law keeps its delta_dot0 (a first version took the normal velocity there, about 0 and floored at v_min:
-    the damping term jumped ten thousand times). A re-touch opening a push takes its own."""
+    the damping term jumped ten thousand times). A re-touch within the push takes its own."""
     CT = _arrays()
     PST = CT[5]
     EP.open_episode(PST, 0, 0.0, IMPACT, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -104,5 +104,21 @@ def test_a_contact_that_goes_on_past_push_time_keeps_its_approach_speed():
     EP.episode_step(np.zeros((4, EP.N_IMP)), 0, CT[4], PST, 0, 1.0, 1.0, 1.0, DEPTH, -DEPTH, 0.2,
                     (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     assert PST[0, C.S_ACT] == EP.IN_CONTACT
+    out = _evaluate(_head_on(_x2_at_depth(), 0.1), CT)
+    assert out[C.G_FN] == pytest.approx(_law(out[C.G_DEL], out[C.G_DDOT], 0.2), rel=1e-9)
+
+
+def test_a_retouch_that_opens_the_push_takes_its_own_approach_speed():
+    """The impact's contact ended, and the pair touches again later than PUSH_TIME after the impact: the impact
+    is written and a push opened at the re-touch, whose approach speed (0.2 m/s) the law takes."""
+    CT = _arrays()
+    PST = CT[5]
+    EP.open_episode(PST, 0, 0.0, IMPACT, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    PST[0, C.S_ACT] = EP.ENDED
+    t = EP.PUSH_TIME + 0.05
+    n = EP.episode_step(np.zeros((4, EP.N_IMP)), 0, CT[4], PST, 0, t, t, t, DEPTH, -DEPTH, 0.2,
+                        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert n == 1 and PST[0, C.S_PUSH] == 1.0 and PST[0, C.S_ACT] == EP.IN_CONTACT
+    assert PST[0, C.S_DD0] == PST[0, C.S_DDT] == 0.2
     out = _evaluate(_head_on(_x2_at_depth(), 0.1), CT)
     assert out[C.G_FN] == pytest.approx(_law(out[C.G_DEL], out[C.G_DDOT], 0.2), rel=1e-9)

@@ -8,10 +8,10 @@ sleeps (stop_at_rest) or at t_end. Vehicle pairs of two sleeping vehicles are no
 Vehicle contact (common/chassis_contact.py) is evaluated in every stage. First-contact control (Flores & Ambrosio 2010,
 docs/physics.md §15): a trial step that passes the error test but ends with a pair not yet in contact
 penetrating deeper than onset_tol is bisected (re-integrated from its start) until the new penetration
-is in (0, onset_tol]; the pair is then active and its approach velocity delta_dot0 is stored until the
-pair separates (penetration <= 0 at the end of a step), which closes the contact episode (impulse, peak
-force, work, max penetration, delta-V, recorded in IMP: common/contact_episodes.py). Euler parameters are
-renormalised after every accepted step.
+is in (0, onset_tol]; the pair is then active and its approach velocity delta_dot0 is stored until its contact
+ends (penetration <= 0 at the end of a step; a re-touch stores its own); the contact episode (impulse, peak
+force, work, max penetration, delta-V, recorded in IMP: common/contact_episodes.py) closes once the pair is
+SEPARATION apart. Euler parameters are renormalised after every accepted step.
 """
 import math
 
