@@ -13,7 +13,7 @@ import numpy as np
 from crashlab.errors import InputError
 from crashlab.units import frame_in, length_axes_in, uncertain_text, unit_in, value_in
 
-from .questions import answers
+from .questions import answers, smallest
 
 # emcee's rule: tau is reliable from a chain of 50 tau; a burn-in of a few tau forgets the start
 TAU_RELIABLE = 50
@@ -106,7 +106,7 @@ def summary_lines(post, res) -> list[str]:
 
 def smallest_ess(res) -> float:
     """The smallest ESS of the variables; NaN when one of them has none (infer._autocorr)."""
-    return math.nan if np.isnan(res.ess).any() else float(np.min(res.ess))
+    return smallest(res.ess)
 
 
 def chain_warnings(res) -> list[str]:

@@ -97,11 +97,12 @@ def answers(questions, labels, samples, ess) -> list[Answer]:
     smallest effective sample size `ess` (per variable) of the variables it reads (NaN where one of them has
     none: a chain too short for an autocorrelation estimate; the standard error is then NaN too)."""
     cols = {lab: samples[:, j] for j, lab in enumerate(labels)}
-    return [q.answer(cols, _smallest([ess[labels.index(n)] for n in q.names], len(samples))) for q in questions]
+    return [q.answer(cols, smallest([ess[labels.index(n)] for n in q.names], len(samples))) for q in questions]
 
 
-def _smallest(values, default) -> float:
-    """min(values), NaN when any is NaN (min() itself would depend on the order), default when empty."""
+def smallest(values, default=math.nan) -> float:
+    """min(values), NaN when any is NaN (min() itself would depend on the order), default when empty (an ESS that
+    could not be computed: infer_report.smallest_ess, answers)."""
     values = [float(v) for v in values]
     return default if not values else math.nan if any(map(math.isnan, values)) else min(values)
 

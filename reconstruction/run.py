@@ -34,7 +34,7 @@ from .polish import polish_archive
 from .refine import refine
 from .report import ReconstructionResult, pareto_table, write_outputs
 from .schema import WORKERS_MAX
-from .study_executor import open_executor
+from .study_executor import open_executor, refuse_empty_scheduler
 
 CHECKPOINT_FORMAT = "crashlab reconstruction checkpoint 4"  # 3: the archive keeps every residual vector; 4: the
 # problem sets its variables through crashlab.fields (uncertain parameters)
@@ -142,9 +142,7 @@ def _backend(study, workers, scheduler) -> str:
     ex = study.spec.execution
     if workers is not None and not 1 <= workers <= WORKERS_MAX:
         raise InputError(study.path, "--workers", f"must be in [1, {WORKERS_MAX}], got {workers}")
-    if scheduler is not None and not scheduler.strip():
-        raise InputError(study.path, "--scheduler", "an empty address: give a Dask scheduler's (tcp://HOST:8786), "
-                         "or leave the option out for the study's [execution]")
+    refuse_empty_scheduler(study.path, "--scheduler", scheduler, "leave the option out for the study's [execution]")
     # (a study's own scheduler comes with backend = "dask" only: crashlab.reconstruction.study.check_execution)
     if scheduler or ex.scheduler or (workers and ex.backend == "serial"):
         return "dask"

@@ -50,6 +50,7 @@ from .questions import parse_questions
 from .repair import CollisionRepair
 from .run import run_study
 from .schema import StudyFile
+from .study_executor import refuse_empty_scheduler
 from .study_units import in_file_units
 
 
@@ -297,9 +298,7 @@ def check_execution(path, spec: StudyFile) -> None:
     ex = spec.execution
     if ex.scheduler is None:
         return
-    if not ex.scheduler.strip():
-        raise InputError(path, "execution.scheduler", "an empty address: give a Dask scheduler's (tcp://HOST:8786), "
-                         "or leave the key out")
+    refuse_empty_scheduler(path, "execution.scheduler", ex.scheduler, "leave the key out")
     if ex.backend != "dask" and "backend" in ex.model_fields_set:  # a scheduler alone: a Dask run (run._backend)
         raise InputError(path, "execution.scheduler", f"a Dask scheduler's address contradicts execution.backend = "
                          f"{ex.backend!r} (a scheduler is for backend = \"dask\"): set that backend to run on it, "

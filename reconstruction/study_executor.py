@@ -9,6 +9,12 @@ from crashlab.errors import InputError
 from crashlab.execution import Executor
 
 
+def refuse_empty_scheduler(path, key: str, scheduler: str | None, instead: str) -> None:
+    """InputError naming `key` when a scheduler address is given empty (`instead`: what to do then)."""
+    if scheduler is not None and not scheduler.strip():
+        raise InputError(path, key, f"an empty address: give a Dask scheduler's (tcp://HOST:8786), or {instead}")
+
+
 @contextmanager
 def open_executor(path, backend: str, workers: int, scheduler: str | None, timeout_s, key: str):
     """The entered Executor; InputError(path, key, ...) when its Dask scheduler does not answer."""
