@@ -42,6 +42,7 @@ def check_output_file(path, key: str) -> Path:
         raise InputError(str(path), key, f"cannot write there: {folder} is not a folder")
     return path
 
+
 _HELD: dict[str, list] = {}  # real path of a locked folder -> [fd, depth] (this process)
 
 try:
