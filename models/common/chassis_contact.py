@@ -100,6 +100,9 @@ S_CI, S_CR, S_CM = 28, 29, 30
 # end (time, normal velocity, the velocities (vx, vy, yaw rate) of i and j there), and whether the open episode is
 # a push (contact later than PUSH_TIME after its impact; crashlab.outcome, docs/physics.md §15)
 S_T1, S_DD1, S_VEI, S_VEJ, S_PUSH = 31, 32, 33, 36, 39
+# a pair's episode state PST[p, S_ACT]: NONE, IN_CONTACT, or ENDED: its contact has ended but the pair is not yet
+# SEPARATION apart, a re-touch continues the episode (contact_episodes.py; docs/physics.md §15 "Episodes and pushes")
+NONE, IN_CONTACT, ENDED = 0.0, 1.0, 2.0
 # the approach velocity of the episode's current touch (generic law's delta_dot0): S_DD0 at onset, a re-touch's own
 # after an ENDED contact (contact_episodes.episode_step); S_DD0 stays the episode's (its impact row)
 S_DDT = 40
@@ -395,8 +398,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         psg[p, :] = 0.0
         psg[p, G_DEL] = -1.0
         psg[p, G_GAP] = GAP_FAR
-        if use_awake and PST[p, S_ACT] != 1.0 and not awake[i] and (j >= nv or not awake[j]):
-            if PST[p, S_ACT] == 0.0:  # an ended episode's pair keeps its warm start: it may still overlap
+        if use_awake and PST[p, S_ACT] != IN_CONTACT and not awake[i] and (j >= nv or not awake[j]):
+            if PST[p, S_ACT] == NONE:  # an ended episode's pair keeps its warm start: it may still overlap
                 PST[p, S_THOK] = 0.0
             continue
         BPC[B_PAIRS] += 1
@@ -452,13 +455,13 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         if z1a > z2b or z2a > z1b:
             BPC[B_HEIGHT] += 1
             continue
-        if PST[p, S_ACT] == 0.0 and not obb_overlap(rc1, A1, sh1[:3], rc2, A2, sh2[:3]):
+        if PST[p, S_ACT] == NONE and not obb_overlap(rc1, A1, sh1[:3], rc2, A2, sh2[:3]):
             PST[p, S_THOK] = 0.0
             BPC[B_OBB] += 1
             continue
         BPC[B_NARROW] += 1
         # warm start while in contact, and while a crushed pair (structure law) may still overlap after it
-        warm = PST[p, S_THOK] > 0.0 and (PST[p, S_ACT] > 0.0 or PST[p, S_CMAX] > 0.0)
+        warm = PST[p, S_THOK] > 0.0 and (PST[p, S_ACT] != NONE or PST[p, S_CMAX] > 0.0)
         th, g = horizontal_gap(PST[p, S_TH], warm, k2, sh1, rc1, A1, sh2, rc2, A2)
         PST[p, S_TH] = th
         PST[p, S_THOK] = 1.0
@@ -483,7 +486,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             # crush)
             # (a crushed pair keeps them while its shapes still overlap: the crushed zones are still the ones in
             # touch; re-chosen once the shapes have separated, g >= 0)
-            if PST[p, S_ACT] == 0.0 and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
+            if PST[p, S_ACT] == NONE and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
                 fi, fj = _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g)
                 si, sj = fi, fj if k2 == 0 else 0
                 if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
@@ -498,7 +501,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             if ok:
                 top = support_value_body(0, e0, e1, 0.0, sh1, rc1, A1)
                 bot = -support_value_body(k2, -e0, -e1, 0.0, sh2, rc2, A2)
-                if PST[p, S_ACT] == 0.0:
+                if PST[p, S_ACT] == NONE:
                     PST[p, S_C0] = top - bot + g if e0 * d0 + e1 * d1 > 0.0 else -1.0
                 measure = 2.0 if PST[p, S_C0] >= 0.0 else 1.0
                 if PST[p, S_C0] >= 0.0 and top - bot - PST[p, S_C0] >= -g:
@@ -522,7 +525,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             # (the engagement normal lost or regained): the crush at the last accepted evaluation plus the change
             # of the measure since, none where it has switched
             psg[p, G_RAW], psg[p, G_MEAS] = crush, measure
-            if PST[p, S_ACT] > 0.0 and PST[p, S_CM] > 0.0:
+            if PST[p, S_ACT] != NONE and PST[p, S_CM] > 0.0:
                 crush = PST[p, S_CI] + (crush - PST[p, S_CR] if measure == PST[p, S_CM] else 0.0)
             if crush < -g:
                 # never less than the shapes' overlap -g (continuous too): a crush held below it by a switch let
@@ -531,7 +534,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
                 psg[p, G_TH] = th
                 psg[p, G_RAW], psg[p, G_MEAS] = crush, 1.0
             psg[p, G_CRUSH] = crush
-        elif PST[p, S_ACT] == 0.0 and g < 0.0:  # the struck sides at the first touch, which share the episode's
+        elif PST[p, S_ACT] == NONE and g < 0.0:  # the struck sides at the first touch, which share the episode's
             # energy in its impact rows (§21)
             fi, fj = _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g)
             PST[p, S_SIDE_I], PST[p, S_SIDE_J] = fi, fj if k2 == 0 else 0
@@ -568,9 +571,9 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
         else:
             if g >= 0.0:
                 continue
-            # in contact (S_ACT 1): the current touch's approach velocity; a first touch or a re-touch of an ended
+            # in contact: the current touch's approach velocity; a first touch or a re-touch of an ended
             # contact (only within trial stages) its current one
-            dd0 = PST[p, S_DDT] if PST[p, S_ACT] == 1.0 else max(dd, cfg_vmin)
+            dd0 = PST[p, S_DDT] if PST[p, S_ACT] == IN_CONTACT else max(dd, cfg_vmin)
             fn = normal_force_chi(-g, dd, dd0, PP[p, P_K], cfg_chi, cfg_n, cfg_vmin)
         vt = (vr[0] - dd * d0, vr[1] - dd * d1, vr[2])
         st = math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2)

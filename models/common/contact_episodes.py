@@ -20,6 +20,7 @@ from numba import njit
 from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
 
 from .chassis_contact import (
+    ENDED,
     G_CRUSH,
     G_DEL,
     G_FN,
@@ -30,6 +31,8 @@ from .chassis_contact import (
     G_PY,
     G_RAW,
     G_TH,
+    IN_CONTACT,
+    NONE,
     P_I,
     P_J,
     S_ACT,
@@ -68,9 +71,6 @@ from .impact_rows import pair_rows
 # I_PUSH: 1 for a push's record (the pair's contact later than PUSH_TIME after its impact, kind "push")
 I_PUSH = 24
 N_IMP = 25
-# a pair's episode state PST[p, S_ACT]: NONE, IN_CONTACT, or ENDED: its contact has ended but the pair is not yet
-# SEPARATION apart, a re-touch continues the episode (docs/physics.md §15 "Episodes and pushes")
-NONE, IN_CONTACT, ENDED = 0.0, 1.0, 2.0
 EPISODES_PER_PAIR = 64  # records per pair of bodies that can touch (two vehicles, a vehicle and a barrier)
 
 
@@ -85,7 +85,7 @@ def episode_capacity(n_vehicles: int, n_barriers: int) -> int:
 def open_episode(PST, p, t0, dd0, vel_i, vel_j):
     """Mark pair p active from t0 with the approach velocity dd0 and the velocities (vx, vy, yaw rate) of its
     vehicles (vel_j is ignored by the records of a barrier pair)."""
-    PST[p, S_ACT] = 1.0
+    PST[p, S_ACT] = IN_CONTACT
     PST[p, S_DD0] = PST[p, S_DDT] = dd0
     PST[p, S_T0] = t0
     for k in range(3):

@@ -80,7 +80,7 @@ class Records:
         for p in range(PP.shape[0]):
             i, j = int(PP[p, C.P_I]), int(PP[p, C.P_J])
             d0, d1 = psg0[p, C.G_DEL], psg1[p, C.G_DEL]
-            if PST[p, C.S_ACT] == 0.0:
+            if PST[p, C.S_ACT] == C.NONE:
                 if d1 <= 0.0:
                     continue
                 EP.reset_sums(PST, p)
@@ -143,7 +143,7 @@ class Records:
         if not self.scene.stop_at_rest:
             return True
         PST = self.CT[5]
-        active = bool(PST.shape[0]) and bool((PST[:, C.S_ACT] == EP.IN_CONTACT).any())
+        active = bool(PST.shape[0]) and bool((PST[:, C.S_ACT] == C.IN_CONTACT).any())
         still = not active and all(math.hypot(self.Y[v, 7], self.Y[v, 8]) < self.o["v_rest"]
                                    and abs((self.chassisA[v] @ self.Y[v, 10:13])[2]) < self.o["w_rest"]
                                    for v in range(self.nv))

@@ -165,7 +165,7 @@ class ExudynRun(StepLoads, DriverLoads, Records):
             self._accept(self.s_cur, t_end, F, psg, rsg)
         PST = self.CT[5]
         for p in range(self.PP.shape[0]):
-            if PST[p, C.S_ACT] > 0.0:
+            if PST[p, C.S_ACT] != C.NONE:
                 self._episode(p, t_end, t_end, t_end, psg, finish=True)
         if self.rest == E_SPEED_LAW:
             warnings += contact_report.speed_law_warnings(PST)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from crashlab.models.common import chassis_contact as C
-from crashlab.models.common import contact_episodes as EP
 from crashlab.models.common import driver_inputs as DI
 from crashlab.models.common import road_contact as R
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS
@@ -122,7 +121,7 @@ class StepLoads:
         PST = self.CT[5]
         d = 0.0
         for p in range(PST.shape[0]):
-            if PST[p, C.S_ACT] != EP.IN_CONTACT:
+            if PST[p, C.S_ACT] != C.IN_CONTACT:
                 d = max(d, psg1[p, C.G_DEL])
         for v in range(self.nv):
             if not self.road_on[v]:

@@ -18,9 +18,8 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, G_GAP, P_I, P_J, S_ACT
+from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, G_GAP, IN_CONTACT, NONE, P_I, P_J, S_ACT
 from crashlab.models.common.contact_episodes import (
-    IN_CONTACT,
     accumulate,
     episode_step,
     finish_episode,
@@ -243,7 +242,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
                     accumulate(PST, p, h * bw[s], PSG[s, p])
                 track_peak(PST, p, PSG[s, p])
             d6 = PSG[6, p, G_DEL]
-            if PST[p, S_ACT] == 0.0:
+            if PST[p, S_ACT] == NONE:
                 if d6 > 0.0:
                     open_episode(PST, p, t, max(PSG[6, p, G_DDOT], cfg[C_VMIN]), velocity(Y, BODY, i),
                                  velocity(Y, BODY, j))
@@ -332,7 +331,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
         if at_break:
             h = max(h, h_free)    # the step was shortened to end at the change, not for accuracy
     for p in range(npair):
-        if PST[p, S_ACT] > 0.0:
+        if PST[p, S_ACT] != NONE:
             _episode(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, True)
     for v in range(nv):
         if awake[v]:
