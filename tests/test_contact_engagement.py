@@ -59,7 +59,7 @@ def _evaluate(Y, CT):
 
 
 def _arrays():
-    PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]))
+    PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]), [1500.0, 1500.0])
     return C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
 
 

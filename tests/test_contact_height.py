@@ -40,11 +40,11 @@ def _point_height(sh1, z1, sh2=None, z2=0.0, barrier=False, depth=0.1):
     Y[0, :7] = [0.0, 0.0, z1, 1.0, 0.0, 0.0, 0.0]
     if barrier:
         bar = np.array([[sh1[0] - depth + 0.5, 0.0, 90.0 * math.pi / 180.0, 5.0, 0.5]])   # face at x = a - depth
-        PP = C.pair_table(1, 1, 1e6, 1.5, np.array([STR]))
+        PP = C.pair_table(1, 1, 1e6, 1.5, np.array([STR]), [1500.0])
         CT = C.contact_arrays(np.array([sh1]), PP, bar, 1)
     else:
         Y[1, :7] = [sh1[0] + sh2[0] - depth, 0.0, z2, 0.0, 0.0, 0.0, 1.0]
-        PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]))
+        PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]), [1500.0, 1500.0])
         CT = C.contact_arrays(np.array([sh1, sh2]), PP, np.zeros((0, 5)), 2)
     CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
     C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, 1.5, 0.0, 0.3, 0.0, FRICTION_V0,

@@ -25,7 +25,7 @@ IMPACT = 10.0    # m/s: the episode's first approach speed
 
 
 def _arrays():
-    PP = C.pair_table(2, 0, K, N, np.array([STR, STR]))
+    PP = C.pair_table(2, 0, K, N, np.array([STR, STR]), [1500.0, 1500.0])
     return C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
 
 

@@ -68,7 +68,7 @@ def test_a_front_into_the_roof_of_a_car_on_its_side():
     """The contact kernel: V1 upright heading +x, V2 on its side ahead with its roof towards V1, 0.1 m of overlap.
     V2 is struck on its roof (code 4; before: its front, the point at its body's x = 0 and mid height), V1 on its
     front; the force pushes V1 back along -x and V2 along +x, from the front's B in series with V2's side B."""
-    PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]))
+    PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]), [1500.0, 1500.0])
     CT = C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
     CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
     Y = np.zeros((2, 13))

@@ -59,6 +59,7 @@ from .crush_structure import (
     engagement_normal,
     face_code,
     permanent_crush,
+    push_damping,
     structure_force,
     structure_slot,
     swept_faces,
@@ -68,9 +69,10 @@ from .rotations import rot_z, rotation_matrix_into
 from .superellipsoid import support_global, support_local
 
 # pair parameters PP[p]: i, j (j >= nv: barrier j - nv), K of the generic law, the structure rows
-# (crush_structure.structure_row: A, B, width of front, rear, side) of i and of j (zeros for a barrier: rigid)
-P_I, P_J, P_K, P_STR_I, P_STR_J = 0, 1, 2, 3, 3 + N_STR
-N_PP = 3 + 2 * N_STR
+# (crush_structure.structure_row: A, B, width of front, rear, side) of i and of j (zeros for a barrier: rigid), the
+# pair's reduced mass (the push damping's, §13a)
+P_I, P_J, P_K, P_STR_I, P_STR_J, P_MEFF = 0, 1, 2, 3, 3 + N_STR, 3 + 2 * N_STR
+N_PP = 4 + 2 * N_STR
 # chassis contact laws (the model option contact_law): the vehicles' crush structure (§13a), the generic
 # Hertz-type stiffness K with the scene's force_law (§13)
 LAW_STRUCTURE, LAW_GENERIC = 0, 1
@@ -568,6 +570,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             fn, psg[p, G_WIDTH] = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush,
                                                 cm, e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0,
                                                 work)
+            if PST[p, S_PUSH] > 0.0:  # the crushed structures pressed in a push: damped (§13a "Push damping"); no pull
+                fn = max(fn + push_damping(dd, e, b1s, b2s, psg[p, G_WIDTH], PP[p, P_MEFF]), 0.0)
         else:
             if g >= 0.0:
                 continue
@@ -606,15 +610,16 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
 # ----------------------------------------------------------------------------------------------------
 # packing (Python, once per run)
 # ----------------------------------------------------------------------------------------------------
-def pair_table(nv, nbar, K, n, STR=None):
+def pair_table(nv, nbar, K, n, STR, mass):
     """PP: every vehicle pair with K_eff = (K^(-1/n) + K^(-1/n))^(-n) (two equal Hertz springs in series,
     §13) and every vehicle-barrier pair with K (one vehicle against a rigid barrier), each with the structure
-    rows STR[v] (nv, N_STR; crush_structure.structure_row) of its vehicles, zeros for a barrier (rigid)."""
-    STR = np.zeros((nv, N_STR)) if STR is None else np.asarray(STR, dtype=float)
+    rows STR[v] (nv, N_STR; crush_structure.structure_row) of its vehicles, zeros for a barrier (rigid), and the
+    pair's reduced mass from the vehicles' masses mass[v] (a barrier's pair: the vehicle's)."""
+    STR = np.asarray(STR, dtype=float).reshape(nv, N_STR)
     rigid = np.zeros(N_STR)
-    pairs = [(i, j, (K ** (-1 / n) + K ** (-1 / n)) ** (-n), *STR[i], *STR[j]) for i in range(nv)
-             for j in range(i + 1, nv)]
-    pairs += [(i, nv + k, K, *STR[i], *rigid) for i in range(nv) for k in range(nbar)]
+    pairs = [(i, j, (K ** (-1 / n) + K ** (-1 / n)) ** (-n), *STR[i], *STR[j], mass[i] * mass[j] / (mass[i] + mass[j]))
+             for i in range(nv) for j in range(i + 1, nv)]
+    pairs += [(i, nv + k, K, *STR[i], *rigid, mass[i]) for i in range(nv) for k in range(nbar)]
     return np.array(pairs, dtype=float).reshape(-1, N_PP)
 
 

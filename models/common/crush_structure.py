@@ -30,6 +30,9 @@ from crashlab.structure import STRUCTURE_SIDES as SIDES
 N_STR = 9
 # restitution range of the linear unloading
 E_LO, E_HI = 0.01, 1.0
+# damping ratio of the crushed structures in a push (docs/physics.md §13a "Push damping"): critical, a crushed
+# structure pressed again does not ring
+PUSH_DAMPING_RATIO = 1.0
 
 
 def structure_row(spec):
@@ -210,6 +213,15 @@ def permanent_crush(Cm, e):
     if Cm <= 0.0:
         return 0.0
     return Cm * (1.0 - e * e)
+
+
+@njit(cache=True)
+def push_damping(dd, e, B1, B2, width, m_eff):
+    """Kelvin-Voigt force of the crushed structures in a push (docs/physics.md §13a "Push damping"), c dd at the
+    normal closing speed dd: c = 2 zeta sqrt(k m_eff), zeta = PUSH_DAMPING_RATIO, k = width Bs / e^2 the stiffness
+    of the unloading line over the engaged width, m_eff the pair's reduced mass (chassis_contact.pair_table)."""
+    k = width * series_stiffness(B1, B2) / (e * e)
+    return 2.0 * PUSH_DAMPING_RATIO * math.sqrt(k * m_eff) * dd
 
 
 @njit(cache=True)

@@ -86,7 +86,7 @@ class ExudynRun(StepLoads, DriverLoads, Records):
             STR.append(row)
             veh.notes.extend(n for n in notes if n not in veh.notes)
         self.PP = C.pair_table(nv, len(scene.barriers), opts["contact_stiffness"], opts["contact_exponent"],
-                               np.array(STR))
+                               np.array(STR), [veh.mass for veh in self.vehs])
         self.CT = C.contact_arrays(CSH, self.PP, C.barrier_rows(scene.barriers), nv)
         # chassis-road contact (common/road_contact.py, as the multibody model): stiffness from each vehicle's
         # total mass, regularised Coulomb friction

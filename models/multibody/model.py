@@ -238,7 +238,7 @@ class MultibodyModel(CollisionModel):
             veh.notes.extend(n for n in notes if n not in veh.notes)
         CSH = np.array([v.chassis_shape for v in vehs])
         PP = pair_table(len(vehs), len(scene.barriers), self.options.contact_stiffness, self.options.contact_exponent,
-                        np.array(STR))
+                        np.array(STR), [v.mass for v in vehs])
         DV = (ACT, NACT, GEO) + pack_zones(scene.road)
         # a vehicle at rest in the scene starts asleep in its settled state (unless sleeping cannot happen in
         # this run: t_sleep >= duration, e.g. the scaling study's sleeping off)
