@@ -570,8 +570,10 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             fn, psg[p, G_WIDTH] = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush,
                                                 cm, e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0,
                                                 work)
-            if PST[p, S_PUSH] > 0.0:  # the crushed structures pressed in a push: damped (§13a "Push damping"); no pull
-                fn = max(fn + push_damping(dd, e, b1s, b2s, psg[p, G_WIDTH], PP[p, P_MEFF]), 0.0)
+            if PST[p, S_PUSH] > 0.0:  # the crushed structures pressed in a push: damped (§13a "Push damping"), the
+                # damping at most the structures' force (continuous where the contact begins and ends; no pull)
+                fd = push_damping(dd, e, b1s, b2s, psg[p, G_WIDTH], PP[p, P_MEFF])
+                fn += min(max(fd, -fn), fn)
         else:
             if g >= 0.0:
                 continue
