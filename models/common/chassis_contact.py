@@ -571,9 +571,15 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
                                                 cm, e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0,
                                                 work)
             if PST[p, S_PUSH] > 0.0:  # the crushed structures pressed in a push: damped (§13a "Push damping"), the
-                # damping at most the structures' force (continuous where the contact begins and ends; no pull)
+                # damping at most the structures' force (continuous where the contact begins and ends; no pull) and
+                # the force at most the loading line's at this crush (continuous where the crush passes its memory)
                 fd = push_damping(dd, e, b1s, b2s, psg[p, G_WIDTH], PP[p, P_MEFF])
-                fn += min(max(fd, -fn), fn)
+                if fd > 0.0 and crush < cm:
+                    f_load = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush, crush,
+                                           e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work)[0]
+                    fn += min(fd, fn, max(f_load - fn, 0.0))
+                elif fd < 0.0:
+                    fn += max(fd, -fn)
         else:
             if g >= 0.0:
                 continue
