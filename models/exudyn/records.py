@@ -98,8 +98,10 @@ class Records:
             for q in (psg0, psg1):
                 EP.accumulate(PST, p, 0.5 * h, q[p])
                 EP.track_peak(PST, p, q[p])
-            t_part = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 else s
-            t_touch = s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0) if d1 > 0.0 else t
+            # where within the step the contact ended / began (interpolated; only where it did: d0 == d1 divided
+            # by zero)
+            t_part = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 >= d1 else s
+            t_touch = s + h * min(max(-d0 / (d1 - d0), 0.0), 1.0) if d1 > 0.0 >= d0 else t
             self._episode(p, t, t_part, t_touch, psg1)
         for v in range(self.nv):
             on = rsg1[v, R.R_DEL] > 0.0

@@ -20,7 +20,7 @@ from crashlab.restitution import E_SPEED_LAW, SPEED
 
 from .driver_loads import DriverLoads
 from .records import Records
-from .step_loads import StepLoads
+from .step_loads import MAX_SHORTEST_ITER, StepLoads
 
 ADAPT_RECOVERY = 5     # accepted steps before exudyn doubles a shortened step again
 
@@ -144,6 +144,7 @@ class ExudynRun(StepLoads, DriverLoads, Records):
         ti.adaptiveStepRecoverySteps = ADAPT_RECOVERY
         ti.adaptiveStepRecoveryIterations = 1000
         ti.discontinuous.useRecommendedStepSize = True
+        ti.discontinuous.maxIterations = MAX_SHORTEST_ITER   # passes at the shortest step (step_loads.postnewton)
         self.o = dict(o, step=scene.duration / ti.numberOfSteps)
         mbs.SetPreStepUserFunction(self.prestep)
         mbs.SetPostNewtonUserFunction(self.postnewton)

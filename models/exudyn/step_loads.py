@@ -15,7 +15,11 @@ from .chassis_state import chassis_states
 
 BIG_ERROR = 1e6        # N: a post-Newton error that always repeats the step (exudyn's tolerance is 1 N)
 LOAD_ABS_TOL = 10.0    # N: absolute part of the load-iteration tolerance
-MAX_LOAD_ITER = 4      # load passes per step before the step is halved (exudyn allows 5 iterations)
+MAX_LOAD_ITER = 4      # load passes per step before the step is halved
+# passes at the shortest step (exudyn's discontinuous maxIterations, its default; after the last it accepts the step
+# unsettled): from MAX_LOAD_ITER on relaxed by Aitken's factor (postnewton)
+MAX_SHORTEST_ITER = 5
+OMEGA_MIN, OMEGA_MAX = 0.05, 1.5  # the relaxation factor's range
 ALL = np.zeros(0, np.bool_)  # road_contacts: every vehicle (exudyn does not put vehicles to sleep)
 
 
@@ -63,7 +67,7 @@ class StepLoads:
         previous step was accepted: its contact bookkeeping is done here, with the loads at this state as its
         end values. The contact loads start at their value at s (the predictor of the step's iteration)."""
         s = mbs.systemData.GetTime(self.exu.ConfigurationType.StartOfStep)
-        self.iter = 0
+        self.iter, self.omega, self.r_prev = 0, 1.0, None
         if s != self.s_cur:
             F, psg, rsg = self._contact_loads()
             self._update_headings()
@@ -106,14 +110,31 @@ class StepLoads:
             self.F1, self.psg1, self.rsg1 = F1, psg1, rsg1
             return [0.0, -1.0]
         self.iter += 1
+        r = L - self.L
+        r_prev, self.r_prev = self.r_prev, r
         if self.iter >= MAX_LOAD_ITER:
             if can_shorten:
                 self.n_shortened += 1
                 return [BIG_ERROR, 0.5 * h]
-            self.n_unsettled += 1      # at min_step: exudyn accepts the step after its last iteration
+            # at the shortest step: the passes relaxed by Aitken's factor (the loads' own iteration can flip
+            # between two values at any step, e.g. a regularised friction at a large normal force)
+            L = self.L + self._aitken(r, r_prev) * r
+            if self.iter >= MAX_SHORTEST_ITER:
+                self.n_unsettled += 1      # the last pass did not settle: exudyn accepts the step
         self.n_load_iter += 1
         self._apply(L)
         return [max(err, BIG_ERROR), -1.0]
+
+    def _aitken(self, r, r_prev):
+        """Aitken's relaxation factor of a fixed-point iteration from its last two residuals r (new load less the
+        applied one): omega = -omega_prev r_prev . (r - r_prev) / |r - r_prev|^2 (Irons & Tuck 1969), kept within
+        [OMEGA_MIN, OMEGA_MAX]."""
+        if r_prev is not None:
+            dr = r - r_prev
+            den = float(np.sum(dr * dr))
+            if den > 0.0:
+                self.omega = min(max(-self.omega * float(np.sum(r_prev * dr)) / den, OMEGA_MIN), OMEGA_MAX)
+        return self.omega
 
     def _onset_depth(self, psg1, rsg1):
         """Deepest penetration of a contact not yet open (pairs: none yet, or an episode whose contact has ended;
