@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, G_GAP, IN_CONTACT, NONE, P_I, P_J, S_ACT
+from crashlab.models.common.chassis_contact import G_DDOT, G_DEL, G_GAP, IN_CONTACT, NONE, P_I, P_J, S_ACT, S_PUSH
 from crashlab.models.common.contact_episodes import (
     accumulate,
     episode_step,
@@ -266,7 +266,10 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
                 else:
                     reset_sums(PST, p)
             else:
+                push = PST[p, S_PUSH]
                 _episode(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, False)
+                if PST[p, S_PUSH] != push:
+                    need_k0 = True  # a push opened or ended: its damping (§13a) from the next step's first stage on
             if PST[p, S_ACT] == IN_CONTACT:
                 for v in (i, j):
                     if v < nv and not awake[v]:
