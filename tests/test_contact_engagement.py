@@ -177,8 +177,9 @@ def test_profile_force_of_a_nose_against_a_barrier(crush, tol):
     The flat face's w B C is 1.3-2 x that."""
     sh = np.array([2.45, 0.92, 0.25, 0.5, 0.5, 0.0, 0.0])
     rc2 = np.array([sh[0] - crush + 0.5, 0.0, 0.0])      # the barrier's face at x = a - C
-    f, w = C.profile_force(C.plan_outline(sh), sh, np.eye(3), np.zeros(3), C.box_outline(0.5, 3.0), np.zeros(3), True,
-                           np.eye(3), rc2, 1.0, 0.0, crush, crush, 0.1, B, 0.0, 10.0, 0.0, np.empty((6, C.N_OUT + 2)))
+    f, w, _ = C.profile_force(C.plan_outline(sh), sh, np.eye(3), np.zeros(3), C.box_outline(0.5, 3.0), np.zeros(3),
+                              True, np.eye(3), rc2, 1.0, 0.0, crush, crush, 0.1, B, 0.0, 10.0, 0.0,
+                              np.empty((6, C.N_OUT + 2)))
     y = np.linspace(-sh[1], sh[1], 400_001)
     ref = B * np.trapezoid(np.maximum(crush - sh[0] * (1.0 - (1.0 - np.abs(y / sh[1]) ** 4) ** 0.25), 0.0), y)
     assert w == pytest.approx(2 * sh[1], rel=1e-12)

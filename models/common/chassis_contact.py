@@ -60,6 +60,7 @@ from .crush_structure import (
     face_code,
     permanent_crush,
     push_damping,
+    series_force,
     structure_force,
     structure_slot,
     swept_faces,
@@ -301,33 +302,34 @@ def profile_force(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e
     barrier, unlimited), by scaling. A vehicle's outline is its cached z = 0 section O (sh its superellipsoid),
     or for a tilted one its shadow, the force and width blended between by the more tilted vehicle's
     shadow_weight (§13a "A tilted body"). work: (6, N_OUT + 2) scratch (the two chains, then the two strips'
-    rows). Returns (force, engaged width)."""
+    rows). Returns (force, engaged width, the force of the loading line at this crush: the same with the memory cm
+    at crush, for the push damping's limit, §13a "Push damping")."""
     lam = max(shadow_weight(A1), 0.0 if box2 else shadow_weight(A2))
     U1, S1, U2, S2 = work[0], work[1], work[2], work[3]
-    f = w = 0.0
+    f = w = fl = 0.0
     if lam < 1.0:
         m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
-        f, w = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
+        f, w, fl = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
     if lam > 0.0:
         m1 = _shadow_chain(sh1, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, True, A2, rc2, n0, n1, -1.0, U2, S2) if box2 else \
             _shadow_chain(sh2, A2, rc2, n0, n1, -1.0, U2, S2)
-        fs, ws = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
-        f, w = (1.0 - lam) * f + lam * fs, (1.0 - lam) * w + lam * ws
-    return f, w
+        fs, ws, fls = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
+        f, w, fl = (1.0 - lam) * f + lam * fs, (1.0 - lam) * w + lam * ws, (1.0 - lam) * fl + lam * fls
+    return f, w, fl
 
 
 @njit(cache=True)
 def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top, bot):
     """profile_force over the two facing chains (U1, S1) of body 1 and (U2, S2) of body 2 (m1, m2 vertices):
-    (force, engaged width)."""
+    (force, engaged width, loading line's force)."""
     i1, j1 = _ends(U1, m1)
     i2, j2 = _ends(U2, m2)
     lo, hi = max(U1[i1], U2[i2]), min(U1[j1], U2[j2])
     w = hi - lo
     if w <= 0.0:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     du = w / N_STRIP
     top, bot = top[:N_STRIP], bot[:N_STRIP]
     _sections(U1, S1, m1, lo, du, top)
@@ -345,15 +347,16 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top
         for q in range(m2 - 1):
             if lo <= U2[q] <= hi:
                 cmax = max(cmax, _height(U1, S1, m1, U2[q]) + S2[q])
-    f = 0.0
+    f = fl = 0.0
     for k in range(N_STRIP):
         if top[k] > -math.inf:
             sig = cmax - top[k]
             f += structure_force(crush - sig, cm - sig, e, b1, b2)
+            fl += series_force(crush - sig, b1, b2)
     scale = min(1.0, w1 / w)
     if w2 > 0.0:
         scale = min(scale, w2 / w)
-    return f * du * scale, w * scale
+    return f * du * scale, w * scale, fl * du * scale
 
 
 @njit(cache=True)
@@ -567,19 +570,14 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
             # over the crush profile across the engaged width, within each structure's width
             if not have_work:
                 work, have_work = np.empty((6, N_OUT + 2)), True
-            fn, psg[p, G_WIDTH] = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush,
-                                                cm, e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0,
-                                                work)
+            fn, psg[p, G_WIDTH], f_load = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1,
+                                                        crush, cm, e, b1s, b2s, PP[p, ci + 2],
+                                                        PP[p, cj + 2] if k2 == 0 else 0.0, work)
             if PST[p, S_PUSH] > 0.0:  # the crushed structures pressed in a push: damped (§13a "Push damping"), the
                 # damping at most the structures' force (continuous where the contact begins and ends; no pull) and
                 # the force at most the loading line's at this crush (continuous where the crush passes its memory)
                 fd = push_damping(dd, e, b1s, b2s, psg[p, G_WIDTH], PP[p, P_MEFF])
-                if fd > 0.0 and crush < cm:
-                    f_load = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush, crush,
-                                           e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work)[0]
-                    fn += min(fd, fn, max(f_load - fn, 0.0))
-                elif fd < 0.0:
-                    fn += max(fd, -fn)
+                fn += min(fd, fn, max(f_load - fn, 0.0)) if fd > 0.0 else max(fd, -fn)
         else:
             if g >= 0.0:
                 continue
