@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from .diagnostics import Diagnostics
-from .units import ms_to_kmh, rad_to_deg
+from .units import json_number, ms_to_kmh, rad_to_deg
 
 # A vehicle is at rest at the end when its CG moves slower than REST_SPEED and it turns slower than
 # REST_YAW_RATE (docs: 0.1 m/s = 0.36 km/h, well below what a reconstructionist reads off a rest pose)
@@ -227,21 +227,19 @@ class Outcome:
         return pd.DataFrame(rows, columns=IMPACT_COLUMNS)
 
     def to_json_dict(self) -> dict:
-        def num(v):
-            return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else round(float(v), 6)
         vehicles = {}
         speed, at_rest = self.end_speed_si, self.at_rest_mask
         for i, n in enumerate(self.names):
             vehicles[n] = {
-                "rest": {"x": num(self.rest_si[i, 0]), "y": num(self.rest_si[i, 1]),
-                         "heading": num(math.degrees(self.rest_si[i, 2])),
-                         "speed": num(ms_to_kmh(speed[i])), "at_rest": bool(at_rest[i])},
+                "rest": {"x": json_number(self.rest_si[i, 0]), "y": json_number(self.rest_si[i, 1]),
+                         "heading": json_number(math.degrees(self.rest_si[i, 2])),
+                         "speed": json_number(ms_to_kmh(speed[i])), "at_rest": bool(at_rest[i])},
                 "pose": self.pose_label(i),
-                "final_velocity": {"vx": num(ms_to_kmh(self.final_si[i, 0])),
-                                   "vy": num(ms_to_kmh(self.final_si[i, 1])),
-                                   "yaw_rate": num(math.degrees(self.final_si[i, 2]))},
+                "final_velocity": {"vx": json_number(ms_to_kmh(self.final_si[i, 0])),
+                                   "vy": json_number(ms_to_kmh(self.final_si[i, 1])),
+                                   "yaw_rate": json_number(math.degrees(self.final_si[i, 2]))},
             }
-        impacts = [{k: (num(v) if isinstance(v, float) else v) for k, v in row.items()}
+        impacts = [{k: (json_number(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.impacts.to_dict(orient="records")]
         return {"model": self.model, "ok": self.outcome_ok, "vehicles": vehicles, "impacts": impacts,
                 "warnings": self.warnings, "violations": self.violations, "rolled_over": self.rolled_over,

@@ -183,6 +183,18 @@ def table_from_shown(df):
     return df.rename(columns=names)
 
 
+def json_number(value, digits: int | None = 6):
+    """A number of a JSON document: None for None, NaN, inf or a non-number (JSON has neither NaN nor inf),
+    rounded to `digits` decimals (None: as it is)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    if not math.isfinite(v):
+        return None
+    return v if digits is None else round(v, digits)
+
+
 def json_in(data: dict, system: str) -> dict:
     """A JSON document (`simulate --json`, `compare --json`, `reconstruct --json`, ...) with every number whose
     key's unit (its "units" map: a key or a pattern, unit_of; an impact row's by "impacts.<key>") has a US form

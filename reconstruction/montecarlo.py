@@ -34,7 +34,7 @@ from crashlab.execution import evaluate_variants
 from crashlab.outcome import Outcome
 from crashlab.population import Population, Variants
 from crashlab.scene import Scene
-from crashlab.units import frame_in, length_axes_in, ms_to_kmh, uncertain_text, unit_in, value_in
+from crashlab.units import frame_in, json_number, length_axes_in, ms_to_kmh, uncertain_text, unit_in, value_in
 
 BATCH = 5000  # draws per simulate_population call (a block of the progress bar)
 QUANTILES = (0.05, 0.5, 0.95)
@@ -115,15 +115,13 @@ class MonteCarloResult:
 
     def to_json_dict(self, system: str = "si") -> dict:
         """The summary as JSON, every number in `system`'s units (each summary row says its unit)."""
-        def num(v):
-            return None if not math.isfinite(v) else round(float(v), 6)
         return {"scene": self.scene.name, "model": self.model, "draws": self.n, "seed": self.seed,
                 "failed": int((~self.table["ok"]).sum()), "failure_reasons": self.failure_reasons(),
                 "no_contact": int(self.table["no_contact"].sum()),
                 "warnings": [{"warning": w, "draws": k} for w, k in self.warning_counts()],
                 "nominal_warnings": [str(w) for w in self.nominal.warnings],
                 "uncertain": [uncertain_text(e, system) for e in self.scene.uncertain],
-                "summary": [{k: (num(v) if isinstance(v, float) else v) for k, v in r.items()}
+                "summary": [{k: (json_number(v) if isinstance(v, float) else v) for k, v in r.items()}
                             for r in self.shown_summary(system).to_dict(orient="records")],
                 "wall_time_s": round(self.wall_time_s, 3), "simulation_time_s": round(self.sim_time_s, 3)}
 

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from crashlab.population import Population
-from crashlab.units import frame_in, ms_to_kmh, rad_to_deg, unit_in, value_in, wrap_deg
+from crashlab.units import frame_in, json_number, ms_to_kmh, rad_to_deg, unit_in, value_in, wrap_deg
 
 from .evidence import log_likelihood_of
 from .problem import evaluation_counts, infeasible_sentence, objective_unit
@@ -37,16 +37,12 @@ class ReconstructionResult:
         """The result as JSON, with its "units" map (pareto_units and the rest poses' keys: crashlab.units.json_in
         shows it in US units)."""
         p = self.problem
-
-        def num(v):
-            v = float(v)
-            return None if math.isnan(v) else v
         items = []
         for _, row in self.pareto.iterrows():
             items.append({"start": {f.label: float(row[f.label]) for f in p.free},
                           "objectives": {f"f_{n}": float(row[f"f_{n}"]) for n in p.objective_names},
                           "rest": {n: {**{k: float(row[f"rest_{n}_{k}"]) for k in ("x", "y", "heading")},
-                                       "dheading": num(row[f"dheading_{n}"])} for n in p.names},
+                                       "dheading": json_number(row[f"dheading_{n}"], None)} for n in p.names},
                           **({} if p.evidence_set is None else {
                               "misfit": {c: float(row[c]) for c in misfit_columns(p)},
                               "log_likelihood": float(row["log_likelihood"])})})

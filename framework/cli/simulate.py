@@ -10,17 +10,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..registry import UnknownPluginError
-from ..units import json_in, table_in, wrap_deg
-
-
-def _num(v):
-    """A JSON number: None for NaN or inf (JSON has neither)."""
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        return None
-    return round(v, 6) if math.isfinite(v) else None
-
+from ..units import json_in, json_number, table_in, wrap_deg
 
 # units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
 # impact-table columns printed with --wide only (the default table fits 100 columns; a reversed slip is also a
@@ -45,9 +35,9 @@ def result_json(scene, out) -> dict:
     for name, veh in d["vehicles"].items():
         rest = veh["rest"]
         h = rest["heading"]
-        rest["heading"] = None if h is None else _num(wrap_deg(h))
+        rest["heading"] = None if h is None else json_number(wrap_deg(h))
         rest["heading_continuous"] = h
-        rest["yaw_turned"] = None if h is None else _num(h - start[name])
+        rest["yaw_turned"] = None if h is None else json_number(h - start[name])
     return d
 
 
@@ -60,11 +50,11 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
     from ..outcome import IMPACT_UNITS
     from ..tools.compare import comparison_table, model_spread
     table = comparison_table(scene, outcomes)
-    comparison = [{k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()}
+    comparison = [{k: (v if isinstance(v, (str, bool)) or v is None else json_number(v)) for k, v in row.items()}
                   for row in table.astype(object).to_dict(orient="records")]
-    spread = [{k: (v if isinstance(v, (str, int)) else _num(v)) for k, v in row.items()}
+    spread = [{k: (v if isinstance(v, (str, int)) else json_number(v)) for k, v in row.items()}
               for row in model_spread(table, outcomes).to_dict(orient="records")]
-    references = {src: {n: {k: _num(v) for k, v in ref.items()} for n, ref in per.items()}
+    references = {src: {n: {k: json_number(v) for k, v in ref.items()} for n, ref in per.items()}
                   for src, per in scene.references.items()}
     return {"scene": {"name": scene.name, "file": str(scene_file)},
             "results": [result_json(scene, out) for out in outcomes.values()],
