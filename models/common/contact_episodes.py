@@ -83,10 +83,18 @@ def episode_capacity(n_vehicles: int, n_barriers: int) -> int:
 
 @njit(cache=True)
 def open_episode(PST, p, t0, dd0, vel_i, vel_j):
-    """Mark pair p active from t0 with the approach velocity dd0 and the velocities (vx, vy, yaw rate) of its
-    vehicles (vel_j is ignored by the records of a barrier pair)."""
+    """Mark pair p active from t0 at its first touch with the approach velocity dd0 (also the touch's, the generic
+    law's delta_dot0 S_DDT) and the velocities (vx, vy, yaw rate) of its vehicles (vel_j is ignored by the records
+    of a barrier pair)."""
+    _open_record(PST, p, t0, dd0, vel_i, vel_j)
+    PST[p, S_DDT] = dd0
+
+
+@njit(cache=True)
+def _open_record(PST, p, t0, dd0, vel_i, vel_j):
+    """open_episode's record: active from t0, its approach velocity dd0 and the vehicles' velocities."""
     PST[p, S_ACT] = IN_CONTACT
-    PST[p, S_DD0] = PST[p, S_DDT] = dd0
+    PST[p, S_DD0] = dd0
     PST[p, S_T0] = t0
     for k in range(3):
         PST[p, S_VI + k] = vel_i[k]
@@ -168,10 +176,9 @@ def _close_ended(IMP, n, PP, PST, p):
 def _open_push(PST, p, t0, dd, vel_i, vel_j, touch):
     """Open the push of pair p at t0 (its episode's contact later than PUSH_TIME after the impact): at a re-touch
     (touch) the generic law's delta_dot0 is its approach velocity dd; a contact that goes on keeps its own."""
-    ddt = PST[p, S_DDT]
-    open_episode(PST, p, t0, max(dd, 0.0), vel_i, vel_j)
-    if not touch:
-        PST[p, S_DDT] = ddt
+    _open_record(PST, p, t0, max(dd, 0.0), vel_i, vel_j)
+    if touch:
+        PST[p, S_DDT] = max(dd, 0.0)
     PST[p, S_PUSH] = 1.0
 
 
