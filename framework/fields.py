@@ -46,6 +46,8 @@ from .scene import (
     STEER_MAX,
     YAW_RATE_MAX,
     Scene,
+    start_overlap_rows,
+    start_overlaps,
 )
 from .units import deg_to_rad, kmh_to_ms, ms_to_kmh, rad_to_deg
 from .vehicle import GYRATION_SHARE, MASS_RANGE, consistency_problems
@@ -261,18 +263,27 @@ def _actions_problem(acts, duration: float) -> str | None:
     return None
 
 
+def resolve_all(scene: Scene, paths: Sequence[str | Field]) -> list[Field]:
+    """The Fields of `paths` (resolve), each at most once: ValueError naming a field given twice (which value
+    would win is nothing a caller should rely on)."""
+    fs, seen = [], set()
+    for p in paths:
+        f = resolve(scene, p)
+        if f.path in seen:
+            raise ValueError(f"field {f.path!r} given twice")
+        seen.add(f.path)
+        fs.append(f)
+    return fs
+
+
 def setter(scene: Scene, paths: Sequence[str | Field], check: bool = True) -> Callable[[Sequence[float]], Scene]:
     """A function row -> Scene: the scene with the fields set to the row's values (file units, in the
     order of `paths`). The paths are resolved once (ValueError for an unknown path or one the scene does not
     have); each call makes one copy per changed vehicle, road and impact and of the scene.
-    With `check`, a value outside field_range, actions put out of order, or a mass the vehicle checks refuse
+    With `check`, a value outside field_range, actions put out of order, a mass the vehicle checks refuse, or
+    start poses that put two outlines on top of each other where the scene file refuses it (no [impact] point)
     raises ValueError naming the field."""
-    fs = [resolve(scene, p) for p in paths]
-    seen = {}
-    for f in fs:
-        if f.path in seen:
-            raise ValueError(f"field {f.path!r} given twice")
-        seen[f.path] = f
+    fs = resolve_all(scene, paths)
     ranges = [field_range(scene, f) for f in fs]
     road_i = [(i, f) for i, f in enumerate(fs) if f.kind in ("road", "zone")]
     impact_i = [(i, f.quantity) for i, f in enumerate(fs) if f.kind == "impact"]
@@ -282,6 +293,7 @@ def setter(scene: Scene, paths: Sequence[str | Field], check: bool = True) -> Ca
             by_vehicle.setdefault(f.vehicle, []).append((i, f))
     vindex = {n: k for k, n in enumerate(scene.vehicle_names)}
     to_si = [(_TO_SI.get(f.quantity) or float) for f in fs]
+    moves_start = _moves_start(scene, fs)
 
     def build(row) -> Scene:
         if len(row) != len(fs):
@@ -332,9 +344,29 @@ def setter(scene: Scene, paths: Sequence[str | Field], check: bool = True) -> Ca
                     state["actions"] = tuple(acts)
                 vehicles[vindex[name]] = _copy(v, **state)
             changes["vehicles"] = tuple(vehicles)
-        return _copy(scene, **changes)
+        new = _copy(scene, **changes)
+        if check and moves_start:
+            for a, b in start_overlaps(new)[:1]:
+                raise ValueError(_overlap_reason(fs, vals, a, b))
+        return new
 
     return build
+
+
+# a vehicle's start pose: the fields that can put two outlines on top of each other
+START_POSE = ("x", "y", "heading")
+
+
+def _moves_start(scene: Scene, fs: Sequence[Field]) -> bool:
+    """Whether the fields move a vehicle's start pose in a scene that must start apart (one without [impact] point,
+    whose vehicles the scene file refuses to overlap at the start: crashlab.scene_file)."""
+    return scene.impact.point is None and any(f.kind == "vehicle" and f.quantity in START_POSE for f in fs)
+
+
+def _overlap_reason(fs: Sequence[Field], row, a: str, b: str) -> str:
+    """Why a row is no valid scene: its start poses put a and b on top of each other."""
+    given = ", ".join(f"{f.path} = {v:g}" for f, v in zip(fs, row) if f.kind == "vehicle" and f.quantity in START_POSE)
+    return f"{given}: {a} and {b} overlap at the start"
 
 
 def with_spec(spec, **changes):
@@ -351,8 +383,9 @@ def with_spec(spec, **changes):
 
 def row_problems(scene: Scene, fs: Sequence[Field], values: np.ndarray) -> np.ndarray:
     """(N,) why each row of values (N, k; file units, in the order of `fs`) is no valid scene ("" where it
-    is one): the checks `setter` makes with `check`, on whole columns (a population of variants). A mass or
-    yaw inertia is checked row by row (the vehicle's consistency checks, crashlab.vehicle)."""
+    is one): the checks `setter` makes with `check`, on whole columns (a population of variants: the ranges and
+    the start poses' overlap). A mass, yaw inertia or action is checked row by row (the vehicle's consistency
+    checks, crashlab.vehicle; the actions' order)."""
     values = np.asarray(values, dtype=float)
     why = np.full(len(values), "", dtype=object)
     for c, f in enumerate(fs):
@@ -368,6 +401,11 @@ def row_problems(scene: Scene, fs: Sequence[Field], values: np.ndarray) -> np.nd
                 build(values[k])
             except ValueError as err:
                 why[k] = str(err)
+    elif _moves_start(scene, fs):  # the start poses, on whole columns (the setter's check, row by row)
+        pose = vehicle_columns(scene, fs, values, START_POSE)
+        for a, b, hit in start_overlap_rows(scene, pose["x"], pose["y"], pose["heading"]):
+            for k in np.flatnonzero(hit & (why == "")):
+                why[k] = _overlap_reason(fs, values[k], a, b)
     return why
 
 

@@ -16,6 +16,25 @@ def rect_corners(x, y, heading, front, rear, half_width):
     return rect_corners_into(np.empty((4, 2)), x, y, math.cos(heading), math.sin(heading), front, rear, half_width)
 
 
+def rect_overlap_rows(r1, r2):
+    """N pairs of rectangles at once: the least, over the four edge normals n (separating axes), of the sum of
+    their projections' half lengths less their centres' distance along n (how far to push them apart along n):
+    > 0 exactly where they overlap, as penetration's depth (which is capped at the shorter projection). A
+    rectangle r is (x, y, heading, front, rear, half_width) as rect_corners' arguments, scalars or (N,) arrays."""
+    (x1, y1, h1, f1, b1, w1), (x2, y2, h2, f2, b2, w2) = r1, r2
+    c1, s1, c2, s2 = np.cos(h1), np.sin(h1), np.cos(h2), np.sin(h2)
+    m1, m2 = 0.5 * (np.asarray(f1) - b1), 0.5 * (np.asarray(f2) - b2)  # the centres ahead of the reference points
+    dx = x2 + m2 * c2 - x1 - m1 * c1
+    dy = y2 + m2 * s2 - y1 - m1 * s1
+    a1, a2 = 0.5 * (np.asarray(f1) + b1), 0.5 * (np.asarray(f2) + b2)
+    cc, cs = np.abs(c1 * c2 + s1 * s2), np.abs(c1 * s2 - s1 * c2)  # |cos|, |sin| of the angle between them
+    return np.minimum.reduce([
+        a1 + a2 * cc + w2 * cs - np.abs(dx * c1 + dy * s1),    # along rectangle 1's length
+        w1 + a2 * cs + w2 * cc - np.abs(-dx * s1 + dy * c1),   # across it
+        a2 + a1 * cc + w1 * cs - np.abs(dx * c2 + dy * s2),    # along rectangle 2's length
+        w2 + a1 * cs + w1 * cc - np.abs(-dx * s2 + dy * c2)])  # across it
+
+
 @register_jitable
 def rect_corners_into(out, x, y, c, s, front, rear, half_width):
     """rect_corners with the heading's cosine and sine (c, s) given, written into `out` (4, 2) and returned:

@@ -57,8 +57,12 @@ def _guarded_population(method):
                 fs.append(scene_fields.resolve(scene, path))
             except ValueError as err:
                 raise ValueError(f"field {path!r}: {err}") from None
+        scene_fields.resolve_all(scene, fs)  # each field once
         values = np.asarray(values, dtype=float)
-        values = values.reshape(-1, len(fs)) if values.size or len(fs) else values.reshape(0, 0)
+        if values.ndim == 1 and len(fs) == 1:  # one field: its N values
+            values = values.reshape(-1, 1)
+        if values.ndim != 2 or values.shape[1] != len(fs):
+            raise ValueError(f"values of shape {values.shape}: (N, {len(fs)}) for {len(fs)} field(s)")
         why = scene_fields.row_problems(scene, fs, values) if invalid != "unchecked" \
             else np.full(len(values), "", dtype=object)
         bad = np.flatnonzero(why != "")

@@ -206,16 +206,24 @@ def given_pair(scene: Scene) -> tuple[int, int]:
 
 def start_overlaps(scene: Scene) -> list[tuple[str, str]]:
     """Pairs (vehicle, vehicle or barrier#k) whose outlines overlap in the start state."""
-    from .geometry import penetration
-    outlines = [(v.name, vehicle_outline(v)) for v in scene.vehicles]
+    import numpy as np
+    x, y, heading = ([[getattr(v, q) for v in scene.vehicles]] for q in ("x", "y", "heading"))
+    return [(a, b) for a, b, hit in start_overlap_rows(scene, np.array(x), np.array(y), np.array(heading)) if hit[0]]
+
+
+def start_overlap_rows(scene: Scene, x, y, heading) -> list:
+    """For N start states of the scene's vehicles (x, y [m], heading [rad], each (N, nv) in scene order): the
+    pairs (vehicle, vehicle or barrier#k) whose outlines can overlap, each with (N,) True where they do."""
+    from .geometry import rect_overlap_rows
+    rects = [(v.name, (x[:, i], y[:, i], heading[:, i], v.spec.cg_to_front, v.spec.cg_to_rear, v.spec.width / 2))
+             for i, v in enumerate(scene.vehicles)]
     hits = []
-    for i, (ni, ci) in enumerate(outlines):
-        for nj, cj in outlines[i + 1:]:
-            if penetration(ci, cj)[0] > 0:
-                hits.append((ni, nj))
+    for i, (ni, ri) in enumerate(rects):
+        for nj, rj in rects[i + 1:]:
+            hits.append((ni, nj, rect_overlap_rows(ri, rj) > 0))
         for k, b in enumerate(scene.barriers):
-            if penetration(ci, barrier_outline(b))[0] > 0:
-                hits.append((ni, f"barrier {k}"))
+            rb = (b.x, b.y, b.heading, b.length / 2, b.length / 2, b.width / 2)  # barrier_outline's rectangle
+            hits.append((ni, f"barrier {k}", rect_overlap_rows(ri, rb) > 0))
     return hits
 
 

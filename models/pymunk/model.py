@@ -5,6 +5,7 @@ pymunk is imported inside `simulate` only, so listing the models never imports i
 """
 from __future__ import annotations
 
+import math
 import time
 
 from crashlab.model import CollisionModel
@@ -100,6 +101,11 @@ class PymunkModel(CollisionModel):
     # ------------------------------------------------------------------ running
     def simulate(self, scene) -> Outcome:
         t0 = time.perf_counter()
+        for v in scene.vehicles:  # Chipmunk aborts the process on others (a population's unchecked rows)
+            if not (0.0 < v.spec.mass < math.inf and 0.0 < v.spec.yaw_inertia < math.inf):
+                return Outcome.failed(scene.vehicle_names, f"{v.name}: mass {v.spec.mass:g} kg and yaw inertia "
+                                      f"{v.spec.yaw_inertia:g} kg m^2 must be positive and finite", self.name,
+                                      time.perf_counter() - t0)
         try:
             return Run(self, scene).run(t0)
         except ImportError as err:
