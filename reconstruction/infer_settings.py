@@ -19,10 +19,11 @@ class InferSection(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     sampler: Literal["emcee", "zeus"] = Field(  # zeus: the comparison (README); no --resume
         default="emcee", description="ensemble MCMC sampler; zeus cannot --resume")
-    walkers: Int | None = Field(default=None, ge=8, le=10_000,
-                                description="[8, 10000]; default max(32, 6 x dims), even")
+    walkers: Int | None = Field(default=None, ge=8, le=10_000, multiple_of=2,  # the stretch move's two halves
+                                description="[8, 10000], even; default max(32, 6 x dims), even")
     samples: Int = Field(default=20_000, ge=10, le=10_000_000,
-                         description="kept samples (walkers x iterations); [10, 1e7]")
+                         description="kept samples after thinning (walkers x kept iterations, rounded up to whole "
+                                     "iterations); [10, 1e7]")
     burn: Int = Field(default=500, ge=0, le=1_000_000, description="iterations discarded; [0, 1e6]")
     thin: Int = Field(default=1, ge=1, le=10_000, description="keep every thin-th iteration; [1, 10000]")
     init: Int = Field(default=20, ge=1, le=10_000, description="prior draws per walker to start from; [1, 10000]")

@@ -177,6 +177,9 @@ def test_a_question_that_does_not_parse_is_one_line_exit_2(tmp_path):
 def test_bad_infer_and_uncertain_input_is_one_line_exit_2(tmp_path):
     study = _study(tmp_path, TWO_SPEEDS.format(noise="") + "\n[infer]\nwalkers = 3\n", "a.toml")
     assert_one_error_line(_cli(study, tmp_path / "o"), study, "infer.walkers")
+    # an odd number of walkers was run as the next even one without a word (a fuzzer): refused
+    study = _study(tmp_path, TWO_SPEEDS.format(noise="") + "\n[infer]\nwalkers = 9\n", "w.toml")
+    assert_one_error_line(_cli(study, tmp_path / "o"), study, "infer.walkers", ["multiple of 2"])
     study = _study(tmp_path, TWO_SPEEDS.format(noise="") + '\n[[uncertain]]\nfield = "road.frictionn"\n'
                    'distribution = "uniform"\nlower = 0.5\nupper = 0.9\n', "b.toml")
     assert_one_error_line(_cli(study, tmp_path / "o"), study, "uncertain.0.field")
