@@ -212,18 +212,19 @@ def start_overlaps(scene: Scene) -> list[tuple[str, str]]:
 
 
 def start_overlap_rows(scene: Scene, x, y, heading) -> list:
-    """For N start states of the scene's vehicles (x, y [m], heading [rad], each (N, nv) in scene order): the
-    pairs (vehicle, vehicle or barrier#k) whose outlines can overlap, each with (N,) True where they do."""
+    """For N start states of the scene's vehicles (x, y [m], heading [rad], each (N, nv) in scene order): every
+    pair (vehicle, vehicle or barrier#k) with (N,) True where their outlines overlap."""
     from .geometry import rect_overlap_rows
+    tol = 1e-9  # m: outlines that touch (bumper to bumper, round-off either way) do not overlap
     rects = [(v.name, (x[:, i], y[:, i], heading[:, i], v.spec.cg_to_front, v.spec.cg_to_rear, v.spec.width / 2))
              for i, v in enumerate(scene.vehicles)]
     hits = []
     for i, (ni, ri) in enumerate(rects):
         for nj, rj in rects[i + 1:]:
-            hits.append((ni, nj, rect_overlap_rows(ri, rj) > 0))
+            hits.append((ni, nj, rect_overlap_rows(ri, rj) > tol))
         for k, b in enumerate(scene.barriers):
             rb = (b.x, b.y, b.heading, b.length / 2, b.length / 2, b.width / 2)  # barrier_outline's rectangle
-            hits.append((ni, f"barrier {k}", rect_overlap_rows(ri, rb) > 0))
+            hits.append((ni, f"barrier {k}", rect_overlap_rows(ri, rb) > tol))
     return hits
 
 
