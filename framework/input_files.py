@@ -6,6 +6,8 @@ Scene, vehicle, study and posterior files all go through here.
 from __future__ import annotations
 
 import difflib
+import math
+import re
 import tomllib
 import typing
 from pathlib import Path
@@ -13,7 +15,7 @@ from pathlib import Path
 from pydantic import BaseModel, ValidationError
 
 from .errors import InputError
-from .units import split_unit
+from .units import US_UNITS, split_unit, us_factor, us_unit
 
 TOML_BYTES_MAX = 64 << 20  # bytes: a scene, study or vehicle file is a few kB
 
@@ -53,7 +55,6 @@ _INT_DIGITS_MAX = 4300  # Python's default int <-> str conversion limit (sys.get
 def _line_key(path, pattern: str) -> str:
     """'KEY (line N)' of the first line of the file matching `pattern`, for a refusal that tomllib does not
     locate; "(syntax)" when none does."""
-    import re
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
     except OSError:
@@ -119,9 +120,12 @@ def unit_at(schema, loc) -> str:
     return "" if unit == "-" else unit
 
 
-def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) -> InputError:
+def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None, system: str = "si",
+                   given=None) -> InputError:
     """The first validation error as one InputError line (file, dotted key, problem); with the file's pydantic
-    `schema`, an unknown key gets the nearest known one ("did you mean").)"""
+    `schema`, an unknown key gets the nearest known one ("did you mean"). A file written in US units (`system`
+    "us", crashlab.file_units) has a violated bound said in its units, with its value from `given` (the table as
+    the file gives it, before the conversion)."""
     errors = err.errors()
     first = errors[0]
     if first["type"] == "missing":  # a misspelt key is both missing and unknown: the unknown one names the typo
@@ -137,10 +141,77 @@ def pydantic_error(file, err: ValidationError, prefix: str = "", schema=None) ->
     elif first["type"] == "missing":
         msg = "missing key"
     elif first["type"] == "string_pattern_mismatch":
-        msg = "no control characters (line breaks, tabs) allowed"
-    elif first["type"].endswith("_type") or first["type"] in ("finite_number", "bool_parsing"):
+        msg = pattern_problem(first.get("ctx", {}).get("pattern", ""), first.get("input"))
+    elif first["type"].endswith("_type") or first["type"] in ("finite_number", "bool_parsing", "literal_error"):
         msg += f", got {_shown(first.get('input'))}"
     elif first["type"] in BOUND_ERRORS:  # the bound in the key's unit, and what the file gave
         unit = unit_at(schema, first["loc"])
-        msg = f"{msg}{' ' + unit if unit else ''}, got {_shown(first.get('input'))}"
+        if system == "us" and unit in US_UNITS:  # the file's own value and unit, not the converted ones
+            msg = _us_bound_problem(first, unit, given)
+        else:
+            msg = f"{msg}{' ' + unit if unit else ''}, got {_shown(first.get('input'))}"
     return InputError(file, prefix + key, msg)
+
+
+# a pattern that refuses control characters in a name or a text: its message says so
+_CONTROL_PATTERN = re.compile(r"\^\[\^\\x00-\\x1f\\x7f\][+*]\$")
+# a pattern that is an enumeration of words, ^(a|b|c)$: its message names them
+_ENUMERATION = re.compile(r"\^\(([\w-]+(?:\|[\w-]+)*)\)\$")
+
+
+def pattern_problem(pattern: str, value) -> str:
+    """What a string that does not match the schema's `pattern` is refused for, in the file's terms: no control
+    characters (where that is the pattern's purpose), one of the words of an enumeration ^(a|b)$, or the
+    pattern itself; with the value the file gave."""
+    if _CONTROL_PATTERN.fullmatch(pattern):
+        return "no control characters (line breaks, tabs) allowed"
+    words = _ENUMERATION.fullmatch(pattern)
+    if words:
+        return f"one of {', '.join(words.group(1).split('|'))}, got {_shown(value)}"
+    return f"must match the pattern {pattern}, got {_shown(value)}"
+
+
+# pydantic's bound errors in words, as its messages say them
+_BOUND_WORDS = {"greater_than": "greater than", "greater_than_equal": "greater than or equal to",
+                "less_than": "less than", "less_than_equal": "less than or equal to"}
+
+
+def _us_bound_problem(error: dict, unit: str, given) -> str:
+    """A violated bound of a file written in US units (crashlab.file_units converted it before the check): the
+    bound in the key's US unit, rounded towards the values it accepts (exact in the file unit beside it), and the
+    value as the file gives it (from `given`, the table before the conversion, where the error's location finds
+    a number there; else the checked value converted back)."""
+    factor = us_factor(unit)
+    bound = next(iter(error.get("ctx", {}).values()), None)
+    value = _at(given, error["loc"])
+    if value is None:
+        checked = error.get("input")
+        value = (float(f"{checked / factor:.12g}") if isinstance(checked, (int, float))
+                 and not isinstance(checked, bool) else checked)
+    shown = f"{_shown(value)} {us_unit(unit)}" if isinstance(value, (int, float)) else _shown(value)
+    if not isinstance(bound, (int, float)):
+        return f"{error['msg']} {unit}, got {shown}"
+    limit = _towards(bound / factor, up=error["type"].startswith("greater"))
+    return (f"Input should be {_BOUND_WORDS[error['type']]} {limit} {us_unit(unit)} ({bound:g} {unit}), "
+            f"got {shown}")
+
+
+def _at(data, loc):
+    """The number at `loc` (a pydantic error's location) of `data`, or None."""
+    for part in loc:
+        try:
+            data = data[part]
+        except (KeyError, IndexError, TypeError):
+            return None
+    return data if isinstance(data, (int, float)) and not isinstance(data, bool) else None
+
+
+def _towards(x: float, up: bool) -> str:
+    """x with four significant figures (at least one decimal), rounded up (a lower bound) or down (an upper one):
+    a value the exact bound refuses never lies on the accepted side of the bound shown."""
+    if x == 0 or not math.isfinite(x):
+        return f"{x:g}"
+    decimals = max(1, 3 - math.floor(math.log10(abs(x))))
+    scale = 10 ** decimals
+    r = (math.ceil if up else math.floor)(x * scale - (1e-9 if up else -1e-9)) / scale
+    return f"{r:.{decimals}f}".rstrip("0").rstrip(".")

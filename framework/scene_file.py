@@ -269,13 +269,21 @@ def _named_key(key: str, data) -> str:
     return f"vehicles.{name}{m.group(2) or ''}" if usable else key
 
 
+def _overrides_given(data: dict, i: int):
+    """The i-th vehicle's overrides as the file gives them (before a US file's conversion), or None."""
+    vehicles = data.get("vehicles")
+    entry = vehicles[i] if isinstance(vehicles, list) and i < len(vehicles) else None
+    return entry.get("overrides") if isinstance(entry, dict) else None
+
+
 def _scene_from_dict(data: dict, source, base_dir) -> Scene:
-    if system_of(data, source) == "us":  # ft, mph, lb read into the file units the checks speak (crashlab.file_units)
+    given, system = data, system_of(data, source)  # (a refused bound is said in the file's units and values)
+    if system == "us":  # ft, mph, lb read into the file units the checks speak (crashlab.file_units)
         data = from_us(data, SceneFile, {"overrides": VehicleFile, "uncertain": uncertainty.UncertainFile})
     try:
         f = SceneFile.model_validate(data)
     except ValidationError as err:
-        raise pydantic_error(source, err, schema=SceneFile) from None
+        raise pydantic_error(source, err, schema=SceneFile, system=system, given=given) from None
     names = [v.name for v in f.vehicles]
     for i, n in enumerate(names):
         if names.index(n) != i:
@@ -283,7 +291,8 @@ def _scene_from_dict(data: dict, source, base_dir) -> Scene:
     vehicles = tuple(
         VehicleState(
             name=v.name,
-            spec=load_vehicle(v.vehicle, base_dir, v.overrides, where=f"vehicles.{i}", scene_file=source),
+            spec=load_vehicle(v.vehicle, base_dir, v.overrides, where=f"vehicles.{i}", scene_file=source,
+                              system=system, given=_overrides_given(given, i)),
             x=v.x, y=v.y, heading=deg_to_rad(v.heading), speed=kmh_to_ms(v.speed),
             yaw_rate=deg_to_rad(v.yaw_rate), wheels=v.wheels, steer=deg_to_rad(v.steer),
             actions=_actions(v, i, f.duration, source))

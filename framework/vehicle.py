@@ -431,17 +431,19 @@ def unknown_key_problem(data: dict) -> tuple[str, str] | None:
     return None
 
 
-def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None) -> VehicleFile:
+def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None, system: str = "si",
+              given=None) -> VehicleFile:
     """VehicleFile of `data`, every bad number blamed on `file` under `prefix` (the file itself, or the
     scene's overrides: then the problem is named by an overridden key where one is involved). The file's own
-    top-level keys are checked first (unknown_key_problem; the overrides' in load_vehicle)."""
+    top-level keys are checked first (unknown_key_problem; the overrides' in load_vehicle). `system` and
+    `given`: the units of the scene that overrides and its overrides as written (a refused bound said in them)."""
     unknown = unknown_key_problem(data) if overridden is None else None
     if unknown is not None:
         raise InputError(file, prefix + unknown[0], unknown[1])
     try:
         spec = VehicleFile.model_validate(data)
     except ValidationError as err:
-        raise pydantic_error(file, err, prefix, VehicleFile) from None
+        raise pydantic_error(file, err, prefix, VehicleFile, system, given) from None
     hit = _non_finite(data if overridden is None else overridden)
     if hit is not None:
         raise InputError(file, prefix + ".".join(map(str, hit)), "Input should be a finite number")
@@ -467,10 +469,12 @@ def _stiffness_sources(overrides: dict, key: str, scene_file) -> dict:
 
 
 def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None = None,
-                 where: str = "vehicle", scene_file: str | Path = "<scene>") -> VehicleSpec:
+                 where: str = "vehicle", scene_file: str | Path = "<scene>", system: str = "si",
+                 given: dict | None = None) -> VehicleSpec:
     """A vehicle from the library by name, or from a file path (relative to `base_dir`), with overrides.
     The file is checked first (its errors name it), then the file merged with the overrides, by the same
-    checks (errors name the scene file and `<where>.overrides.<key>`)."""
+    checks (errors name the scene file and `<where>.overrides.<key>`). A scene written in US units: `system`
+    "us" and `given` its overrides as written (the overrides converted to the file units), for its errors."""
     if ref.endswith(".toml"):
         path = (base_dir or Path.cwd()) / ref
         try:
@@ -501,7 +505,7 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
                                  "a table is overridden by a table, a value by a value")
         overrides = _stiffness_sources(overrides, f"{where}.overrides", scene_file)
         data = _deep_merge(data, overrides)
-        spec = _validate(data, scene_file, f"{where}.overrides.", overrides)
+        spec = _validate(data, scene_file, f"{where}.overrides.", overrides, system, given)
     core = {k: getattr(spec, k) for k in VehicleSpec.__dataclass_fields__ if k not in ("sections", "structure")}
     # per-model sections as written (not the schema's dump, which would add None for absent keys)
     sections = {k: v for k, v in data.items()

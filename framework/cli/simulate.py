@@ -347,6 +347,10 @@ def cmd_compare(args):
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     if not models:
         raise InputError("command line", "--models", "give at least one model name")
+    twice = next((m for i, m in enumerate(models) if m in models[:i]), None)
+    if twice is not None:  # (one run kept under the name: the second silently dropped)
+        raise InputError("command line", "--models", f"model {twice!r} named twice in {args.models!r}; name each "
+                         "model once")
     resolved = {m: _get_model(m, args.scene, "--models") for m in models}
     if args.plot:
         from ..tools.plotting import check_plot_path
