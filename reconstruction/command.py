@@ -24,18 +24,12 @@ def run_cli(args) -> int:
     """args: the parsed `crashlab reconstruct` options (crashlab.cli). Bad input raises InputError."""
     study = load_study(args.study)
     study.shown_units = args.units
-    for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
-        print(f"crashlab: note: {args.study}: {note}", file=sys.stderr)
-    for key, n in (("questions", len(study.questions)), ("counterfactuals", len(study.counterfactuals))):
-        if n:  # checked when loaded (study.py), answered from a posterior only: said, not dropped in silence
-            print(f"crashlab: note: {args.study}: {key}: {n} [[{key}]] checked, not answered by reconstruct: "
-                  "crashlab infer answers them from the posterior's draws", file=sys.stderr)
-    evidence_warnings(args.study, study)
     if args.optimizer and args.optimizer not in available_optimizers():
         raise InputError(args.study, "--optimizer",
                          str(UnknownPluginError("optimizer", args.optimizer, available_optimizers())))
     res = study.run(optimizer=args.optimizer, workers=args.workers, scheduler=args.scheduler,
-                    out_dir=args.out, resume=args.resume, progress=not (args.json or args.no_progress))
+                    out_dir=args.out, resume=args.resume, progress=not (args.json or args.no_progress),
+                    started=lambda: study_notes(args.study, study))
     refined = getattr(res, "refine", None)
     if args.json:
         out = json_in(res.to_json_dict(), args.units)
@@ -63,6 +57,18 @@ def run_cli(args) -> int:
     return _no_feasible(args, res)
 
 
+def study_notes(path, study) -> None:
+    """The study's notes and evidence warnings on stderr, once the run starts (Study.run's `started`): bad input
+    found before it (options, checkpoint, scheduler) stays its one error line."""
+    for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
+        print(f"crashlab: note: {path}: {note}", file=sys.stderr)
+    for key, n in (("questions", len(study.questions)), ("counterfactuals", len(study.counterfactuals))):
+        if n:  # checked when loaded (study.py), answered from a posterior only: said, not dropped in silence
+            print(f"crashlab: note: {path}: {key}: {n} [[{key}]] checked, not answered by reconstruct: "
+                  "crashlab infer answers them from the posterior's draws", file=sys.stderr)
+    evidence_warnings(path, study)
+
+
 def evidence_warnings(path, study) -> None:
     """Each evidence item's warnings on stderr, one line each (a damage profile without residual crush, a PDOF
     beyond the correction's limit, a sigma outside the first order: docs/physics.md §28); summary.md repeats them."""
@@ -79,11 +85,10 @@ def _three_decimals(v: float) -> str:
 
 def _no_feasible(args, res) -> int:
     """EXIT_NO_FEASIBLE with one line on stderr when the run found no feasible solution, or none whose evidence
-    could be scored (every objective FAILED_OBJECTIVE: e.g. damage evidence on a side no run struck,
-    docs/physics.md §28), else 0."""
-    from .problem import FAILED_OBJECTIVE
-    f_cols = [c for c in res.pareto.columns if c.startswith("f_")]
-    if len(res.pareto) and f_cols and (res.pareto[f_cols].to_numpy() >= FAILED_OBJECTIVE).all():
+    could be scored (problem.scored_feasible: e.g. damage evidence on a side no run struck, docs/physics.md §28;
+    not the objectives' size, a real misfit may be as large), else 0."""
+    from .problem import scored_feasible
+    if len(res.pareto) and not scored_feasible(res.problem.archive_arrays()).any():
         print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations could be scored "
               "on every evidence item (damage evidence needs an impact on the damaged side: check "
               "evidence.damage.<vehicle>.side; report.html with --out names the side Pareto row 0 struck)",
@@ -106,11 +111,11 @@ def cmd_infer(args) -> int:
     from .posterior import load_posterior
     post = load_posterior(args.study)
     post.study.shown_units = args.units
-    evidence_warnings(args.study, post.study)
     if args.samples is not None and not 10 <= args.samples <= 10_000_000:
         raise InputError(args.study, "--samples", f"{args.samples} is outside [10, 10000000]")
     if args.seed is not None and not 0 <= args.seed <= SEED_MAX:
         raise InputError(args.study, "--seed", f"{args.seed} is outside [0, {SEED_MAX}]")
+    evidence_warnings(args.study, post.study)  # after the options' checks: bad input stays one line
     res = run_posterior(post, args.out, args.samples, args.seed, args.resume, args.workers,
                         progress=not getattr(args, "no_progress", False))
     lo, med, hi = res.interval()
@@ -160,10 +165,7 @@ def cmd_avoid(args) -> int:
     except (OSError, ValueError) as err:
         raise InputError(path, "--out", f"no posterior to read ({err}); run crashlab infer STUDY --out DIR first") \
             from None
-    missing = [lab for lab in post.labels if lab not in table.columns]
-    if missing:
-        raise InputError(path, missing[0], "a variable of the study is not in this posterior (another study?)")
-    answers = counterfactual.run(post, table[post.labels].to_numpy(float), args.out)
+    answers = counterfactual.run(post, counterfactual.posterior_draws(table, post.labels, path), args.out)
     for line in counterfactual.summary_lines([a.row for a in answers], args.units):
         print(line)
     figures, notes = write_counterfactual_figures(answers, post.study.scene.vehicle_names, args.out, args.units)

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -55,9 +56,9 @@ class CounterfactualFile(BaseModel):
                                    description="field path -> the value it is set to (file units)")
     shift: dict[str, float] = Field(default_factory=dict, description="field path -> the value added (file units)")
     scale: dict[str, float] = Field(default_factory=dict, description="field path -> the factor it is multiplied by")
-    keep: str = Field(default="position", pattern="^(position|arrival)$",
-                      description="\"position\": the starts as drawn; \"arrival\": a car whose speed changed "
-                      "starts where it reaches its drawn first-contact point at the same time")
+    keep: Literal["position", "arrival"] = Field(
+        default="position", description="\"position\": the starts as drawn; \"arrival\": a car whose speed "
+        "changed starts where it reaches its drawn first-contact point at the same time")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,12 +74,18 @@ def parse(raw, scene, path) -> list[Counterfactual]:
     if not isinstance(raw, list):
         raise InputError(path, "counterfactuals", "a list of tables ([[counterfactuals]] name = ..., set = {...})")
     out = []
+    seen = {"posterior": None}  # name -> its table's index; "posterior": the row of the draws as they are
     for k, entry in enumerate(raw):
         key = f"counterfactuals.{k}"
         try:
             cf = CounterfactualFile.model_validate(entry)
         except ValidationError as err:
             raise pydantic_error(path, err, key + ".", CounterfactualFile) from None
+        if cf.name in seen:
+            raise InputError(path, f"{key}.name", f"duplicate counterfactual name {cf.name!r} " + (
+                f"(counterfactuals.{seen[cf.name]})" if seen[cf.name] is not None else
+                "(the name of the draws as they are in the outputs)"))
+        seen[cf.name] = k
         changes = []
         for how, table in (("set", cf.set_), ("shift", cf.shift), ("scale", cf.scale)):
             for p, value in table.items():
@@ -109,16 +116,18 @@ def _check_start_apart(cf: Counterfactual, scene, path, key) -> None:
     outlines (or a vehicle and a barrier) into an overlap at the start that the scene does not have."""
     from crashlab.scene import start_overlaps
     fs, V = changed_values(cf, scene, [], np.zeros((1, 0)))
-    try:
-        moved = fields.set_fields(scene, fs, V[0])
-    except ValueError as err:  # a shift or scale taking a value out of its range
-        raise InputError(path, key, str(err)) from None
+    # unchecked first: the checked setter refuses an overlap too, naming no change (crashlab.fields.setter)
+    moved = fields.setter(scene, fs, check=False)(V[0])
     new = sorted(set(start_overlaps(moved)) - set(start_overlaps(scene)))
     if new:
         a, b = new[0]
         how, f, _ = next((c for c in cf.changes if getattr(c[1], "vehicle", None) in (a, b)), cf.changes[0])
         raise InputError(path, f"{key}.{how}.{f.path}", f"moves the start of {a} into an overlap with {b}; a "
                          "counterfactual changes what happened before the crash, not where the cars stood apart")
+    try:
+        fields.set_fields(scene, fs, V[0])
+    except ValueError as err:  # a shift or scale taking a value out of its range
+        raise InputError(path, key, str(err)) from None
 
 
 def changed_values(cf: Counterfactual, scene, var_fields, X, contact_t=None) -> tuple[list, np.ndarray]:
@@ -362,11 +371,37 @@ def summary_lines(rows, system: str = "si") -> list[str]:
     return out
 
 
+def posterior_draws(table, labels, path) -> np.ndarray:
+    """(n, k) the draws of posterior.csv (table: as read, in file units) in the columns `labels`; InputError
+    naming the file and the first column that is missing or holds a value that is no finite number (NaN, inf,
+    text, blank: a corrupt posterior, never draws failing quietly), or "--out" when the table has no rows."""
+    import pandas as pd
+    if not len(table):
+        raise InputError(path, "--out", "the posterior has no draws (a header without rows); run crashlab infer "
+                         "STUDY --out DIR again")
+    for lab in labels:
+        if lab not in table.columns:
+            raise InputError(path, lab, "a variable of the study is not in this posterior (another study?)")
+        bad = ~np.isfinite(pd.to_numeric(table[lab], errors="coerce").to_numpy(float))
+        if bad.any():
+            r = int(np.flatnonzero(bad)[0])
+            raise InputError(path, lab, f"a finite number in every row, got {_cell(table[lab].iloc[r])} in row {r + 1}")
+    return table[list(labels)].to_numpy(float)
+
+
+def _cell(value) -> str:
+    """A cell of posterior.csv as the file gives it: a number (nan, inf too) as such, text quoted."""
+    try:
+        return f"{float(value):g}"
+    except (TypeError, ValueError):
+        return repr(value)
+
+
 def run(post, samples, out_dir=None) -> list[Answer]:
     """The posterior's counterfactuals (post: a Posterior with counterfactuals) answered on its kept samples
     (file units, the posterior's variables as columns) with the study's model; with out_dir,
     counterfactuals.csv (one row per counterfactual, the draws as they are first, in the study's shown units:
-    `crashlab avoid`; `crashlab infer` writes it with its other outputs)."""
+    `crashlab avoid`, whose draws posterior_draws reads; `crashlab infer` writes it with its other outputs)."""
     from crashlab.execution import model_for
     spec = post.study.spec
     out = answers(model_for(spec.model, spec.model_options), post.study.scene, post.fields, samples,

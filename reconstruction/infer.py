@@ -10,8 +10,9 @@ README gives the comparison with zeus (ensemble slice sampling) that chose it. T
 starts near the modes the evidence allows, several of them if there are several).
 
 Burn-in and thinning: the first `burn` iterations of every walker are discarded; the rest is kept, every
-`thin`-th iteration written (default 1: all). The integrated autocorrelation time tau of each variable
-(emcee.autocorr.integrated_time, Goodman & Weare 2010) gives the effective sample size
+`thin`-th iteration written (default 1: all), `samples` of them (the chain runs thin times as long). The
+integrated autocorrelation time tau of each variable (emcee.autocorr.integrated_time, Goodman & Weare 2010) gives
+the effective sample size
 ESS = walkers x kept iterations / tau; summary.md reports both and warns when the chain is shorter than
 50 tau (emcee's own reliability threshold for tau) or the burn-in shorter than 5 tau.
 
@@ -95,6 +96,20 @@ def _autocorr(chain: np.ndarray) -> np.ndarray:
         return np.asarray(emcee.autocorr.integrated_time(chain, c=5, tol=0, quiet=True), float)
 
 
+class _Stream:
+    """stderr for the progress line, knowing whether it was written to."""
+
+    def __init__(self, stream):
+        self.stream, self.used = stream, False
+
+    def write(self, text: str) -> None:
+        self.used = True
+        self.stream.write(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+
 def _progress(post, it, total, acc, lp, t0, stream):
     if stream is None:
         return
@@ -120,10 +135,9 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
         raise InputError(post.path, "--workers", f"{workers} is outside [1, {WORKERS_MAX}]")
     d = post.ndim
     nw = s.walkers or max(32, 6 * d)
-    nw += nw % 2
     if nw < 2 * d:
         raise InputError(post.path, "infer.walkers", f"{nw} walkers for {d} variables: at least {2 * d}")
-    keep_iters = math.ceil(s.samples / nw)
+    keep_iters = math.ceil(s.samples / nw) * s.thin  # `samples` are the ones kept after thinning
     total = s.burn + keep_iters
     out = Path(out_dir) if out_dir is not None else None
     ckpt = None
@@ -137,7 +151,7 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
     backend, nworkers = ex.backend, ex.workers
     if workers is not None:
         backend, nworkers = ("processes" if workers > 1 else "serial"), workers
-    stream = sys.stderr if progress else None
+    stream = _Stream(sys.stderr) if progress else None
     t0 = time.time()
     # --workers N: N local processes; the study's Dask scheduler only without it (to Executor any scheduler is Dask)
     with open_executor(post.path, backend, nworkers, ex.scheduler if backend == "dask" else None,
@@ -149,7 +163,7 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
             else:
                 res = _run_emcee(post, nw, total, s, ckpt, fingerprint, resume, stream, t0, stop_after)
         finally:
-            if stream is not None:
+            if stream is not None and stream.used:  # ends the progress line; none before an error: one line
                 stream.write("\n")
     if res is None:
         return None

@@ -79,6 +79,17 @@ def evaluation_counts(problem, arch: dict | None = None) -> dict:
             "no_contact": int(no_contact.sum()), "failed": int((~ok).sum())}
 
 
+def scored_feasible(arch: dict) -> np.ndarray:
+    """(n,) bool: the evaluation ran, is feasible and every evidence item was scored (its residuals finite; an
+    unscored one, e.g. damage evidence on a side the run did not strike, has objectives FAILED_OBJECTIVE). Decided
+    by these flags, not by the objectives' size: a real misfit may be as large."""
+    n = len(arch["X"])
+    if not n:
+        return np.zeros(0, bool)
+    R = np.asarray(arch["R"], dtype=float).reshape(n, -1)
+    return arch["ok"].astype(bool) & np.all(np.atleast_2d(arch["G"]) <= 0, axis=1) & np.isfinite(R).all(axis=1)
+
+
 def infeasible_sentence(counts: dict) -> str:
     """Why evaluations were not feasible, in words (evaluation_counts)."""
     parts = [f"{counts['overlap']} had the vehicles overlapping at the start" if counts["overlap"] else "",

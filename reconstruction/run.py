@@ -31,6 +31,7 @@ from crashlab.outdir import lock_out_dir
 
 from .html_report import write_reconstruction_report
 from .polish import polish_archive
+from .problem import scored_feasible
 from .refine import refine
 from .report import ReconstructionResult, pareto_table, write_outputs
 from .schema import WORKERS_MAX
@@ -172,16 +173,16 @@ def _start(study, optimizer, out_dir: Path | None, resume: bool, fingerprint: di
 
 
 def run_study(study, optimizer=None, workers=None, scheduler=None, out_dir=None, resume=False, progress=False,
-              stop_after=None) -> ReconstructionResult | None:
+              stop_after=None, started=None) -> ReconstructionResult | None:
     """Search, polish, and (with out_dir) write the outputs (Study.run)."""
     try:
         with lock_out_dir(out_dir, "reconstruct --resume" if resume else "reconstruct"):  # one writer per DIR
-            return _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_after)
+            return _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_after, started)
     except WorkerStartError as err:
         raise InputError(study.path, "execution", str(err)) from None
 
 
-def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_after):
+def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_after, started=None):
     t0 = time.perf_counter()
     ex, spec = study.spec.execution, study.spec
     backend = _backend(study, workers, scheduler)
@@ -189,17 +190,20 @@ def _run(study, optimizer, workers, scheduler, out_dir, resume, progress, stop_a
     fingerprint = study.fingerprint() if out_dir else {}  # only a checkpoint needs it
     name, algorithm = _start(study, optimizer, out_dir, resume, fingerprint)
     problem = algorithm.problem
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=spec.optimizer.generations, unit="gen", dynamic_ncols=True)
     done = max(int(algorithm.n_iter or 1) - 1, 0) if algorithm.is_initialized else 0
-    if bar is not None and done:
-        bar.update(done)  # generations done before a resume
-    algorithm.callback = GenerationEnd(out_dir / "checkpoint.pkl" if out_dir else None, fingerprint, name, bar,
+    algorithm.callback = GenerationEnd(out_dir / "checkpoint.pkl" if out_dir else None, fingerprint, name, None,
                                        spec.objective.hv_reference, done, stop_after)
     with open_executor(study.path, backend, workers or ex.workers, scheduler or ex.scheduler, ex.timeout_s,
                        "--scheduler" if scheduler else "execution.scheduler") as executor:
+        # the run starts: its notes and progress bar only now, so bad input found above stays one line
+        if started is not None:
+            started()
+        bar = None
+        if progress:
+            from tqdm import tqdm
+            bar = algorithm.callback.bar = tqdm(total=spec.optimizer.generations, unit="gen", dynamic_ncols=True)
+            if done:
+                bar.update(done)  # generations done before a resume
         with problem.running_on(executor):
             try:
                 algorithm.run()
@@ -239,6 +243,9 @@ def _result(study, problem, algorithm, name, n_search, budget, t0) -> Reconstruc
         info["repaired"] = int(repair.repaired)
     arch = problem.archive_arrays()
     feasible = np.all(arch["G"] <= 0, axis=1) & arch["ok"]
-    return ReconstructionResult(pareto_table(problem, arch), int(len(arch["X"])), int((~arch["ok"]).sum()),
+    scored = scored_feasible(arch)
+    # unscored rows (objectives FAILED_OBJECTIVE) would dominate a larger real misfit: only when nothing scored
+    shown = {**arch, "ok": arch["ok"] & scored} if scored.any() else arch
+    return ReconstructionResult(pareto_table(problem, shown), int(len(arch["X"])), int((~arch["ok"]).sum()),
                                 float(feasible.mean()) if len(feasible) else 0.0,
                                 time.perf_counter() - t0, problem, info)

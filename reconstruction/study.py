@@ -166,10 +166,11 @@ class Study:
 
     def run(self, optimizer: str | None = None, workers: int | None = None, scheduler: str | None = None,
             out_dir: str | Path | None = None, resume: bool = False, progress: bool = False,
-            stop_after: int | None = None):
+            stop_after: int | None = None, started=None):
         """Search, polish, and (with out_dir) write the outputs. stop_after: stop after that many
-        generations as a kill would (checkpoint written, no polish, no outputs; returns None): tests."""
-        return run_study(self, optimizer, workers, scheduler, out_dir, resume, progress, stop_after)
+        generations as a kill would (checkpoint written, no polish, no outputs; returns None): tests.
+        started: called once the inputs are checked and the executor is up, before the first evaluation."""
+        return run_study(self, optimizer, workers, scheduler, out_dir, resume, progress, stop_after, started)
 
 
 def _check_free_driver_fields(path, free, scene) -> None:
@@ -278,6 +279,7 @@ def _load_study(path: Path, data: dict) -> Study:
     study = Study(path, spec, scene, evidence, evidence_set if mode == "misfit" else None, uncertain)
     study.notes = free_and_uncertain(path, spec, scene, scene_path)
     study.questions, study.counterfactuals = questions, counterfactuals
+    study.make_algorithm()  # [optimizer.options] checked for every command, as reconstruct's search takes them
     return study
 
 

@@ -112,6 +112,14 @@ def test_resume_continues_the_same_chain(tmp_path):
     assert (tmp_path / "a" / "posterior.csv").read_bytes() == (tmp_path / "b" / "posterior.csv").read_bytes()
 
 
+def test_thinning_keeps_the_samples_asked_for(tmp_path):
+    """`samples` are the kept ones: thin = 3 keeps 48 of 48 asked (every third of 3 x 6 iterations of 8 walkers);
+    before, thinning divided them (16 kept) without a word (a fuzzer: thin = 100 kept 8 of 16)."""
+    res = run_posterior(_small(load_posterior(TWIN), walkers=8, burn=2, samples=48, thin=3, draws_plotted=0),
+                        progress=False)
+    assert len(res.samples) == 48 and len(res.chain) == 2 + 18
+
+
 def test_resume_refuses_a_changed_study(tmp_path):
     study = _study(tmp_path, TWO_SPEEDS.format(noise="noise_seed = 1") + "\n[infer]\nwalkers = 8\nburn = 4\n"
                    "samples = 80\ncheckpoint_every = 2\ndraws_plotted = 0\n")
