@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from crashlab.errors import InputError
-from crashlab.registry import MODELS, UnknownPluginError, available_models, load
+from crashlab.registry import MODELS, UnknownPluginError, available_models, listed_models, load
 from crashlab.scene import Scene
 from crashlab.scene_file import load_scene
 from crashlab.tools import examples
@@ -70,7 +70,10 @@ def resolve_models(spec: str | None) -> list[str]:
     """The models named on the command line (comma-separated), all registered ones for None."""
     if not spec:
         return available_models()
-    names = [m.strip() for m in spec.split(",") if m.strip()]
+    try:
+        names = listed_models(spec)
+    except ValueError as err:
+        raise InputError("command line", "--models", str(err)) from None
     for name in names:
         try:
             load(MODELS, name)

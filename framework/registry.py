@@ -76,6 +76,18 @@ def available_optimizers() -> list[str]:
     return names(OPTIMIZERS)
 
 
+def listed_models(text: str) -> list[str]:
+    """The model names of a comma-separated list (a command line's --models), each once: ValueError for none or
+    one named twice (its runs would be kept under one name, the second dropped)."""
+    models = [m.strip() for m in text.split(",") if m.strip()]
+    if not models:
+        raise ValueError("give at least one model name")
+    twice = next((m for i, m in enumerate(models) if m in models[:i]), None)
+    if twice is not None:
+        raise ValueError(f"model {twice!r} named twice in {text!r}; name each model once")
+    return models
+
+
 def get_model(name: str, **options):
     """A CollisionModel instance; options are the model's config keys. A plugin must derive from
     crashlab.CollisionModel: that is where the physics guard checks every Outcome."""

@@ -125,3 +125,10 @@ def test_a_us_bound_is_rounded_towards_the_values_it_accepts():
 def test_compare_refuses_a_model_named_twice(capsys, models):
     """compare --models impulse,impulse ran it once and exited 0."""
     refused(capsys, "command line", "--models", "compare", SIDE, "--models", models, words=["'impulse'", "twice"])
+
+
+def test_study_refuses_a_model_named_twice(capsys, tmp_path):
+    """crashlab study ran a model named twice twice (its rows doubled); refused as compare refuses it, before any
+    run."""
+    refused(capsys, "command line", "--models", "study", "scaling", "--models", "impulse,pymunk,impulse", "--out",
+            tmp_path, words=["'impulse'", "twice"])

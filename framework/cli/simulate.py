@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..registry import UnknownPluginError
+from ..registry import UnknownPluginError, listed_models
 from ..units import json_in, json_number, table_in, wrap_deg
 
 # units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
@@ -344,13 +344,10 @@ def cmd_compare(args):
     from ..tools.compare import comparison_table, model_spread, with_unit_headers
     refuse_other_kind(args.scene, "scene")
     scene = load_scene(args.scene)
-    models = [m.strip() for m in args.models.split(",") if m.strip()]
-    if not models:
-        raise InputError("command line", "--models", "give at least one model name")
-    twice = next((m for i, m in enumerate(models) if m in models[:i]), None)
-    if twice is not None:  # (one run kept under the name: the second silently dropped)
-        raise InputError("command line", "--models", f"model {twice!r} named twice in {args.models!r}; name each "
-                         "model once")
+    try:
+        models = listed_models(args.models)
+    except ValueError as err:
+        raise InputError("command line", "--models", str(err)) from None
     resolved = {m: _get_model(m, args.scene, "--models") for m in models}
     if args.plot:
         from ..tools.plotting import check_plot_path
