@@ -115,9 +115,9 @@ def cmd_infer(args) -> int:
         raise InputError(args.study, "--samples", f"{args.samples} is outside [10, 10000000]")
     if args.seed is not None and not 0 <= args.seed <= SEED_MAX:
         raise InputError(args.study, "--seed", f"{args.seed} is outside [0, {SEED_MAX}]")
-    evidence_warnings(args.study, post.study)  # after the options' checks: bad input stays one line
     res = run_posterior(post, args.out, args.samples, args.seed, args.resume, args.workers,
-                        progress=not getattr(args, "no_progress", False))
+                        progress=not getattr(args, "no_progress", False),
+                        started=lambda: evidence_warnings(args.study, post.study))  # bad input stays one line
     lo, med, hi = res.interval()
     for j, v in enumerate(post.variables):
         unit = unit_in(v.unit, args.units)

@@ -121,10 +121,10 @@ def _progress(post, it, total, acc, lp, t0, stream):
 
 def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, seed: int | None = None,
                   resume: bool = False, workers: int | None = None, progress: bool = True,
-                  stop_after: int | None = None) -> PosteriorResult | None:
+                  stop_after: int | None = None, started=None) -> PosteriorResult | None:
     """Sample the posterior (module docstring); with out_dir, checkpoints and the outputs (infer_report).
     stop_after: stop after that many iterations as a kill would (checkpoint written, no outputs; returns
-    None): tests."""
+    None): tests. started: called once the settings are checked and the executor is up, before sampling."""
     s = post.settings
     if samples is not None:
         s = s.model_copy(update={"samples": int(samples)})
@@ -157,6 +157,8 @@ def run_posterior(post: Posterior, out_dir=None, samples: int | None = None, see
     with open_executor(post.path, backend, nworkers, ex.scheduler if backend == "dask" else None,
                        ex.timeout_s if backend != "serial" else 0, "execution.scheduler") as executor, \
             post.problem.running_on(executor):
+        if started is not None:
+            started()
         try:
             if s.sampler == "zeus":
                 res = _run_zeus(post, nw, total, s, stream, t0)

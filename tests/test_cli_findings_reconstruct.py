@@ -128,6 +128,16 @@ def test_infer_resume_without_checkpoint_is_one_line_with_progress(tmp_path, cap
     one_line(capsys, out / "infer_checkpoint.pkl", "--resume", "infer", path, "--out", out, "--resume")
 
 
+def test_infer_bad_input_after_an_evidence_warning_is_one_line(tmp_path, capsys):
+    """A study whose evidence warns (a damage profile without residual crush) and an infer setting refused inside
+    the run (--workers): the warning came first, two lines; now the warnings wait for the run to start."""
+    damage = ('\n[evidence.damage.V1]\nside = "front"\nprofile = [0.0, 0.0]\nwidth = 1.0\nsigma_crush = 0.02\n'
+              'sigma_stiffness = 0.15\n')
+    path = tutorial(tmp_path, extra=damage)
+    one_line(capsys, path, "--workers", "infer", path, "--out", tmp_path / "o", "--workers", 100000)
+    assert "without residual crush" in run(capsys, "infer", path, "--out", tmp_path / "o", "--no-progress")[2]
+
+
 # 2 and 4 -- a bad [optimizer.options] key is bad input for every command
 @pytest.mark.parametrize("command", ["reconstruct", "infer"])
 def test_a_bad_optimizer_option_is_refused_by_every_command(tmp_path, capsys, command):
