@@ -70,6 +70,7 @@ class Uncertain:
     mean: float | None = None
     sd: float | None = None
     mode: float | None = None
+    replaces: str = ""  # the scene's setting its numbers replace (restitution = "speed": replaced_law), said
 
     @functools.cached_property
     def dist(self):
@@ -105,12 +106,21 @@ class Uncertain:
 
     def describe(self) -> str:
         unit = "" if self.unit == "-" else f" {self.unit}"
+        said = f"; its numbers replace {self.replaces}" if self.replaces else ""
         if self.distribution == "uniform":
-            return f"{self.field}: uniform on [{self.lower:g}, {self.upper:g}]{unit}"
+            return f"{self.field}: uniform on [{self.lower:g}, {self.upper:g}]{unit}{said}"
         if self.distribution == "triangular":
-            return f"{self.field}: triangular on [{self.lower:g}, {self.upper:g}]{unit}, mode {self.mode:g}"
+            return f"{self.field}: triangular on [{self.lower:g}, {self.upper:g}]{unit}, mode {self.mode:g}{said}"
         return (f"{self.field}: normal, mean {self.mean:g}, sd {self.sd:g}{unit}, truncated to "
-                f"[{self.lower:g}, {self.upper:g}]")
+                f"[{self.lower:g}, {self.upper:g}]{said}")
+
+
+def replaced_law(scene, path: str) -> str:
+    """The scene's setting that a number given to the field `path` (free, uncertain) replaces, in words, or "":
+    a restitution number replaces restitution = "speed" (crashlab.fields.setter, docs/physics.md §13b)."""
+    if path == "impact.restitution" and scene.impact.restitution_law == "speed":
+        return 'the scene\'s restitution = "speed" (docs/physics.md §13b)'
+    return ""
 
 
 def parse(raw: Sequence, scene, source: str | Path = "<scene>", prefix: str = "uncertain") -> tuple[Uncertain, ...]:
@@ -163,7 +173,8 @@ def parse(raw: Sequence, scene, source: str | Path = "<scene>", prefix: str = "u
             raise InputError(source, f"{key}.mean", f"mean {e.mean:g} is outside {what}, [{lower:g}, {upper:g}]{unit}")
         if e.sd is not None and not math.isfinite((upper - lower) / e.sd):
             raise InputError(source, f"{key}.sd", f"sd {e.sd:g} is too small for the interval")
-        out.append(Uncertain(f.path, e.distribution, float(lower), float(upper), mean=e.mean, sd=e.sd, mode=e.mode))
+        out.append(Uncertain(f.path, e.distribution, float(lower), float(upper), mean=e.mean, sd=e.sd, mode=e.mode,
+                             replaces=replaced_law(scene, f.path)))
     return tuple(out)
 
 

@@ -332,8 +332,9 @@ def uncertain_variables(path, spec: StudyFile, scene: Scene) -> list[UncertainVa
 
 
 def free_and_uncertain(path, spec: StudyFile, scene: Scene, scene_path) -> list[str]:
-    """A field both free (`[[free]]`) and uncertain (`[[uncertain]]` of the study or of its base scene's file):
-    its meaning, one note line each (reconstruct prints it): the free bounds are its range in both commands, the
+    """A free field whose numbers replace a setting of the scene (uncertainty.replaced_law), and a field both free
+    (`[[free]]`) and uncertain (`[[uncertain]]` of the study or of its base scene's file): its meaning, one note
+    line each (reconstruct prints it): the free bounds are its range in both commands, the
     search ignores the distribution, `crashlab infer` takes the distribution as its prior within the bounds
     (posterior.py). Refused (InputError naming free.K and the uncertain entry) when the distribution has no
     probability within the bounds: the prior would be 0 everywhere."""
@@ -344,6 +345,9 @@ def free_and_uncertain(path, spec: StudyFile, scene: Scene, scene_path) -> list[
         entries[u.field] = (f"uncertain.{j}", u)
     notes = []
     for k, f in enumerate(spec.free):
+        replaced = uncertainty.replaced_law(scene, f.path)
+        if replaced:
+            notes.append(f"{f.label} is free (free.{k}): its numbers replace {replaced} in the search's runs")
         if f.path not in entries:
             continue
         key, u = entries[f.path]

@@ -113,3 +113,25 @@ def test_the_generic_law_run_says_only_that_it_keeps_the_constant(model):
     assert out.outcome_ok
     law = [w for w in out.warnings if "restitution" in w]
     assert len(law) == 1 and 'needs contact_law = "structure"' in law[0], out.warnings
+
+
+def test_numbers_drawn_or_searched_for_the_restitution_say_they_replace_the_law(tmp_path):
+    """A scene with restitution = "speed" whose [[uncertain]] (or a study's [[free]]) restitution replaces the law
+    in every run (the test above) said nothing of it (a fuzzer): the uncertain entry's description and the
+    study's notes say it now; with a number in the scene they say nothing more."""
+    import crashlab
+    from crashlab.reconstruction import load_study
+    src = (PC_CRASH / "side.toml").read_text()
+    unc = '\n[[uncertain]]\nfield = "impact.restitution"\ndistribution = "uniform"\nlower = 0.1\nupper = 0.3\n'
+    for law, said in (('"speed"', True), ("0.1", False)):
+        scene_path = tmp_path / f"side_{said}.toml"
+        scene_path.write_text(src.replace("restitution = 0.1", f"restitution = {law}", 1) + unc)
+        (u,) = crashlab.load_scene(scene_path).uncertain
+        assert ('replace the scene\'s restitution = "speed"' in u.describe()) is said
+        study = tmp_path / f"study_{said}.toml"
+        study.write_text(f'scene = "{scene_path.as_posix()}"\nmodel = "impulse"\n[[free]]\nfield = "restitution"\n'
+                         "lower = 0.05\nupper = 0.4\n[[free]]\nvehicle = \"V1\"\nfield = \"speed\"\nlower = 30.0\n"
+                         "upper = 70.0\n[evidence.rest.V1]\nx = 10.0\ny = 0.0\nheading = 0.0\nsigma_xy = 1.0\n"
+                         "sigma_heading = 10.0\n")
+        notes = load_study(study).notes
+        assert any('replace the scene\'s restitution = "speed"' in n for n in notes) is said, notes
