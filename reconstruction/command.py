@@ -57,13 +57,14 @@ def run_cli(args) -> int:
     return _no_feasible(args, res)
 
 
-def study_notes(path, study) -> None:
-    """The study's notes and evidence warnings on stderr, once the run starts (Study.run's `started`): bad input
-    found before it (options, checkpoint, scheduler) stays its one error line."""
-    for note in study.notes:  # a field both free and uncertain: which bounds apply (study.free_and_uncertain)
+def study_notes(path, study, infer: bool = False) -> None:
+    """The study's notes and evidence warnings on stderr, once the run starts (Study.run's and run_posterior's
+    `started`): bad input found before it (options, checkpoint, scheduler) stays its one error line. Its
+    [[questions]] and [[counterfactuals]], which only infer answers, are noted by reconstruct."""
+    for note in study.notes:  # which bounds a free and uncertain field keeps, a setting a free field replaces
         print(f"crashlab: note: {path}: {note}", file=sys.stderr)
     for key, n in (("questions", len(study.questions)), ("counterfactuals", len(study.counterfactuals))):
-        if n:  # checked when loaded (study.py), answered from a posterior only: said, not dropped in silence
+        if n and not infer:  # checked when loaded (study.py), answered from a posterior only: not dropped in silence
             print(f"crashlab: note: {path}: {key}: {n} [[{key}]] checked, not answered by reconstruct: "
                   "crashlab infer answers them from the posterior's draws", file=sys.stderr)
     evidence_warnings(path, study)
@@ -117,7 +118,7 @@ def cmd_infer(args) -> int:
         raise InputError(args.study, "--seed", f"{args.seed} is outside [0, {SEED_MAX}]")
     res = run_posterior(post, args.out, args.samples, args.seed, args.resume, args.workers,
                         progress=not getattr(args, "no_progress", False),
-                        started=lambda: evidence_warnings(args.study, post.study))  # bad input stays one line
+                        started=lambda: study_notes(args.study, post.study, infer=True))  # bad input: one line
     lo, med, hi = res.interval()
     for j, v in enumerate(post.variables):
         unit = unit_in(v.unit, args.units)
