@@ -86,6 +86,32 @@ def test_a_contact_that_outlasts_push_time_splits_there():
     assert IMP[0, EP.I_DVI] == pytest.approx(-3.0)
 
 
+def _row_restitution(dd0, dd_end, split=False):
+    """The restitution of the impact row of an episode touched at the normal approach speed dd0 that ends with the
+    normal velocity dd_end (< 0: separating), or that is still in contact when PUSH_TIME splits it (split)."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, dd0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    if split:
+        n = EP.episode_step(IMP, 0, PP, PST, 0, PUSH_TIME, PUSH_TIME, PUSH_TIME, 0.01, -0.01, dd_end,
+                            (4.0, 0.0, 0.0), (-4.0, 0.0, 0.0))
+    else:
+        n = EP.episode_step(IMP, 0, PP, PST, 0, 0.1, 0.1, 0.1, -0.01, -0.01, dd_end, (1.0, 0.0, 0.0),
+                            (-1.0, 0.0, 0.0))
+        n = EP.episode_step(IMP, n, PP, PST, 0, 0.2, 0.2, 0.2, -0.1, SEPARATION + 0.01, dd_end, (1.0, 0.0, 0.0),
+                            (-1.0, 0.0, 0.0))
+    rows = EP.impact_rows(["V1", "V2"], [1500.0, 1500.0], IMP[:n], np.ones((2, 6)))
+    return rows[0]["restitution"]
+
+
+def test_a_row_reports_a_restitution_only_where_the_rebound_ratio_is_one():
+    """separation / approach at the contact point: 0.1 for a clean impact; no number (NaN) where the touch's normal
+    approach was a graze (a car's corner on a post touched at 0.001 m/s along a normal that turned: "e" 2800, a
+    fuzzer) or where the impact was still closing when its push took over ("e" -0.026)."""
+    assert _row_restitution(5.0, -0.5) == pytest.approx(0.1)
+    assert math.isnan(_row_restitution(0.001, -2.8))
+    assert math.isnan(_row_restitution(5.0, 0.13, split=True))
+
+
 @pytest.mark.parametrize("model", ["multibody", "exudyn"])
 def test_a_bus_pushing_a_car_is_one_impact_and_one_push(model):
     """A Citaro bus (18 t) at 30 km/h into a standing Clio's side, wheels rolling, 12 s: one impact row per

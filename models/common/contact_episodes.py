@@ -71,6 +71,9 @@ from .impact_rows import pair_rows
 # I_PUSH: 1 for a push's record (the pair's contact later than PUSH_TIME after its impact, kind "push")
 I_PUSH = 24
 N_IMP = 25
+# m/s: the least normal approach speed at a touch whose rebound ratio an impact row reports as its restitution
+# (a car's corner grazing a post touched at 0.001 m/s along a normal that then turned: "e" 2800)
+APPROACH_MIN = 0.1
 EPISODES_PER_PAIR = 64  # records per pair of bodies that can touch (two vehicles, a vehicle and a barrier)
 
 
@@ -233,8 +236,10 @@ def impact_rows(names, mass, imp, compliance, heads=None):
     its global components impulse_x, impulse_y, impulse_z, max_penetration [m] (the pair's largest total crush),
     crush [m] (the vehicle's share of it, pair_rows), approach_speed /
     separation_speed [m/s] (relative normal velocity at the contact point at onset and at separation;
-    restitution = separation/approach; None for a push, no impact), open (contact still active when the run
-    ended). A push's record (I_PUSH) gives rows of kind "push" (crashlab.outcome.PUSH)."""
+    restitution = separation/approach; None for a push, no impact; NaN where the ratio is no restitution: an
+    approach below APPROACH_MIN (a car's corner grazing a post along a normal that then turned), no separation
+    (an impact still closing where its push took over) or the contact still open), open (contact still active
+    when the run ended). A push's record (I_PUSH) gives rows of kind "push" (crashlab.outcome.PUSH)."""
     nv = len(names)
     rows = []
     for r in imp:
@@ -251,7 +256,8 @@ def impact_rows(names, mass, imp, compliance, heads=None):
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],
                        max_penetration=r[I_MAXPEN], approach_speed=dd0, separation_speed=-dd1,
-                       restitution=None if r[I_PUSH] else (-dd1 / dd0) if dd0 > 0 else math.nan,
+                       restitution=None if r[I_PUSH] else (-dd1 / dd0) if dd0 >= APPROACH_MIN and dd1 <= 0
+                       and not r[I_OPEN] else math.nan,
                        open=bool(r[I_OPEN]))
         rows += pair
     return rows
