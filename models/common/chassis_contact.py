@@ -166,12 +166,13 @@ def _struck_face(A, rc, M, sh, box):
 
 @njit(cache=True)
 def _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g):
-    """The struck faces (crush_structure.face_code) of a pair at its first touch at M (gap g < 0): for two upright
-    vehicles those of their approach (crush_structure.swept_faces, §13a "Struck faces"), else (a barrier, a tilted
-    body's roof or underbody, no approach) and before the touch each body's face nearest M in proportion."""
+    """The struck faces (crush_structure.face_code) of a pair at its first touch at M (gap g < 0): for an upright
+    vehicle and an upright vehicle or a barrier those of their approach (crush_structure.swept_faces, §13a "Struck
+    faces"), else (a tilted body's roof or underbody, no approach) and before the touch each body's face nearest M
+    in proportion."""
     fi = _struck_face(A1, rc1, M, sh1, False)
     fj = _struck_face(A2, rc2, M, sh2, k2 == 1)
-    if g >= 0.0 or k2 != 0 or fi > 3 or fj > 3:
+    if g >= 0.0 or fi > 3 or fj > 3:
         return fi, fj
     u1 = _point_velocity(r1, v1, om1, M)
     u2 = _point_velocity(r2, v2, om2, M)
