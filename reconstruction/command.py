@@ -34,9 +34,7 @@ def run_cli(args) -> int:
     if args.json:
         out = json_in(res.to_json_dict(), args.units)
         if refined is not None:
-            out["refine"] = refined.to_json_dict()  # (file units: crashlab.reconstruction.refine)
-            if args.units == "us":
-                out["refine"]["units"] = "file units: m, km/h, deg"
+            out["refine"] = refined.to_json_dict(args.units)
         print(json.dumps(out, indent=2))
         return _no_feasible(args, res)
     import pandas as pd

@@ -22,7 +22,7 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
     `best` (scene, outcome: the draw of largest log-likelihood); questions: (question, probability, standard
     error) rows; counterfactuals: counterfactual.answer's rows, counterfactual_figures their [(file name,
     caption)]."""
-    from .infer_report import prior_text, shown_row
+    from .infer_report import QUESTION_UNITS_HEAD, prior_text, question_note, question_units, shown_row
     out_dir = Path(out_dir)
     study, s = post.study, post.settings
     system = study.shown_units  # every number on the page in these units (crashlab.units, shown units)
@@ -42,9 +42,10 @@ def write_posterior_report(post, res, out_dir, warnings=(), best=None, notes=(),
         if truth is not None:
             r += [num(truth[j]), "yes" if lo[j] <= truth[j] <= hi[j] else "**NO**"]
         rows.append(r)
-    qtable = (Table(["question", "probability", "MC standard error"],
-                    [[f"`{q}`", num(p) or "-", num(se) or "-"] for q, p, se in questions], "questions",
-                    md_cols=(0,))
+    qtable = (Table(["question", "probability", "MC standard error", QUESTION_UNITS_HEAD],
+                    [[f"`{q}`", num(p) or "-", num(se) or "-", units]
+                     for (q, p, se), units in zip(questions, question_units(post), strict=True)], "questions",
+                    text_cols=(0, 3), caption=question_note(post), md_cols=(0,))
               if questions else None)
     ctable = None
     if counterfactuals:

@@ -234,13 +234,21 @@ def refine_context(out_dir: Path, refined=None, evidence=None, system: str = "si
         import pandas as pd
         try:
             df = pd.read_csv(csv)
-            ctx["csv"] = Table(list(df.columns), [[num(v) if isinstance(v, (int, float, np.number)) else str(v)
-                                                   for v in r] for r in df.itertuples(index=False)], "refine", ())
+            ctx["csv"] = Table(list(df.columns), [[_cell(v) for v in r] for r in df.itertuples(index=False)],
+                               "refine", ())
         except Exception as err:  # noqa: BLE001 - an unreadable refine.csv is named, not fatal
             ctx["error"] = f"refine.csv could not be read ({type(err).__name__})."
     if not any(ctx[k] is not None for k in ("spread", "md", "csv", "error")):
         return None
     return ctx
+
+
+def _cell(v) -> str:
+    """A cell of refine.csv as shown: an integer (candidate, row, refine_evaluations) as one, a float by num,
+    text as it is."""
+    if isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)):
+        return str(int(v))
+    return num(v) if isinstance(v, (float, np.floating)) else str(v)
 
 
 def refine_section(out_dir: Path, refined=None, evidence=None) -> str:

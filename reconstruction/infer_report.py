@@ -34,11 +34,12 @@ def variable_units(post) -> dict:
 
 def write_posterior_csv(post, res, path: Path) -> None:
     """posterior.csv: a row per kept sample, a column per variable, log_likelihood; in the study's shown units
-    (US: "V1.speed [mph]", read back by `crashlab avoid`)."""
+    (US: "V1.speed [mph]", read back by `crashlab avoid`). Every number in full (pandas' shortest repr that reads
+    back to the same float): `crashlab avoid` answers on these draws what infer answered on its own."""
     import pandas as pd
     df = pd.DataFrame(res.samples, columns=res.labels)
     df["log_likelihood"] = res.log_likelihood
-    frame_in(df, post.study.shown_units, variable_units(post)).to_csv(path, index=False, float_format="%.6g")
+    frame_in(df, post.study.shown_units, variable_units(post)).to_csv(path, index=False)
 
 
 def shown_row(post, values, system: str) -> np.ndarray:
@@ -84,8 +85,11 @@ def summary_lines(post, res) -> list[str]:
               f"time (emcee.autocorr.integrated_time); smallest ESS {number(smallest_ess(res), 0)}."]
     lines += chain_warnings(res)
     if post.questions:
-        lines += ["", "## Questions", "", "| question | probability | MC standard error |", "|---|---|---|"]
-        lines += [f"| `{q}` | {number(p, 3)} | {number(se, 3)} |" for q, p, se in question_rows(post, res)]
+        lines += ["", "## Questions", "", f"| question | probability | MC standard error | {QUESTION_UNITS_HEAD} |",
+                  "|---|---|---|---|"]
+        lines += [f"| `{q}` | {number(p, 3)} | {number(se, 3)} | {units} |"
+                  for (q, p, se), units in zip(question_rows(post, res), question_units(post), strict=True)]
+        lines += ["", question_note(post)]
     if res.counterfactuals:
         from .counterfactual import summary_lines as counterfactual_lines
         lines += ["", "## Counterfactuals", "", "Each kept draw (at most 2,000, a random subsample) simulated again "
@@ -139,6 +143,30 @@ def question_rows(post, res) -> list[tuple[str, float, float]]:
         if post.study.spec.units == "us" else res.samples
     return [(a.name + (f" ({a.note})" if a.note else ""), a.probability, a.standard_error)
             for a in answers(post.questions, res.labels, samples, res.ess)]
+
+
+QUESTION_UNITS_HEAD = "its variables' units (the study file's)"
+
+
+def question_units(post) -> list[str]:
+    """Per question (post.questions' order): the variables it reads, each with its unit in the study file's
+    units ("V1.speed in km/h", "road.friction (no unit)"): the units its numbers are in (question_rows), whatever
+    --units shows."""
+    system = post.study.spec.units
+    units = {v.label: unit_in(v.unit, system) for v in post.variables}
+    return [", ".join(f"{n} in {units[n]}" if units.get(n) not in (None, "", "-") else f"{n} (no unit)"
+                      for n in q.names) or "-" for q in post.questions]
+
+
+def question_note(post) -> str:
+    """The note under the questions' table (summary.md, report.html): a question's numbers are in the study
+    file's units, as written, not in the shown units (--units) of the tables around it."""
+    system = post.study.spec.units
+    used = dict.fromkeys(unit_in(v.unit, system) for v in post.variables
+                         if any(v.label in q.names for q in post.questions) and v.unit not in ("", "-"))
+    return (f"A question is answered as written, its numbers in the study file's units (units = \"{system}\""
+            + (f": {', '.join(used)}" if used else "") + ") whatever --units shows; the last column gives each "
+            "variable it reads with that unit.")
 
 
 def best_draw(post, res):

@@ -30,17 +30,19 @@ from __future__ import annotations
 
 import contextlib
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from crashlab.errors import InputError
-from crashlab.units import frame_in, rad_to_deg, unit_in, unit_of, value_in
+from crashlab.units import frame_in, json_in, rad_to_deg, unit_in, unit_of, value_in
 
 from .polish import polish, repaired_residuals, spaced_starts
 from .study_executor import open_executor
+
+SUMSQ = ("search_sumsq", "refine_sumsq_start", "refine_sumsq", "search_sumsq_refined")
 
 
 @dataclass
@@ -53,12 +55,18 @@ class RefineResult:
     search_evaluations: int  # search-model evaluations (every candidate and refined point)
     wall_time_s: float
     source: str
+    units: dict = field(default_factory=dict)  # refine_units: the units map of the table (file units)
 
-    def to_json_dict(self) -> dict:
-        return {"model": self.model, "search_model": self.search_model, "budget": self.budget,
-                "evaluations": self.evaluations, "search_evaluations": self.search_evaluations,
-                "wall_time_s": round(self.wall_time_s, 3), "source": self.source,
-                "candidates": self.table.replace({np.nan: None}).to_dict(orient="records")}
+    def to_json_dict(self, system: str = "si") -> dict:
+        """The result as JSON in `system`'s units (crashlab.units.json_in, by the table's units map: each
+        candidate's variables, objectives, rest poses and gaps in ft, mph with "us"), its "units" map saying
+        them; the sums of squares stay in the residuals' file units."""
+        return json_in({"model": self.model, "search_model": self.search_model, "budget": self.budget,
+                        "evaluations": self.evaluations, "search_evaluations": self.search_evaluations,
+                        "wall_time_s": round(self.wall_time_s, 3), "source": self.source,
+                        "candidates": self.table.replace({np.nan: None}).to_dict(orient="records"),
+                        "units": self.units | dict.fromkeys(SUMSQ, "squared residuals in file units (not converted)")
+                        | {"wall_time_s": "s"}}, system)
 
     def summary_line(self, variables, wrote: bool, system: str = "si") -> str:
         """One line for the command line: how far the best candidate moved (in `system`'s units, each move
@@ -227,7 +235,7 @@ def refine(study, candidates, out_dir=None, *, model=None, model_options=None, e
                 row.update({f"{pre}_{v}_x": p[0], f"{pre}_{v}_y": p[1], f"{pre}_{v}_heading": rad_to_deg(p[2])})
         rows.append(row)
     result = RefineResult(pd.DataFrame(rows), study.spec.model, model, budget, used, 2 * n,
-                          time.perf_counter() - t0, source)
+                          time.perf_counter() - t0, source, refine_units(search))
     if out_dir is not None:
         write_refine(study, search, result, Path(out_dir))
     return result
