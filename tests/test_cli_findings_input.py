@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 from conftest import assert_refused_with_one_line
 from pydantic import BaseModel, Field, ValidationError
+from test_cli_input_findings import refused
 
-from crashlab.cli import main
 from crashlab.input_files import pydantic_error
 from crashlab.scene_file import load_scene
 from crashlab.tools.examples import path as example
@@ -19,23 +19,6 @@ from crashlab.tools.examples import path as example
 REPO = Path(__file__).resolve().parent.parent
 SIDE = example("pc_crash/side.toml")
 STUDY_SCENE = REPO / "studies" / "pc_crash" / "side.toml"
-
-
-def run(capsys, *args):
-    """(exit status, stdout, stderr lines) of crashlab.cli.main in this process."""
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err.strip().splitlines()
-
-
-def refused(capsys, where, key, *args, words=()):
-    """The command refused in one line naming `where` and `key` (exit 2); that line."""
-    code, out, err = run(capsys, *args)
-    assert code == 2 and len(err) == 1, (code, out, err)
-    assert err[0].startswith(f"crashlab: error: {where}: {key}: "), err
-    for w in words:
-        assert w in err[0], err
-    return err[0]
 
 
 # ------------------------------------------------------------------ 1: a pattern's message says what it requires
