@@ -236,10 +236,11 @@ def impact_rows(names, mass, imp, compliance, heads=None):
     its global components impulse_x, impulse_y, impulse_z, max_penetration [m] (the pair's largest total crush),
     crush [m] (the vehicle's share of it, pair_rows), approach_speed /
     separation_speed [m/s] (relative normal velocity at the contact point at onset and at separation;
-    restitution = separation/approach; None for a push, no impact; NaN where the ratio is no restitution: an
-    approach below APPROACH_MIN (a car's corner grazing a post along a normal that then turned), no separation
-    (an impact still closing where its push took over) or the contact still open), open (contact still active
-    when the run ended). A push's record (I_PUSH) gives rows of kind "push" (crashlab.outcome.PUSH)."""
+    restitution = separation/approach; None for a push, no impact, and where the ratio is no restitution: an
+    approach below APPROACH_MIN (a car's corner grazing a post along a normal that then turned, cars parked
+    touching), no separation (an impact still closing where its push took over) or the contact still open), open
+    (contact still active when the run ended). A push's record (I_PUSH) gives rows of kind "push"
+    (crashlab.outcome.PUSH)."""
     nv = len(names)
     rows = []
     for r in imp:
@@ -256,8 +257,8 @@ def impact_rows(names, mass, imp, compliance, heads=None):
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],
                        max_penetration=r[I_MAXPEN], approach_speed=dd0, separation_speed=-dd1,
-                       restitution=None if r[I_PUSH] else (-dd1 / dd0) if dd0 >= APPROACH_MIN and dd1 <= 0
-                       and not r[I_OPEN] else math.nan,
+                       restitution=(-dd1 / dd0) if not r[I_PUSH] and dd0 >= APPROACH_MIN and dd1 <= 0
+                       and not r[I_OPEN] else None,
                        open=bool(r[I_OPEN]))
         rows += pair
     return rows
