@@ -1,8 +1,11 @@
 """What the 3D models' chassis contact (chassis_contact.py) reports after a run: the guard's interpenetration check
-with the contact bodies, the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b), and
-the structures the contact used where they do not hold: a tilted vehicle's roof or underbody, a crush deeper than
-the struck face's crush zone (§13a "A tilted body", §28 "Crush zone")."""
+with the contact bodies, the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b), the
+structures the contact used where they do not hold: a tilted vehicle's roof or underbody, a crush deeper than
+the struck face's crush zone (§13a "A tilted body", §28 "Crush zone"), and a vehicle's contacts with different
+partners at the same time, whose rows' delta-Vs each hold them all (§21 "Concurrent contacts")."""
 from __future__ import annotations
+
+import math
 
 from crashlab.restitution import range_warning
 from crashlab.structure import TILTED_FACES, crush_zone_warning
@@ -55,4 +58,36 @@ def structure_warnings(scene, rows) -> list:
         why = crush_zone_warning(name, specs[name], face, crush)
         if why:
             out.append(why)
+    return out
+
+
+# a contact whose own impulse changes a vehicle's speed by less [m/s] is left out of concurrent_contact_warnings
+# (parked cars touching from the start open episodes of no impulse)
+CONCURRENT_DV = 0.1
+
+
+def concurrent_contact_warnings(rows, mass) -> list:
+    """One reason per vehicle whose contact episodes with different partners overlap in time (the rows' t to
+    t + duration; pushes included): a 3D row's delta-V is the vehicle's CG velocity change over its episode, so
+    each of those rows holds the other contacts' impulses too (§21 "Concurrent contacts"); the reason gives each
+    such row's delta-V beside its own contact impulse (in plan) over the vehicle's mass. mass: {name: kg}; rows
+    with the 3D models' impulse_x, impulse_y and duration."""
+    by_vehicle: dict = {}
+    for r in rows:  # contacts whose own impulse changes the vehicle's speed by CONCURRENT_DV at least
+        if math.hypot(r["impulse_x"], r["impulse_y"]) >= CONCURRENT_DV * mass[r["vehicle"]]:
+            by_vehicle.setdefault(r["vehicle"], []).append(r)
+    out = []
+    for name, mine in by_vehicle.items():
+        hit = sorted((a for a in mine if any(b["other"] != a["other"] and b["t"] < a["t"] + a["duration"]
+                                             and a["t"] < b["t"] + b["duration"] for b in mine)),
+                     key=lambda a: a["t"])
+        if not hit:
+            continue
+        shown = "; ".join(f"with {a['other']} at t = {a['t']:.3f} s: {3.6 * math.hypot(a['dvx'], a['dvy']):.1f} "
+                          f"km/h, its own contact impulse "
+                          f"{3.6 * math.hypot(a['impulse_x'], a['impulse_y']) / mass[name]:.1f} km/h" for a in hit[:4])
+        more = f"; and {len(hit) - 4} more" if len(hit) > 4 else ""
+        out.append(f"{name}'s contacts with different partners overlap in time: each of their rows' delta-V is "
+                   f"{name}'s CG velocity change over its episode and holds the other contacts' impulses too "
+                   f"({shown}{more}; docs/physics.md §21 \"Concurrent contacts\")")
     return out

@@ -28,7 +28,12 @@ from crashlab.models.common.contact_episodes import (
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
-from crashlab.models.common.contact_report import end_overlap, speed_law_warnings, structure_warnings
+from crashlab.models.common.contact_report import (
+    concurrent_contact_warnings,
+    end_overlap,
+    speed_law_warnings,
+    structure_warnings,
+)
 from crashlab.models.common.crush_structure import clamp_restitution, speed_law_setting, structure_row
 from crashlab.models.common.driver_inputs import (
     A_MODE,
@@ -326,6 +331,7 @@ class MultibodyModel(CollisionModel):
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
         warnings += structure_warnings(scene, rows)
+        warnings += concurrent_contact_warnings(rows, dict(zip(names, BODY[:, :, 0].sum(1))))
         intervals = contact_intervals(imp[:, I_T0], imp[:, I_T1], traj[:nr, :, REC.R_T], traj[:nr, :, REC.R_ROAD])
         diagnostics["road_contact_time"] = {n: float(np.sum(np.diff(traj[:nr, v, REC.R_T])
                                                             * (traj[1:nr, v, REC.R_ROAD] > 0)))
