@@ -52,9 +52,9 @@ def _state(x2, y2=OFFSET):
 
 
 def _evaluate(Y, CT):
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
-    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, 1.5, 0.0, 0.3, 0.0, FRICTION_V0, FRICTION_V1,
-               FRICTION_VS, 1e-3, float(C.LAW_STRUCTURE), 0.1)
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
+    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, FM, 1.5, 0.0, 0.3, 0.0, FRICTION_V0,
+               FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_STRUCTURE), 0.1)
     return PSG[0, 0].copy(), FX.copy()
 
 
@@ -158,8 +158,8 @@ def test_crush_is_never_below_the_shapes_overlap():
     PST[0, C.S_CI], PST[0, C.S_CR], PST[0, C.S_CM] = 0.05, 0.5, 2.0  # continuous crush 0.45 m below its measure
     out, FX = _evaluate(_state(x0 - 0.3), CT)
     GT = _arrays()
-    CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG, FXg, BPC, OUT = GT
-    C.contacts(_state(x0 - 0.3), 7, CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG[0], FXg, BPC, OUT, 1.5, 0.0, 0.3, 0.0,
+    CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG, FXg, BPC, OUT, FM = GT
+    C.contacts(_state(x0 - 0.3), 7, CSH, BOXR, BOXA, BOXE, PP, PSTg, PSG[0], FXg, BPC, OUT, FM, 1.5, 0.0, 0.3, 0.0,
                FRICTION_V0, FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_GENERIC), 0.1)
     overlap = PSG[0, 0, C.G_DEL]  # the rounded shapes' smallest overlap, sideways here
     assert 0.0 < overlap < 0.3    # (the continuous crush: 0.05 + 0.3 - 0.5 = -0.15 m)

@@ -46,8 +46,8 @@ def _point_height(sh1, z1, sh2=None, z2=0.0, barrier=False, depth=0.1):
         Y[1, :7] = [sh1[0] + sh2[0] - depth, 0.0, z2, 0.0, 0.0, 0.0, 1.0]
         PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]), [1500.0, 1500.0])
         CT = C.contact_arrays(np.array([sh1, sh2]), PP, np.zeros((0, 5)), 2)
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
-    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, 1.5, 0.0, 0.3, 0.0, FRICTION_V0,
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
+    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, FM, 1.5, 0.0, 0.3, 0.0, FRICTION_V0,
                FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_STRUCTURE), 0.1)
     fx = FX[0, 0]
     assert fx < 0.0 and FX[0, 2] == 0.0                   # pushed back, horizontally

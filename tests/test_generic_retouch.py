@@ -39,8 +39,8 @@ def _head_on(x2, closing):
 
 
 def _evaluate(Y, CT):
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
-    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, N, CHI, 0.0, 0.0, FRICTION_V0,
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
+    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, FM, N, CHI, 0.0, 0.0, FRICTION_V0,
                FRICTION_V1, FRICTION_VS, V_MIN, float(C.LAW_GENERIC), 0.1)
     return PSG[0, 0].copy()
 

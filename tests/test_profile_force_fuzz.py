@@ -312,8 +312,14 @@ def section_width(body1, body2, n):
     U1, S1, U2, S2 = np.empty((4, N_OUT + 2))
     m1 = C._facing_chain(O1, False, body1.A, rc1, n[0], n[1], 1.0, U1, S1)
     m2 = C._facing_chain(O2, body2.is_box, body2.A, rc2, n[0], n[1], -1.0, U2, S2)
-    return C._chain_force(U1, S1, m1, U2, S2, m2, body2.is_box, 0.1, 0.1, 0.1, B, B, 50.0, 50.0,
-                          np.empty(N_OUT + 2), np.empty(N_OUT + 2))[1]
+    return chain_force(U1, S1, m1, U2, S2, m2, body2.is_box, 0.1, 0.1, 0.1)[1]
+
+
+def chain_force(U1, S1, m1, U2, S2, m2, is_box, crush, cm, e):
+    """chassis_contact._chain_force of two structures of stiffness B, 50 m wide, without face memories."""
+    none, sh, A, rc = np.zeros(0), np.ones(7), np.eye(3), np.zeros(3)
+    return C._chain_force(U1, S1, m1, U2, S2, m2, is_box, crush, cm, e, B, B, 50.0, 50.0, np.empty(N_OUT + 2),
+                          np.empty(N_OUT + 2), 1.0, 0.0, sh, A, rc, sh, A, rc, none, none, -1, -1, none)
 
 
 def test_width_is_the_polygons_overlap_when_tilted_far():
@@ -388,6 +394,5 @@ def test_tilt_blends_the_section_into_the_shadow_continuously():
     A = rotation(0.0, 0.0, math.radians(35.0))
     m1 = C._facing_chain(O, False, A, np.array([0.0, 0.0, 0.4]), 1.0, 0.0, 1.0, U1, S1)
     m2 = C._facing_chain(O, False, np.eye(3), rc2, 1.0, 0.0, -1.0, U2, S2)
-    section = C._chain_force(U1, S1, m1, U2, S2, m2, False, 0.3, 0.3, 0.1, B, B, 50.0, 50.0, np.empty(N_OUT + 2),
-                             np.empty(N_OUT + 2))[0]
+    section = chain_force(U1, S1, m1, U2, S2, m2, False, 0.3, 0.3, 0.1)[0]
     assert abs(force(35.0) - section) > 0.05 * section

@@ -39,8 +39,9 @@ def _state(poses):
 def _faces(poses):
     """Fresh contact arrays, evaluated once: the struck faces (i, j) latched and whether the pair is touching."""
     PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]), [1500.0, 1500.0])
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
-    C.contacts(_state(poses), 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, 1.5, 0.0, 0.3, 0.0,
+    CT = C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
+    C.contacts(_state(poses), 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, FM, 1.5, 0.0, 0.3, 0.0,
                FRICTION_V0, FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_STRUCTURE), 0.1)
     return (int(PST[0, C.S_FACE_I]), int(PST[0, C.S_FACE_J])), PSG[0, 0, C.G_DEL] > 0.0
 

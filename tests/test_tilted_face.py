@@ -70,12 +70,12 @@ def test_a_front_into_the_roof_of_a_car_on_its_side():
     front; the force pushes V1 back along -x and V2 along +x, from the front's B in series with V2's side B."""
     PP = C.pair_table(2, 0, 1e6, 1.5, np.array([STR, STR]), [1500.0, 1500.0])
     CT = C.contact_arrays(np.array([SH, SH]), PP, np.zeros((0, 5)), 2)
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
     Y = np.zeros((2, 13))
     Y[0, :7] = [0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0]
     Y[1, :3] = [SH[0] + SH[2] - 0.1, 0.0, 0.5]
     Y[1, 3:7] = from_matrix(ON_ITS_SIDE)
-    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, 1.5, 0.0, 0.3, 0.0, FRICTION_V0,
+    C.contacts(Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, PSG[0], FX, BPC, OUT, FM, 1.5, 0.0, 0.3, 0.0, FRICTION_V0,
                FRICTION_V1, FRICTION_VS, 1e-3, float(C.LAW_STRUCTURE), 0.1)
     assert (PST[0, C.S_SIDE_I], PST[0, C.S_SIDE_J]) == (0.0, 4.0)
     assert PSG[0, 0, C.G_DEL] > 0.0

@@ -61,7 +61,7 @@ from .crush_structure import (
     permanent_crush,
     push_damping,
     series_force,
-    structure_force,
+    strip_force,
     structure_slot,
     swept_faces,
 )
@@ -117,7 +117,11 @@ N_PST = 41
 # structure law: the geometric crush measure of the evaluation and which one (S_CR, S_CM); the shapes' plan gap g
 # (GAP_FAR where the gates found them apart)
 G_RAW, G_MEAS, G_GAP = 12, 13, 14
-N_PSG = 15
+# structure law, the face memory's candidates (§13a "Face memory", contact_episodes.track_peak keeps them at accepted
+# evaluations): G_NS strips recorded (0: none), from G_STRIP four numbers per strip: the bin of body 1's struck face
+# it lies on (FM's column; -1: none), body 1's crush there, the same for body 2
+G_NS, G_STRIP = 15, 16
+N_PSG_HEAD = 16
 GAP_FAR = 1.0
 # broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
 # by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
@@ -129,6 +133,19 @@ BARRIER_HALF_HEIGHT = 0.75
 # about its shape centre (a vehicle's superellipse at the outward normal angles 2 pi k / N_OUT, so they crowd where
 # it is curved; a barrier's four corners, the last repeated), the engaged width cut into N_STRIP strips
 N_OUT, N_STRIP = 64, 24
+N_PSG = N_PSG_HEAD + 4 * N_STRIP
+# face memory FM[v] (§13a "Face memory"): each vehicle's own largest crush along each struck face (front, rear,
+# left, right, roof, underbody: crush_structure.face_code) in N_FACE_BIN bins across it (front and rear across the
+# width, the others along the length), kept for the run and shared by every partner
+N_FACES, N_FACE_BIN = 6, 32
+# FM[v, FM_MAX + face]: the face's largest memory (its strips skip the look-up where it cannot count)
+FM_MAX = N_FACES * N_FACE_BIN
+N_FM = FM_MAX + N_FACES
+# m: a face memory counts where it exceeds the pair's own by more than this (its resolution: the bins' width times
+# the profile's slope, the chord between the bins' centres); below, the pair's own memory is exact and the face's
+# representation error made strips reload on their steep unloading line (the side collision 939 steps against
+# 808; RICSAC 2's delta-V moved with the number of bins, 16 / 32 / 64)
+FACE_MEMORY_TOL = 0.03
 # a tilted vehicle's outline (§13a "A tilted body"): its z = 0 section (the cached N_OUT-gon) up to COS_SECTION of
 # tilt (the angle of its up axis from the vertical, or from the downward one), its shadow on the road (the 3D
 # support points along the horizontal directions) from COS_SHADOW, the force blended between (10-20 deg)
@@ -293,52 +310,90 @@ def shadow_weight(A):
 
 @njit(cache=True)
 def profile_force(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work):
+    """profile_force_memory without face memories: (force, engaged width, loading line's force)."""
+    none = np.zeros(0)
+    f, w, fl, _ = profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1,
+                                       w2, work, none, none, -1, -1, none)
+    return f, w, fl
+
+
+@njit(cache=True)
+def profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work, FM1,
+                         FM2, f1, f2, rec):
     """Normal force of the structure law over the crush profile (docs/physics.md §13a "Engaged width"): the
     engaged width (the overlap of the two plan outlines across the normal n, from body 1 towards body 2; body 2 a
     barrier's box if box2) cut into strips, each strip's local overlap along n from the outlines, its setback
     sig_k below the deepest local overlap (of the strips' middles, the width's ends and a box's corners), and the
     force per unit width of the strip's own crush,
-    sum_k du structure_force(crush - sig_k, cm - sig_k, e, b1, b2) (CRASH3's integral over the profile; a flat
-    face, sig = 0, gives w structure_force(crush, ...)); the width at most each structure's (w1, w2; w2 <= 0: a
-    barrier, unlimited), by scaling. A vehicle's outline is its cached z = 0 section O (sh its superellipsoid),
+    sum_k du strip_force(crush - sig_k, m1_k, m2_k, e, b1, b2) (CRASH3's integral over the profile; a flat
+    face, sig = 0, gives w structure_force(crush, ...)), each structure's memory m_q,k at the strip the larger of
+    its share of the pair's (cm - sig_k, shared as the loading shares it) and its face memory less FACE_MEMORY_TOL
+    (FM1, FM2, §13a "Face memory": the vehicles' rows, the struck faces f1, f2; empty: none, a barrier's) where the
+    strip lies on the face; the width at most each structure's (w1, w2; w2 <= 0: a barrier, unlimited), by scaling.
+    rec (empty: not recorded): the strips' face bins and crushes (G_STRIP's four numbers per strip) for the face
+    memory. A vehicle's outline is its cached z = 0 section O (sh its superellipsoid),
     or for a tilted one its shadow, the force and width blended between by the more tilted vehicle's
     shadow_weight (§13a "A tilted body"). work: (6, N_OUT + 2) scratch (the two chains, then the two strips'
     rows). Returns (force, engaged width, the force of the loading line at this crush: the same with the memory cm
-    at crush, for the push damping's limit, §13a "Push damping")."""
+    at crush, for the push damping's limit, §13a "Push damping", the pair's crush where its first strip bears:
+    min_k sig_k + (m1_k + m2_k)(1 - e^2), the scalar permanent_crush(cm, e) where no strip is engaged)."""
     lam = max(shadow_weight(A1), 0.0 if box2 else shadow_weight(A2))
     U1, S1, U2, S2 = work[0], work[1], work[2], work[3]
     f = w = fl = 0.0
+    cp = math.inf
     if lam < 1.0:
         m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
-        f, w, fl = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
+        f, w, fl, cp = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5],
+                                    n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2, rec if lam < 0.5 else rec[:0])
     if lam > 0.0:
         m1 = _shadow_chain(sh1, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, True, A2, rc2, n0, n1, -1.0, U2, S2) if box2 else \
             _shadow_chain(sh2, A2, rc2, n0, n1, -1.0, U2, S2)
-        fs, ws, fls = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5])
+        fs, ws, fls, cps = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4],
+                                        work[5], n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2,
+                                        rec if lam >= 0.5 else rec[:0])
         f, w, fl = (1.0 - lam) * f + lam * fs, (1.0 - lam) * w + lam * ws, (1.0 - lam) * fl + lam * fls
-    return f, w, fl
+        cp = min(cp, cps)  # the blended force bears where either chain's does
+    return f, w, fl, cp if cp < math.inf else permanent_crush(cm, e)
 
 
 @njit(cache=True)
-def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top, bot):
-    """profile_force over the two facing chains (U1, S1) of body 1 and (U2, S2) of body 2 (m1, m2 vertices):
-    (force, engaged width, loading line's force)."""
+def _face_memory(FM, px, py, rc, A, sh, face):
+    """The face memory (§13a "Face memory") of the plan point (px, py) on the struck face `face`
+    (crush_structure.face_code) of a body with shape centre rc, rotation A, half sizes sh, from its row FM: its
+    position across the face (front and rear: y over the half width, else x over the half length) in bins, the
+    memory interpolated linearly between the bins' centres (continuous as a strip moves along the face: a step in
+    it made multibody's steps fail), and the column of the nearest bin (which the strip's crush updates)."""
+    dx, dy = px - rc[0], py - rc[1]
+    s = (A[0, 1] * dx + A[1, 1] * dy) / sh[1] if face < 2 else (A[0, 0] * dx + A[1, 0] * dy) / sh[0]
+    x = min(max(0.5 * (s + 1.0) * N_FACE_BIN - 0.5, 0.0), N_FACE_BIN - 1.0)
+    j = min(int(x), N_FACE_BIN - 2)
+    lam = x - j
+    q = face * N_FACE_BIN
+    return (1.0 - lam) * FM[q + j] + lam * FM[q + j + 1], q + int(x + 0.5)
+
+
+@njit(cache=True)
+def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top, bot, n0, n1, sh1, A1, rc1, sh2, A2,
+                 rc2, FM1, FM2, f1, f2, rec):
+    """profile_force_memory over the two facing chains (U1, S1) of body 1 and (U2, S2) of body 2 (m1, m2 vertices):
+    (force, engaged width, loading line's force, the crush where the first strip bears; inf: no strip)."""
     i1, j1 = _ends(U1, m1)
     i2, j2 = _ends(U2, m2)
     lo, hi = max(U1[i1], U2[i2]), min(U1[j1], U2[j2])
     w = hi - lo
+    if rec.shape[0] > 0:
+        rec[:] = -1.0
     if w <= 0.0:
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, math.inf
     du = w / N_STRIP
     top, bot = top[:N_STRIP], bot[:N_STRIP]
     _sections(U1, S1, m1, lo, du, top)
     _sections(U2, S2, m2, lo, du, bot)
     cmax = -math.inf
-    for k in range(N_STRIP):
-        top[k] += bot[k]  # the local overlap along n (-inf where an outline does not reach the strip)
-        cmax = max(cmax, top[k])
+    for k in range(N_STRIP):  # the local overlap along n top + bot (-inf where an outline does not reach the strip)
+        cmax = max(cmax, top[k] + bot[k])
     # the deepest local overlap, piecewise linear between the chains' vertices, may lie between the strips'
     # middles where a face slopes across n: at an end of the width, or at a box's corner
     # (at each end one chain's extreme vertex: its own height there)
@@ -348,16 +403,37 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top
         for q in range(m2 - 1):
             if lo <= U2[q] <= hi:
                 cmax = max(cmax, _height(U1, S1, m1, U2[q]) + S2[q])
+    # each structure's share of the pair's memory (its loading's: the same force on both, crushing f / B_q)
+    share1 = b2 / (b1 + b2) if b2 > 0.0 else 1.0
+    e2 = e * e
     f = fl = 0.0
+    cp = math.inf
     for k in range(N_STRIP):
-        if top[k] > -math.inf:
-            sig = cmax - top[k]
-            f += structure_force(crush - sig, cm - sig, e, b1, b2)
+        ov = top[k] + bot[k]
+        if ov > -math.inf:
+            sig = cmax - ov
+            own = max(cm - sig, 0.0)
+            mem1, mem2 = share1 * own, (1.0 - share1) * own
+            q1 = q2 = -1
+            u = lo + (k + 0.5) * du
+            # the strip's point on body 1's outline: u t + top n; on body 2's: u t - bot n (only where the face's
+            # largest memory can count, or its crush is recorded)
+            if FM1.shape[0] > 0 and f1 >= 0 and (rec.shape[0] > 0 or FM1[FM_MAX + f1] - FACE_MEMORY_TOL > mem1):
+                fm, q1 = _face_memory(FM1, -u * n1 + top[k] * n0, u * n0 + top[k] * n1, rc1, A1, sh1, f1)
+                mem1 = max(mem1, fm - FACE_MEMORY_TOL)
+            if FM2.shape[0] > 0 and f2 >= 0 and (rec.shape[0] > 0 or FM2[FM_MAX + f2] - FACE_MEMORY_TOL > mem2):
+                fm, q2 = _face_memory(FM2, -u * n1 - bot[k] * n0, u * n0 - bot[k] * n1, rc2, A2, sh2, f2)
+                mem2 = max(mem2, fm - FACE_MEMORY_TOL)
+            fk, c1, c2 = strip_force(crush - sig, mem1, mem2, e, b1, b2)
+            f += fk
             fl += series_force(crush - sig, b1, b2)
+            cp = min(cp, sig + (mem1 + (mem2 if b2 > 0.0 else 0.0)) * (1.0 - e2))
+            if rec.shape[0] > 0:
+                rec[4 * k], rec[4 * k + 1], rec[4 * k + 2], rec[4 * k + 3] = q1, c1, q2, c2
     scale = min(1.0, w1 / w)
     if w2 > 0.0:
         scale = min(scale, w2 / w)
-    return f * du * scale, w * scale, fl * du * scale
+    return f * du * scale, w * scale, fl * du * scale, cp
 
 
 @njit(cache=True)
@@ -366,16 +442,16 @@ def _zrange(kind, sh, r, A):
 
 
 @njit(cache=True)
-def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
+def contacts(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
              cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e):
     """`contacts_awake` with every vehicle awake (every pair is evaluated)."""
-    contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
-                   cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, np.ones(0, np.bool_))
+    contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM, cfg_n, cfg_chi, cfg_mu, cfg_fcode,
+                   cfg_v0, cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, np.ones(0, np.bool_))
 
 
 @njit(cache=True)
-def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg_n, cfg_chi, cfg_mu, cfg_fcode, cfg_v0,
-                   cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, awake):
+def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM, cfg_n, cfg_chi, cfg_mu, cfg_fcode,
+                   cfg_v0, cfg_v1, cfg_vs, cfg_vmin, cfg_law, cfg_e, awake):
     """Contact forces of every pair at state Y: FX[v] = (global force, global moment about the chassis
     CG, power) on each chassis; psg[p] the pair's outputs (G_*). Updates the warm angle PST[p, S_TH].
     awake (nv flags, or empty: all awake): a pair not in contact (no episode, or one whose contact ended) whose
@@ -387,7 +463,8 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
     superellipsoid lies inside its a x b x c box; a pair in contact always reaches the gap search, which
     also measures its separation speed); BPC counts what each stage removed.
     cfg_law: LAW_STRUCTURE (the crush structures of PP, unloading to the restitution cfg_e, §13a; cfg_e < 0:
-    restitution = "speed", e from the closing speed where the pair's crush began, §13b) or
+    restitution = "speed", e from the closing speed where the pair's crush began, §13b; each vehicle's face memory
+    FM, read here, kept by contact_episodes.track_peak, §13a "Face memory") or
     LAW_GENERIC (K delta^n with the hysteresis cfg_chi, §13)."""
     nv = Y.shape[0]
     use_awake = awake.shape[0] > 0
@@ -401,7 +478,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
     work, have_work = psg, False
     for p in range(PP.shape[0]):
         i, j = int(PP[p, P_I]), int(PP[p, P_J])
-        psg[p, :] = 0.0
+        psg[p, :N_PSG_HEAD] = 0.0
         psg[p, G_DEL] = -1.0
         psg[p, G_GAP] = GAP_FAR
         if use_awake and PST[p, S_ACT] != IN_CONTACT and not awake[i] and (j >= nv or not awake[j]):
@@ -563,17 +640,22 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, cfg
                     PST[p, S_E] = min(max(speed_restitution(dd), E_LO), E_HI)
                 e = PST[p, S_E]
             # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
-            # episode) exceeds the permanent set: an engaged episode does not chatter between the two measures
+            # episode) exceeds the permanent set (where the first strip bears, each structure's memory the larger of
+            # its share of the pair's and its face memory's, §13a "Face memory"): an engaged episode does not
+            # chatter between the two measures
             cp = permanent_crush(cm, e)
+            if g < 0.0 and min(max(crush - cp, -g - cp), -g) > 0.0:  # (the face memory only raises cp)
+                # over the crush profile across the engaged width, within each structure's width
+                if not have_work:
+                    work, have_work = np.empty((6, N_OUT + 2)), True
+                fn, psg[p, G_WIDTH], f_load, cp = profile_force_memory(
+                    OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush, cm, e, b1s, b2s,
+                    PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work, FM[i], FM[j] if k2 == 0 else FM[i, :0],
+                    int(PST[p, S_FACE_I]), int(PST[p, S_FACE_J]) if k2 == 0 else -1, psg[p, G_STRIP:])
+                psg[p, G_NS] = N_STRIP
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue
-            # over the crush profile across the engaged width, within each structure's width
-            if not have_work:
-                work, have_work = np.empty((6, N_OUT + 2)), True
-            fn, psg[p, G_WIDTH], f_load = profile_force(OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1,
-                                                        crush, cm, e, b1s, b2s, PP[p, ci + 2],
-                                                        PP[p, cj + 2] if k2 == 0 else 0.0, work)
             if PST[p, S_PUSH] > 0.0:  # the crushed structures pressed in a push: damped (§13a "Push damping"), the
                 # damping at most the structures' force (continuous where the contact begins and ends; no pull) and
                 # the force at most the loading line's at this crush (continuous where the crush passes its memory)
@@ -636,9 +718,9 @@ def barrier_rows(barriers):
 
 
 def contact_arrays(CSH, PP, BAR, nv):
-    """The contact tuple handed to `contacts`: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT (fresh pair
+    """The contact tuple handed to `contacts`: CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM (fresh pair
     state, outputs for the 7 stages of a Dormand-Prince step, broad-phase counters, the plan outlines of the
-    vehicles and then the barriers)."""
+    vehicles and then the barriers, the vehicles' face memories, §13a "Face memory")."""
     nbar = BAR.shape[0]
     BOXR = np.zeros((nbar, 3))
     BOXA = np.zeros((nbar, 3, 3))
@@ -652,7 +734,7 @@ def contact_arrays(CSH, PP, BAR, nv):
                    + [box_outline(e[0], e[1]) for e in BOXE]).reshape(-1, N_OUT, 2)
     return (np.ascontiguousarray(CSH, dtype=float), BOXR, BOXA, BOXE, np.ascontiguousarray(PP, dtype=float),
             np.zeros((npair, N_PST)), np.zeros((7, npair, N_PSG)), np.zeros((nv, 7)), np.zeros(N_BPC, np.int64),
-            OUT)
+            OUT, np.zeros((nv, N_FM)))
 
 
 def plan_outline(sh):

@@ -21,17 +21,21 @@ from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
 
 from .chassis_contact import (
     ENDED,
+    FM_MAX,
     G_CRUSH,
     G_DEL,
     G_FN,
     G_FX,
     G_MEAS,
+    G_NS,
     G_POW,
     G_PX,
     G_PY,
     G_RAW,
+    G_STRIP,
     G_TH,
     IN_CONTACT,
+    N_FACE_BIN,
     NONE,
     P_I,
     P_J,
@@ -122,11 +126,12 @@ def sync_crush(PST, p, out):
 
 
 @njit(cache=True)
-def track_peak(PST, p, out):
+def track_peak(PST, p, out, PP, FM):
     """Keep the peak normal force (with the point and normal angle there) and the largest penetration (the
-    overlap of the undeformed shapes, the total crush); in contact, the pair's largest crush S_CMAX (the
-    structure law's memory, §13a: updated only here, at accepted evaluations); the continuous crush's reference
-    (sync_crush: the models call this for the stages of an accepted step in order, the step's end last)."""
+    overlap of the undeformed shapes, the total crush); in contact, the pair's largest crush S_CMAX and the
+    vehicles' face memories FM (the structure law's memories, §13a, "Face memory": updated only here, at accepted
+    evaluations); the continuous crush's reference (sync_crush: the models call this for the stages of an accepted
+    step in order, the step's end last)."""
     sync_crush(PST, p, out)
     if out[G_FN] > PST[p, S_PEAK]:
         PST[p, S_PEAK] = out[G_FN]
@@ -136,6 +141,34 @@ def track_peak(PST, p, out):
             PST[p, S_MAXPEN] = out[G_CRUSH]
         if out[G_CRUSH] > PST[p, S_CMAX]:
             PST[p, S_CMAX] = out[G_CRUSH]
+        if out[G_NS] > 0.0:
+            remember_faces(FM, int(PP[p, P_I]), int(PP[p, P_J]), out)
+
+
+@njit(cache=True)
+def remember_faces(FM, i, j, out):
+    """The face memory (§13a "Face memory") of vehicles i and j (j >= nv: a barrier, none) after the accepted
+    evaluation `out` (its G_STRIP records): each bin keeps the largest over the evaluations of the least crush of
+    the strips on it (a bin's strips crush unevenly where the face slopes across the normal: its least crush is
+    the memory every strip on it has reached)."""
+    nv = FM.shape[0]
+    ns = int(out[G_NS])
+    for side in range(2):
+        q = i if side == 0 else j
+        if q >= nv:
+            continue
+        cur, low = -1, 0.0
+        for k in range(ns + 1):
+            b = int(out[G_STRIP + 4 * k + 2 * side]) if k < ns else -1
+            c = out[G_STRIP + 4 * k + 2 * side + 1] if k < ns else 0.0
+            if b == cur and b >= 0:
+                low = min(low, c)
+                continue
+            if cur >= 0 and low > FM[q, cur]:
+                FM[q, cur] = low
+                face = cur // N_FACE_BIN
+                FM[q, FM_MAX + face] = max(FM[q, FM_MAX + face], low)
+            cur, low = b, c
 
 
 @njit(cache=True)

@@ -225,6 +225,43 @@ def push_damping(dd, e, B1, B2, width, m_eff):
 
 
 @njit(cache=True)
+def strip_force(C, m1, m2, e, B1, B2):
+    """Force per unit width of two structures in series at total crush C, each with its own largest crush so far
+    m1, m2 (docs/physics.md §13a "Face memory"): structure q crushes c_q(f) = f / B_q on its loading line (f >= B_q
+    m_q), else m_q (1 - e^2) + f e^2 / B_q on its unloading line (slope B_q / e^2 through (m_q, B_q m_q)); the
+    force f solves c_1(f) + c_2(f) = C (piecewise linear, increasing), 0 below the permanent sets. A rigid partner
+    (B2 <= 0) does not crush. Returns (f, c_1, c_2); with m_q = m B_s / B_q (one pair's memory m, shared as its
+    loading shares it) f is structure_force(C, m, ...). Below the permanent sets c_1 = c_2 = 0."""
+    e2 = e * e
+    rigid = B2 <= 0.0
+    m1 = max(m1, 0.0)
+    m2 = 0.0 if rigid else max(m2, 0.0)
+    F1 = B1 * m1
+    F2 = 0.0 if rigid else B2 * m2
+    f = series_force(C, B1, B2)
+    if f >= F1 and f >= F2:  # both on their loading lines (new crush: the usual case), as series_force
+        return f, f / B1, 0.0 if rigid else f / B2
+    F2 = math.inf if rigid else F2
+    c_lo = (m1 + m2) * (1.0 - e2)
+    if C <= c_lo:
+        return 0.0, 0.0, 0.0
+    f_lo, f = 0.0, 0.0
+    for q in range(3):  # the breakpoints F1, F2 in order, then no bound
+        up = min(F1, F2) if q == 0 else (max(F1, F2) if q == 1 else math.inf)
+        if up <= f_lo:
+            continue
+        slope = (e2 if f_lo < F1 else 1.0) / B1 + (0.0 if rigid else (e2 if f_lo < F2 else 1.0) / B2)
+        if up == math.inf or C <= c_lo + slope * (up - f_lo):
+            f = f_lo + (C - c_lo) / slope
+            break
+        c_lo += slope * (up - f_lo)
+        f_lo = up
+    c1 = m1 * (1.0 - e2) + f * e2 / B1 if f < F1 else f / B1
+    c2 = 0.0 if rigid else (m2 * (1.0 - e2) + f * e2 / B2 if f < F2 else f / B2)
+    return f, c1, c2
+
+
+@njit(cache=True)
 def structure_force(C, Cm, e, B1, B2):
     """Force per unit width at total crush C with the largest crush so far Cm: the loading law at C >= Cm, else
     the unloading line of slope f_m^2 / (2 e^2 e_m) = Bs / e^2 through (Cm, f_m), clamped at 0."""

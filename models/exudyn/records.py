@@ -75,7 +75,7 @@ class Records:
         h = t - s
         self.nsteps += 1
         self.h_min_used = min(self.h_min_used, h)
-        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = self.CT
+        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = self.CT
         psg0 = self.psg0
         for p in range(PP.shape[0]):
             i, j = int(PP[p, C.P_I]), int(PP[p, C.P_J])
@@ -97,7 +97,7 @@ class Records:
                         self.struck[v] = True   # locked_after_impact locks in the next pre-step (_driver)
             for q in (psg0, psg1):
                 EP.accumulate(PST, p, 0.5 * h, q[p])
-                EP.track_peak(PST, p, q[p])
+                EP.track_peak(PST, p, q[p], PP, FM)
             # where within the step the contact ended / began (interpolated; only where it did: d0 == d1 divided
             # by zero)
             t_part = s + h * min(max(d0 / (d0 - d1), 0.0), 1.0) if d0 > 0.0 >= d1 else s

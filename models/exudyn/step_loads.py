@@ -33,10 +33,10 @@ class StepLoads:
         sd = self.mbs.systemData
         chassis_states(self.q_ref, sd.GetODE2Coordinates(), sd.GetODE2Coordinates_t(), self.chassis_idx, self.Y,
                        self.chassisA)
-        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = self.CT
+        CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = self.CT
         psg = PSG[0]
         if PP.shape[0]:
-            C.contacts(self.Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, self.o["contact_exponent"],
+            C.contacts(self.Y, 7, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM, self.o["contact_exponent"],
                        self.cchi, self.mu_c, self.fcode, FRICTION_V0, FRICTION_V1, FRICTION_VS, self.o["v_min"],
                        self.claw, self.rest)
         else:

@@ -117,7 +117,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
     nv, ny = Y.shape
     nb = BODY.shape[1]
     nq, nvq = 7 * nb, 13 * nb
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
     RSG = RD[1]
     road = np.zeros(nv)
     npair = PP.shape[0]
@@ -240,7 +240,7 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
             for s in range(7):
                 if s < 6:
                     accumulate(PST, p, h * bw[s], PSG[s, p])
-                track_peak(PST, p, PSG[s, p])
+                track_peak(PST, p, PSG[s, p], PP, FM)
             d6 = PSG[6, p, G_DEL]
             if PST[p, S_ACT] == NONE:
                 if d6 > 0.0:

@@ -44,10 +44,10 @@ def eval_all(Y, K, s, te, awake, BODY, JNT, SPR, TYR, cfg, wk, aux, CT, RD, DV):
     """All forces and accelerations at stage s, time te (the driver's inputs; DV: driver_arrays)."""
     A, R, V, W, Q, D, phi, gam, rowb, ispos, S, lam, phit, MD, jst, JB, NZ, IM = wk
     ACT, NACT, GEO, ZC, ZS, ZM, ZB = DV
-    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT = CT
+    CSH, BOXR, BOXA, BOXE, PP, PST, PSG, FX, BPC, OUT, FM = CT
     KR, RSG = RD
     if PP.shape[0] > 0:
-        contacts_awake(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, OUT, cfg[C_NEXP],
+        contacts_awake(Y, 7 * BODY.shape[1], CSH, BOXR, BOXA, BOXE, PP, PST, PSG[s], FX, BPC, OUT, FM, cfg[C_NEXP],
                        cfg[C_CHI], cfg[C_MU_C], cfg[C_FCODE], cfg[C_FV0], cfg[C_FV1], cfg[C_FVS], cfg[C_VMIN],
                        cfg[C_LAW], cfg[C_REST], awake)
     else:
