@@ -162,3 +162,29 @@ def test_a_push_is_continuous_where_its_contact_begins():
     out = get_model("exudyn", step=0.004).simulate(scene)
     assert out.outcome_ok, out.warnings
     assert any(r["kind"] == PUSH for r in out.impact_rows)
+
+
+def test_an_impact_still_unloading_at_push_time_is_no_push():
+    """Contact from 0 still on at 0.35 s but separating (dd < 0, an impact's rebound): no push yet; at 0.40 s closing
+    again (dd > 0): the push opens there."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = EP.episode_step(IMP, 0, PP, PST, 0, 0.35, 0.35, 0.35, 0.01, -0.01, -0.5, (3.0, 0.0, 0.0), (-3.0, 0.0, 0.0))
+    assert n == 0 and PST[0, C.S_PUSH] == 0.0
+    n = EP.episode_step(IMP, n, PP, PST, 0, 0.40, 0.40, 0.40, 0.01, -0.01, 0.1, (2.0, 0.0, 0.0), (-2.0, 0.0, 0.0))
+    assert n == 1 and PST[0, C.S_PUSH] == 1.0 and IMP[0, EP.I_T1] == 0.40
+
+
+def test_a_soft_impact_longer_than_push_time_keeps_its_rebound():
+    """A saloon at 30 km/h into a 0.1 m wide rigid pole on ice, locked wheels, e = 0.6: the contact's quarter period
+    (pi/2) sqrt(m / (w B)) is 0.25 s, so it unloads past PUSH_TIME. The rebound is e times the impact speed (the
+    structure law's unloading gives back e^2 of the energy, docs/physics.md §13a): 5.0 m/s. The push's damping took
+    it before (0.30 of the impact speed, a push row of 0 km/h)."""
+    scene = build_scene([{"vehicle": "saloon", "speed": 30.0, "wheels": "locked"}], duration=1.0, stop_at_rest=False,
+                        road={"friction": 0.0}, impact={"restitution": 0.6},
+                        barriers=[{"x": 2.872, "y": 0.0, "heading": 90.0, "length": 0.1, "width": 1.0}])
+    from crashlab.registry import get_model
+    out = get_model("multibody").simulate(scene)
+    assert out.outcome_ok, out.warnings
+    assert -out.final_si[0, 0] == pytest.approx(0.6 * 30.0 / 3.6, rel=0.01)
+    assert [r["kind"] for r in out.impact_rows] == ["continuous"]

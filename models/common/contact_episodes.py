@@ -224,8 +224,9 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
     pushes"): in contact d = G_DEL > 0, shapes' gap `gap`, normal velocity dd, velocities vel_i, vel_j (vx, vy, yaw
     rate); t_part, t_touch: when within the step the contact ended or began again. A contact that ends is kept
     (ENDED, its end remembered) until the pair is SEPARATION apart, then written; a re-touch before continues the
-    episode. The contact later than PUSH_TIME after the episode's start is a push: the episode is written there
-    and a push record opened, which later re-touches continue. Returns the number of records written so far."""
+    episode. The contact later than PUSH_TIME after the episode's start is a push, from the first step end where
+    the pair is not separating (dd >= 0): the episode is written there and a push record opened, which later
+    re-touches continue. Returns the number of records written so far."""
     state = PST[p, S_ACT]
     late = PST[p, S_PUSH] == 0.0
     if state == IN_CONTACT:
@@ -233,7 +234,9 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
             PST[p, S_ACT], PST[p, S_T1], PST[p, S_DD1] = ENDED, t_part, dd
             for k in range(3):
                 PST[p, S_VEI + k], PST[p, S_VEJ + k] = vel_i[k], vel_j[k]
-        elif late and t - PST[p, S_T0] >= PUSH_TIME:
+        elif late and t - PST[p, S_T0] >= PUSH_TIME and dd >= 0.0:
+            # not while the pair separates: an impact still unloading (a soft or narrow contact longer than
+            # PUSH_TIME) keeps its rebound, which the push's damping would take (§15 "Episodes and pushes")
             n = close_episode(IMP, n, PP, PST, p, t, dd, 0.0, vel_i, vel_j)
             _open_push(PST, p, t, dd, vel_i, vel_j, False)
     elif state == ENDED:
