@@ -83,7 +83,7 @@ def _apply_impulse(P, S, i, j, nv, px, py, nx, ny, e, mu, law, alt):
         pn, pt, kind, rev, apn, apt = checked_impulse(knn, ktt, knt, gn, gt, e, mu, law)
         a1, b1 = r1x * ny - r1y * nx, r1x * ty - r1y * tx  # r x n, r x t: yaw-rate change per impulse
         a2, b2 = r2x * ny - r2y * nx, r2x * ty - r2y * tx
-        alt[I_REVERSED] = 1.0 if rev else 0.0
+        alt[I_REVERSED] = rev
         alt[I_CLOSING] = -gn
         alt[I_OWN_PN], alt[I_OWN_PT], alt[I_ALT_PN], alt[I_ALT_PT] = pn, pt, apn, apt
         alt[I_OWN_DR_I], alt[I_OWN_DR_J] = -(a1 * pn + b1 * pt) * iI1, (a2 * pn + b2 * pt) * iI2

@@ -19,6 +19,9 @@ REVERSED = 2  # (Routh) the slip stops and reverses
 # a tangential velocity at the point within SLIP_TOL of the normal one is no slip (§3): the friction's
 # direction never hangs on round-off (a contact plane entered at 90 or -90 deg leaves |g_t| ~ 1e-16 |g_n|)
 SLIP_TOL = 1e-9
+# what Routh's path says of another law's impact (checked_impulse): its slip stops and reverses, or it stops and
+# sticks but the law's sliding impulse reverses it
+SLIP_REVERSES, SLIP_OVERSHOOT = 1, 2
 
 
 @register_jitable
@@ -145,11 +148,19 @@ def routh_impulse(knn, ktt, knt, gn, gt, e, mu):
 
 @register_jitable
 def checked_impulse(knn, ktt, knt, gn, gt, e, mu, law):
-    """collision_impulse of the law, and whether the slip stops and reverses on Routh's path for the same
-    impact (K, initial slip, mu), with Routh's impulse: (Pn, Pt, kind, reversed, Pn_routh, Pt_routh).
-    Kudlich-Slibar and Brach keep friction against the initial slip throughout: wrong where it reverses (§3)."""
+    """collision_impulse of the law, and what Routh's path for the same impact (K, initial slip, mu) says of it,
+    with Routh's impulse: (Pn, Pt, kind, check, Pn_routh, Pt_routh); check SLIP_REVERSES where the slip stops and
+    reverses on Routh's path, SLIP_OVERSHOOT where it stops and sticks there but the law's sliding impulse, its
+    friction against the initial slip running on, reverses it (g'_t of the other sign), else 0. Kudlich-Slibar and
+    Brach keep friction against the initial slip throughout: wrong in both (§3)."""
     pn, pt, kind = collision_impulse(knn, ktt, knt, gn, gt, e, mu, law)
     if law == ROUTH:
-        return pn, pt, kind, kind == REVERSED, pn, pt
+        return pn, pt, kind, SLIP_REVERSES if kind == REVERSED else 0, pn, pt
     rpn, rpt, rkind = routh_impulse(knn, ktt, knt, gn, gt, e, mu)
-    return pn, pt, kind, rkind == REVERSED, rpn, rpt
+    if rkind == REVERSED:
+        return pn, pt, kind, SLIP_REVERSES, rpn, rpt
+    gt_after = gt + knt * pn + ktt * pt
+    if kind == SLIDING and abs(gt) > SLIP_TOL * abs(gn) and gt_after * gt < 0.0 \
+            and abs(gt_after) > SLIP_TOL * abs(gn):
+        return pn, pt, kind, SLIP_OVERSHOOT, rpn, rpt
+    return pn, pt, kind, 0, rpn, rpt

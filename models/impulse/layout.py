@@ -25,9 +25,9 @@ SETTINGS = np.dtype([
 ], align=True)
 # impact record: one row per impact (contact episode); the episode's follow-up contact impulses are
 # summed into it (dv, energy, impulse in the impact's n-t frame); I_T_END is its last impulse
-# I_REVERSED: the slip stops and reverses on Routh's path (laws.checked_impulse); the impact's own impulse
-# (I_OWN_*: n-t frame, yaw-rate changes of i and j) and Routh's for it (I_ALT_*), for the warning of a law
-# that does not follow the reversal (model._slip_warnings)
+# I_REVERSED: what Routh's path says of the impact (laws.checked_impulse: 0, SLIP_REVERSES, SLIP_OVERSHOOT); the
+# impact's own impulse (I_OWN_*: n-t frame, yaw-rate changes of i and j) and Routh's for it (I_ALT_*), for the
+# warning of a law that does not follow the slip (run_warnings._slip_warnings)
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
  I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO, I_SIDE_I, I_SIDE_J, I_WIDTH,

@@ -20,7 +20,7 @@ from crashlab.scene import given_pair
 
 from . import kernel as K
 from . import layout as L
-from .laws import BRACH, FULL, KUDLICH_SLIBAR, REVERSED, ROUTH, SLIDING
+from .laws import BRACH, FULL, KUDLICH_SLIBAR, REVERSED, ROUTH, SLIDING, SLIP_REVERSES
 from .population import simulate_variants
 from .run_warnings import run_warnings
 
@@ -288,5 +288,5 @@ def _impact_rows(names, mass, imp, specs):
         rows += pair_rows(names, mass, int(r[L.I_I]), int(r[L.I_J]), r[L.I_T], r[L.I_ENERGY], dv,
                           ((-ix, -iy), (ix, iy)), (r[L.I_HEAD_I], r[L.I_HEAD_J]), (r[L.I_PX], r[L.I_PY]), plane,
                           KIND_TEXT[int(r[L.I_KIND])], (r[L.I_SIDE_I], r[L.I_SIDE_J]), compliance, t_end=r[L.I_T_END],
-                          contact_impulses=int(r[L.I_N_FOLLOW]), slip_reversed=bool(r[L.I_REVERSED]))
+                          contact_impulses=int(r[L.I_N_FOLLOW]), slip_reversed=bool(r[L.I_REVERSED] == SLIP_REVERSES))
     return rows

@@ -13,6 +13,7 @@ from crashlab.structure import STRUCK_FACES, crush_zone
 from crashlab.units import ms_to_kmh
 
 from . import layout as L
+from .laws import SLIP_REVERSES
 
 
 def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
@@ -36,14 +37,19 @@ def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
 
 
 def _slip_warnings(names, mass, imp, law):
-    """A warning per impact whose slip stops and reverses on Routh's path (I_REVERSED), which `law`
-    (friction against the initial slip throughout) gets wrong: its delta-V, direction and yaw-rate changes
-    beside Routh's for the impact's own impulse (docs/physics.md §3)."""
+    """A warning per impact whose slip stops and reverses on Routh's path, or stops and sticks there where the
+    law's sliding impulse reverses it (I_REVERSED: laws.SLIP_REVERSES, SLIP_OVERSHOOT), which `law` (friction
+    against the initial slip throughout) gets wrong: its delta-V, direction and yaw-rate changes beside Routh's
+    for the impact's own impulse (docs/physics.md §3)."""
     out = []
     nv = len(names)
     for n, r in enumerate(imp):
         if r[L.I_REVERSED] < 0.5:
             continue
+        what = ("stops and reverses, which law = \"{law}\" does not follow (friction against the initial slip, or "
+                "sticking where it cannot stick)" if r[L.I_REVERSED] == SLIP_REVERSES else
+                "stops and sticks, where the sliding impulse of law = \"{law}\" reverses it (its friction against "
+                "the initial slip runs on past the stop)").format(law=law)
         i, j = int(r[L.I_I]), int(r[L.I_J])
         own, alt = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT]), math.hypot(r[L.I_ALT_PN], r[L.I_ALT_PT])
         off = math.degrees(abs(math.remainder(math.atan2(r[L.I_OWN_PT], r[L.I_OWN_PN])
@@ -55,8 +61,7 @@ def _slip_warnings(names, mass, imp, law):
                         for q, o, a in sides)
         other = names[j] if j < nv else barrier_name(j - nv)
         out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the slip at the point of impact "
-                   f"stops and reverses, which law = \"{law}\" does not follow (friction against the initial slip, or "
-                   f"sticking where it cannot stick): delta-V "
+                   f"{what}: delta-V "
                    f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
                    f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
     return out
