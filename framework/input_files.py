@@ -33,7 +33,9 @@ def read_toml(path: Path, what: str = "file") -> dict:
     except FileNotFoundError:
         raise InputError(path, what, "file not found") from None
     except tomllib.TOMLDecodeError as err:
-        raise InputError(path, "(syntax)", f"malformed TOML: {err}") from None
+        bom = " (the file begins with a byte-order mark, U+FEFF, which TOML does not allow: save it as UTF-8 " \
+              "without BOM)" if data.startswith(b"\xef\xbb\xbf") else ""
+        raise InputError(path, "(syntax)", f"malformed TOML: {err}{bom}") from None
     except UnicodeDecodeError:
         raise InputError(path, "(encoding)", "not a UTF-8 text file") from None
     except OSError as err:

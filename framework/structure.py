@@ -26,6 +26,9 @@ B_RANGE = (0.0, 5e7)   # N/m^2: cars 1e5-2e6, a bus or truck front to some 1e7
 # m/s, the largest no-damage speed b0 = sqrt(2 G w / m) a side may imply (G = A^2 / 2B over its width w): tests
 # bracket 2.2-4.5 m/s (SAE 2010-01-0069); a pair of A, B each in range may still give an absurd G (B -> 0)
 NO_DAMAGE_SPEED_MAX = 8.0
+# m/s, the least: A in kN/m or lbf/in read as N/m (b0 1000 or 175 times too small) with B right; the library's
+# sides 1.3-2.4 m/s, a side's crash plot 0.9 m/s (CRUSH_REFERENCE); a plausibility bound of ours, like the largest
+NO_DAMAGE_SPEED_MIN = 0.3
 # m, the range of the full-width residual crush C56 = (V56 - b0) / b1 a side's crash plot (b0 above, b1 = sqrt(B w / m))
 # gives at the 56 km/h rigid-barrier speed V56 (US NCAP): a plausibility bound of ours, not a published one (the
 # library's estimates give 0.24-0.70 m); outside it is no vehicle structure: A and B in kN/m or lb/in read as N/m

@@ -23,6 +23,7 @@ from .structure import (
     CRUSH_56_RANGE,
     CRUSH_56_SPEED,
     NO_DAMAGE_SPEED_MAX,
+    NO_DAMAGE_SPEED_MIN,
     STRUCTURE_SIDES,
     StructureSection,
     crash_plot,
@@ -63,7 +64,7 @@ class MultibodyChassis(_MultibodyPart):
         "contact superellipsoid reaches down to it, its top kept (default: its own bottom, at most 0.45 m)",
         lo_open=True, default=None)
     mass: Real | None = bounded(1.0, MASS_RANGE[1], "kg, the chassis body", default=None)
-    inertia: Positive3 | None = Field(None, description="kg m^2: Ixx, Iyy, Izz; each in (0, 1e7]")
+    inertia: Positive3 | None = Field(None, description="kg m^2, the chassis body: Ixx, Iyy, Izz; each in (0, 1e7]")
 
 
 class MultibodyWheel(_MultibodyPart):
@@ -205,11 +206,18 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
         limit, name = (v.length, "length") if side == "side" else (v.width, "width")
         if given is not None and given.width is not None and given.width > limit * (1 + 1e-9):
             out.append(((f"structure.{side}.width", name),
-                        f"structure.{side}.width ({given.width:g} m) must not exceed the vehicle's {name} "
-                        f"({limit:g} m)"))
+                        f"structure.{side}.width ({given.width!r} m) must not exceed the vehicle's {name} "
+                        f"({limit!r} m)"))
         if given is not None:  # docs/physics.md §28: the side's G w is the vehicle's energy at this speed
             b0 = crash_plot(given.A, given.B, given.width or limit, v.mass)[0]
-            if not b0 <= NO_DAMAGE_SPEED_MAX:
+            if b0 < NO_DAMAGE_SPEED_MIN:
+                out.append(((f"structure.{side}.A", f"structure.{side}.B", "mass"),
+                            f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
+                            f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) of "
+                            f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg: less than "
+                            f"{NO_DAMAGE_SPEED_MIN:g} m/s is no vehicle structure (A too small for B: in kN/m or "
+                            f"lbf/in, not N/m?)"))
+            elif not b0 <= NO_DAMAGE_SPEED_MAX:
                 out.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"),
                             f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
                             f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) of "

@@ -112,6 +112,18 @@ def test_the_no_damage_speed_bound_sits_at_8_m_s(tmp_path, b0, refused):
         assert res.returncode == 0, res.stderr
 
 
+@pytest.mark.parametrize("A_written", [A_FRONT / 1000.0, A_FRONT / 175.126835, A_FRONT / 10.0])
+def test_a_in_other_units_alone_is_refused_naming_A(tmp_path, A_written):
+    """A fuzzer (2026-11-27): A in kN/m or lbf/in (or a tenth of it) with B right passed every check, the crush
+    energy quietly too small (a Clio's front 5.0 against 11.7 kJ). The no-damage speed sqrt(A^2 w / (B m)), its
+    value by hand here, falls below 0.3 m/s: refused naming A."""
+    b0 = math.sqrt(A_written ** 2 * WIDTH / (B_FRONT * MASS))
+    assert b0 < 0.3
+    path = car(tmp_path, f"[structure.front]\nA = {A_written!r}\nB = {B_FRONT}\n", "a_units.toml")
+    assert_one_error_line(cli(path, "--side", "front", "--profile", "0.2,0.2", "--width", "1.5"), path,
+                          "structure.front.A", ["no-damage speed", "kN/m or lbf/in"])
+
+
 @pytest.mark.parametrize("side, profile, key", [("front", "5,5", "--profile[1]"),
                                                 ("rear", "0.2,4.3,0.2,0.2", "--profile[2]"),
                                                 ("side", "1.7,1.7", "--profile[1]")])

@@ -176,3 +176,14 @@ def test_csv_in_us_units(twins, tmp_path):
         assert us_column in (f"{column} [ft]", f"{column} [mph]", f"{column} [ft-lbf]")
         np.testing.assert_allclose(b[us_column], a[column] / factor, rtol=1e-9, atol=1e-9)
     assert "heading [deg]" in pd.read_csv(tmp_path / "us" / "trajectories.csv").columns  # no US form: as it is
+
+
+def test_a_us_override_of_the_chassis_inertia_is_converted(tmp_path):
+    """multibody.chassis.inertia's description began "kg m^2:" and the unit parser found no unit: a US scene's lb
+    ft^2 were kept as kg m^2 (23.7 times too large; a fuzzer, 2026-11-27). 1 lb ft^2 = 0.45359237 kg x
+    (0.3048 m)^2."""
+    f = tmp_path / "s.toml"
+    f.write_text('name = "us"\nunits = "us"\nduration = 1.0\n[road]\nfriction = 0.8\n[[vehicles]]\nname = "V1"\n'
+                 'vehicle = "clio"\n[vehicles.overrides.multibody.chassis]\ninertia = [10000.0, 20000.0, 30000.0]\n')
+    got = crashlab.load_scene(f).vehicles[0].spec.sections["multibody"]["chassis"]["inertia"]
+    assert got == pytest.approx([q * 0.45359237 * 0.3048 ** 2 for q in (10000.0, 20000.0, 30000.0)], rel=1e-12)

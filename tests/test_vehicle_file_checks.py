@@ -272,3 +272,21 @@ def test_every_library_vehicle_loads_and_has_only_known_or_model_keys():
         data = tomllib.loads(resources.files("crashlab").joinpath("vehicles", ref + ".toml").read_text())
         assert unknown_key_problem(data) is None, ref
         load_vehicle(ref)
+
+
+def test_a_byte_order_mark_is_named(tmp_path):
+    """A UTF-8 BOM gave "malformed TOML: Invalid statement (at line 1, column 1)" without saying why (a fuzzer,
+    2026-11-27)."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + b'name = "s"\nduration = 1.0\n')
+    assert_refused_with_one_line(load_scene, path, "(syntax)", ["byte-order mark", "without BOM"])
+
+
+def test_a_structure_width_just_beyond_the_vehicle_shows_the_difference(tmp_path):
+    """1.6400001 m on a 1.64 m car read "(1.64 m) must not exceed the vehicle's width (1.64 m)" (a fuzzer)."""
+    text = (resources.files("crashlab.vehicles") / "clio.toml").read_text()
+    width = tomllib.loads(text)["width"]
+    path = write_vehicle_file(tmp_path, text.replace("[structure.front]\n", f"[structure.front]\nwidth = "
+                                                                            f"{width + 1e-7!r}\n"))
+    assert_refused_with_one_line(lambda p: load_vehicle(p.name, base_dir=p.parent), path, "structure.front.width",
+                                 [f"({width + 1e-7!r} m)", f"({width!r} m)"])
