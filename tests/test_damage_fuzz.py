@@ -411,3 +411,13 @@ def test_random_inputs_give_an_input_error_or_finite_physical_numbers():
             assert r1["mass"] * dv1 == pytest.approx(r2["mass"] * dv2, rel=1e-12)
         ok += 1
     assert ok > 40  # enough valid commands to check the numbers
+
+
+def test_negative_numbers_in_e_notation_reach_the_command():
+    """`--pdof -1e1` and `--offset -3e-1` gave argparse's "expected one argument" (its negative-number test knows no
+    exponent; a fuzzer, 2026-11-27): now the same report as `--pdof=-10 --offset=-0.3`."""
+    args = ("clio", "--side", "front", "--profile", "0.2,0.3", "--width", "1.0", "--json")
+    spelled = cli(*args, "--pdof", "-1e1", "--offset", "-3e-1")
+    glued = cli(*args, "--pdof=-10", "--offset=-0.3")
+    assert spelled.returncode == 0 and glued.returncode == 0, spelled.stderr
+    assert json.loads(spelled.stdout) == json.loads(glued.stdout)

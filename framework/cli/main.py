@@ -416,10 +416,10 @@ def build_parser():
     return p
 
 
-# options whose value may start with "-" (a negative crush depth): argparse takes "-0.1,0.2" for an option and
-# prints its usage; glued to the option ("--profile=-0.1,0.2") the value reaches crashlab.damage, which refuses it
-# in one line naming the key (exit 2)
-DASH_VALUE_OPTIONS = ("--profile", "--with")
+# options whose value may start with "-" (a negative crush depth, offset or PDOF): argparse takes "-0.1,0.2" or
+# "-1e1" (its negative-number test knows no exponent) for an option and prints its usage; glued to the option
+# ("--profile=-0.1,0.2") the value reaches crashlab.damage, which takes it or refuses it in one line naming the key
+DASH_VALUE_OPTIONS = ("--profile", "--with", "--offset", "--pdof", "--width", "--restitution")
 
 
 def _glue_dash_values(argv: list[str]) -> list[str]:
