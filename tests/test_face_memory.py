@@ -107,9 +107,13 @@ def test_the_memory_keeps_each_bins_least_crush_and_the_largest_over_time():
     out[C.G_NS] = 3
     out[C.G_STRIP:C.G_STRIP + 12] = [5, 0.30, 40, 0.1, 5, 0.20, 40, 0.05, 6, 0.25, -1, -1.0]
     remember_faces(FM, 0, 1, out)
+    bins = FM[:, :C.FM_MAX]
     assert FM[0, 5] == pytest.approx(0.20) and FM[0, 6] == pytest.approx(0.25)
-    assert FM[1, 40] == pytest.approx(0.05) and np.count_nonzero(FM) == 3
+    assert FM[1, 40] == pytest.approx(0.05) and np.count_nonzero(bins) == 3
+    # each face's largest memory: bins 5, 6 on V1's front (face 0), bin 40 on V2's rear (face 1)
+    assert FM[0, C.FM_MAX + 0] == pytest.approx(0.25) and FM[1, C.FM_MAX + 1] == pytest.approx(0.05)
+    assert np.count_nonzero(FM[:, C.FM_MAX:]) == 2
     out[C.G_STRIP:C.G_STRIP + 12] = [5, 0.10, 40, 0.2, 5, 0.10, 40, 0.2, 6, 0.10, -1, -1.0]
     remember_faces(FM, 0, 2, out)                             # 2 >= nv: the partner is a barrier
     assert FM[0, 5] == pytest.approx(0.20) and FM[1, 40] == pytest.approx(0.05)
-    assert math.isclose(FM.sum(), 0.5)
+    assert math.isclose(bins.sum(), 0.5)
