@@ -54,7 +54,8 @@ def check_profile(profile: Sequence[float], key: str = "profile", where: str = "
     if isinstance(profile, (str, bytes)) or not isinstance(profile, Sequence):
         raise InputError(where, key, f"a list of {', '.join(map(str, PROFILE_POINTS))} crush depths [m]")
     if len(profile) not in PROFILE_POINTS:
-        raise InputError(where, key, f"{len(profile)} crush depth{'' if len(profile) == 1 else 's'} given: CRASH3 uses 2, 4 or 6 equally "
+        n = len(profile)
+        raise InputError(where, key, f"{n} crush depth{'' if n == 1 else 's'} given: CRASH3 uses 2, 4 or 6 equally "
                          "spaced points over the damaged width")
     out = [_finite(c, f"{key}[{i + 1}]", where) for i, c in enumerate(profile)]
     for i, c in enumerate(out):
