@@ -24,7 +24,12 @@ IMPACT_COLUMNS = ["t", "vehicle", "other", "dvx", "dvy", "delta_v", "d_yaw_rate"
 TRAJECTORY_UNITS = {"t": "s", "x": "m", "y": "m", "heading": "deg", "vx": "km/h", "vy": "km/h", "yaw_rate": "deg/s",
                     "z": "m", "roll": "deg", "pitch": "deg"}
 IMPACT_UNITS = {"t": "s", "dvx": "km/h", "dvy": "km/h", "delta_v": "km/h", "d_yaw_rate": "deg/s", "energy": "J",
-                "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg"}
+                "ees": "km/h", "pdof": "deg", "pdof_clock": "h", "point_x": "m", "point_y": "m", "plane_angle": "deg",
+                "crush": "m", "peak_force": "N", "duration": "s"}
+# columns of the impact table after IMPACT_COLUMNS where a model's rows carry them (the continuous-contact models:
+# the vehicle's crush [m], the pair's peak normal force [N], the contact's duration [s] and its restitution, the
+# rebound ratio of the normal velocities at the point; pymunk the duration)
+CONTACT_COLUMNS = ["crush", "peak_force", "duration", "restitution"]
 
 
 # an impact row's kind for the contact of a pair that outlasts its impact's pulse (one car pushing the other; every
@@ -210,9 +215,12 @@ class Outcome:
         push, the contact later than PUSH_TIME after the impact, one car pushing the other, §5, §15),
         slip_reversed (impulse model: the slip at the point stops and reverses in this impact, which
         the laws kudlich-slibar and brach do not follow; docs/physics.md §3), point_x, point_y [m],
-        plane_angle [deg]."""
+        plane_angle [deg]; where the model's rows carry them (CONTACT_COLUMNS) crush [m] (the vehicle's share of the
+        pair's largest crush, docs/physics.md §21), peak_force [N], duration [s], restitution (empty where it is no
+        rebound ratio: a push, an approach below 0.1 m/s, a contact still open)."""
         import pandas as pd
         rows = []
+        extra = [c for c in CONTACT_COLUMNS if any(c in r for r in self.impact_rows)]
         for r in self.impact_rows:
             rows.append({"t": r["t"], "vehicle": r["vehicle"], "other": r["other"],
                          "dvx": ms_to_kmh(r["dvx"]), "dvy": ms_to_kmh(r["dvy"]),
@@ -223,8 +231,9 @@ class Outcome:
                          "side": r.get("side", ""), "kind": r["kind"],
                          "slip_reversed": bool(r.get("slip_reversed", False)),
                          "point_x": r["point_x"], "point_y": r["point_y"],
-                         "plane_angle": rad_to_deg(r["plane_angle"])})
-        return pd.DataFrame(rows, columns=IMPACT_COLUMNS)
+                         "plane_angle": rad_to_deg(r["plane_angle"]),
+                         **{c: math.nan if r.get(c) is None else float(r[c]) for c in extra}})
+        return pd.DataFrame(rows, columns=IMPACT_COLUMNS + extra)
 
     def to_json_dict(self) -> dict:
         vehicles = {}

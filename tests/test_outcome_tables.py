@@ -72,3 +72,34 @@ def test_top_view_marks_the_point_of_impact_and_keeps_the_legend_off_the_drawing
     assert legend.x0 >= ax.get_window_extent().x1  # beside the axes, not over the data
     assert (tmp_path / "side.png").stat().st_size > 0
     close(captured["fig"])
+
+
+def test_a_3d_run_shows_each_cars_crush_peak_force_duration_and_restitution(tmp_path):
+    """The 3D models' impact rows carry each car's crush, the peak force, the duration and the restitution; the
+    CLI's JSON and CSV (and --wide) dropped them (a fuzzer, 2026-11-27). Now columns of Outcome.impacts where a
+    model gives them, in US units under --units us (crush in ft: 1 ft = 0.3048 m; force in lbf: 4.4482216 N)."""
+    import json
+
+    import pandas as pd
+    scene = PC_CRASH / "side.toml"
+    out = crashlab.simulate(crashlab.load_scene(scene), model="multibody")
+    rows = [r for r in out.impact_rows if r["kind"] != "push"]
+    assert list(out.impacts.columns[-4:]) == ["crush", "peak_force", "duration", "restitution"]
+    for col in ("crush", "peak_force", "duration", "restitution"):
+        assert out.impacts[col].iloc[0] == pytest.approx(rows[0][col], rel=1e-12)
+    assert "crush" not in crashlab.simulate(crashlab.load_scene(scene), model="impulse").impacts.columns
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(scene), "--model", "multibody",
+                          "--json", "--units", "us"], capture_output=True, text=True)
+    doc = json.loads(res.stdout)
+    first = doc["results"][0]["impacts"][0]
+    assert first["crush"] == pytest.approx(rows[0]["crush"] / 0.3048, rel=1e-5)
+    assert first["peak_force"] == pytest.approx(rows[0]["peak_force"] / 4.4482216152605, rel=1e-5)
+    assert first["restitution"] == pytest.approx(rows[0]["restitution"], rel=1e-5)
+    assert doc["units"]["impacts.crush"] == "ft" and doc["units"]["impacts.peak_force"] == "lbf"
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(scene), "--model", "multibody",
+                          "--csv", str(tmp_path / "out")], capture_output=True, text=True)
+    imp = pd.read_csv(tmp_path / "out" / "impacts.csv")
+    assert imp["crush"].iloc[0] == pytest.approx(rows[0]["crush"], rel=1e-9)
+    res = subprocess.run([sys.executable, "-m", "crashlab.cli", "simulate", str(scene), "--model", "multibody",
+                          "--wide"], capture_output=True, text=True)
+    assert "crush [m]" in res.stdout and "peak_force [N]" in res.stdout

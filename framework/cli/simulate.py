@@ -15,7 +15,8 @@ from ..units import json_in, json_number, table_in, wrap_deg
 # units of the JSON keys of `simulate --json` and `compare --json` (the same shape for both)
 # impact-table columns printed with --wide only (the default table fits 100 columns; a reversed slip is also a
 # warning of its own)
-IMPACT_WIDE_ONLY = ("dvx", "dvy", "pdof_clock", "side", "slip_reversed", "point_x", "point_y")
+IMPACT_WIDE_ONLY = ("dvx", "dvy", "pdof_clock", "side", "slip_reversed", "point_x", "point_y", "crush", "peak_force",
+                    "duration", "restitution")
 JSON_UNITS = {"x": "m", "y": "m", "heading": "deg, wrapped to (-180, 180]",
               "heading_continuous": "deg, continuous: the start heading plus every turn",
               "yaw_turned": "deg, continuous: rest heading minus start heading (two spins add 720)",
@@ -328,7 +329,8 @@ def cmd_simulate(args):
     if len(out.impacts):
         print("impacts:")
         from ..outcome import IMPACT_UNITS
-        table = out.impacts.drop(columns=["plane_angle"] + ([] if args.wide else list(IMPACT_WIDE_ONLY)))
+        hidden = ["plane_angle"] + ([] if args.wide else list(IMPACT_WIDE_ONLY))
+        table = out.impacts.drop(columns=hidden, errors="ignore")  # (CONTACT_COLUMNS where the model gives them)
         table = table.rename(columns={c: f"{c} [{IMPACT_UNITS[c]}]" for c in table if c in IMPACT_UNITS})
         print(_table_text(table_in(table, args.units), digits=3))
     for w in out.warnings:
