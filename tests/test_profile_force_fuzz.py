@@ -316,10 +316,12 @@ def section_width(body1, body2, n):
 
 
 def chain_force(U1, S1, m1, U2, S2, m2, is_box, crush, cm, e):
-    """chassis_contact._chain_force of two structures of stiffness B, 50 m wide, without face memories."""
+    """chassis_contact._chain_force of two structures of stiffness B, 50 m wide, without face memories, the pair's
+    memory cm shared equally (equal B)."""
     none, sh, A, rc = np.zeros(0), np.ones(7), np.eye(3), np.zeros(3)
-    return C._chain_force(U1, S1, m1, U2, S2, m2, is_box, crush, cm, e, B, B, 50.0, 50.0, np.empty(N_OUT + 2),
-                          np.empty(N_OUT + 2), 1.0, 0.0, sh, A, rc, sh, A, rc, none, none, -1, -1, none)
+    return C._chain_force(U1, S1, m1, U2, S2, m2, is_box, crush, cm / 2, cm / 2, e, B, B, 50.0, 50.0,
+                          np.empty(N_OUT + 2), np.empty(N_OUT + 2), 1.0, 0.0, sh, A, rc, sh, A, rc, none, none, -1, -1,
+                          none)
 
 
 def test_width_is_the_polygons_overlap_when_tilted_far():

@@ -109,7 +109,11 @@ NONE, IN_CONTACT, ENDED = 0.0, 1.0, 2.0
 # the approach velocity of the episode's current touch (generic law's delta_dot0): S_DD0 at onset, a re-touch's own
 # after an ENDED contact (contact_episodes.episode_step); S_DD0 stays the episode's (its impact row)
 S_DDT = 40
-N_PST = 41
+# structure law: each structure's own largest crush at the pair's deepest strip (its memory in this pair, the
+# strips' less their share of the setback; §13a "Face memory": against a face crushed before, the pair's total crush
+# is no longer shared as one loading shares it), reset with S_CMAX
+S_CM1, S_CM2 = 41, 42
+N_PST = 43
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -133,14 +137,15 @@ BARRIER_HALF_HEIGHT = 0.75
 # about its shape centre (a vehicle's superellipse at the outward normal angles 2 pi k / N_OUT, so they crowd where
 # it is curved; a barrier's four corners, the last repeated), the engaged width cut into N_STRIP strips
 N_OUT, N_STRIP = 64, 24
-N_PSG = N_PSG_HEAD + 4 * N_STRIP
+# after the strips' records, each structure's own crush at the deepest bearing strip with its share of that strip's
+# setback added back (the pair's own memory S_CM1, S_CM2 candidates: contact_episodes.remember_strips)
+G_OWN = G_STRIP + 4 * N_STRIP
+N_PSG = G_OWN + 2
 # face memory FM[v] (§13a "Face memory"): each vehicle's own largest crush along each struck face (front, rear,
 # left, right, roof, underbody: crush_structure.face_code) in N_FACE_BIN bins across it (front and rear across the
 # width, the others along the length), kept for the run and shared by every partner
 N_FACES, N_FACE_BIN = 6, 32
-# FM[v, FM_MAX + face]: the face's largest memory (its strips skip the look-up where it cannot count)
-FM_MAX = N_FACES * N_FACE_BIN
-N_FM = FM_MAX + N_FACES
+N_FM = N_FACES * N_FACE_BIN
 # m: a face memory counts where it exceeds the pair's own by more than this (its resolution: the bins' width times
 # the profile's slope, the chord between the bins' centres); below, the pair's own memory is exact and the face's
 # representation error made strips reload on their steep unloading line (the side collision 939 steps against
@@ -310,16 +315,18 @@ def shadow_weight(A):
 
 @njit(cache=True)
 def profile_force(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work):
-    """profile_force_memory without face memories: (force, engaged width, loading line's force)."""
+    """profile_force_memory of one pair's memory cm (shared as its loading shares it) without face memories:
+    (force, engaged width, loading line's force)."""
     none = np.zeros(0)
-    f, w, fl, _ = profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1,
-                                       w2, work, none, none, -1, -1, none)
+    share1 = b2 / (b1 + b2) if b2 > 0.0 else 1.0
+    f, w, fl, _ = profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, share1 * cm,
+                                       (1.0 - share1) * cm, e, b1, b2, w1, w2, work, none, none, -1, -1, none)
     return f, w, fl
 
 
 @njit(cache=True)
-def profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e, b1, b2, w1, w2, work, FM1,
-                         FM2, f1, f2, rec):
+def profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, cm1, cm2, e, b1, b2, w1, w2,
+                         work, FM1, FM2, f1, f2, rec):
     """Normal force of the structure law over the crush profile (docs/physics.md §13a "Engaged width"): the
     engaged width (the overlap of the two plan outlines across the normal n, from body 1 towards body 2; body 2 a
     barrier's box if box2) cut into strips, each strip's local overlap along n from the outlines, its setback
@@ -327,16 +334,17 @@ def profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush
     force per unit width of the strip's own crush,
     sum_k du strip_force(crush - sig_k, m1_k, m2_k, e, b1, b2) (CRASH3's integral over the profile; a flat
     face, sig = 0, gives w structure_force(crush, ...)), each structure's memory m_q,k at the strip the larger of
-    its share of the pair's (cm - sig_k, shared as the loading shares it) and its face memory less FACE_MEMORY_TOL
+    its own in the pair (cm1, cm2: its largest crush at the pair's deepest strip, less its share of the strip's
+    setback, shared as the loading shares it) and its face memory less FACE_MEMORY_TOL
     (FM1, FM2, §13a "Face memory": the vehicles' rows, the struck faces f1, f2; empty: none, a barrier's) where the
     strip lies on the face; the width at most each structure's (w1, w2; w2 <= 0: a barrier, unlimited), by scaling.
     rec (empty: not recorded): the strips' face bins and crushes (G_STRIP's four numbers per strip) for the face
     memory. A vehicle's outline is its cached z = 0 section O (sh its superellipsoid),
     or for a tilted one its shadow, the force and width blended between by the more tilted vehicle's
     shadow_weight (§13a "A tilted body"). work: (6, N_OUT + 2) scratch (the two chains, then the two strips'
-    rows). Returns (force, engaged width, the force of the loading line at this crush: the same with the memory cm
-    at crush, for the push damping's limit, §13a "Push damping", the pair's crush where its first strip bears:
-    min_k sig_k + (m1_k + m2_k)(1 - e^2), the scalar permanent_crush(cm, e) where no strip is engaged)."""
+    rows). Returns (force, engaged width, the force of the loading line at this crush, for the push damping's limit,
+    §13a "Push damping", the pair's crush where its first strip bears: min_k sig_k + (m1_k + m2_k)(1 - e^2), the
+    scalar permanent_crush(cm, e) of the pair's largest crush cm where no strip is engaged)."""
     lam = max(shadow_weight(A1), 0.0 if box2 else shadow_weight(A2))
     U1, S1, U2, S2 = work[0], work[1], work[2], work[3]
     f = w = fl = 0.0
@@ -344,13 +352,13 @@ def profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush
     if lam < 1.0:
         m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
-        f, w, fl, cp = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4], work[5],
+        f, w, fl, cp = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, work[4], work[5],
                                     n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2, rec if lam < 0.5 else rec[:0])
     if lam > 0.0:
         m1 = _shadow_chain(sh1, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, True, A2, rc2, n0, n1, -1.0, U2, S2) if box2 else \
             _shadow_chain(sh2, A2, rc2, n0, n1, -1.0, U2, S2)
-        fs, ws, fls, cps = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, work[4],
+        fs, ws, fls, cps = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, work[4],
                                         work[5], n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2,
                                         rec if lam >= 0.5 else rec[:0])
         f, w, fl = (1.0 - lam) * f + lam * fs, (1.0 - lam) * w + lam * ws, (1.0 - lam) * fl + lam * fls
@@ -375,8 +383,8 @@ def _face_memory(FM, px, py, rc, A, sh, face):
 
 
 @njit(cache=True)
-def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top, bot, n0, n1, sh1, A1, rc1, sh2, A2,
-                 rc2, FM1, FM2, f1, f2, rec):
+def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, top, bot, n0, n1, sh1, A1, rc1, sh2,
+                 A2, rc2, FM1, FM2, f1, f2, rec):
     """profile_force_memory over the two facing chains (U1, S1) of body 1 and (U2, S2) of body 2 (m1, m2 vertices):
     (force, engaged width, loading line's force, the crush where the first strip bears; inf: no strip)."""
     i1, j1 = _ends(U1, m1)
@@ -385,6 +393,7 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top
     w = hi - lo
     if rec.shape[0] > 0:
         rec[:] = -1.0
+        rec[4 * N_STRIP], rec[4 * N_STRIP + 1] = 0.0, 0.0
     if w <= 0.0:
         return 0.0, 0.0, 0.0, math.inf
     du = w / N_STRIP
@@ -403,25 +412,24 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top
         for q in range(m2 - 1):
             if lo <= U2[q] <= hi:
                 cmax = max(cmax, _height(U1, S1, m1, U2[q]) + S2[q])
-    # each structure's share of the pair's memory (its loading's: the same force on both, crushing f / B_q)
+    # each structure's share of a strip's setback (its loading's: the same force on both, crushing f / B_q)
     share1 = b2 / (b1 + b2) if b2 > 0.0 else 1.0
     e2 = e * e
     f = fl = 0.0
     cp = math.inf
+    deepest = 0.0
     for k in range(N_STRIP):
         ov = top[k] + bot[k]
         if ov > -math.inf:
             sig = cmax - ov
-            own = max(cm - sig, 0.0)
-            mem1, mem2 = share1 * own, (1.0 - share1) * own
+            mem1, mem2 = max(cm1 - share1 * sig, 0.0), max(cm2 - (1.0 - share1) * sig, 0.0)
             q1 = q2 = -1
             u = lo + (k + 0.5) * du
-            # the strip's point on body 1's outline: u t + top n; on body 2's: u t - bot n (only where the face's
-            # largest memory can count, or its crush is recorded)
-            if FM1.shape[0] > 0 and f1 >= 0 and (rec.shape[0] > 0 or FM1[FM_MAX + f1] - FACE_MEMORY_TOL > mem1):
+            # the strip's point on body 1's outline: u t + top n; on body 2's: u t - bot n
+            if FM1.shape[0] > 0 and f1 >= 0:
                 fm, q1 = _face_memory(FM1, -u * n1 + top[k] * n0, u * n0 + top[k] * n1, rc1, A1, sh1, f1)
                 mem1 = max(mem1, fm - FACE_MEMORY_TOL)
-            if FM2.shape[0] > 0 and f2 >= 0 and (rec.shape[0] > 0 or FM2[FM_MAX + f2] - FACE_MEMORY_TOL > mem2):
+            if FM2.shape[0] > 0 and f2 >= 0:
                 fm, q2 = _face_memory(FM2, -u * n1 - bot[k] * n0, u * n0 - bot[k] * n1, rc2, A2, sh2, f2)
                 mem2 = max(mem2, fm - FACE_MEMORY_TOL)
             fk, c1, c2 = strip_force(crush - sig, mem1, mem2, e, b1, b2)
@@ -430,6 +438,9 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm, e, b1, b2, w1, w2, top
             cp = min(cp, sig + (mem1 + (mem2 if b2 > 0.0 else 0.0)) * (1.0 - e2))
             if rec.shape[0] > 0:
                 rec[4 * k], rec[4 * k + 1], rec[4 * k + 2], rec[4 * k + 3] = q1, c1, q2, c2
+                if fk > 0.0 and c1 + c2 > deepest:  # each structure's own, its share of the setback added back
+                    deepest = c1 + c2
+                    rec[4 * N_STRIP], rec[4 * N_STRIP + 1] = c1 + share1 * sig, c2 + (1.0 - share1) * sig
     scale = min(1.0, w1 / w)
     if w2 > 0.0:
         scale = min(scale, w2 / w)
@@ -574,7 +585,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
                 si, sj = fi, fj if k2 == 0 else 0
                 if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
                         or fj != PST[p, S_FACE_J]:
-                    PST[p, S_CMAX] = 0.0
+                    PST[p, S_CMAX] = PST[p, S_CM1] = PST[p, S_CM2] = 0.0
                     PST[p, S_SIDE_I], PST[p, S_SIDE_J] = si, sj
                     PST[p, S_FACE_I], PST[p, S_FACE_J] = fi, fj
             # §13a engagement: the normal of the struck faces (turning with the vehicles), the crush counted along
@@ -641,18 +652,21 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
                 e = PST[p, S_E]
             # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
             # episode) exceeds the permanent set (where the first strip bears, each structure's memory the larger of
-            # its share of the pair's and its face memory's, §13a "Face memory"): an engaged episode does not
-            # chatter between the two measures
+            # its own in the pair and its face memory, §13a "Face memory"; never below the pair's scalar one): an
+            # engaged episode does not chatter between the two measures
             cp = permanent_crush(cm, e)
-            if g < 0.0 and min(max(crush - cp, -g - cp), -g) > 0.0:  # (the face memory only raises cp)
-                # over the crush profile across the engaged width, within each structure's width
-                if not have_work:
-                    work, have_work = np.empty((6, N_OUT + 2)), True
-                fn, psg[p, G_WIDTH], f_load, cp = profile_force_memory(
-                    OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush, cm, e, b1s, b2s,
-                    PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work, FM[i], FM[j] if k2 == 0 else FM[i, :0],
-                    int(PST[p, S_FACE_I]), int(PST[p, S_FACE_J]) if k2 == 0 else -1, psg[p, G_STRIP:])
-                psg[p, G_NS] = N_STRIP
+            psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
+            if psg[p, G_DEL] <= 0.0:
+                continue
+            # over the crush profile across the engaged width, within each structure's width
+            if not have_work:
+                work, have_work = np.empty((6, N_OUT + 2)), True
+            fn, psg[p, G_WIDTH], f_load, cp = profile_force_memory(
+                OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush, cm, PST[p, S_CM1], PST[p, S_CM2],
+                e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work, FM[i],
+                FM[j] if k2 == 0 else FM[i, :0], int(PST[p, S_FACE_I]), int(PST[p, S_FACE_J]) if k2 == 0 else -1,
+                psg[p, G_STRIP:])
+            psg[p, G_NS] = N_STRIP
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue

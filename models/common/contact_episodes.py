@@ -21,13 +21,13 @@ from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
 
 from .chassis_contact import (
     ENDED,
-    FM_MAX,
     G_CRUSH,
     G_DEL,
     G_FN,
     G_FX,
     G_MEAS,
     G_NS,
+    G_OWN,
     G_POW,
     G_PX,
     G_PY,
@@ -35,13 +35,14 @@ from .chassis_contact import (
     G_STRIP,
     G_TH,
     IN_CONTACT,
-    N_FACE_BIN,
     NONE,
     P_I,
     P_J,
     S_ACT,
     S_CI,
     S_CM,
+    S_CM1,
+    S_CM2,
     S_CMAX,
     S_CR,
     S_DD0,
@@ -142,7 +143,17 @@ def track_peak(PST, p, out, PP, FM):
         if out[G_CRUSH] > PST[p, S_CMAX]:
             PST[p, S_CMAX] = out[G_CRUSH]
         if out[G_NS] > 0.0:
+            remember_strips(PST, p, out)
             remember_faces(FM, int(PP[p, P_I]), int(PP[p, P_J]), out)
+
+
+@njit(cache=True)
+def remember_strips(PST, p, out):
+    """Each structure's own largest crush in pair p (S_CM1, S_CM2; §13a "Face memory"): its crush at the deepest
+    bearing strip of the accepted evaluation `out` with its share of that strip's setback added back (G_OWN; one
+    pair's loading alone gives its share of the pair's crush), kept where larger."""
+    PST[p, S_CM1] = max(PST[p, S_CM1], out[G_OWN])
+    PST[p, S_CM2] = max(PST[p, S_CM2], out[G_OWN + 1])
 
 
 @njit(cache=True)
@@ -166,8 +177,6 @@ def remember_faces(FM, i, j, out):
                 continue
             if cur >= 0 and low > FM[q, cur]:
                 FM[q, cur] = low
-                face = cur // N_FACE_BIN
-                FM[q, FM_MAX + face] = max(FM[q, FM_MAX + face], low)
             cur, low = b, c
 
 
