@@ -210,24 +210,22 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                         f"({limit!r} m)"))
         if given is not None:  # docs/physics.md §28: the side's G w is the vehicle's energy at this speed
             b0 = crash_plot(given.A, given.B, given.width or limit, v.mass)[0]
+            speed = (f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
+                     f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) of {b0:.3g} m/s "
+                     f"over the side's {given.width or limit:g} m at {v.mass:g} kg (the speed whose energy the side "
+                     f"absorbs without residual crush)")
             if not b0 <= NO_DAMAGE_SPEED_MAX:
                 out.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"),
-                            f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
-                            f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) of "
-                            f"{b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg (the speed "
-                            f"whose energy the side absorbs without residual crush): more than "
-                            f"{NO_DAMAGE_SPEED_MAX:g} m/s is no vehicle structure (B too small for A?)"))
+                            f"{speed}: more than {NO_DAMAGE_SPEED_MAX:g} m/s is no vehicle structure (B too small "
+                            f"for A?)"))
             else:  # after the other bounds: a mass or inertia they name is the likelier slip (e.g. 60 t on a car)
                 problem = crush_56_problem(given.A, given.B, given.width or limit, v.mass)
                 if problem:
                     late.append(((f"structure.{side}.B", f"structure.{side}.A", "mass"), problem))
                 elif b0 < NO_DAMAGE_SPEED_MIN:  # B fits the mass: A alone is off (A in kN/m or lbf/in)
                     late.append(((f"structure.{side}.A", f"structure.{side}.B", "mass"),
-                                 f"A = {given.A:g} N/m and B = {given.B:g} N/m^2 give G = A^2/2B = "
-                                 f"{given.A * given.A / (2 * given.B):.4g} J/m, a no-damage speed sqrt(2 G w / m) "
-                                 f"of {b0:.3g} m/s over the side's {given.width or limit:g} m at {v.mass:g} kg: less "
-                                 f"than {NO_DAMAGE_SPEED_MIN:g} m/s is no vehicle structure (A too small for B: in "
-                                 f"kN/m or lbf/in, not N/m?)"))
+                                 f"{speed}: less than {NO_DAMAGE_SPEED_MIN:g} m/s is no vehicle structure (A too "
+                                 f"small for B: in kN/m or lbf/in, not N/m?)"))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
     if v.cg_height >= v.height:
