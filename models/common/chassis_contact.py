@@ -60,7 +60,7 @@ from .crush_structure import (
     face_code,
     permanent_crush,
     push_damping,
-    series_force,
+    series_stiffness,
     strip_force,
     structure_slot,
     swept_faces,
@@ -412,8 +412,10 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
         for q in range(m2 - 1):
             if lo <= U2[q] <= hi:
                 cmax = max(cmax, _height(U1, S1, m1, U2[q]) + S2[q])
-    # each structure's share of a strip's setback (its loading's: the same force on both, crushing f / B_q)
+    # each structure's share of a strip's setback (its loading's: the same force on both, crushing f / B_q), the
+    # series stiffness and the compliances (once per call: the loading line is most strips' case)
     share1 = b2 / (b1 + b2) if b2 > 0.0 else 1.0
+    bs, ib1, ib2 = series_stiffness(b1, b2), 1.0 / b1, 1.0 / b2 if b2 > 0.0 else 0.0
     e2 = e * e
     f = fl = 0.0
     cp = math.inf
@@ -432,9 +434,14 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
             if FM2.shape[0] > 0 and f2 >= 0:
                 fm, q2 = _face_memory(FM2, -u * n1 - bot[k] * n0, u * n0 - bot[k] * n1, rc2, A2, sh2, f2)
                 mem2 = max(mem2, fm - FACE_MEMORY_TOL)
-            fk, c1, c2 = strip_force(crush - sig, mem1, mem2, e, b1, b2)
+            ck = crush - sig
+            fk = bs * ck if ck > 0.0 else 0.0  # the loading line (series_force)
+            fl += fk
+            if fk >= b1 * mem1 and (b2 <= 0.0 or fk >= b2 * mem2):  # both on it (strip_force's first case)
+                c1, c2 = fk * ib1, fk * ib2
+            else:
+                fk, c1, c2 = strip_force(ck, mem1, mem2, e, b1, b2)
             f += fk
-            fl += series_force(crush - sig, b1, b2)
             cp = min(cp, sig + (mem1 + (mem2 if b2 > 0.0 else 0.0)) * (1.0 - e2))
             if rec.shape[0] > 0:
                 rec[4 * k], rec[4 * k + 1], rec[4 * k + 2], rec[4 * k + 3] = q1, c1, q2, c2
