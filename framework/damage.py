@@ -248,7 +248,10 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
                         "residual crush (docs/physics.md §28); the energy lies anywhere from 0 to it, so the EES "
                         "is an upper bound, not a measurement (as evidence it is scored one-sided)")
     return {
-        "vehicle": spec.name, "mass": spec.mass, "side": side, "profile": profile, "width": width,
+        "vehicle": spec.name, "mass": spec.mass, "side": side,
+        # the flank of a side impact (side = "side": the one the PDOF points at), None for a front or rear
+        "flank": ("left" if flank_sign(side, pdof_used) > 0 else "right") if flank else None,
+        "profile": profile, "width": width,
         "offset": offset, "pdof": pdof_used, "pdof_angle": alpha, "pdof_factor": factor,
         "A": structure.A, "B": structure.B, "G": structure.G, "structure_width": structure.width,
         "structure_source": structure.source, "structure_default": structure.default,
@@ -285,8 +288,9 @@ def format_report(rep: dict) -> str:
     src = rep["structure_source"]
     src = ("class default" if rep["structure_default"] else "estimate, docs/physics.md §28"
            if src.startswith("estimate") else src if len(src) <= 60 else src[:57] + "...")
+    chosen = f" ({rep['flank']} flank, the PDOF points at it)" if rep["side"] == "side" and rep.get("flank") else ""
     return "\n".join([
-        f"{rep['vehicle']}: {rep['side']}, {len(rep['profile'])}-point profile "
+        f"{rep['vehicle']}: {rep['side']}{chosen}, {len(rep['profile'])}-point profile "
         f"{', '.join(f'{c:.3f}' for c in rep['profile'])} m over {rep['width']:.3f} m, offset {rep['offset']:.3f} m",
         f"  stiffness A {rep['A'] / 1e3:.1f} kN/m, B {rep['B'] / 1e3:.0f} kN/m^2, G {rep['G']:.0f} J/m ({src})",
         f"  PDOF {rep['pdof']:.1f} deg ({rep['pdof_angle']:.1f} deg off the normal, factor "

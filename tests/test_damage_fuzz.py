@@ -421,3 +421,13 @@ def test_negative_numbers_in_e_notation_reach_the_command():
     glued = cli(*args, "--pdof=-10", "--offset=-0.3")
     assert spelled.returncode == 0 and glued.returncode == 0, spelled.stderr
     assert json.loads(spelled.stdout) == json.loads(glued.stdout)
+
+
+@pytest.mark.parametrize("pdof, flank", [(None, "left"), (80.0, "left"), (-80.0, "right")])
+def test_side_names_the_flank_it_chose(pdof, flank):
+    """--side side takes the flank the PDOF points at (left for PDOF >= 0, the default +90); the output said "side"
+    and never which (a fuzzer, 2026-11-27): the JSON's flank and the text's first line name it."""
+    args = ("clio", "--side", "side", "--profile", "0.1,0.2", "--width", "1.0") + \
+        (() if pdof is None else (f"--pdof={pdof}",))
+    assert json.loads(cli(*args, "--json").stdout)["flank"] == flank
+    assert f"side ({flank} flank" in cli(*args).stdout.splitlines()[0]
