@@ -263,12 +263,8 @@ def strip_force(C, m1, m2, e, B1, B2):
 
 @njit(cache=True)
 def structure_force(C, Cm, e, B1, B2):
-    """Force per unit width at total crush C with the largest crush so far Cm: the loading law at C >= Cm, else
-    the unloading line of slope f_m^2 / (2 e^2 e_m) = Bs / e^2 through (Cm, f_m), clamped at 0."""
-    if C <= 0.0:
-        return 0.0
-    if C >= Cm:
-        return series_force(C, B1, B2)
-    fm = series_force(Cm, B1, B2)
-    f = fm - series_stiffness(B1, B2) / (e * e) * (Cm - C)
-    return f if f > 0.0 else 0.0
+    """Force per unit width at total crush C with the pair's largest crush so far Cm: the loading law at C >= Cm,
+    else the unloading line of slope f_m^2 / (2 e^2 e_m) = Bs / e^2 through (Cm, f_m), clamped at 0: strip_force
+    with Cm shared as one loading shares it (each structure Cm Bs / B_q; one home for the law)."""
+    bs = series_stiffness(B1, B2)
+    return strip_force(C, Cm * bs / B1, Cm * bs / B2 if B2 > 0.0 else 0.0, e, B1, B2)[0]
