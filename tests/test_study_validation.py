@@ -89,15 +89,23 @@ MPH, LB, SLUG_FT2, INCH, FOOT = 1.609344, 0.45359237, 1.3558179, 0.0254, 0.3048
 ROSE_VEHICLES = {("nhtsa4363", "V1"): (3451.1, 2152, 185.8, 70.1, 107.1, 45.88),
                  ("nhtsa4363", "V2"): (4695.4, 2805, 181.5, 67.7, 107.1, 53.55),
                  ("nhtsa4438", "V1"): (3305.7, 2066, 185.8, 70.1, 107.1, 44.7),
-                 ("nhtsa4438", "V2"): (4725.3, 2889, 181.2, 66.2, 106.8, 52.2)}
+                 ("nhtsa4438", "V2"): (4725.3, 2889, 181.2, 66.2, 106.8, 52.2),
+                 # 4364 and 4474: pycrash's entries marked "used in Rose paper" (projects/data/
+                 # vehicle_data_collection.py), paired as pycrash's validation notebook pairs them
+                 ("nhtsa4364", "V1"): (3451.1, 2152, 185.8, 70.1, 107.1, 45.88),   # 'HondaAccord'
+                 ("nhtsa4364", "V2"): (5192.5, 3563, 191.7, 74.4, 113, 56.8),      # 'ChevyTrailblazer'
+                 ("nhtsa4474", "V1"): (3305.7, 2066, 185.8, 70.1, 107.1, 44.7),    # 'HondaAccord4438'
+                 ("nhtsa4474", "V2"): (4657, 2863, 178.3, 66.7, 107.3, 51.5)}      # 'MitsubishiMontero1999'
 # test: per vehicle (d [ft], theta [deg], heading [deg], speed [mph]), normal [deg in V1's frame], Rose's e,
 # measured delta-V V1, V2 [mph], measured |yaw-rate change| V1, V2 [deg/s]
 ROSE_TESTS = {"nhtsa4363": ((2.6, 23.8, 180, 35.1), (5.7, 10.6, 32, 35.0), 55, 0.126, (39.5, 29.1), (31, 182)),
-              "nhtsa4438": ((2.8, 35.3, 180, 34.7), (5.0, 13.2, 30, 35.0), 50.7, 0.095, (39.7, 27.8), (68, 166))}
+              "nhtsa4438": ((2.8, 35.3, 180, 34.7), (5.0, 13.2, 30, 35.0), 50.7, 0.095, (39.7, 27.8), (68, 166)),
+              "nhtsa4364": ((2.3, 45.7, 180, 35.0), (7.1, 11.2, 30, 34.9), 51.9, 0.089, (40.1, 26.6), (108, 148)),
+              "nhtsa4474": ((2.9, 34.7, 180, 35.0), (5.5, 15.2, 31.6, 35.0), 51.8, 0.150, (40.5, 28.7), (40, 194))}
 # RICSAC: speeds [mph], measured delta-V [mph], estimated weights [lb]
 RICSAC_TESTS = {"ricsac2": ((31.53, 31.53), (19.5, 25.8), (3982, 3010)),
                 "ricsac3": ((21.23, 0.0), (9.4, 15.4), (4930, 3010))}
-CAR_TO_CAR = ("nhtsa4363", "nhtsa4438", "ricsac2", "ricsac3")
+CAR_TO_CAR = ("nhtsa4363", "nhtsa4438", "nhtsa4364", "nhtsa4474", "ricsac2", "ricsac3")
 
 
 def _tests(*ids):
@@ -149,11 +157,16 @@ def test_rose_geometry_reproduces_roses_own_analysis():
     """The transcription check of the collision position: with Rose's own fitted restitution, the Brach law
     and a sticking impact (Rose's impulse ratio 100 % of critical), the impulse at the scene's point of
     impact gives the measured delta-V (published to 0.1 mph) and yaw-rate changes (to 1 deg/s; the
-    distances are given to 0.1 ft: 3 deg/s). Not the predictive run: e is Rose's fit."""
+    distances are given to 0.1 ft: 3 deg/s). Not the predictive run: e is Rose's fit. 4364 within 0.2 mph:
+    its Accord comes out 39.93 mph against 40.1 (the Trailblazer 26.54 against 26.6; with these masses the
+    momentum gives the Accord 1.505 times the Trailblazer's delta-V, the published pair 1.508), the inputs printed
+    to 0.1 ft and 0.001 of e; 4363, 4438 and 4474 are within 0.1 mph. The vehicle pairing of 4364 and 4474 is
+    pycrash's: this check is what says it is Rose's (4364 with 4363's Blazer mass and inertia instead of the
+    Trailblazer's gives 38.19 / 28.07 mph and 97 / 164 deg/s: it fails)."""
     import dataclasses
 
     from crashlab.registry import get_model
-    for t in _tests("nhtsa4363", "nhtsa4438"):
+    for t in _tests(*ROSE_TESTS):
         _v1, _v2, _n, e_rose, dv, dyaw = ROSE_TESTS[t["id"]]
         scene = validation.variant_scene(t["scene"], "brach", e_rose)
         scene = scene.replace(impact=dataclasses.replace(scene.impact, friction=5.0))
@@ -161,7 +174,8 @@ def test_rose_geometry_reproduces_roses_own_analysis():
         first = [r for r in out.impact_rows if r["t"] == 0.0]
         assert [r["vehicle"] for r in first] == ["V1", "V2"] and all(r["kind"] == "full" for r in first)
         for k, r in enumerate(first):
-            assert math.isclose(3.6 * math.hypot(r["dvx"], r["dvy"]), dv[k] * MPH, abs_tol=0.1 * MPH)
+            tol = 0.2 if t["id"] == "nhtsa4364" else 0.1
+            assert math.isclose(3.6 * math.hypot(r["dvx"], r["dvy"]), dv[k] * MPH, abs_tol=tol * MPH)
             assert math.isclose(abs(math.degrees(r["d_yaw_rate"])), dyaw[k], abs_tol=3.0)
 
 
@@ -175,7 +189,7 @@ def test_car_to_car_impulse_conserves_momentum_and_errors_are_recorded(tmp_path,
     runs = {(r["test"], r["law"], r["contact"], r["restitution"]) for r in rows}
     assert {law for _, law, _, _ in runs} == set(validation.IMPACT_LAWS)
     assert {(t, c) for t, _, c, _ in runs} == {(t, c) for t in CAR_TO_CAR for c in ("found", "engagement")} | {
-        ("nhtsa4363", "given"), ("nhtsa4438", "given")}
+        (t, "given") for t in ROSE_TESTS}
     assert all(r["ok"] == "True" for r in rows)
     for r in rows:
         pub, sim = float(r["published"]), float(r["simulated"])
@@ -201,7 +215,7 @@ def test_car_to_car_impulse_conserves_momentum_and_errors_are_recorded(tmp_path,
 
 def test_approach_scene_parts_the_cars_along_their_velocities():
     from crashlab.scene import start_overlaps
-    for t in _tests("nhtsa4363", "nhtsa4438"):
+    for t in _tests(*ROSE_TESTS):
         given = load_scene(t["scene"])
         assert start_overlaps(given)  # the collision position: the outlines overlap by design
         app = validation.approach_scene(given)
