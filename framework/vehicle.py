@@ -457,6 +457,8 @@ def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None
         if overridden is not None and "wheel_radius" in overridden and keys[0].startswith("multibody.tyre.torus"):
             continue  # the file's torus, checked with the file, is scaled to the overridden wheel (vehicle_3d.build)
         named = [k for k in keys if overridden is None or _has_key(overridden, k)]
+        if system == "us":  # the checks join converted numbers: say so rather than quote them as the file's
+            problem += " (numbers in SI units: the file's US values converted)"
         raise InputError(file, prefix + (named or keys)[0], problem)
     return spec
 

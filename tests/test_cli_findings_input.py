@@ -86,6 +86,20 @@ def test_a_us_override_beyond_its_bound_is_said_in_lb(tmp_path):
                                      [f"greater than or equal to 110.3 lb (50 kg), got {shown} lb"])
 
 
+def test_a_us_cross_field_check_says_its_numbers_are_si(tmp_path):
+    """A check that joins several fields quotes the converted numbers: overrides.track = 80 (ft) was "track
+    (24.384 m) must not exceed the width (1.64 m)" with nothing to say the file's 80 became 24.384."""
+    scene = us_scene(tmp_path, "[vehicles.overrides]\n", "[vehicles.overrides]\ntrack = 80\n")
+    assert_refused_with_one_line(load_scene, scene, "vehicles.V1.overrides.track",
+                                 ["24.384 m", "numbers in SI units: the file's US values converted"])
+    si = tmp_path / "si.toml"
+    si.write_text(SIDE.read_text().replace("[vehicles.overrides]\n", "[vehicles.overrides]\ntrack = 24.384\n", 1))
+    from crashlab.errors import InputError
+    with pytest.raises(InputError) as err:
+        load_scene(si)
+    assert "US values" not in str(err.value)
+
+
 def test_an_si_bound_is_said_as_before(tmp_path):
     scene = tmp_path / "si.toml"
     text = SIDE.read_text()
