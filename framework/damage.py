@@ -21,9 +21,11 @@ Only the core is imported (crashlab.errors, crashlab.vehicle, crashlab.units).
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator
 
 from .errors import InputError
@@ -43,14 +45,17 @@ SIGMA_FIRST_ORDER = (0.3, 0.5)
 
 # ---------------------------------------------------------------- checks of the inputs
 def _finite(value, key: str, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    # any real number (numpy's too), not a boolean
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise InputError(where, key, f"must be a finite number, got {value!r}")
     return float(value)
 
 
 def check_profile(profile: Sequence[float], key: str = "profile", where: str = "damage") -> list[float]:
     """The profile as floats: 2, 4 or 6 finite, non-negative depths [m] of at most 5 m; InputError otherwise
-    (all zero is allowed: `report` warns that its EES is an upper bound)."""
+    (all zero is allowed: `report` warns that its EES is an upper bound). A 1-D numpy array is a list."""
+    if isinstance(profile, np.ndarray) and profile.ndim == 1:
+        profile = profile.tolist()
     if isinstance(profile, (str, bytes)) or not isinstance(profile, Sequence):
         raise InputError(where, key, f"a list of {', '.join(map(str, PROFILE_POINTS))} crush depths [m]")
     if len(profile) not in PROFILE_POINTS:

@@ -206,6 +206,22 @@ def test_bad_profiles_are_one_line_naming_the_key(profile, key):
     assert err.value.key == key and err.value.file == "scene.toml" and "\n" not in str(err.value)
 
 
+def test_numpy_numbers_are_numbers():
+    """A 1-D numpy array of depths and numpy scalars (a script's measured profile) give the report of the same
+    floats; before, the array was refused as "a list of 2, 4, 6 crush depths" and np.float32 as no number. A 2-D
+    array and numpy's boolean are still refused."""
+    v = load_vehicle("saloon")
+    c = [0.1, 0.25, 0.3, 0.3, 0.2, 0.05]
+    ref = damage.report(v, "front", c, 1.5, offset=0.1, pdof=10.0)
+    got = damage.report(v, "front", np.array(c), np.float32(1.5), offset=np.float64(0.1), pdof=np.int64(10))
+    assert got["energy"] == pytest.approx(ref["energy"], rel=1e-7) and got["ees"] == pytest.approx(ref["ees"], rel=1e-7)
+    assert got["profile"] == pytest.approx(ref["profile"], rel=1e-12)
+    for bad, key in ((np.zeros((2, 3)), "profile"), ([0.1, np.bool_(True)], "profile[2]")):
+        with pytest.raises(InputError) as err:
+            damage.report(v, "front", bad, 1.5)
+        assert err.value.key == key
+
+
 @pytest.mark.parametrize("args, key", [
     (dict(side="front", width=2.5), "width"),          # wider than the car (1.832 m)
     (dict(side="side", width=5.0), "width"),           # longer than the car (4.767 m)
