@@ -45,8 +45,8 @@ SIGMA_FIRST_ORDER = (0.3, 0.5)
 
 # ---------------------------------------------------------------- checks of the inputs
 def _finite(value, key: str, where: str) -> float:
-    # any real number (numpy's too), not a boolean
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+    # any real number (numpy's too: numbers.Real), not a boolean (numpy's is no numbers.Real)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise InputError(where, key, f"must be a finite number, got {value!r}")
     return float(value)
 
