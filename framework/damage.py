@@ -10,8 +10,8 @@ Conventions (those of the impact rows, docs/physics.md §21): PDOF in degrees in
 the force comes from, 0 = from straight ahead, counter-clockwise positive (+90 from the left); the damage
 offset [m] is the position of the centre of the damaged width: for the front and rear, to the left of the
 vehicle's centreline (positive left); for a flank, ahead of the CG (positive forward). Both flanks have the side
-structure ([structure.side]); `report` also takes side = "side", the flank the PDOF points at (left for PDOF > 0,
-the default +90), damage evidence names its flank (the impact rows tell them apart).
+structure ([structure.side]); `report` also takes side = "side" with a PDOF, the flank it points at (left for
+PDOF > 0); damage evidence names its flank (the impact rows tell them apart).
 
 Damage as evidence: `DamageEvidence` ([evidence.damage.<vehicle>] of a study file), `damage_ees` (the EES from
 the damage and its sigma), `damage_residual` (simulated against measured, in sigma units).
@@ -72,6 +72,25 @@ def check_profile(profile: Sequence[float], key: str = "profile", where: str = "
     return out
 
 
+def _argument(ok: bool, name: str, value, what: str) -> None:
+    """ValueError naming the argument of a law below called with a value outside its domain (no file, no key:
+    `report` and the command line check their inputs with InputError first)."""
+    if not ok:
+        raise ValueError(f"{name} = {value!r}: {what}")
+
+
+def _segments(profile: Sequence[float], width: float) -> None:
+    """The laws' profile: at least 2 finite depths >= 0 [m] over a finite width > 0 [m]."""
+    _argument(len(profile) >= 2 and all(math.isfinite(c) and c >= 0.0 for c in profile), "profile", profile,
+              "at least 2 finite crush depths >= 0 [m]")
+    _argument(math.isfinite(width) and width > 0.0, "width", width, "a finite damaged width > 0 [m]")
+
+
+def _stiffness(A: float, B: float) -> None:
+    _argument(math.isfinite(A) and A >= 0.0, "A", A, "a finite stiffness A >= 0 [N/m]")
+    _argument(math.isfinite(B) and B > 0.0, "B", B, "a finite stiffness B > 0 [N/m^2]")
+
+
 def _side(side: str, where: str, key: str = "side") -> str:
     if side not in SIDE_NORMAL:
         raise InputError(where, key, f"unknown side {side!r}: one of {', '.join(SIDE_NORMAL)} (side: the flank the "
@@ -90,6 +109,7 @@ def flank_sign(side: str, pdof_deg: float) -> float:
 def pdof_angle(side: str, pdof_deg: float | None) -> float:
     """Angle [deg] between the force and the normal of the struck side; a flank's normal is +90 (left) or -90
     (right, `flank_sign`)."""
+    _argument(side in SIDE_NORMAL, "side", side, f"one of {', '.join(SIDE_NORMAL)}")
     if pdof_deg is None:
         return 0.0
     normal = SIDE_NORMAL[side] if side in ("front", "rear") else 90.0 * flank_sign(side, pdof_deg)
@@ -102,7 +122,7 @@ def pdof_factor(alpha_deg: float, key: str = "pdof", where: str = "damage") -> t
     tangential force would exceed what friction in the crush zone can carry, and the factor is held at 2
     (the limit McHenry gives for the revised energy correction factor) with a warning. A force more than
     90 deg off the normal pulls the side outwards and cannot have crushed it: InputError."""
-    a = abs(alpha_deg)
+    a = abs(_finite(alpha_deg, key, where))
     if a >= 90.0 - 1e-9:
         raise InputError(where, key, f"the force is {a:.1f} deg off the normal of the struck side: it cannot have "
                          "crushed this side (check the side and the PDOF: vehicle axes, the direction the force "
@@ -120,6 +140,8 @@ def crush_energy(profile: Sequence[float], width: float, A: float, B: float) -> 
     correction: the integral over the width of A C + B C^2 / 2 + G (G = A^2 / 2B), the crush linear
     between the points: per segment of width d between depths Ci, Cj,
         d [A (Ci + Cj) / 2 + B (Ci^2 + Ci Cj + Cj^2) / 6 + G]."""
+    _segments(profile, width)
+    _stiffness(A, B)
     n = len(profile)
     d = width / (n - 1)
     G = A * A / (2.0 * B)
@@ -132,6 +154,7 @@ def crush_energy(profile: Sequence[float], width: float, A: float, B: float) -> 
 def crush_centroid(profile: Sequence[float], width: float) -> tuple[float, float]:
     """(lateral position of the centroid of the crushed area from the centre of the damaged width, in the
     direction of C1 -> Cn [m]; its depth below the undamaged outline [m]); an all-zero profile: (0, 0)."""
+    _segments(profile, width)
     n = len(profile)
     d = width / (n - 1)
     area = s_lat = s_depth = 0.0
@@ -148,12 +171,17 @@ def crush_centroid(profile: Sequence[float], width: float) -> tuple[float, float
 
 def ees(energy: float, mass: float) -> float:
     """m/s, energy equivalent speed sqrt(2 E / m) (docs/physics.md §21, §28)."""
+    _argument(math.isfinite(energy) and energy >= 0.0, "energy", energy, "a finite energy >= 0 [J]")
+    _argument(math.isfinite(mass) and mass > 0.0, "mass", mass, "a finite mass > 0 [kg]")
     return math.sqrt(2.0 * energy / mass)
 
 
 def effective_mass_factor(yaw_inertia: float, mass: float, moment_arm: float) -> float:
     """gamma = k^2 / (k^2 + h^2): the share of the mass an eccentric impulse with moment arm h [m] about the
     CG acts on (k^2 = I / m) (CRASH3; Brach, Vehicle Accident Analysis and Reconstruction Methods)."""
+    _argument(math.isfinite(yaw_inertia) and yaw_inertia > 0.0, "yaw_inertia", yaw_inertia, "finite and > 0 [kg m^2]")
+    _argument(math.isfinite(mass) and mass > 0.0, "mass", mass, "a finite mass > 0 [kg]")
+    _argument(math.isfinite(moment_arm), "moment_arm", moment_arm, "a finite moment arm [m]")
     k2 = yaw_inertia / mass
     return k2 / (k2 + moment_arm * moment_arm)
 
@@ -171,6 +199,11 @@ def pair_delta_v(e_total: float, m1: float, m2: float, gamma1: float = 1.0, gamm
     masses M = gamma m; dV = P / m. For e = 0 and gamma = 1: dV1 = sqrt(2 E m2 / (m1 (m1 + m2)))."""
     if not 0.0 <= restitution < 1.0:
         raise InputError("damage", "restitution", f"{restitution:g}: must lie in [0, 1)")
+    _argument(math.isfinite(e_total) and e_total >= 0.0, "e_total", e_total, "a finite energy >= 0 [J]")
+    for name, value in (("m1", m1), ("m2", m2)):
+        _argument(math.isfinite(value) and value > 0.0, name, value, "a finite mass > 0 [kg]")
+    for name, value in (("gamma1", gamma1), ("gamma2", gamma2)):
+        _argument(0.0 < value <= 1.0, name, value, "an effective-mass factor in (0, 1]")
     M1, M2 = gamma1 * m1, gamma2 * m2
     mu = M1 * M2 / (M1 + M2)
     impulse = math.sqrt(2.0 * e_total * mu * (1.0 + restitution) / (1.0 - restitution))
@@ -230,6 +263,9 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
         pdof = _finite(pdof, prefix + "pdof", where)
         if not -180.0 <= pdof <= 180.0:  # (as [evidence.damage.V] holds it)
             raise InputError(where, prefix + "pdof", f"{pdof:g} deg: the PDOF lies in [-180, 180] deg")
+    if side == "side" and pdof is None:  # the flank sets the moment arm (and so gamma and the delta-V)
+        raise InputError(where, prefix + "pdof", "side \"side\" takes the flank the PDOF points at: give the PDOF, "
+                         "or the side as left or right")
     pdof_used = SIDE_NORMAL[side] if pdof is None else pdof
     alpha = pdof_angle(side, pdof_used) + 0.0  # no -0
     factor, warning = pdof_factor(alpha, prefix + "pdof", where)
@@ -347,12 +383,15 @@ def ees_is_upper_bound(profile: Sequence[float], sigma_crush: float = 0.0) -> bo
     """A profile without residual crush, its mean depth within the measurement's sigma_crush of 0 (0: every depth
     0): its CRASH3 EES (about G L, the energy the side absorbs without residual crush) bounds the impact's from
     above, it does not measure it (docs/physics.md §28)."""
+    _argument(len(profile) > 0, "profile", profile, "at least one crush depth")
     return sum(profile) / len(profile) <= sigma_crush
 
 
 def crush_energy_gradient(profile: Sequence[float], width: float, A: float, B: float) -> list[float]:
     """dE/dC_i [J/m] of `crush_energy` (no PDOF correction): each segment (i, j) adds
     d [A/2 + B (2 C_i + C_j)/6] to C_i."""
+    _segments(profile, width)
+    _stiffness(A, B)
     n = len(profile)
     d = width / (n - 1)
     grad = [0.0] * n
@@ -423,6 +462,11 @@ def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, 
     C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros. Bad
     input: InputError naming `where` and `prefix` + the key (as `report`)."""
     s = spec.structure[FACE_STRUCTURE[_side(side, where, prefix + "side")]]
+    ees_kmh = _finite(ees_kmh, prefix + "ees", where)
+    width = _finite(width, prefix + "width", where)
+    _argument(ees_kmh >= 0.0, "ees_kmh", ees_kmh, "an EES >= 0 [km/h]")
+    _argument(width > 0.0, "width", width, "a damaged width > 0 [m]")
+    _argument(n in PROFILE_POINTS, "n", n, "2, 4 or 6 points (CRASH3)")
     factor, _ = pdof_factor(pdof_angle(side, SIDE_NORMAL[side] if pdof is None else pdof), prefix + "pdof", where)
     per_width = 0.5 * spec.mass * kmh_to_ms(ees_kmh) ** 2 / (factor * width) - s.G
     c = 0.0 if per_width <= 0 else (-s.A + math.sqrt(s.A * s.A + 2.0 * s.B * per_width)) / s.B

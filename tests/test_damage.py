@@ -232,6 +232,7 @@ def test_numpy_numbers_are_numbers():
     (dict(side="roof", width=1.0), "side"),
     (dict(side="front", width=1.5, pdof=180.0), "pdof"),    # a force from behind cannot crush the front
     (dict(side="front", width=1.5, pdof=float("nan")), "pdof"),
+    (dict(side="side", width=2.0), "pdof"),  # which flank: it sets the moment arm (left 0.74 m, right 1.26 m)
 ])
 def test_bad_damage_geometry_is_one_line_naming_the_key(args, key):
     args = dict(args)
@@ -462,3 +463,37 @@ def test_a_restitution_above_the_published_values_warns():
 def test_two_vehicles_of_one_model_are_told_apart():
     out = damage_command.command("clio", "front", "0.3,0.3", 1.5, other="clio:front:0.3,0.3:1.5")
     assert "(the first) delta-V" in out and "(--with) delta-V" in out
+
+
+@pytest.mark.parametrize("call", [
+    lambda: damage.crush_energy([0.1, 0.2], -1.0, 35200.0, 429000.0),       # was -11729 J
+    lambda: damage.crush_energy([], 1.0, 35200.0, 429000.0),                # was 0.0
+    lambda: damage.crush_energy([0.1, 0.2], 1.0, 35200.0, -1.0),            # was -6.2e8 J
+    lambda: damage.crush_energy([0.1, 0.2], 1.0, 35200.0, 0.0),             # ZeroDivisionError
+    lambda: damage.crush_energy_gradient([float("nan"), 0.2], 1.0, 35200.0, 429000.0),
+    lambda: damage.crush_centroid([float("nan"), 0.2], 1.0),                # was (0, 0)
+    lambda: damage.ees(1e4, 0.0),                                           # ZeroDivisionError
+    lambda: damage.ees(-1.0, 1000.0),                                       # "math domain error"
+    lambda: damage.effective_mass_factor(-1112.3, 980.0, 0.5),              # was 1.28, above 1
+    lambda: damage.pair_delta_v(1e4, 0.0, 1000.0),                          # ZeroDivisionError
+    lambda: damage.pair_delta_v(1e4, 1000.0, 1000.0, gamma1=2.0),           # accepted
+    lambda: damage.pair_delta_v(1e4, 1000.0, 1000.0, gamma1=0.0),           # was (0, 0)
+    lambda: damage.pdof_angle("top", 0.0),                                  # was -90
+    lambda: damage.ees_is_upper_bound([]),                                  # ZeroDivisionError
+    lambda: damage.profile_for_ees(50.0, load_vehicle("clio"), "front", 1.2, n=3),  # not a CRASH3 profile
+])
+def test_the_laws_refuse_arguments_outside_their_domain(call):
+    """The exported laws returned quiet numbers or raised Python's own errors outside their domain (a probe,
+    2026-11-28): now ValueError naming the argument (report and the command line check with InputError first)."""
+    with pytest.raises(ValueError, match=" = "):
+        call()
+
+
+@pytest.mark.parametrize("call, key", [
+    (lambda: damage.pdof_factor(float("nan")), "pdof"),                     # was (2.0, "... nan deg off ...")
+    (lambda: damage.profile_for_ees(float("nan"), load_vehicle("clio"), "front", 1.2), "ees"),  # was six NaN
+])
+def test_nan_is_an_input_error_naming_the_key(call, key):
+    with pytest.raises(InputError) as err:
+        call()
+    assert err.value.key == key

@@ -176,7 +176,8 @@ CLI_BAD = [  # (crashlab.cli.damage.command's arguments after `clio --side front
     (dict(profile="0.2,0.2", width=1.5, pdof=180.0), "--pdof", ["cannot have crushed"]),
     (dict(profile="0.2,0.2", width=1.5, pdof=math.nan), "--pdof", ["finite"]),
     (dict(profile="0.2,0.2", width=1.5, pdof=405.0), "--pdof", ["[-180, 180]"]),  # (accepted as 45 before 2026-11-27)
-    (dict(profile="0.2,0.2", width=1.5, other="saloon:side:0.2,0.2:1.5", restitution=1.0), "--restitution", []),
+    (dict(profile="0.2,0.2", width=1.5, other="saloon:left:0.2,0.2:1.5", restitution=1.0), "--restitution", []),
+    (dict(profile="0.2,0.2", width=1.5, other="saloon:side:0.2,0.2:1.5"), "--with pdof", ["flank"]),
     (dict(profile="0.2,0.2", width=1.5, other="saloon:side:0.2,0.2:1.5:0:nan"), "--with pdof", ["finite"]),
     (dict(profile="0.2,0.2", width=1.5, other="saloon:roof:0.2,0.2:1.5"), "--with side", ["unknown side"]),
 ]
@@ -423,11 +424,20 @@ def test_negative_numbers_in_e_notation_reach_the_command():
     assert json.loads(spelled.stdout) == json.loads(glued.stdout)
 
 
-@pytest.mark.parametrize("pdof, flank", [(None, "left"), (80.0, "left"), (-80.0, "right")])
+@pytest.mark.parametrize("pdof, flank", [(80.0, "left"), (-80.0, "right")])
 def test_side_names_the_flank_it_chose(pdof, flank):
-    """--side side takes the flank the PDOF points at (left for PDOF >= 0, the default +90); the output said "side"
-    and never which (a fuzzer, 2026-11-27): the JSON's flank and the text's first line name it."""
-    args = ("clio", "--side", "side", "--profile", "0.1,0.2", "--width", "1.0") + \
-        (() if pdof is None else (f"--pdof={pdof}",))
+    """--side side takes the flank the PDOF points at; the output said "side" and never which (a fuzzer,
+    2026-11-27): the JSON's flank and the text's first line name it."""
+    args = ("clio", "--side", "side", "--profile", "0.1,0.2", "--width", "1.0", f"--pdof={pdof}")
     assert json.loads(cli(*args, "--json").stdout)["flank"] == flank
     assert f"side ({flank} flank" in cli(*args).stdout.splitlines()[0]
+
+
+def test_side_without_pdof_is_refused():
+    """--side side without --pdof took the left flank quietly (a probe, 2026-11-28), while the flank sets the
+    moment arm: the saloon struck 1 m ahead of its CG with a Clio's front, 17.6 / 27.1 km/h on the left, 16.2 /
+    24.8 km/h on the right. One line naming --pdof, exit 2."""
+    run = cli("saloon", "--side", "side", "--profile", "0.05,0.4", "--width", "2", "--offset", "1.0",
+              "--with", "clio:front:0.2,0.2:1.2")
+    assert run.returncode == 2 and run.stdout == ""
+    assert len(run.stderr.strip().splitlines()) == 1 and "--pdof" in run.stderr and "flank" in run.stderr

@@ -344,7 +344,7 @@ def build_parser():
     d = command("damage", "CRASH3 crush energy, EES and delta-V from a measured crush profile (docs/physics.md)")
     d.add_argument("target", metavar="SCENE|VEHICLE", help="a scene file (with --vehicle) or a vehicle name/file")
     d.add_argument("--side", required=True, choices=["front", "rear", "left", "right", "side"],
-                   help="the damaged side (side: the flank the PDOF points at)")
+                   help="the damaged side (side, with --pdof: the flank the PDOF points at)")
     d.add_argument("--profile", required=True, metavar="C1,...,Cn", help="crush depths [m], 2, 4 or 6 points")
     d.add_argument("--width", required=True, type=float, help="damaged width [m]")
     d.add_argument("--offset", type=float, default=0.0, help="m, the damage centre left of the centreline "
