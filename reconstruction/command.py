@@ -82,16 +82,29 @@ def _three_decimals(v: float) -> str:
     return "0.000" if text == "-0.000" else text
 
 
+def _never_scored(evidence_set, arch: dict) -> str:
+    """The keys `evidence.damage.V.side` of the damage items no evaluation that ran could score (their residuals
+    never finite), "evidence.damage.<vehicle>.side" where none can be told."""
+    keys = []
+    if evidence_set is not None and len(arch["X"]):
+        R = np.asarray(arch["R"], dtype=float).reshape(len(arch["X"]), -1)[arch["ok"].astype(bool)]
+        for it, cols in zip(evidence_set.items, evidence_set.item_slices()):
+            if it.kind == "damage" and not np.isfinite(R[:, cols]).all(axis=1).any():
+                keys.append(f"evidence.damage.{it.vehicles[0]}.side ({it.side})")
+    return " and ".join(keys) or "evidence.damage.<vehicle>.side"
+
+
 def _no_feasible(args, res) -> int:
     """EXIT_NO_FEASIBLE with one line on stderr when the run found no feasible solution, or none whose evidence
     could be scored (problem.scored_feasible: e.g. damage evidence on a side no run struck, docs/physics.md §28;
     not the objectives' size, a real misfit may be as large), else 0."""
     from .problem import scored_feasible
-    if len(res.pareto) and not scored_feasible(res.problem.archive_arrays()).any():
+    arch = res.problem.archive_arrays()
+    if len(res.pareto) and not scored_feasible(arch).any():
         print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations could be scored "
-              "on every evidence item (damage evidence needs an impact on the damaged side: check "
-              "evidence.damage.<vehicle>.side; report.html with --out names the side Pareto row 0 struck)",
-              file=sys.stderr)
+              f"on every evidence item (damage evidence needs an impact on the damaged side: check "
+              f"{_never_scored(res.problem.evidence_set, arch)}; report.html with --out names the side Pareto row 0 "
+              "struck)", file=sys.stderr)
         return EXIT_NO_FEASIBLE
     if len(res.pareto):
         return 0

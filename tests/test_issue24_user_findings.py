@@ -38,7 +38,8 @@ def test_reconstruct_names_damage_on_a_side_no_run_strikes(tmp_path):
     res = crashlab("reconstruct", path, "--no-progress", "--out", tmp_path / "out")
     assert "Traceback" not in res.stderr, res.stderr
     assert res.returncode == 4, (res.returncode, res.stderr)
-    assert "evidence.damage" in res.stderr.strip().splitlines()[-1]
+    # the item named (it said "evidence.damage.<vehicle>.side" until 2026-11-28, where infer names it)
+    assert "check evidence.damage.V1.side (rear);" in res.stderr.strip().splitlines()[-1]
     assert "strikes V1 on its front, not on its rear" in (tmp_path / "out" / "summary.md").read_text()
 
 
