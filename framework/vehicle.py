@@ -36,6 +36,12 @@ MASS_RANGE = (50.0, 60000.0)  # kg: a pedestrian or bicycle .. a loaded articula
 # (Clio: yaw 0.26, roll 0.27), a standing pedestrian near 0.3; below 0.1 is a unit slip or an inertia left
 # unscaled after a mass override (it also makes the yaw mode stiff enough to stall explicit integrators)
 GYRATION_SHARE = (0.1, 1.0)
+# the wheels' layout against the body: the track at least TRACK_SHARE_MIN x the width (road vehicles 0.75-0.9; the
+# library 0.82-0.88), the static stability factor track / 2 cg_height at least SSF_MIN (the lateral acceleration in g
+# that tips the vehicle: passenger cars 1.0-1.5, NHTSA's rollover ratings, 66 FR 3388 (2001); a loaded articulated
+# truck 0.35-0.5, Winkler & Ervin, UMTRI-99-19 (1999)), the wheelbase at least WHEELBASE_SHARE_MIN x the length
+# (cars 0.5-0.65, a city bus 0.49). Below, a unit slip or a typo: a 1 cm track made the impulse model divide by zero
+TRACK_SHARE_MIN, SSF_MIN, WHEELBASE_SHARE_MIN = 0.5, 0.3, 0.3
 
 
 class _MultibodyPart(BaseModel):
@@ -148,8 +154,10 @@ class VehicleFile(BaseModel):
     length: Real = bounded(0.2, 30.0, "m, bumper to bumper")
     width: Real = bounded(0.2, 5.0, "m, overall width")
     height: Real = bounded(0.2, 6.0, "m, overall height")
-    wheelbase: Real = Field(gt=0, description="m, front to rear axle; the axles lie inside the outline")
-    track: Real = Field(gt=0, description="m, centre to centre of the wheels of an axle; at most the width")
+    wheelbase: Real = Field(gt=0, description="m, front to rear axle; the axles lie inside the outline; at least "
+                            "0.3 x the length")
+    track: Real = Field(gt=0, description="m, centre to centre of the wheels of an axle; 0.5-1 x the width, and at "
+                        "least 0.6 x cg_height (tipping over at 0.3 g)")
     cg_to_front_axle: Real = Field(gt=0, description="m, CG to front axle (horizontal); shorter than the wheelbase and "
                                   "than cg_to_front")
     cg_to_front: Real | None = Field(default=None, gt=0, description="m, CG to front bumper; default "
@@ -228,6 +236,16 @@ def consistency_problems(v: VehicleFile) -> list[tuple[tuple[str, ...], str]]:
                                  f"small for B: in kN/m or lbf/in, not N/m?)"))
     if v.track > v.width:
         out.append((("track", "width"), f"track ({v.track:g} m) must not exceed the width ({v.width:g} m)"))
+    elif v.track < TRACK_SHARE_MIN * v.width:
+        out.append((("track", "width"), f"track ({v.track:g} m) is less than {TRACK_SHARE_MIN:g} x the width "
+                    f"({v.width:g} m): road vehicles have 0.75-0.9 (the wheels' centre to centre across an axle)"))
+    elif v.cg_height > 0 and v.track / (2 * v.cg_height) < SSF_MIN:
+        out.append((("track", "cg_height"), f"track ({v.track:g} m) and cg_height ({v.cg_height:g} m): the vehicle "
+                    f"would tip over at {v.track / (2 * v.cg_height):.2g} g of lateral acceleration (track / 2 "
+                    f"cg_height; a loaded articulated truck {SSF_MIN + 0.05:g}-0.5, cars 1.0-1.5)"))
+    if v.wheelbase < WHEELBASE_SHARE_MIN * v.length:
+        out.append((("wheelbase", "length"), f"wheelbase ({v.wheelbase:g} m) is less than {WHEELBASE_SHARE_MIN:g} x "
+                    f"the length ({v.length:g} m): road vehicles have 0.45-0.65"))
     if v.cg_height >= v.height:
         out.append((("cg_height", "height"), f"cg_height ({v.cg_height:g} m) must be below the height "
                     f"({v.height:g} m)"))

@@ -186,7 +186,8 @@ def test_scene_numbers_finite_and_bounded(tmp_path, capsys, top, extra, key):
 
 
 @pytest.mark.parametrize("key, bad", [("mass", "inf"), ("mass", "true"), ("yaw_inertia", "1e-9"),
-                                      ("track", "1.9"), ("cg_height", "2.0"), ("wheel_radius", "nan")])
+                                      ("track", "1.9"), ("cg_height", "2.0"), ("wheel_radius", "nan"),
+                                      ("track", "0.01")])
 def test_a_vehicle_file_and_an_override_pass_the_same_checks(tmp_path, capsys, key, bad):
     """The same bad value in a vehicle file (blamed on the vehicle file) and as an override of a good file
     (blamed on the scene, vehicles.V1.overrides.KEY) gives the same problem."""
@@ -201,6 +202,24 @@ def test_a_vehicle_file_and_an_override_pass_the_same_checks(tmp_path, capsys, k
     in_file = refused(capsys, tmp_path / "bad.toml", key, "simulate", f1)
     in_override = refused(capsys, f2, f"vehicles.V1.overrides.{key}")
     assert in_file.split(f": {key}: ")[1] == in_override.split(f".{key}: ")[1]
+
+
+@pytest.mark.parametrize("overrides, key, words", [
+    ("track = 0.01", "track", ["0.5 x the width"]),          # the impulse model divided by zero (a traceback)
+    ("track = 0.2", "track", ["0.5 x the width"]),           # ran quietly: rest 1 m short, 15 deg off
+    ("track = 0.85\ncg_height = 1.5\nheight = 3.0", "track", ["tip over at 0.28 g"]),
+    ("wheelbase = 0.05\ncg_to_front_axle = 0.02", "wheelbase", ["0.3 x the length"]),  # "the state became NaN"
+])
+def test_the_wheels_layout_against_the_body_is_checked(tmp_path, capsys, overrides, key, words):
+    """A probe (2026-11-28): a track or wheelbase of centimetres passed every check (track > 0, <= width) and the
+    impulse model raised ZeroDivisionError, failed with a NaN state or ran quietly. Refused in one line naming
+    the key; the library's 20 vehicles pass (track 0.82-0.88 x width, track / 2 cg_height 0.91-1.44,
+    wheelbase 0.49-0.65 x length)."""
+    f = tmp_path / "s.toml"
+    f.write_text(scene_text(f"[vehicles.overrides]\n{overrides}"))
+    line = refused(capsys, f, f"vehicles.V1.overrides.{key}")
+    for w in words:
+        assert w in line, line
 
 
 def test_mass_override_refused_when_the_inertias_are_not_scaled(tmp_path, capsys):
