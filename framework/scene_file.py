@@ -101,9 +101,19 @@ def _number_or_speed(value, handler):
     return value if value == SPEED else handler(value)
 
 
+def _or_word(word: str):
+    """json_schema_extra of a key that also takes a word (the WrapValidators above): its JSON Schema one of the
+    type's schema or that word, so that an editor checking against `crashlab schema` accepts what the loader does."""
+    def extra(schema: dict) -> None:
+        typed = {k: schema.pop(k) for k in list(schema) if k not in ("default", "description", "title")}
+        schema["anyOf"] = typed.get("anyOf", [typed]) + [{"const": word}]
+    return extra
+
+
 class ImpactFile(_Strict):
     restitution: Annotated[Real, WrapValidator(_number_or_speed)] = Field(
-        default=0.1, ge=0, le=1, description="coefficient of restitution; or \"speed\": a law of the closing speed "
+        default=0.1, ge=0, le=1, json_schema_extra=_or_word(SPEED),
+        description="coefficient of restitution; or \"speed\": a law of the closing speed "
         "at each impact (Cipriani et al. 2002, held at its ends 3.6-28.8 km/h with a warning; docs/physics.md §13b)")
     friction: Real = Field(default=0.3, ge=0, le=FRICTION_MAX,
                            description=f"vehicle-vehicle friction coefficient; [0, {FRICTION_MAX:g}]")
@@ -119,7 +129,8 @@ class ImpactFile(_Strict):
     friction_law: Literal["coulomb", "threlfall", "ambrosio"] = Field(
         default="ambrosio", description="regularised friction law of the continuous-contact models")
     point: Annotated[tuple[Position, Position] | None, WrapValidator(_point_or_engagement)] = Field(
-        default=None, description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}; or \"engagement\" "
+        default=None, json_schema_extra=_or_word("engagement"),
+        description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}; or \"engagement\" "
         "(impulse model): the point and contact plane where the outlines, moved along their velocities from first "
         "touch, overlap by engagement_depth (docs/physics.md §4)")
     plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")

@@ -70,6 +70,8 @@ def _check(data, schema, root, path="") -> list[str]:
         if all(_check(data, sub, root, path) for sub in schema["anyOf"]):
             errors.append(f"{path}: matches none of anyOf")
         return errors
+    if "const" in schema and data != schema["const"]:
+        errors.append(f"{path}: {data!r} is not {schema['const']!r}")
     if "enum" in schema and data not in schema["enum"]:
         errors.append(f"{path}: {data!r} not in {schema['enum']}")
     t = schema.get("type")
@@ -128,6 +130,17 @@ def test_printed_schema_refuses_bad_input(capsys):
     errors = " ".join(_check(bad, schema, schema))
     assert "colour: unknown key" in errors and ".speed: 500 out of bounds" in errors
     assert ".duration: str is not number" in errors and "gaussian" in errors
+
+
+def test_printed_schema_takes_the_words_the_loader_takes(capsys):
+    """restitution = "speed" and point = "engagement" load, but the schema said number and array-or-null (a
+    probe, 2026-11-28): an editor flagged valid files. Now each is its type or its word, and nothing else."""
+    schema = _schema("scene", capsys)
+    car = {"name": "V1", "vehicle": "clio"}
+    for impact in ({"restitution": "speed"}, {"point": "engagement"}, {"restitution": 0.2, "point": [1.0, 2.0]}):
+        assert not _check({"impact": impact, "vehicles": [car]}, schema, schema), impact
+    for impact in ({"restitution": "sped"}, {"restitution": 1.5}, {"point": "engaged"}, {"point": [1.0, 1e6]}):
+        assert _check({"impact": impact, "vehicles": [car]}, schema, schema), impact
 
 
 def test_version(capsys):
