@@ -455,6 +455,22 @@ def unknown_key_problem(data: dict) -> tuple[str, str] | None:
     return None
 
 
+def source_key_problem(data: dict) -> tuple[str, str] | None:
+    """(key, problem) of the first [sources] entry that names no key of the file: not a key of the schema, nor a
+    table the file has (a model's own section); None if there is none. A typo (`wheelbse`) left the number it
+    meant without a source and said nothing (a probe, 2026-11-28)."""
+    sources = data.get("sources")
+    if not isinstance(sources, dict):
+        return None  # (not a table: the schema refuses it)
+    known = set(known_keys()) - set(METADATA_KEYS)
+    for key in sources:
+        if key not in known and not (key in data and _is_table(data[key])):
+            close = _close_key(key)
+            return f"sources.{key}", ("names no key of the vehicle file (an entry says where that key's number "
+                                      "comes from)" + (f"; did you mean {close!r}?" if close else ""))
+    return None
+
+
 def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None, system: str = "si",
               given=None) -> VehicleFile:
     """VehicleFile of `data`, every bad number blamed on `file` under `prefix` (the file itself, or the
@@ -462,6 +478,7 @@ def _validate(data: dict, file, prefix: str = "", overridden: dict | None = None
     top-level keys are checked first (unknown_key_problem; the overrides' in load_vehicle). `system` and
     `given`: the units of the scene that overrides and its overrides as written (a refused bound said in them)."""
     unknown = unknown_key_problem(data) if overridden is None else None
+    unknown = unknown or source_key_problem(data)
     if unknown is not None:
         raise InputError(file, prefix + unknown[0], unknown[1])
     try:

@@ -222,6 +222,19 @@ def test_the_wheels_layout_against_the_body_is_checked(tmp_path, capsys, overrid
         assert w in line, line
 
 
+def test_a_source_of_no_key_is_refused(tmp_path, capsys):
+    """[sources] wheelbse = "..." was accepted quietly (a probe, 2026-11-28): the wheelbase it meant had no
+    source. In a vehicle file and in a scene's overrides alike; a model's own table (multibody) may have one."""
+    good = (REPO / "framework" / "vehicles" / "clio.toml").read_text()
+    assert "\nmultibody = " in good  # a table's entry, accepted
+    (tmp_path / "bad.toml").write_text(good.replace("[sources]\n", "[sources]\nwheelbse = \"typo\"\n", 1))
+    f1, f2 = tmp_path / "s1.toml", tmp_path / "s2.toml"
+    f1.write_text(scene_text().replace('"clio"', '"bad.toml"'))
+    f2.write_text(scene_text("[vehicles.overrides.sources]\nmas = \"typo\""))
+    assert "did you mean 'wheelbase'" in refused(capsys, tmp_path / "bad.toml", "sources.wheelbse", "simulate", f1)
+    assert "did you mean 'mass'" in refused(capsys, f2, "vehicles.V1.overrides.sources.mas")
+
+
 def test_mass_override_refused_when_the_inertias_are_not_scaled(tmp_path, capsys):
     """3000 kg on the Clio's inertias is a plausible (dense) car; 60 t on them is a radius of gyration of
     14 cm about the yaw axis (0.03 x the diagonal): refused, naming the overridden key."""
