@@ -107,8 +107,8 @@ def smallest(values, default=math.nan) -> float:
     return default if not values else math.nan if any(map(math.isnan, values)) else min(values)
 
 
-class _DivisionByZero(ValueError):
-    pass
+class _KnownNow(ValueError):
+    """A question whose part is decided without a draw: a division by a zero, a comparison of numbers alone."""
 
 
 def _divide(a, b):
@@ -179,7 +179,7 @@ class _Compiler:
             a, b, f = self.num(n.left, "arithmetic"), self.num(n.right, "arithmetic"), _ARITH[type(n.op)]
             if f is np.divide:
                 if not self._reads(n.right) and np.all(b({}) == 0):  # a divisor without variables: known now
-                    raise _DivisionByZero(f"divides by zero (the divisor {ast.unparse(n.right)} is 0 whatever "
+                    raise _KnownNow(f"divides by zero (the divisor {ast.unparse(n.right)} is 0 whatever "
                                           "the draw)")
                 return "num", lambda d, a=a, b=b: _divide(a(d), b(d))
             return "num", lambda d, f=f, a=a, b=b: _finite(f(a(d), b(d)))
@@ -188,6 +188,12 @@ class _Compiler:
             if any(k != "num" for k, _ in sides):
                 raise ValueError("comparisons compare numbers")
             parts = [(_COMPARE[type(o)], sides[i][1], sides[i + 1][1]) for i, o in enumerate(n.ops)]
+            terms = (n.left, *n.comparators)
+            for i, (f, a, b) in enumerate(parts):  # a part without variables (in a chain: 50 > 40 == 1)
+                if not self._reads(terms[i]) and not self._reads(terms[i + 1]):
+                    part = ast.unparse(ast.Compare(left=terms[i], ops=[n.ops[i]], comparators=[terms[i + 1]]))
+                    raise _KnownNow(f"has {part}, a comparison without a variable: always "
+                                    f"{'true' if bool(f(a({}), b({}))) else 'false'}")
             def fn(d, parts=parts):
                 out, defined = None, True
                 for f, a, b in parts:
@@ -219,7 +225,8 @@ class _Compiler:
 
 def parse_question(expr: str, names, source="<study>", key="questions.0.expr", name: str | None = None) -> Question:
     """A Question over the variable labels `names` (its `name`: the study's, default the expression);
-    InputError naming source and key if it does not parse or divides by a zero without variables."""
+    InputError naming source and key if it does not parse, divides by a zero or compares numbers without
+    variables."""
     labels = {_PLACEHOLDER.format(i): n for i, n in enumerate(names)}
     text = expr
     # longest label first, whole dotted names only (V1.speed is not a part of V1.speed2)
@@ -233,7 +240,7 @@ def parse_question(expr: str, names, source="<study>", key="questions.0.expr", n
             raise ValueError("not a comparison (e.g. V1.speed > 50)")
     except SyntaxError as err:
         raise InputError(source, key, f"{expr!r} does not parse: {err.msg}") from None
-    except _DivisionByZero as err:
+    except _KnownNow as err:
         raise InputError(source, key, f"{expr!r} {err}") from None
     except ValueError as err:
         raise InputError(source, key, f"{expr!r} does not parse: {err}") from None

@@ -82,6 +82,10 @@ def test_a_field_free_twice_is_refused(tmp_path):
     ('[[questions]]\nexpr = "V1.speed >"', "questions.0.expr", ["does not parse"]),
     ('[[questions]]\nexpr = "V3.speed > 50"', "questions.0.expr", ["unknown name 'V3.speed'"]),
     ('[[questions]]\nexpr = "V1.speed / 0 > 1"', "questions.0.expr", ["divides by zero"]),
+    # a chain's part without a variable: summary.md answered 0.000 quietly (a probe, 2026-11-28)
+    ('[[questions]]\nexpr = "V1.speed > 50 > 40 == 1"', "questions.0.expr",
+     ["has 50 > 40, a comparison without a variable: always true"]),
+    ('[[questions]]\nexpr = "V1.speed > 5 and 2 * 3 > 7"', "questions.0.expr", ["has 2 * 3 > 7,", "always false"]),
     ("[[questions]]\nexpr = \"__import__('os').system('echo PWNED')\"", "questions.0.expr", ["Call is not allowed"]),
     ('[[counterfactuals]]\nname = "x"\nset = {nope = 1}', "counterfactuals.0.set.nope", ["unknown field 'nope'"]),
     ('[[counterfactuals]]\nname = "x"', "counterfactuals.0", ["give set, shift or scale"]),
