@@ -23,7 +23,7 @@ from pydantic import (
 
 from crashlab import fields
 from crashlab.damage import DamageEvidence
-from crashlab.execution import DEFAULT_TIMEOUT_S
+from crashlab.execution import DEFAULT_TIMEOUT_S, TIMEOUT_MIN_S
 from crashlab.fields import study_path
 from crashlab.file_numbers import Real
 
@@ -266,7 +266,15 @@ class ExecutionSection(_Strict):
     # s per evaluation (crashlab.execution.DEFAULT_TIMEOUT_S); 0: no limit (the serial backend then runs
     # in this process, and a hanging model hangs the run)
     timeout_s: Real = Field(default=DEFAULT_TIMEOUT_S, ge=0, le=86400.0,
-                            description="s per evaluation; [0, 86400], 0 = no limit")
+                            description=f"s per evaluation; [0, 86400], 0 = no limit, else at least {TIMEOUT_MIN_S:g}")
+
+    @field_validator("timeout_s")
+    @classmethod
+    def _a_limit_or_none(cls, v):
+        if 0 < v < TIMEOUT_MIN_S:
+            raise ValueError(f"{v:g} s: 0 (no limit) or at least {TIMEOUT_MIN_S:g} s (a worker's round trip takes "
+                             "milliseconds: a shorter limit is not what it says)")
+        return v
 
 
 class RepairSection(_Strict):

@@ -54,10 +54,10 @@ def test_a_run_within_its_time_gives_the_in_process_result(capsys):
     assert timed == plain
 
 
-@pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), float("inf")])
+@pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), float("inf"), 1e-9, 0.099])
 def test_a_bad_timeout_is_one_line(value):
     from crashlab.errors import InputError
-    with pytest.raises(InputError, match=r"command line: --timeout: seconds, above 0"):
+    with pytest.raises(InputError, match=r"command line: --timeout: seconds, at least 0.1"):
         run(["--model", "pymunk"], value)
 
 

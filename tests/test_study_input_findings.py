@@ -76,6 +76,18 @@ def test_a_field_free_twice_is_refused(tmp_path):
     assert_refused_with_one_line(load_study, _study(tmp_path, text), "free.1", ["V1.speed is already free (free.0)"])
 
 
+# ------------------------------------------------------------------ [execution]
+@pytest.mark.parametrize("value, ok", [(0.0, True), (1e-9, False), (0.099, False), (0.1, True)])
+def test_a_timeout_shorter_than_a_round_trip_is_refused(tmp_path, value, ok):
+    """timeout_s = 1e-9 ran and failed 2 of 12 evaluations for it, letting 10 through (a probe, 2026-11-28): a
+    batch gets n x the limit and a worker's first call a grace. 0 (no limit) or at least 0.1 s."""
+    path = _study(tmp_path, STUDY.replace("timeout_s = 0\n", f"timeout_s = {value!r}\n"))
+    if ok:
+        assert load_study(path).spec.execution.timeout_s == value
+    else:
+        assert_refused_with_one_line(load_study, path, "execution.timeout_s", ["0 (no limit) or at least 0.1 s"])
+
+
 # ------------------------------------------------------------------ [[questions]], [[counterfactuals]]
 @pytest.mark.parametrize("table, key, words", [
     ('[[questions]]\nexpr = ""', "questions.0.expr", ["at least 1 character"]),

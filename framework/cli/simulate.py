@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
+from ..execution.constants import TIMEOUT_MIN_S
 from ..registry import UnknownPluginError, listed_models
 from ..units import json_in, json_number, table_in, wrap_deg
 
@@ -257,8 +258,8 @@ def cmd_simulate(args):
     scene = load_scene(args.scene)
     model = _get_model(args.model, args.scene)
     timeout = getattr(args, "timeout", None)
-    if timeout is not None and not (math.isfinite(timeout) and timeout > 0):
-        raise InputError("command line", "--timeout", f"seconds, above 0, got {timeout}")
+    if timeout is not None and not (math.isfinite(timeout) and timeout >= TIMEOUT_MIN_S):
+        raise InputError("command line", "--timeout", f"seconds, at least {TIMEOUT_MIN_S:g}, got {timeout}")
     if args.monte_carlo is not None:
         if timeout is not None:
             raise InputError("command line", "--timeout", "limits a single run, not --monte-carlo")

@@ -41,13 +41,13 @@ one: a batch records no paths) and `residuals(outcomes) -> (n, n_residuals)`, pi
 Population.scores. On Variants the scorer has `population_residuals(population)` instead, scored on the arrays.
 """
 from ..population import Population, Variants
-from .constants import DEFAULT_TIMEOUT_S, FIRST_CALL_GRACE_S
+from .constants import DEFAULT_TIMEOUT_S, FIRST_CALL_GRACE_S, TIMEOUT_MIN_S
 from .evaluate import empty_population, evaluate_in_process, evaluate_variants
 from .executor import Executor
 from .models import model_for, model_instance
 from .pool import WorkerPool, WorkerStartError
 from .timed import TimedOut, simulate_with_timeout
 
-__all__ = ["DEFAULT_TIMEOUT_S", "FIRST_CALL_GRACE_S", "Executor", "Population", "TimedOut", "Variants",
+__all__ = ["DEFAULT_TIMEOUT_S", "FIRST_CALL_GRACE_S", "TIMEOUT_MIN_S", "Executor", "Population", "TimedOut", "Variants",
            "WorkerPool", "WorkerStartError", "empty_population", "evaluate_in_process", "evaluate_variants",
            "model_for", "model_instance", "simulate_with_timeout"]
