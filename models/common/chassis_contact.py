@@ -113,7 +113,12 @@ S_DDT = 40
 # strips' less their share of the setback; §13a "Face memory": against a face crushed before, the pair's total crush
 # is no longer shared as one loading shares it), reset with S_CMAX
 S_CM1, S_CM2 = 41, 42
-N_PST = 43
+# structure law: 1 once a pair with a crush memory has been found apart with no episode open (gap >= 0, or a gate);
+# its struck faces are then chosen again at its next touch, by the approach as at a first touch (§13a "Crush
+# memory"); 0 after that choice. Before 2026-11-28 they were chosen while apart, by the touch point's rule, which
+# differs from the approach's at rounded corners: the memory was forgotten and a re-touch met fresh structures
+S_APART = 43
+N_PST = 44
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -454,6 +459,13 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
     return f * du * scale, w * scale, fl * du * scale, cp
 
 
+@njit(cache=True, inline="always")
+def _apart(PST, p):
+    """A pair found apart with no episode open: its faces are chosen again at its next touch (S_APART)."""
+    if PST[p, S_ACT] == NONE:
+        PST[p, S_APART] = 1.0
+
+
 @njit(cache=True)
 def _zrange(kind, sh, r, A):
     return -support_value_body(kind, 0.0, 0.0, -1.0, sh, r, A), support_value_body(kind, 0.0, 0.0, 1.0, sh, r, A)
@@ -519,6 +531,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
         dx, dy = cx2 - Y[i, 0], cy2 - Y[i, 1]
         if dx * dx + dy * dy > reach * reach:
             PST[p, S_THOK] = 0.0
+            _apart(PST, p)
             BPC[B_CIRCLE] += 1
             continue
         r1, v1, om1 = chassis_pose(Y[i], nq, A1)
@@ -549,15 +562,18 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
         dx, dy = rc2[0] - rc1[0], rc2[1] - rc1[1]
         if dx * dx + dy * dy > (R1 + R2 + 0.05) ** 2:
             PST[p, S_THOK] = 0.0
+            _apart(PST, p)
             BPC[B_CIRCLE] += 1
             continue
         z1a, z1b = _zrange(0, sh1, rc1, A1)
         z2a, z2b = _zrange(k2, sh2, rc2, A2)
         if z1a > z2b or z2a > z1b:
+            _apart(PST, p)
             BPC[B_HEIGHT] += 1
             continue
         if PST[p, S_ACT] == NONE and not obb_overlap(rc1, A1, sh1[:3], rc2, A2, sh2[:3]):
             PST[p, S_THOK] = 0.0
+            _apart(PST, p)
             BPC[B_OBB] += 1
             continue
         BPC[B_NARROW] += 1
@@ -586,8 +602,12 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
             # §13a: struck sides and faces latched until the contact opens (a contact on other faces forgets the
             # crush)
             # (a crushed pair keeps them while its shapes still overlap: the crushed zones are still the ones in
-            # touch; re-chosen once the shapes have separated, g >= 0)
-            if PST[p, S_ACT] == NONE and (PST[p, S_CMAX] == 0.0 or g >= 0.0):
+            # touch; chosen again at the first touch after the shapes have separated, S_APART, by the approach)
+            if g >= 0.0:
+                _apart(PST, p)
+            if PST[p, S_ACT] == NONE and (PST[p, S_CMAX] == 0.0 or (g < 0.0 and PST[p, S_APART] > 0.0)):
+                if g < 0.0:
+                    PST[p, S_APART] = 0.0
                 fi, fj = _struck_faces(A1, rc1, sh1, r1, v1, om1, A2, rc2, sh2, r2, v2, om2, k2, M, g)
                 si, sj = fi, fj if k2 == 0 else 0
                 if si != PST[p, S_SIDE_I] or sj != PST[p, S_SIDE_J] or fi != PST[p, S_FACE_I] \
