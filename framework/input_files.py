@@ -49,6 +49,31 @@ def read_toml(path: Path, what: str = "file") -> dict:
     raise InputError(path, what, f"larger than {TOML_BYTES_MAX >> 20} MB: not a scene, study or vehicle file")
 
 
+def file_kind(data: dict) -> str | None:
+    """The kind of input file `data` is by its top-level keys: "scene" ([[vehicles]], no scene named), "study" (it
+    names a scene, or has [[free]] or [evidence], and no [[vehicles]]), "vehicle" (mass and wheelbase), else None
+    (too little to tell: the schema's own messages say what is wrong)."""
+    if "vehicles" in data and "scene" not in data:
+        return "scene"
+    if "vehicles" not in data and {"scene", "free", "evidence"} & set(data):
+        return "study"
+    if {"mass", "wheelbase"} <= set(data):
+        return "vehicle"
+    return None
+
+
+_KIND_SIGN = {"scene": "it has [[vehicles]]", "study": "it names a scene and what to search",
+              "vehicle": "it gives one vehicle's mass and wheelbase"}
+
+
+def check_kind(path, data: dict, expected: str) -> None:
+    """InputError when the file read as a `expected` (scene, study, vehicle) file is of another kind: one line
+    saying which, where the schema said only "unknown key" of its first key (a probe, 2026-11-28)."""
+    kind = file_kind(data)
+    if kind is not None and kind != expected:
+        raise InputError(path, "(top level)", f"this is a {kind} file ({_KIND_SIGN[kind]}), not a {expected} file")
+
+
 # pydantic's error types of a violated bound (ge, gt, le, lt)
 BOUND_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
 _INT_DIGITS_MAX = 4300  # Python's default int <-> str conversion limit (sys.get_int_max_str_digits)

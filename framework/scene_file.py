@@ -15,7 +15,7 @@ from . import uncertainty
 from .errors import InputError
 from .file_numbers import Real
 from .file_units import from_us, system_of
-from .input_files import pydantic_error, read_toml
+from .input_files import check_kind, pydantic_error, read_toml
 from .restitution import SPEED
 from .scene import (
     ANGLE_MAX,
@@ -368,5 +368,7 @@ def _scene_from_dict(data: dict, source, base_dir) -> Scene:
 def load_scene(path: str | Path) -> Scene:
     """Load and validate a scene file (TOML). Bad input raises InputError (file, key, problem)."""
     path = Path(path)
-    return scene_from_dict(read_toml(path, "scene"), source=path, base_dir=path.parent)
+    data = read_toml(path, "scene")
+    check_kind(path, data, "scene")
+    return scene_from_dict(data, source=path, base_dir=path.parent)
 

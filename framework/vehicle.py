@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .errors import InputError
 from .file_numbers import Real, bounded
-from .input_files import pydantic_error, read_toml
+from .input_files import check_kind, pydantic_error, read_toml
 from .structure import (
     CRUSH_56_RANGE,
     CRUSH_56_SPEED,
@@ -535,6 +535,7 @@ def load_vehicle(ref: str, base_dir: Path | None = None, overrides: dict | None 
             raise InputError(scene_file, where, f"unknown vehicle {ref!r}{hint}")
         path = Path(str(resources.files("crashlab").joinpath("vehicles", ref + ".toml")))
     data = read_toml(path, "vehicle")
+    check_kind(path, data, "vehicle")
     spec = _validate(data, path)  # the file itself first, so its own errors are blamed on it
     if overrides:
         known = set(VehicleFile.model_fields) | set(data)

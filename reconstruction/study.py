@@ -26,7 +26,7 @@ from pydantic import ValidationError
 
 from crashlab import uncertainty
 from crashlab.errors import InputError
-from crashlab.input_files import pydantic_error, read_toml
+from crashlab.input_files import check_kind, pydantic_error, read_toml
 from crashlab.options import OptionError
 from crashlab.population import outcome_reason
 from crashlab.registry import (
@@ -216,7 +216,9 @@ def load_study(path) -> Study:
     """The study in a TOML file, checked; InputError (file, key, problem) when it is not right (for a file
     written in US units, its own lines say that their numbers are in file units: US_NOTE)."""
     path = Path(path)
-    data = in_file_units(read_toml(path, "study"), path)  # a study written in ft, mph, lb: read once, here
+    data = read_toml(path, "study")
+    check_kind(path, data, "study")
+    data = in_file_units(data, path)  # a study written in ft, mph, lb: read once, here
     try:
         return _load_study(path, data)
     except InputError as err:

@@ -3,6 +3,7 @@ and a given point joins the pair whose outlines meet there."""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -233,6 +234,25 @@ def test_a_source_of_no_key_is_refused(tmp_path, capsys):
     f2.write_text(scene_text("[vehicles.overrides.sources]\nmas = \"typo\""))
     assert "did you mean 'wheelbase'" in refused(capsys, tmp_path / "bad.toml", "sources.wheelbse", "simulate", f1)
     assert "did you mean 'mass'" in refused(capsys, f2, "vehicles.V1.overrides.sources.mas")
+
+
+def test_a_file_of_another_kind_is_named_as_such(tmp_path, capsys):
+    """A vehicle file given to simulate (or infer), a study whose scene is a study, a scene's vehicle that is a
+    scene: the schema said "class: unknown key", "scene: unknown key", "duration: unknown key" (a probe,
+    2026-11-28). One line saying what the file is."""
+    veh = tmp_path / "veh.toml"
+    veh.write_text((REPO / "framework" / "vehicles" / "clio.toml").read_text())
+    assert "this is a vehicle file" in refused(capsys, veh, "(top level)", "simulate", veh)
+    assert "study file" in refused(capsys, veh, "(top level)", "infer", veh, "--out", tmp_path / "o")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text())
+    study = tmp_path / "study.toml"
+    text = (REPO / "studies" / "reconstruction" / "twin1.toml").read_text()
+    study.write_text(re.sub(r'(?m)^scene = ".*"$', 'scene = "study.toml"', text))
+    assert "this is a study file" in refused(capsys, study, "(top level)", "reconstruct", study)
+    car = tmp_path / "car.toml"
+    car.write_text(scene.read_text().replace('"clio"', '"s.toml"'))
+    assert "this is a scene file" in refused(capsys, scene, "(top level)", "simulate", car)
 
 
 def test_mass_override_refused_when_the_inertias_are_not_scaled(tmp_path, capsys):
