@@ -120,14 +120,35 @@ def _field_at(schema, part):
     return schema.model_fields.get(part) or next((f for f in schema.model_fields.values() if f.alias == part), None)
 
 
+def _dict_depth(annotation) -> int:
+    """How many dict levels hold an annotation's model (dict[str, dict[str, M]]: 2), whose keys are names of the
+    file's own (reference.<source>.<vehicle>)."""
+    if typing.get_origin(annotation) is dict:
+        return 1 + _dict_depth(typing.get_args(annotation)[1])
+    return max((_dict_depth(a) for a in typing.get_args(annotation)), default=0)
+
+
+def _walk(schema, parts):
+    """(the pydantic model, the field) at the dotted `parts` of a file with the schema `schema`, list indices and
+    the keys of a dict's table (a reference's source and vehicle names) stepped over; (None, None) where lost."""
+    field, mapping = None, 0
+    for part in parts:
+        if isinstance(part, int) or schema is None:
+            continue
+        found = _field_at(schema, part)
+        if found is None and mapping:  # a name of the file's own in a dict of tables
+            mapping -= 1
+            continue
+        field = found
+        schema = None if found is None else schema_in(found.annotation)
+        mapping = 0 if found is None else _dict_depth(found.annotation)
+    return schema, field
+
+
 def keys_at(schema, loc) -> list[str]:
     """The keys the table at `loc` (a pydantic error's location, list indices included) of a file with the
     pydantic schema `schema` accepts; [] where unknown."""
-    for part in loc:
-        if isinstance(part, int) or schema is None:
-            continue
-        field = _field_at(schema, part)
-        schema = None if field is None else schema_in(field.annotation)
+    schema = _walk(schema, loc)[0]
     if schema is None:
         return []
     return [f.alias or name for name, f in schema.model_fields.items()]
@@ -139,10 +160,7 @@ def unit_at(schema, loc) -> str:
     keys = [p for p in loc if not isinstance(p, int)]
     if not keys:
         return ""
-    for part in keys[:-1]:
-        field = _field_at(schema, part)
-        schema = None if field is None else schema_in(field.annotation)
-    field = _field_at(schema, keys[-1])
+    field = _field_at(_walk(schema, keys[:-1])[0], keys[-1])
     unit = split_unit(field.description)[0] if field is not None else ""
     return "" if unit == "-" else unit
 

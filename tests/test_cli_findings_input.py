@@ -129,3 +129,16 @@ def test_study_refuses_a_model_named_twice(capsys, tmp_path):
     run."""
     refused(capsys, "command line", "--models", "study", "scaling", "--models", "impulse,pymunk,impulse", "--out",
             tmp_path, words=["'impulse'", "twice"])
+
+
+@pytest.mark.parametrize("units, value, words", [
+    ("us", "300", ["248.5 mph (400 km/h), got 300 mph"]),
+    ("si", "500", ["less than or equal to 400 km/h, got 500"]),
+])
+def test_a_references_bound_is_said_in_its_unit(tmp_path, units, value, words):
+    """reference.pc_crash.V1.vx = 300 in a US scene said "less than or equal to 400, got 482.80320000000006" (a
+    probe, 2026-11-28): the unit of a key under a table of the file's own names (source, vehicle) was not found."""
+    text = SIDE.read_text().replace("[reference.pc_crash.V1]\n", f"[reference.pc_crash.V1]\nvx = {value}\n", 1)
+    scene = tmp_path / "s.toml"
+    scene.write_text(('units = "us"\n' if units == "us" else "") + text)
+    assert_refused_with_one_line(load_scene, scene, "reference.pc_crash.V1.vx", words)
