@@ -102,7 +102,7 @@ def _no_feasible(args, res) -> int:
     arch = res.problem.archive_arrays()
     if len(res.pareto) and not scored_feasible(arch).any():
         print(f"crashlab: no feasible solution: {args.study}: none of {res.evaluations} evaluations could be scored "
-              f"on every evidence item (damage evidence needs an impact on the damaged side: check "
+              "on every evidence item (damage evidence needs an impact on the damaged side: check "
               f"{_never_scored(res.problem.evidence_set, arch)}; report.html with --out names the side Pareto row 0 "
               "struck)", file=sys.stderr)
         return EXIT_NO_FEASIBLE

@@ -180,7 +180,7 @@ class _Compiler:
             if f is np.divide:
                 if not self._reads(n.right) and np.all(b({}) == 0):  # a divisor without variables: known now
                     raise _KnownNow(f"divides by zero (the divisor {ast.unparse(n.right)} is 0 whatever "
-                                          "the draw)")
+                                    "the draw)")
                 return "num", lambda d, a=a, b=b: _divide(a(d), b(d))
             return "num", lambda d, f=f, a=a, b=b: _finite(f(a(d), b(d)))
         if isinstance(n, ast.Compare) and all(type(o) in _COMPARE for o in n.ops):
