@@ -142,3 +142,15 @@ def test_a_references_bound_is_said_in_its_unit(tmp_path, units, value, words):
     scene = tmp_path / "s.toml"
     scene.write_text(('units = "us"\n' if units == "us" else "") + text)
     assert_refused_with_one_line(load_scene, scene, "reference.pc_crash.V1.vx", words)
+
+
+def test_a_typo_under_a_vehicles_evidence_gets_the_nearest_key(tmp_path):
+    """evidence.rest.V1.sigma_xz said "unknown key" alone: the keys under a table of the file's own names (the
+    vehicle) were not found for the suggestion (2026-11-28, with the unit above)."""
+    from crashlab.reconstruction import load_study
+    study = example("tutorial/study.toml")
+    path = tmp_path / "typo.toml"
+    path.write_text(study.read_text().replace("sigma_xy", "sigma_xz", 1)
+                    .replace('scene = "scene.toml"', f'scene = "{(study.parent / "scene.toml").as_posix()}"'))
+    assert_refused_with_one_line(load_study, path, "evidence.rest.V1.sigma_xz",
+                                 ["unknown key; did you mean 'sigma_xy'?"])

@@ -162,6 +162,9 @@ def test_tutorial_commands_run_and_make_its_figures(tmp_path):
 # the platform's floating point, and a search's chaotic rows with them)
 EXACT = ("crashlab simulate studies/tutorial/truth.toml", "crashlab compare", "crashlab reconstruct typo.toml",
          "crashlab reconstruct short_study.toml")
+# the seeded Monte Carlo's quantiles of 1000 independent draws: within 1 % (its 95 % delta-V had drifted 4 % behind
+# the impulse model's push rows with no test to say so, found 2026-11-28)
+NEAR, NEAR_REL = ("crashlab simulate studies/tutorial/reconstructed.toml",), 0.01
 NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
 WALL = re.compile(r"\b\d+(?:\.\d+)? (?:s|ms)\b")  # wall times differ from run to run
 
@@ -175,17 +178,17 @@ def printed_blocks(text: str) -> list[tuple[str, list[str]]]:
     return out
 
 
-def same_line(shown: str, printed: str, exact: bool) -> bool:
+def same_line(shown: str, printed: str, exact: bool, rel: float = 0.0) -> bool:
     """The tutorial's line is the printed one: the same words; numbers within half a unit of the shown line's last
-    digit (exact), or any numbers (not exact)."""
+    digit (exact) or within `rel` of it as well (rel > 0), or any numbers (neither)."""
     shown, printed = WALL.sub("T", shown), WALL.sub("T", printed)
     if NUMBER.sub("#", shown).split() != NUMBER.sub("#", printed).split():
         return False
-    if not exact:
+    if not exact and not rel:
         return True
     for a, b in zip(NUMBER.findall(shown), NUMBER.findall(printed)):
         digits = len(a.split(".")[1]) if "." in a else 0
-        if abs(float(a) - float(b)) > 0.5 * 10.0 ** -digits + 1e-12:
+        if abs(float(a) - float(b)) > max(0.5 * 10.0 ** -digits, rel * abs(float(a))) + 1e-12:
             return False
     return True
 
@@ -194,9 +197,9 @@ def unprinted_lines(text: str, printed: dict) -> list[str]:
     """The tutorial's printed lines (all but '...') that are no line of what their command printed."""
     bad = []
     for cmd, lines in printed_blocks(text):
-        exact = cmd.startswith(EXACT)
+        exact, rel = cmd.startswith(EXACT), NEAR_REL if cmd.startswith(NEAR) else 0.0
         got = printed[cmd].splitlines()
-        bad += [f"{cmd}: {ln}" for ln in lines if ln != "..." and not any(same_line(ln, g, exact) for g in got)]
+        bad += [f"{cmd}: {ln}" for ln in lines if ln != "..." and not any(same_line(ln, g, exact, rel) for g in got)]
     return bad
 
 
@@ -208,6 +211,10 @@ def test_a_drifted_printed_line_is_found():
     assert unprinted_lines(text, {"crashlab compare x": "V1  7.206  -39.78  fail (1.2 s)\n"})
     loose = text.replace("compare", "infer")
     assert unprinted_lines(loose, {"crashlab infer x": "V1  7.3  -41.0  ok (2 s)\n"}) == []
+    near = text.replace("compare x", "simulate studies/tutorial/reconstructed.toml")
+    cmd = "crashlab simulate studies/tutorial/reconstructed.toml"
+    assert unprinted_lines(near, {cmd: "V1  7.25  -39.5  ok (2 s)\n"}) == []     # within 1 %
+    assert unprinted_lines(near, {cmd: "V1  7.206  -38.9  ok (2 s)\n"})          # 2.2 % off
 
 
 def printed_after(text: str, command: str) -> list[str]:
