@@ -101,7 +101,8 @@ def summary_lines(post, res) -> list[str]:
               "as in the table; a start that overlaps, misses or fails has probability 0 "
               "(crashlab.reconstruction.infer).", "",
               "Files: posterior.csv (a row per sample, a column per variable "
-              + ("in file units" if system != "us" else "in US units, each named with its unit")
+              + ("in SI units (km/h, m, deg as in the table)" if system != "us" else
+                 "in US units, each named with its unit")
               + ", log_likelihood), "
               "corner.png" + (", posterior_top_view.png" if post.settings.draws_plotted else "")
               + "; all of it with the figures embedded: report.html."]

@@ -187,3 +187,17 @@ def test_a_us_override_of_the_chassis_inertia_is_converted(tmp_path):
                  'vehicle = "clio"\n[vehicles.overrides.multibody.chassis]\ninertia = [10000.0, 20000.0, 30000.0]\n')
     got = crashlab.load_scene(f).vehicles[0].spec.sections["multibody"]["chassis"]["inertia"]
     assert got == pytest.approx([q * 0.45359237 * 0.3048 ** 2 for q in (10000.0, 20000.0, 30000.0)], rel=1e-12)
+
+
+def test_a_us_file_shows_us_units_unless_told_otherwise(twins):
+    """--units defaults to the file's own system (until 2026-11-28 always si: a study in mph wrote posterior.csv in
+    km/h under bare column names, a factor 1.6 off for anyone reading it in the study's units, a probe found)."""
+    si, us = twins
+    a, b = (json.loads(cli("simulate", us, "--json", *extra)) for extra in ((), ("--units", "us")))
+    for r in a["results"] + b["results"]:
+        r.pop("wall_time_s")
+    assert a == b
+    c, d = (json.loads(cli("simulate", p, "--json")) for p in (si, us))
+    assert c["units"] != d["units"]
+    for x, y in zip(c["results"][0]["impacts"], d["results"][0]["impacts"], strict=True):
+        assert y["delta_v"] == pytest.approx(x["delta_v"] / MPH, rel=1e-6)

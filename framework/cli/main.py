@@ -273,10 +273,24 @@ def _table_options(parser, wide: str) -> None:
 
 def _units_option(parser) -> None:
     """--units of a command that prints tables or writes files: what it shows, never what it computes."""
-    parser.add_argument("--units", choices=("si", "us"), default="si",
+    parser.add_argument("--units", choices=("si", "us"), default=None,
                         help="units of every printed table, JSON, CSV file, figure and report: si (m, km/h, kg, J) "
-                        "or us (ft, mph, lb, ft-lbf); degrees and seconds as they are; a scene or study file says "
-                        "its own with units = \"us\"")
+                        "or us (ft, mph, lb, ft-lbf); degrees and seconds as they are (default: the scene's or "
+                        "study's own, us where it says units = \"us\", else si)")
+
+
+def _file_units(args) -> str:
+    """--units when it is not given: the unit system the command's scene or study file is written in (a study
+    in mph shows mph: its posterior.csv in km/h read as mph was a factor 1.6 off, a probe of 2026-11-28), si
+    for a command without one."""
+    from pathlib import Path
+
+    from ..file_units import system_of
+    from ..input_files import read_toml
+    path = getattr(args, "scene", None) or getattr(args, "study", None)
+    if not path or not Path(path).is_file():
+        return "si"  # (the command's own check names a missing file)
+    return system_of(read_toml(Path(path), "file"), path)
 
 
 def build_parser():
@@ -446,6 +460,8 @@ def main(argv=None):
         for dest, option in PATH_OPTIONS.items():
             if getattr(args, dest, None) == "":
                 raise InputError("command line", option, "an empty path; give a file or folder name")
+        if hasattr(args, "units") and args.units is None:
+            args.units = _file_units(args)
         from ..outdir import lock_out_dir
         with lock_out_dir(getattr(args, "out", None), args.command):  # one writer per --out folder
             return args.fn(args)
