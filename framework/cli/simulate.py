@@ -163,7 +163,7 @@ def cmd_monte_carlo(args, scene, model):
         if args.json:  # the JSON says why each failed (failure_reasons), as a failed single run's does
             print(json.dumps(result.to_json_dict(args.units), indent=2))
         elif written:
-            print("wrote " + ", ".join(str(p) for p in written))
+            print("wrote " + ", ".join(str(p) for p in written), file=sys.stderr)
         print(failed, file=sys.stderr)
         return 3
     if args.json:  # stderr: each kind of the model's warnings once, with its count of draws (the summary has them)
@@ -171,8 +171,8 @@ def cmd_monte_carlo(args, scene, model):
         print(json.dumps(result.to_json_dict(args.units), indent=2))
     else:
         montecarlo.print_summary(result, system=args.units)
-        if written:
-            print("wrote " + ", ".join(str(p) for p in written))
+        if written:  # (on stderr, as a single run's --csv and --plot say theirs)
+            print("wrote " + ", ".join(str(p) for p in written), file=sys.stderr)
         else:
             print("(--out DIR writes the table of draws and the figure)")
     return 0
