@@ -22,6 +22,7 @@ from .search_figures import near_optimal_figure, objectives_figure
 
 DUPLICATE_TOL = 1e-6  # Pareto rows whose every free variable lies this close (share of its bound width) are one
 HEADING_WARN_DEG = 15.0  # deg: a rest heading this far off is plain on any site sketch or photo
+SUMMARY_ROWS = 15  # Pareto rows in summary.md (every row: pareto.csv, report.html)
 
 
 class ReconstructionResult:
@@ -296,8 +297,11 @@ def write_outputs(study, result: ReconstructionResult, arch: dict, out_dir: Path
                             f"{', '.join(off)}.**")
             lines += [warnings[-1], ""]
         show = frame_in(result.pareto[[f.label for f in problem.free] + [f"f_{n}" for n in names] +
-                                      [f"dheading_{n}" for n in measured_h]].head(15), system, units)
+                                      [f"dheading_{n}" for n in measured_h]].head(SUMMARY_ROWS), system, units)
         lines.append(show.to_markdown(index=False, floatfmt=".3f"))
+        if len(result.pareto) > SUMMARY_ROWS:  # (it cut the table silently until 2026-11-28)
+            lines += ["", f"(rows 0-{SUMMARY_ROWS - 1} of {len(result.pareto)}; every row in pareto.csv and "
+                      "report.html)"]
         if problem.evidence_set is not None:
             mcols = misfit_columns(problem)
             lines += ["", f"### Misfit of every evidence item, every Pareto row ({len(result.pareto)})", "",

@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 from types import SimpleNamespace
 
+import pandas as pd
 import pytest
 from conftest import FREE_SPEEDS, assert_one_error_line, assert_refused_with_one_line
 
@@ -194,3 +195,17 @@ def test_a_scheduler_alone_is_a_dask_study(tmp_path):
     p = _study(tmp_path, STUDY.replace(SERIAL, '[execution]\nscheduler = "tcp://127.0.0.1:8786"\n'))
     study = load_study(p)
     assert _backend(study, None, None) == "dask"
+
+
+def test_summary_says_when_it_shows_part_of_the_pareto_set(tmp_path, capsys, monkeypatch):
+    """summary.md showed the first 15 Pareto rows of 42 without a word (a probe, 2026-11-28); here with the limit
+    at 1 row, so that the small search's set exceeds it."""
+    from crashlab.reconstruction import report
+    monkeypatch.setattr(report, "SUMMARY_ROWS", 1)
+    p = _study(tmp_path, STUDY.replace("pop_size = 4\ngenerations = 1", "pop_size = 12\ngenerations = 4"))
+    res = _cli(capsys, "reconstruct", p, "--no-progress", "--out", tmp_path / "out")
+    assert res.returncode == 0, res.stderr
+    n = len(pd.read_csv(tmp_path / "out" / "pareto.csv"))
+    assert n > 1
+    text = (tmp_path / "out" / "summary.md").read_text()
+    assert f"(rows 0-0 of {n}; every row in pareto.csv and report.html)" in text
