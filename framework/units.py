@@ -203,9 +203,13 @@ def json_in(data: dict, system: str) -> dict:
         return data
     units = data.get("units", {})
 
+    def named(key, unit):  # a key named with its SI unit as a suffix takes the US one ("distance_m" -> "distance_ft")
+        si, us = SUFFIXES.get(unit_word(unit), (None, None))
+        return key[:-len(si)] + us if si and isinstance(key, str) and key.endswith("_" + si) else key
+
     def walk(value, key=None, in_impacts=False):
         if isinstance(value, dict):
-            return {k: walk(v, k, in_impacts) for k, v in value.items()}
+            return {named(k, unit_of(k, units)): walk(v, k, in_impacts) for k, v in value.items()}
         if isinstance(value, list):
             return [walk(v, key, in_impacts or key == "impacts") for v in value]
         if isinstance(value, (int, float)) and not isinstance(value, bool) and key is not None:
@@ -213,8 +217,8 @@ def json_in(data: dict, system: str) -> dict:
         return value
 
     out = {k: walk(v, k) for k, v in data.items() if k != "units"}
-    out["units"] = {k: (us_unit(unit_word(u)) + str(u)[len(unit_word(u)):] if unit_word(u) in US_UNITS else u)
-                    for k, u in units.items()}
+    out["units"] = {named(k, u): (us_unit(unit_word(u)) + str(u)[len(unit_word(u)):] if unit_word(u) in US_UNITS
+                                  else u) for k, u in units.items()}
     return out
 
 

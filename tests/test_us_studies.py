@@ -345,5 +345,6 @@ def test_one_units_map_names_columns_and_keys_by_pattern():
     assert list(back.columns) == ["d_pc_ft", "V1.delta_v", "mass", "t", "x", "distance_ft"]  # (brackets only)
     close(back[["V1.delta_v", "mass", "x"]].iloc[0].to_numpy(), [16.09344, 453.59237, 0.3048], 1e-12)
     doc = json_in({"comparison": [{"d_pc_m": 3.048, "d_pc_deg": 2.0}], "units": units}, "us")
-    assert doc["comparison"][0] == pytest.approx({"d_pc_m": 10.0, "d_pc_deg": 2.0}, rel=1e-12)
-    assert doc["units"]["d_<source>_m"] == "ft, distance"
+    # a key named with its unit takes the US one, as a column does (it kept d_pc_m for feet until 2026-11-28)
+    assert doc["comparison"][0] == pytest.approx({"d_pc_ft": 10.0, "d_pc_deg": 2.0}, rel=1e-12)
+    assert doc["units"]["d_<source>_ft"] == "ft, distance"

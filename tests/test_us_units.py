@@ -160,7 +160,7 @@ def test_json_in_us_units(twins):
         assert y["delta_v"] == pytest.approx(x["delta_v"] / MPH, rel=1e-6)
         assert y["energy"] == pytest.approx(x["energy"] / (FT * LB * 9.80665), rel=1e-6)  # ft-lbf
         assert y["t"] == x["t"] and y["pdof"] == x["pdof"]
-    assert b["comparison"][0]["d_pc_m"] == pytest.approx(a["comparison"][0]["d_pc_m"] / FT, rel=1e-6)
+    assert b["comparison"][0]["d_pc_ft"] == pytest.approx(a["comparison"][0]["d_pc_m"] / FT, rel=1e-6)
     assert b["units"]["x"] == "ft" and b["units"]["impacts.energy"] == "ft-lbf" and b["units"]["speed"] == "mph"
 
 
@@ -201,3 +201,19 @@ def test_a_us_file_shows_us_units_unless_told_otherwise(twins):
     assert c["units"] != d["units"]
     for x, y in zip(c["results"][0]["impacts"], d["results"][0]["impacts"], strict=True):
         assert y["delta_v"] == pytest.approx(x["delta_v"] / MPH, rel=1e-6)
+
+
+def test_compare_json_keys_name_the_unit_they_hold(twins, tmp_path):
+    """compare --json --units us kept the keys d_pc_m and distance_m for values in feet (a probe, 2026-11-28):
+    a program reading the key's suffix was 3.28 times off. Now d_pc_ft, distance_ft, and the units map's too; a
+    reference's heading is wrapped to (-180, 180] as the map says (it kept the file's 386 as 386)."""
+    si, _ = twins
+    turned = tmp_path / "turned.toml"
+    turned.write_text(si.read_text().replace("heading = 26.0", "heading = 386.0", 1))
+    a, b = (json.loads(cli("compare", turned, "--models", "impulse", "--json", *extra))
+            for extra in ((), ("--units", "us")))
+    ra, rb = a["comparison"][0], b["comparison"][0]
+    assert "d_pc_m" in ra and "d_pc_ft" in rb and "d_pc_m" not in rb
+    assert rb["d_pc_ft"] == pytest.approx(ra["d_pc_m"] / FT, rel=1e-6)
+    assert "d_<source>_ft" in b["units"] and "d_<source>_m" not in b["units"]
+    assert a["references"]["pc"]["V1"]["heading"] == pytest.approx(26.0)

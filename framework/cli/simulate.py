@@ -56,8 +56,9 @@ def results_json(scene_file, scene, outcomes: dict) -> dict:
                   for row in table.astype(object).to_dict(orient="records")]
     spread = [{k: (v if isinstance(v, (str, int)) else json_number(v)) for k, v in row.items()}
               for row in model_spread(table, outcomes).to_dict(orient="records")]
-    references = {src: {n: {k: json_number(v) for k, v in ref.items()} for n, ref in per.items()}
-                  for src, per in scene.references.items()}
+    # (a reference's heading wrapped as the units map says, as its printed tables show it: 232.55 -> -127.45)
+    references = {src: {n: {k: json_number(wrap_deg(v) if k == "heading" else v) for k, v in ref.items()}
+                        for n, ref in per.items()} for src, per in scene.references.items()}
     return {"scene": {"name": scene.name, "file": str(scene_file)},
             "results": [result_json(scene, out) for out in outcomes.values()],
             "references": references, "comparison": comparison, "spread": spread,
