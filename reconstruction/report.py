@@ -85,8 +85,8 @@ def pareto_table(problem, arch: dict):
     width of a better row's are the same solution and kept once."""
     from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
     feasible = np.flatnonzero(np.all(arch["G"] <= 0, axis=1) & arch["ok"])
-    if len(feasible) == 0:
-        return pd.DataFrame()
+    if len(feasible) == 0:  # the columns still (an empty pareto.csv without its header was no CSV to read)
+        return pd.DataFrame(columns=_pareto_columns(problem))
     _, first = np.unique(arch["X"][feasible], axis=0, return_index=True)  # exact repeats (cheap, first)
     idx = feasible[np.sort(first)]
     front = NonDominatedSorting().do(arch["F"][idx], only_non_dominated_front=True)
@@ -116,7 +116,19 @@ def pareto_table(problem, arch: dict):
             row.update({f"contact_{n}_x": c[0], f"contact_{n}_y": c[1], f"contact_{n}_heading": rad_to_deg(c[2]),
                         f"contact_{n}_speed": ms_to_kmh(c[3])})
         rows.append(row)
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=_pareto_columns(problem))
+
+
+def _pareto_columns(problem) -> list[str]:
+    """pareto_table's columns, in its order."""
+    cols = [f.label for f in problem.free] + [f"f_{n}" for n in problem.objective_names]
+    if problem.evidence_set is not None:
+        cols += misfit_columns(problem) + ["log_likelihood"]
+    cols += [f"dheading_{n}" for n in problem.names]
+    for n in problem.names:
+        cols += [f"rest_{n}_x", f"rest_{n}_y", f"rest_{n}_heading",
+                 f"contact_{n}_x", f"contact_{n}_y", f"contact_{n}_heading", f"contact_{n}_speed"]
+    return cols
 
 
 def misfit_columns(problem) -> list[str]:

@@ -337,3 +337,13 @@ def test_json_counts_failed_and_reasons(tmp_path):
     print({k: v for k, v in data.items() if k != "pareto"})
     assert data["failed"] == sum(data["failure_reasons"].values()) == data["evaluations"] == 36
     assert all("still moving at N km/h" in r for r in data["failure_reasons"])
+
+
+def test_no_feasible_run_writes_a_pareto_csv_with_its_header(tmp_path):
+    """Every evaluation failed: pareto.csv was an empty file, which pandas cannot read (a probe, 2026-11-28);
+    now its header with no rows."""
+    res = cli("reconstruct", study_file(tmp_path, base="case1", scene_text=SHORT), "--no-progress", "--out",
+              tmp_path / "out")
+    assert res.returncode == 4, res.stderr
+    table = pd.read_csv(tmp_path / "out" / "pareto.csv")
+    assert table.empty and {"V1.speed", "f_V1", "rest_V1_x", "contact_V2_speed"} <= set(table.columns)
