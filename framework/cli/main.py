@@ -288,8 +288,12 @@ def _file_units(args) -> str:
     from ..file_units import system_of
     from ..input_files import read_toml
     path = getattr(args, "scene", None) or getattr(args, "study", None)
-    if not path or not Path(path).is_file():
-        return "si"  # (the command's own check names a missing file)
+    try:
+        readable = bool(path) and Path(path).is_file()
+    except OSError:  # a name the system refuses (too long)
+        readable = False
+    if not readable:
+        return "si"  # (the command's own check names the path's problem)
     return system_of(read_toml(Path(path), "file"), path)
 
 
