@@ -62,7 +62,7 @@ def file_kind(data: dict) -> str | None:
     return None
 
 
-_KIND_SIGN = {"scene": "it has [[vehicles]]", "study": "it names a scene and what to search",
+KIND_SIGN = {"scene": "it has [[vehicles]]", "study": "it names a scene and what to search",
               "vehicle": "it gives one vehicle's mass and wheelbase"}
 
 
@@ -71,7 +71,7 @@ def check_kind(path, data: dict, expected: str) -> None:
     saying which, where the schema said only "unknown key" of its first key (a probe, 2026-11-28)."""
     kind = file_kind(data)
     if kind is not None and kind != expected:
-        raise InputError(path, "(top level)", f"this is a {kind} file ({_KIND_SIGN[kind]}), not a {expected} file")
+        raise InputError(path, "(top level)", f"this is a {kind} file ({KIND_SIGN[kind]}), not a {expected} file")
 
 
 # pydantic's error types of a violated bound (ge, gt, le, lt)

@@ -116,11 +116,11 @@ def pareto_table(problem, arch: dict):
             row.update({f"contact_{n}_x": c[0], f"contact_{n}_y": c[1], f"contact_{n}_heading": rad_to_deg(c[2]),
                         f"contact_{n}_speed": ms_to_kmh(c[3])})
         rows.append(row)
-    return pd.DataFrame(rows, columns=_pareto_columns(problem))
+    return pd.DataFrame(rows)
 
 
 def _pareto_columns(problem) -> list[str]:
-    """pareto_table's columns, in its order."""
+    """pareto_table's columns, in its order: the header of a table without rows (its rows name their own)."""
     cols = [f.label for f in problem.free] + [f"f_{n}" for n in problem.objective_names]
     if problem.evidence_set is not None:
         cols += misfit_columns(problem) + ["log_likelihood"]

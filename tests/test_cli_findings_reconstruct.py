@@ -146,3 +146,12 @@ def test_a_bad_optimizer_option_is_refused_by_every_command(tmp_path, capsys, co
     with pytest.raises(InputError) as err:
         load_study(path)
     assert err.value.key == "optimizer.options" and "bogus" in err.value.problem
+
+
+def test_an_empty_pareto_tables_header_is_a_full_ones(tmp_path):
+    """The header written for a run without a feasible solution (report._pareto_columns) names the columns a
+    table with rows has, in their order."""
+    from crashlab.reconstruction.report import _pareto_columns, pareto_table
+    study, res = evaluated(tmp_path, [])
+    table = pareto_table(res.problem, res.problem.archive_arrays())
+    assert len(table) and list(table.columns) == _pareto_columns(res.problem)

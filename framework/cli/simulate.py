@@ -84,15 +84,15 @@ def refuse_other_kind(path, expected: str, takes: str = "simulate and compare ta
     """InputError when the file is of the other kind than the command takes: a study (it names its scene and
     has [[free]] or [evidence]) given where a scene is expected, or a scene (it has [[vehicles]] and names
     no scene) given where a study is. `takes`: the commands that take a scene, for the message."""
-    from ..input_files import file_kind, read_toml
+    from ..input_files import KIND_SIGN, file_kind, read_toml
     data = read_toml(Path(path), "scene" if expected == "scene" else "study")
     kind = file_kind(data)
     if expected == "scene" and kind == "study":
         raise InputError(path, "(top level)", "this is a study file (it names a scene and what to search): run it "
                          f"with crashlab reconstruct or crashlab infer; {takes} a scene file")
     if kind == "vehicle":
-        raise InputError(path, "(top level)", "this is a vehicle file (it gives one vehicle's mass and wheelbase): a "
-                         f"scene names it in [[vehicles]] (vehicle = \"{Path(path).name}\"); "
+        raise InputError(path, "(top level)", f"this is a vehicle file ({KIND_SIGN['vehicle']}): a scene names it "
+                         f"in [[vehicles]] (vehicle = \"{Path(path).name}\"); "
                          + (f"{takes} a scene file" if expected == "scene" else "reconstruct and infer take a "
                             "study file"))
     if expected == "study" and kind == "scene":
