@@ -100,20 +100,25 @@ def test_a_crushed_face_meets_a_new_partner_crushed(depth):
 
 
 def test_the_memory_keeps_each_bins_least_crush_and_the_largest_over_time():
-    """remember_faces: per bin the least crush of the strips on it in one evaluation, the largest over evaluations;
-    a barrier (j >= nv) has none (a third row, beyond nv, stays untouched)."""
+    """remember_faces: per bin the least crush of the strips on it in one evaluation and, from FM_ANY, their
+    largest, each the largest over evaluations; a barrier (j >= nv) has none (a third row, beyond nv, stays
+    untouched)."""
     FM3 = np.zeros((3, C.N_FM))
     FM = FM3[:2]
+    A = C.FM_ANY
     out = np.zeros(C.N_PSG)
     out[C.G_NS] = 3
     out[C.G_STRIP:C.G_STRIP + 12] = [5, 0.30, 40, 0.1, 5, 0.20, 40, 0.05, 6, 0.25, -1, -1.0]
     remember_faces(FM, 0, 1, out)
     assert FM[0, 5] == pytest.approx(0.20) and FM[0, 6] == pytest.approx(0.25)
-    assert FM[1, 40] == pytest.approx(0.05) and np.count_nonzero(FM) == 3
+    assert FM[0, A + 5] == pytest.approx(0.30) and FM[0, A + 6] == pytest.approx(0.25)
+    assert FM[1, 40] == pytest.approx(0.05) and FM[1, A + 40] == pytest.approx(0.1)
+    assert np.count_nonzero(FM) == 6
     out[C.G_STRIP:C.G_STRIP + 12] = [5, 0.10, 40, 0.2, 5, 0.10, 40, 0.2, 6, 0.10, -1, -1.0]
     remember_faces(FM, 0, 2, out)                             # 2 >= nv: the partner is a barrier
     assert FM[0, 5] == pytest.approx(0.20) and FM[1, 40] == pytest.approx(0.05)
-    assert math.isclose(FM.sum(), 0.5) and not FM3[2].any()
+    assert FM[0, A + 5] == pytest.approx(0.30) and FM[1, A + 40] == pytest.approx(0.1)
+    assert math.isclose(FM[:, :A].sum(), 0.5) and math.isclose(FM[:, A:].sum(), 0.65) and not FM3[2].any()
 
 
 def test_a_crushed_face_reloads_as_a_new_partner_presses_on():
@@ -144,3 +149,25 @@ def test_a_crushed_face_reloads_as_a_new_partner_presses_on():
         assert crushed == pytest.approx(ref, rel=0.02, abs=scale), (depth, crushed, ref)
         work, work_ref = work + 0.01 * crushed, work_ref + 0.01 * ref
     assert work == pytest.approx(work_ref, rel=0.02)
+
+
+@pytest.mark.parametrize("depth", [0.1, 0.3, 0.6])
+def test_a_place_never_crushed_bears_from_its_first_touch_whatever_the_pairs_memory(depth):
+    """The pair's own memory is measured from its deepest strip on the current geometry: after a pair turns, strips
+    on places that never touched came out as crushed as the deepest (a probe, 2026-11-28: two saloons spinning
+    together after a head-on passed 1.48 m into fresh fronts without a force, then met 625 kN). Here the pair's
+    memory says 0.5 m (as if crushed elsewhere) and neither front was ever crushed (both face memories empty): the
+    fronts bear as fresh ones beyond the memory's resolution (FACE_MEMORY_TOL each: then the series' loading line,
+    B C / 2 per unit width, the fresh pair's own force), where the pair's memory alone gave nothing below its
+    permanent set 0.5 (1 - e^2) (0.6 m: beyond the memory, both on their loading lines, passes either way)."""
+    fresh, _ = _force(depth, 0.0)
+    CT = _arrays()
+    PST = CT[5]
+    x0 = 2.0 * SH[0]
+    _evaluate(_state(x0), CT)
+    PST[0, C.S_CMAX], PST[0, C.S_CM1], PST[0, C.S_CM2] = 0.5, 0.25, 0.25
+    PST[0, C.S_ACT] = 1.0
+    out, FX = _evaluate(_state(x0 - depth), CT)
+    ref = fresh * (1.0 if depth >= 2.0 * C.FACE_MEMORY_TOL else 0.0)
+    assert -FX[0, 0] == pytest.approx(ref, rel=1e-6) and out[C.G_DEL] > 0.0
+    assert fresh == pytest.approx(out[C.G_WIDTH] * B * depth / 2.0, rel=0.03)

@@ -118,7 +118,12 @@ S_CM1, S_CM2 = 41, 42
 # memory"); 0 after that choice. Before 2026-11-28 they were chosen while apart, by the touch point's rule, which
 # differs from the approach's at rounded corners: the memory was forgotten and a re-touch met fresh structures
 S_APART = 43
-N_PST = 44
+# structure law, the permanent-set gate (§13a "Face memory"): the pair's scalar memory alone decides that it bears
+# nothing (skipping the profile) only while no strip's memory was bounded by its place's face memory at the last
+# profile evaluation (S_BOUND) and the pair has since moved less than GATE_MOVE: the relative pose then (shape centre
+# of j in i's frame, relative heading)
+S_BOUND, S_RX, S_RY, S_RH = 44, 45, 46, 47
+N_PST = 48
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -148,9 +153,12 @@ G_OWN = G_STRIP + 4 * N_STRIP
 N_PSG = G_OWN + 2
 # face memory FM[v] (§13a "Face memory"): each vehicle's own largest crush along each struck face (front, rear,
 # left, right, roof, underbody: crush_structure.face_code) in N_FACE_BIN bins across it (front and rear across the
-# width, the others along the length), kept for the run and shared by every partner
+# width, the others along the length), kept for the run and shared by every partner: first what every strip on a
+# bin has reached (its least crush), from FM_ANY what any strip on it has (its largest: where a place on the car
+# was never crushed, the pair's own memory does not hold, §13a "Face memory")
 N_FACES, N_FACE_BIN = 6, 32
-N_FM = N_FACES * N_FACE_BIN
+FM_ANY = N_FACES * N_FACE_BIN
+N_FM = 2 * FM_ANY
 # m: a face memory counts where it exceeds the pair's own by more than this (its resolution: the bins' width times
 # the profile's slope, the chord between the bins' centres); below, the pair's own memory is exact and the face's
 # representation error made strips reload on their steep unloading line (the side collision 939 steps against
@@ -160,6 +168,9 @@ FACE_MEMORY_TOL = 0.03
 # tilt (the angle of its up axis from the vertical, or from the downward one), its shadow on the road (the 3D
 # support points along the horizontal directions) from COS_SHADOW, the force blended between (10-20 deg)
 COS_SECTION, COS_SHADOW = math.cos(math.radians(10.0)), math.cos(math.radians(20.0))
+# m: the permanent-set gate's reach (S_BOUND): a third of FACE_MEMORY_TOL, the face memory's resolution, of relative
+# motion of any point of the pair (its places on the faces move less than that) before the profile is looked at again
+GATE_MOVE = FACE_MEMORY_TOL / 3.0
 
 
 @njit(cache=True)
@@ -324,8 +335,8 @@ def profile_force(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, e
     (force, engaged width, loading line's force)."""
     none = np.zeros(0)
     share1 = b2 / (b1 + b2) if b2 > 0.0 else 1.0
-    f, w, fl, _ = profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, share1 * cm,
-                                       (1.0 - share1) * cm, e, b1, b2, w1, w2, work, none, none, -1, -1, none)
+    f, w, fl, _, _ = profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush, cm, share1 * cm,
+                                          (1.0 - share1) * cm, e, b1, b2, w1, w2, work, none, none, -1, -1, none)
     return f, w, fl
 
 
@@ -349,26 +360,30 @@ def profile_force_memory(O1, sh1, A1, rc1, O2, sh2, box2, A2, rc2, n0, n1, crush
     shadow_weight (§13a "A tilted body"). work: (6, N_OUT + 2) scratch (the two chains, then the two strips'
     rows). Returns (force, engaged width, the force of the loading line at this crush, for the push damping's limit,
     §13a "Push damping", the pair's crush where its first strip bears: min_k sig_k + (m1_k + m2_k)(1 - e^2), the
-    scalar permanent_crush(cm, e) of the pair's largest crush cm where no strip is engaged)."""
+    scalar permanent_crush(cm, e) of the pair's largest crush cm where no strip is engaged, whether a strip's memory
+    was bounded by its place's face memory: the pair's own held for a place that never crushed as deep)."""
     lam = max(shadow_weight(A1), 0.0 if box2 else shadow_weight(A2))
     U1, S1, U2, S2 = work[0], work[1], work[2], work[3]
     f = w = fl = 0.0
     cp = math.inf
+    bound = False
     if lam < 1.0:
         m1 = _facing_chain(O1, False, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, box2, A2, rc2, n0, n1, -1.0, U2, S2)
-        f, w, fl, cp = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, work[4], work[5],
-                                    n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2, rec if lam < 0.5 else rec[:0])
+        f, w, fl, cp, bound = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, work[4],
+                                           work[5], n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2,
+                                           rec if lam < 0.5 else rec[:0])
     if lam > 0.0:
         m1 = _shadow_chain(sh1, A1, rc1, n0, n1, 1.0, U1, S1)
         m2 = _facing_chain(O2, True, A2, rc2, n0, n1, -1.0, U2, S2) if box2 else \
             _shadow_chain(sh2, A2, rc2, n0, n1, -1.0, U2, S2)
-        fs, ws, fls, cps = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, work[4],
-                                        work[5], n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2,
-                                        rec if lam >= 0.5 else rec[:0])
+        fs, ws, fls, cps, bs = _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, work[4],
+                                            work[5], n0, n1, sh1, A1, rc1, sh2, A2, rc2, FM1, FM2, f1, f2,
+                                            rec if lam >= 0.5 else rec[:0])
         f, w, fl = (1.0 - lam) * f + lam * fs, (1.0 - lam) * w + lam * ws, (1.0 - lam) * fl + lam * fls
         cp = min(cp, cps)  # the blended force bears where either chain's does
-    return f, w, fl, cp if cp < math.inf else permanent_crush(cm, e)
+        bound = bound or bs
+    return f, w, fl, cp if cp < math.inf else permanent_crush(cm, e), bound
 
 
 @njit(cache=True)
@@ -377,21 +392,24 @@ def _face_memory(FM, px, py, rc, A, sh, face):
     (crush_structure.face_code) of a body with shape centre rc, rotation A, half sizes sh, from its row FM: its
     position across the face (front and rear: y over the half width, else x over the half length) in bins, the
     memory interpolated linearly between the bins' centres (continuous as a strip moves along the face: a step in
-    it made multibody's steps fail), and the column of the nearest bin (which the strip's crush updates)."""
+    it made multibody's steps fail), the column of the nearest bin (which the strip's crush updates), and the most
+    any strip has crushed there: the larger of the two bins' FM_ANY (the nearest is one of them)."""
     dx, dy = px - rc[0], py - rc[1]
     s = (A[0, 1] * dx + A[1, 1] * dy) / sh[1] if face < 2 else (A[0, 0] * dx + A[1, 0] * dy) / sh[0]
     x = min(max(0.5 * (s + 1.0) * N_FACE_BIN - 0.5, 0.0), N_FACE_BIN - 1.0)
     j = min(int(x), N_FACE_BIN - 2)
     lam = x - j
     q = face * N_FACE_BIN
-    return (1.0 - lam) * FM[q + j] + lam * FM[q + j + 1], q + int(x + 0.5)
+    return ((1.0 - lam) * FM[q + j] + lam * FM[q + j + 1], q + int(x + 0.5),
+            max(FM[FM_ANY + q + j], FM[FM_ANY + q + j + 1]))
 
 
 @njit(cache=True)
 def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w2, top, bot, n0, n1, sh1, A1, rc1, sh2,
                  A2, rc2, FM1, FM2, f1, f2, rec):
     """profile_force_memory over the two facing chains (U1, S1) of body 1 and (U2, S2) of body 2 (m1, m2 vertices):
-    (force, engaged width, loading line's force, the crush where the first strip bears; inf: no strip)."""
+    (force, engaged width, loading line's force, the crush where the first strip bears (inf: no strip), whether a
+    strip's memory was bounded by its face memory)."""
     i1, j1 = _ends(U1, m1)
     i2, j2 = _ends(U2, m2)
     lo, hi = max(U1[i1], U2[i2]), min(U1[j1], U2[j2])
@@ -400,7 +418,7 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
         rec[:] = -1.0
         rec[4 * N_STRIP], rec[4 * N_STRIP + 1] = 0.0, 0.0
     if w <= 0.0:
-        return 0.0, 0.0, 0.0, math.inf
+        return 0.0, 0.0, 0.0, math.inf, False
     du = w / N_STRIP
     top, bot = top[:N_STRIP], bot[:N_STRIP]
     _sections(U1, S1, m1, lo, du, top)
@@ -425,6 +443,7 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
     f = fl = 0.0
     cp = math.inf
     deepest = 0.0
+    bound = False
     for k in range(N_STRIP):
         ov = top[k] + bot[k]
         if ov > -math.inf:
@@ -433,12 +452,17 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
             q1 = q2 = -1
             u = lo + (k + 0.5) * du
             # the strip's point on body 1's outline: u t + top n; on body 2's: u t - bot n
+            # the face memory, within its resolution FACE_MEMORY_TOL: at least what every strip on the bins
+            # reached, at most what any did (the pair's own memory is measured from its deepest strip on the current
+            # geometry: after the pair turns, a place never crushed would count as crushed)
             if FM1.shape[0] > 0 and f1 >= 0:
-                fm, q1 = _face_memory(FM1, -u * n1 + top[k] * n0, u * n0 + top[k] * n1, rc1, A1, sh1, f1)
-                mem1 = max(mem1, fm - FACE_MEMORY_TOL)
+                fm, q1, fa = _face_memory(FM1, -u * n1 + top[k] * n0, u * n0 + top[k] * n1, rc1, A1, sh1, f1)
+                bound = bound or mem1 > fa + FACE_MEMORY_TOL
+                mem1 = max(min(mem1, fa + FACE_MEMORY_TOL), fm - FACE_MEMORY_TOL)
             if FM2.shape[0] > 0 and f2 >= 0:
-                fm, q2 = _face_memory(FM2, -u * n1 - bot[k] * n0, u * n0 - bot[k] * n1, rc2, A2, sh2, f2)
-                mem2 = max(mem2, fm - FACE_MEMORY_TOL)
+                fm, q2, fa = _face_memory(FM2, -u * n1 - bot[k] * n0, u * n0 - bot[k] * n1, rc2, A2, sh2, f2)
+                bound = bound or mem2 > fa + FACE_MEMORY_TOL
+                mem2 = max(min(mem2, fa + FACE_MEMORY_TOL), fm - FACE_MEMORY_TOL)
             ck = crush - sig
             fk = bs * ck if ck > 0.0 else 0.0  # the loading line (series_force)
             fl += fk
@@ -456,7 +480,22 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
     scale = min(1.0, w1 / w)
     if w2 > 0.0:
         scale = min(scale, w2 / w)
-    return f * du * scale, w * scale, fl * du * scale, cp
+    return f * du * scale, w * scale, fl * du * scale, cp, bound
+
+
+@njit(cache=True)
+def _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach, keep):
+    """The permanent-set gate's pose (S_RX, S_RY, S_RH): True while pair p has moved less than GATE_MOVE since it
+    was kept (a bound on any point's relative displacement: the shape centre's plus the relative turn times `reach`,
+    the circle gate's, at least the two shapes' plan radii); keep: keep the current pose."""
+    rx = A1[0, 0] * (rc2[0] - rc1[0]) + A1[1, 0] * (rc2[1] - rc1[1])
+    ry = A1[0, 1] * (rc2[0] - rc1[0]) + A1[1, 1] * (rc2[1] - rc1[1])
+    rh = math.atan2(A2[1, 0], A2[0, 0]) - math.atan2(A1[1, 0], A1[0, 0])
+    if keep:
+        PST[p, S_RX], PST[p, S_RY], PST[p, S_RH] = rx, ry, rh
+        return True
+    return (math.hypot(rx - PST[p, S_RX], ry - PST[p, S_RY]) + abs(_wrap(rh - PST[p, S_RH])) * reach
+            < GATE_MOVE)
 
 
 @njit(cache=True, inline="always")
@@ -678,22 +717,28 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
                     PST[p, S_E] = min(max(speed_restitution(dd), E_LO), E_HI)
                 e = PST[p, S_E]
             # in contact while the undeformed shapes overlap and the crush (or their overlap, which opened the
-            # episode) exceeds the permanent set (where the first strip bears, each structure's memory the larger of
-            # its own in the pair and its face memory, §13a "Face memory"; never below the pair's scalar one): an
-            # engaged episode does not chatter between the two measures
+            # episode) exceeds the permanent set where the first strip bears (each strip's memories, §13a "Face
+            # memory"): an engaged episode does not chatter between the two measures. The pair's scalar permanent
+            # set decides alone while it holds for every strip (the permanent-set gate, S_BOUND): a strip on a place
+            # never crushed as deep bears below it
+            if g >= 0.0:
+                continue
             cp = permanent_crush(cm, e)
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
-            if psg[p, G_DEL] <= 0.0:
+            if (psg[p, G_DEL] <= 0.0 and PST[p, S_BOUND] == 0.0
+                    and _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach, False)):
                 continue
             # over the crush profile across the engaged width, within each structure's width
             if not have_work:
                 work, have_work = np.empty((6, N_OUT + 2)), True
-            fn, psg[p, G_WIDTH], f_load, cp = profile_force_memory(
+            fn, psg[p, G_WIDTH], f_load, cp, bound = profile_force_memory(
                 OUT[i], sh1, A1, rc1, OUT[j], sh2, k2 == 1, A2, rc2, d0, d1, crush, cm, PST[p, S_CM1], PST[p, S_CM2],
                 e, b1s, b2s, PP[p, ci + 2], PP[p, cj + 2] if k2 == 0 else 0.0, work, FM[i],
                 FM[j] if k2 == 0 else FM[i, :0], int(PST[p, S_FACE_I]), int(PST[p, S_FACE_J]) if k2 == 0 else -1,
                 psg[p, G_STRIP:])
             psg[p, G_NS] = N_STRIP
+            PST[p, S_BOUND] = 1.0 if bound else 0.0
+            _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach, True)
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue

@@ -21,6 +21,7 @@ from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
 
 from .chassis_contact import (
     ENDED,
+    FM_ANY,
     G_CRUSH,
     G_DEL,
     G_FN,
@@ -161,23 +162,24 @@ def remember_faces(FM, i, j, out):
     """The face memory (§13a "Face memory") of vehicles i and j (j >= nv: a barrier, none) after the accepted
     evaluation `out` (its G_STRIP records): each bin keeps the largest over the evaluations of the least crush of
     the strips on it (a bin's strips crush unevenly where the face slopes across the normal: its least crush is
-    the memory every strip on it has reached)."""
+    the memory every strip on it has reached) and, from FM_ANY, of their largest (what any place on it reached)."""
     nv = FM.shape[0]
     ns = int(out[G_NS])
     for side in range(2):
         q = i if side == 0 else j
         if q >= nv:
             continue
-        cur, low = -1, 0.0
+        cur, low, high = -1, 0.0, 0.0
         for k in range(ns + 1):
             b = int(out[G_STRIP + 4 * k + 2 * side]) if k < ns else -1
             c = out[G_STRIP + 4 * k + 2 * side + 1] if k < ns else 0.0
             if b == cur and b >= 0:
-                low = min(low, c)
+                low, high = min(low, c), max(high, c)
                 continue
-            if cur >= 0 and low > FM[q, cur]:
-                FM[q, cur] = low
-            cur, low = b, c
+            if cur >= 0:
+                FM[q, cur] = max(FM[q, cur], low)
+                FM[q, FM_ANY + cur] = max(FM[q, FM_ANY + cur], high)
+            cur, low, high = b, c, c
 
 
 @njit(cache=True)
