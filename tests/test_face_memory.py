@@ -101,8 +101,9 @@ def test_a_crushed_face_meets_a_new_partner_crushed(depth):
 
 def test_the_memory_keeps_each_bins_least_crush_and_the_largest_over_time():
     """remember_faces: per bin the least crush of the strips on it in one evaluation and, from FM_ANY, their
-    largest, each the largest over evaluations; a barrier (j >= nv) has none (a third row, beyond nv, stays
-    untouched)."""
+    largest, kept on the bin and its neighbours on the same face (not across a face's edge: bin 31 is the front's
+    last, 32 the rear's first), each the largest over evaluations; a barrier (j >= nv) has none (a third row, beyond
+    nv, stays untouched)."""
     FM3 = np.zeros((3, C.N_FM))
     FM = FM3[:2]
     A = C.FM_ANY
@@ -111,14 +112,14 @@ def test_the_memory_keeps_each_bins_least_crush_and_the_largest_over_time():
     out[C.G_STRIP:C.G_STRIP + 12] = [5, 0.30, 40, 0.1, 5, 0.20, 40, 0.05, 6, 0.25, -1, -1.0]
     remember_faces(FM, 0, 1, out)
     assert FM[0, 5] == pytest.approx(0.20) and FM[0, 6] == pytest.approx(0.25)
-    assert FM[0, A + 5] == pytest.approx(0.30) and FM[0, A + 6] == pytest.approx(0.25)
-    assert FM[1, 40] == pytest.approx(0.05) and FM[1, A + 40] == pytest.approx(0.1)
-    assert np.count_nonzero(FM) == 6
-    out[C.G_STRIP:C.G_STRIP + 12] = [5, 0.10, 40, 0.2, 5, 0.10, 40, 0.2, 6, 0.10, -1, -1.0]
+    assert FM[0, A + 4:A + 8] == pytest.approx([0.30, 0.30, 0.30, 0.25])
+    assert FM[1, 40] == pytest.approx(0.05) and FM[1, A + 39:A + 42] == pytest.approx([0.1, 0.1, 0.1])
+    assert np.count_nonzero(FM) == 10
+    out[C.G_STRIP:C.G_STRIP + 12] = [31, 0.40, 40, 0.2, 31, 0.40, 40, 0.2, 6, 0.10, -1, -1.0]
     remember_faces(FM, 0, 2, out)                             # 2 >= nv: the partner is a barrier
-    assert FM[0, 5] == pytest.approx(0.20) and FM[1, 40] == pytest.approx(0.05)
-    assert FM[0, A + 5] == pytest.approx(0.30) and FM[1, A + 40] == pytest.approx(0.1)
-    assert math.isclose(FM[:, :A].sum(), 0.5) and math.isclose(FM[:, A:].sum(), 0.65) and not FM3[2].any()
+    assert FM[0, 31] == pytest.approx(0.40) and FM[0, A + 30:A + 33] == pytest.approx([0.40, 0.40, 0.0])
+    assert FM[1, 40] == pytest.approx(0.05) and FM[0, A + 6] == pytest.approx(0.30)
+    assert math.isclose(FM[:, :A].sum(), 0.9) and math.isclose(FM[:, A:].sum(), 2.25) and not FM3[2].any()
 
 
 def test_a_crushed_face_reloads_as_a_new_partner_presses_on():

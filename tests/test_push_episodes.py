@@ -56,6 +56,29 @@ def test_a_retouch_within_the_separation_continues_the_episode():
     assert r[EP.I_PUSH] == 0.0 and r[EP.I_OPEN] == 0.0
 
 
+@pytest.mark.parametrize("retouch_impulse, graze", [(5.0, True), (3000.0, False)])
+def test_a_graze_does_not_stretch_its_impacts_record(retouch_impulse, graze):
+    """The sequence above with the impact's impulse 10 kN s: a re-touch carrying 5 N s (under GRAZE_SHARE of it: the
+    fronts swiping lightly after an oblique impact) leaves the record's end at the first contact's, 0.10 s and V1's
+    3 m/s there (its delta-V the pulse's, not the pulse's and the tyres' until the graze: NHTSA 4364's impact row
+    ran to 0.28 s instead of 0.09 s with the same impulse to 4 digits); one carrying 3 kN s (RICSAC 2's reload, half
+    its impact) moves it to its own end, 0.20 s and 2 m/s. The impulse sums count both."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    PST[0, C.S_JX] = 10e3                                     # accumulated over the first contact
+    n = _step(IMP, 0, PP, PST, 0.05, 0.1, -0.1, 6.0)
+    n = _step(IMP, n, PP, PST, 0.10, -0.01, -0.01, 3.0)
+    n = _step(IMP, n, PP, PST, 0.15, 0.01, -0.01, 2.5)        # the re-touch
+    PST[0, C.S_JX] += retouch_impulse
+    n = _step(IMP, n, PP, PST, 0.20, -0.01, -0.005, 2.0)
+    n = _step(IMP, n, PP, PST, 0.30, -0.08, SEPARATION + 0.01, 1.0)
+    assert n == 1
+    r = IMP[0]
+    end, v_end = (0.10, 3.0) if graze else (0.20, 2.0)
+    assert (r[EP.I_T0], r[EP.I_T1]) == (0.0, end)
+    assert r[EP.I_DVI] == pytest.approx(v_end - 10.0) and r[EP.I_JX] == pytest.approx(10e3 + retouch_impulse)
+
+
 def test_contact_later_than_push_time_is_a_push_record():
     """Touch at 0; ended at 0.1 s; touches again at 0.5 s (> PUSH_TIME after the impact): the impact's record
     ends at 0.1 s and a push opens at 0.5 s, which every later re-touch continues until the run ends in contact."""

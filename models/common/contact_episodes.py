@@ -36,6 +36,7 @@ from .chassis_contact import (
     G_STRIP,
     G_TH,
     IN_CONTACT,
+    N_FACE_BIN,
     NONE,
     P_I,
     P_J,
@@ -49,6 +50,7 @@ from .chassis_contact import (
     S_DD0,
     S_DD1,
     S_DDT,
+    S_JR,
     S_JX,
     S_MAXPEN,
     S_PEAK,
@@ -56,6 +58,7 @@ from .chassis_contact import (
     S_PUSH,
     S_PX,
     S_PY,
+    S_RT,
     S_SIDE_I,
     S_SIDE_J,
     S_T0,
@@ -77,6 +80,10 @@ from .impact_rows import pair_rows
 # I_PUSH: 1 for a push's record (the pair's contact later than PUSH_TIME after its impact, kind "push")
 I_PUSH = 24
 N_IMP = 25
+# a re-touch within an episode whose contact carries less than this share of the episode's impulse so far is a graze:
+# its end does not move the episode's end, so the impact's delta-V and duration are its pulse's, not the pulse's
+# plus the tyre forces until the graze (docs/physics.md §15 "Episodes and pushes")
+GRAZE_SHARE = 0.01
 # m/s: the least normal approach speed at a touch whose rebound ratio an impact row reports as its restitution
 # (a car's corner grazing a post touched at 0.001 m/s along a normal that then turned: "e" 2800)
 APPROACH_MIN = 0.1
@@ -105,6 +112,7 @@ def _open_record(PST, p, t0, dd0, vel_i, vel_j):
     PST[p, S_ACT] = IN_CONTACT
     PST[p, S_DD0] = dd0
     PST[p, S_T0] = t0
+    PST[p, S_RT] = 0.0
     for k in range(3):
         PST[p, S_VI + k] = vel_i[k]
         PST[p, S_VJ + k] = vel_j[k]
@@ -162,7 +170,8 @@ def remember_faces(FM, i, j, out):
     """The face memory (§13a "Face memory") of vehicles i and j (j >= nv: a barrier, none) after the accepted
     evaluation `out` (its G_STRIP records): each bin keeps the largest over the evaluations of the least crush of
     the strips on it (a bin's strips crush unevenly where the face slopes across the normal: its least crush is
-    the memory every strip on it has reached) and, from FM_ANY, of their largest (what any place on it reached)."""
+    the memory every strip on it has reached) and, from FM_ANY, of their largest (what any place on it reached),
+    kept on the bin and its two neighbours on the face."""
     nv = FM.shape[0]
     ns = int(out[G_NS])
     for side in range(2):
@@ -178,7 +187,12 @@ def remember_faces(FM, i, j, out):
                 continue
             if cur >= 0:
                 FM[q, cur] = max(FM[q, cur], low)
-                FM[q, FM_ANY + cur] = max(FM[q, FM_ANY + cur], high)
+                # what any place reached, on the bin and its neighbours on the face: every pair of bins a later
+                # strip reads between (chassis_contact._face_memory) holds the crush of the strips near it (24
+                # strips over 32 bins leave bins without a strip of their own)
+                first = cur - cur % N_FACE_BIN
+                for nb in range(max(cur - 1, first), min(cur + 2, first + N_FACE_BIN)):
+                    FM[q, FM_ANY + nb] = max(FM[q, FM_ANY + nb], high)
             cur, low, high = b, c, c
 
 
@@ -242,9 +256,12 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
     late = PST[p, S_PUSH] == 0.0
     if state == IN_CONTACT:
         if d <= 0.0:
-            PST[p, S_ACT], PST[p, S_T1], PST[p, S_DD1] = ENDED, t_part, dd
-            for k in range(3):
-                PST[p, S_VEI + k], PST[p, S_VEJ + k] = vel_i[k], vel_j[k]
+            PST[p, S_ACT] = ENDED
+            if not _graze(PST, p):
+                PST[p, S_T1], PST[p, S_DD1] = t_part, dd
+                for k in range(3):
+                    PST[p, S_VEI + k], PST[p, S_VEJ + k] = vel_i[k], vel_j[k]
+            PST[p, S_RT] = 0.0
         elif late and t - PST[p, S_T0] >= PUSH_TIME and dd >= 0.0:
             # not while the pair separates: an impact still unloading (a soft or narrow contact longer than
             # PUSH_TIME) keeps its rebound, which the push's damping would take (§15 "Episodes and pushes")
@@ -257,9 +274,26 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
                 _open_push(PST, p, t_touch, dd, vel_i, vel_j, True)
             else:  # a re-touch within the episode: the generic law's delta_dot0 is its own (chassis_contact S_DDT)
                 PST[p, S_ACT], PST[p, S_DDT] = IN_CONTACT, max(dd, 0.0)
+                PST[p, S_RT] = 1.0
+                for k in range(3):
+                    PST[p, S_JR + k] = PST[p, S_JX + k]
         elif gap >= SEPARATION:
             n = _close_ended(IMP, n, PP, PST, p)
     return n
+
+
+@njit(cache=True)
+def _graze(PST, p):
+    """Whether the contact of pair p now ending is a graze: a re-touch within its episode whose impulse is less than
+    GRAZE_SHARE of the episode's before it (a light touch of the swiping fronts after an oblique impact, 0.2 s after
+    its pulse; the 2026-11-28 probe: the impulse of NHTSA 4364's impact row equal to 4 digits with or without)."""
+    if PST[p, S_RT] == 0.0:
+        return False
+    dj = jr = 0.0
+    for k in range(3):
+        dj += (PST[p, S_JX + k] - PST[p, S_JR + k]) ** 2
+        jr += PST[p, S_JR + k] ** 2
+    return dj < GRAZE_SHARE * GRAZE_SHARE * jr
 
 
 @njit(cache=True)
