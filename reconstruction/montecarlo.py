@@ -209,8 +209,9 @@ def write(result: MonteCarloResult, out_dir, system: str = "si") -> list[Path]:
     try:
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "montecarlo.csv", out / "summary.csv", out / "montecarlo.png", out / "warnings.csv"]
+        # 10 significant figures: a draw re-runs from its row (its parameters set on the scene give its rest poses)
         frame_in(result.table.drop(columns="warnings"), system, result.table_units()).to_csv(
-            paths[0], index=False, float_format="%.6g")
+            paths[0], index=False, float_format="%.10g")
         (result.summary() if system == "si" else result.shown_summary(system)).to_csv(paths[1], index=False,
                                                                                       float_format="%.6g")
         figure(result, paths[2], system)
