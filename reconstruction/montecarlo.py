@@ -177,6 +177,10 @@ def run(scene: Scene, model, n: int, seed: int | None = None, progress: bool = F
                             time.perf_counter() - t0, sim)
 
 
+# warnings.csv's run of the nominal run's warnings (the scene as written, not drawn)
+NOMINAL = "the scene as written"
+
+
 def _nominal(model, scene) -> Outcome:
     """The Outcome of the scene as written; a run that raises (not bad input) as a failed Outcome."""
     try:
@@ -201,9 +205,9 @@ def _simulate(model, draws: Variants) -> Population:
 # ---------------------------------------------------------------- output
 def write(result: MonteCarloResult, out_dir, system: str = "si") -> list[Path]:
     """DIR/montecarlo.csv, DIR/montecarlo.png (rest clouds and delta-V histograms), DIR/summary.csv,
-    DIR/warnings.csv (each kind of the model's warnings, the draws that gave it, of how many; a header only
-    without any); in US units with system "us" (montecarlo.csv's converted columns named with their unit,
-    summary.csv with a unit column)."""
+    DIR/warnings.csv (each kind of the model's warnings, the draws that gave it, of how many, run "draws"; then the
+    nominal run's, run "the scene as written", 1 of 1; a header only without any); in US units with system "us"
+    (montecarlo.csv's converted columns named with their unit, summary.csv with a unit column)."""
     import pandas as pd
     out = Path(out_dir)
     try:
@@ -215,8 +219,9 @@ def write(result: MonteCarloResult, out_dir, system: str = "si") -> list[Path]:
         (result.summary() if system == "si" else result.shown_summary(system)).to_csv(paths[1], index=False,
                                                                                       float_format="%.6g")
         figure(result, paths[2], system)
-        pd.DataFrame([{"warning": w, "draws": k, "of": result.n} for w, k in result.warning_counts()],
-                     columns=["warning", "draws", "of"]).to_csv(paths[3], index=False)
+        pd.DataFrame([{"warning": w, "draws": k, "of": result.n, "run": "draws"} for w, k in result.warning_counts()]
+                     + [{"warning": str(w), "draws": 1, "of": 1, "run": NOMINAL} for w in result.nominal.warnings],
+                     columns=["warning", "draws", "of", "run"]).to_csv(paths[3], index=False)
     except OSError as err:
         raise InputError(out_dir, "--out", err.strerror or str(err)) from None
     return paths

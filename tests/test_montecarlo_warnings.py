@@ -126,8 +126,23 @@ def test_summary_json_and_stderr_say_it(rear, tmp_path):
     written = montecarlo.write(result, tmp_path / "out")
     table = pd.read_csv(tmp_path / "out" / "warnings.csv")
     assert tmp_path / "out" / "warnings.csv" in written
-    assert list(zip(table["warning"], table["draws"])) == result.warning_counts() and (table["of"] == 200).all()
+    drawn, nominal = table[table["run"] == "draws"], table[table["run"] == montecarlo.NOMINAL]
+    assert list(zip(drawn["warning"], drawn["draws"])) == result.warning_counts() and (drawn["of"] == 200).all()
+    assert nominal.empty and len(drawn) == len(table)  # the scene as written (25 km/h) is within the law's data
     assert "warnings" not in pd.read_csv(tmp_path / "out" / "montecarlo.csv").columns  # not a column per draw
+
+
+def test_the_scene_as_written_has_its_own_rows(tmp_path):
+    """The nominal run's warnings (the scene as written, 40 km/h: above the law's data) are rows of warnings.csv of
+    their own, run "the scene as written" (until 2026-11-28 on stderr and in the summary only)."""
+    path = tmp_path / "fast.toml"
+    path.write_text(REAR.replace("speed = 25.0", "speed = 40.0"))
+    result = montecarlo.run(load_scene(path), crashlab.get_model("impulse"), 4, seed=1)
+    montecarlo.write(result, tmp_path / "out")
+    table = pd.read_csv(tmp_path / "out" / "warnings.csv")
+    nominal = table[table["run"] == montecarlo.NOMINAL]
+    assert list(nominal["warning"]) == [str(w) for w in result.nominal.warnings]
+    assert len(nominal) == 1 and "40.0 km/h" in nominal["warning"].iloc[0] and (nominal["of"] == 1).all()
 
 
 def test_no_warning_within_the_law_data(tmp_path, capsys):
