@@ -40,6 +40,7 @@ from .chassis_contact import (
     NONE,
     P_I,
     P_J,
+    P_MEFF,
     S_ACT,
     S_CI,
     S_CM,
@@ -84,6 +85,10 @@ N_IMP = 25
 # its end does not move the episode's end, so the impact's delta-V and duration are its pulse's, not the pulse's
 # plus the tyre forces until the graze (docs/physics.md §15 "Episodes and pushes")
 GRAZE_SHARE = 0.01
+# m/s: a push whose impulse changes the pair's relative velocity by less than this (0.1 km/h, the resolution crash
+# tests report delta-V at) writes no record: its impulse acts, but a row would be noise (once places never crushed
+# bear, 2026-11-28, light touches at rest gave push rows of 0.1-9 N s: 42 of exudyn's 250 rows on 90 random scenes)
+PUSH_DV_MIN = 0.1 / 3.6
 # m/s: the least normal approach speed at a touch whose rebound ratio an impact row reports as its restitution
 # (a car's corner grazing a post touched at 0.001 m/s along a normal that then turned: "e" 2800)
 APPROACH_MIN = 0.1
@@ -206,8 +211,12 @@ def reset_sums(PST, p):
 @njit(cache=True)
 def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
     """Write the episode of pair p ending at t1 (normal velocity dd1 there, vehicles' velocities vel_i,
-    vel_j now) as record IMP[n] if there is room, deactivate and reset the pair; returns n + 1."""
-    if n < IMP.shape[0]:
+    vel_j now) as record IMP[n] if there is room, deactivate and reset the pair; returns n + 1 (n for a push below
+    PUSH_DV_MIN, not written)."""
+    jj = PST[p, S_JX] ** 2 + PST[p, S_JX + 1] ** 2 + PST[p, S_JX + 2] ** 2
+    if PST[p, S_PUSH] > 0.0 and jj < (PUSH_DV_MIN * PP[p, P_MEFF]) ** 2:
+        n -= 1
+    elif n < IMP.shape[0]:
         r = IMP[n]
         r[I_I], r[I_J], r[I_T0], r[I_T1] = PP[p, P_I], PP[p, P_J], PST[p, S_T0], t1
         for k in range(3):
