@@ -490,16 +490,20 @@ def _chain_force(U1, S1, m1, U2, S2, m2, box2, crush, cm1, cm2, e, b1, b2, w1, w
 
 
 @njit(cache=True)
-def _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach, keep):
-    """The permanent-set gate's pose (S_RX, S_RY, S_RH): True while pair p has moved less than GATE_MOVE since it
-    was kept (a bound on any point's relative displacement: the shape centre's plus the relative turn times `reach`,
-    the circle gate's, at least the two shapes' plan radii); keep: keep the current pose."""
+def _relative_pose(A1, rc1, A2, rc2):
+    """The permanent-set gate's pose of a pair (S_RX, S_RY, S_RH): body 2's shape centre in body 1's plan frame and
+    their relative heading."""
     rx = A1[0, 0] * (rc2[0] - rc1[0]) + A1[1, 0] * (rc2[1] - rc1[1])
     ry = A1[0, 1] * (rc2[0] - rc1[0]) + A1[1, 1] * (rc2[1] - rc1[1])
-    rh = math.atan2(A2[1, 0], A2[0, 0]) - math.atan2(A1[1, 0], A1[0, 0])
-    if keep:
-        PST[p, S_RX], PST[p, S_RY], PST[p, S_RH] = rx, ry, rh
-        return True
+    return rx, ry, math.atan2(A2[1, 0], A2[0, 0]) - math.atan2(A1[1, 0], A1[0, 0])
+
+
+@njit(cache=True)
+def _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach):
+    """True while pair p has moved less than GATE_MOVE since the pose kept at its last profile (a bound on any
+    point's relative displacement: the shape centre's plus the relative turn times `reach`, the circle gate's, at
+    least the two shapes' plan radii)."""
+    rx, ry, rh = _relative_pose(A1, rc1, A2, rc2)
     return (math.hypot(rx - PST[p, S_RX], ry - PST[p, S_RY]) + abs(_wrap(rh - PST[p, S_RH])) * reach
             < GATE_MOVE)
 
@@ -732,7 +736,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
             cp = permanent_crush(cm, e)
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if (psg[p, G_DEL] <= 0.0 and PST[p, S_BOUND] == 0.0
-                    and _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach, False)):
+                    and _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach)):
                 continue
             # over the crush profile across the engaged width, within each structure's width
             if not have_work:
@@ -744,7 +748,7 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
                 psg[p, G_STRIP:])
             psg[p, G_NS] = N_STRIP
             PST[p, S_BOUND] = 1.0 if bound else 0.0
-            _gate_pose_holds(PST, p, A1, rc1, A2, rc2, reach, True)
+            PST[p, S_RX], PST[p, S_RY], PST[p, S_RH] = _relative_pose(A1, rc1, A2, rc2)
             psg[p, G_DEL] = min(max(crush - cp, -g - cp), -g)
             if psg[p, G_DEL] <= 0.0:
                 continue
