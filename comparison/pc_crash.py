@@ -5,8 +5,8 @@ The scenes run as written (one parameter set for the three cases; nothing tuned)
 constant to extend (the validation study's IMPACT_LAWS and LAW_MODELS: every [impact] law of the schema,
 for the models that read it):
   contact  "found": the model's own contact (impulse: the contact-zone point, docs/physics.md §4);
-           "engagement": [impact] point = "engagement" at each of ENGAGEMENT_DEPTHS (m), for the models in
-           ENGAGEMENT_MODELS (--quick: the default depth only)
+           "engagement": [impact] point = "engagement" at each of ENGAGEMENT_DEPTHS (m), for the models that
+           read a collision position (validation.reads_collision_position; --quick: the default depth only)
 
 One row per (case, model, law, contact, engagement depth, vehicle): rest pose, its distance [m] and heading
 difference [deg] to PC-Crash's (crashlab.tools.compare.comparison_table), the vehicle's delta-V (|sum of its
@@ -27,12 +27,11 @@ from crashlab.outcome import collision_rows
 from crashlab.units import unit_in, value_in
 
 from .base import STUDIES_DIR, shown_table
-from .validation import IMPACT_LAWS, LAW_MODELS, variant_scene
+from .validation import IMPACT_LAWS, LAW_MODELS, reads_collision_position, variant_scene
 
 PC_CRASH_DIR = STUDIES_DIR / "pc_crash"
 CASES = ("head_on", "offset", "side")
 REFERENCE = "pc_crash"
-ENGAGEMENT_MODELS = ("impulse",)  # the models that read [impact] point = "engagement" (docs/physics.md §4)
 ENGAGEMENT_DEPTHS = (0.2, 0.5, 0.8)  # m; 0.5 the documented default (Campbell's crush at 50 km/h, §4)
 QUICK_DEPTHS = (0.5,)
 COLUMNS = ["case", "model", "law", "contact", "engagement_depth", "vehicle", "ok", "x", "y", "heading", "at_rest",
@@ -44,7 +43,7 @@ def variants(model: str, quick: bool = False) -> list[dict]:
     """The runs of one model on one case: dicts law ("-": the model does not read it), contact, depth."""
     laws = IMPACT_LAWS if model in LAW_MODELS else ("-",)
     places = [("found", None)]
-    if model in ENGAGEMENT_MODELS:
+    if reads_collision_position(model):
         places += [("engagement", d) for d in (QUICK_DEPTHS if quick else ENGAGEMENT_DEPTHS)]
     return [{"law": law, "contact": c, "depth": d} for law in laws for c, d in places]
 

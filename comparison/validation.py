@@ -8,11 +8,11 @@ nothing is fitted per test. Variants, each one constant to extend:
                         LAW_MODELS (the others do not read it: law "-")
   RESTITUTION_VARIANTS  the [impact] restitution settings each run is repeated with
   contact               "given": the scene's own [impact] point and plane_angle (PC-Crash style, the
-                        published collision position), for the models in GIVEN_POINT_MODELS; "found": the
-                        model finds its own contact, from the scene as written or, for a scene with a given
-                        point, from approach_scene (the cars moved back along their velocities until apart);
-                        "engagement": as "found" with [impact] point = "engagement" at the default
-                        engagement_depth (docs/physics.md §4), for the models in ENGAGEMENT_MODELS
+                        published collision position), for the models that read it (reads_collision_position);
+                        "found": the model finds its own contact, from the scene as written or, for a scene
+                        with a given point, from crashlab.scene.approach_scene (the cars moved back along their
+                        velocities until apart); "engagement": as "found" with [impact] point = "engagement" at
+                        the default engagement_depth (docs/physics.md §4), for the models that read "given"
 
 Quantities (simulated side):
   delta_v        |sum of the vehicle's impact-row velocity changes| [km/h] (Outcome.impact_rows, SI)
@@ -47,6 +47,7 @@ import typing
 from pathlib import Path
 
 from crashlab.outcome import collision_rows
+from crashlab.scene import approach_scene
 from crashlab.units import unit_in
 
 from .base import STUDIES_DIR, shown_rows
@@ -66,12 +67,9 @@ def _schema_laws() -> tuple[str, ...]:
 
 IMPACT_LAWS = _schema_laws()   # every impulse law of the scene schema's [impact] law (a new one joins itself)
 LAW_MODELS = ("impulse",)      # the models that read [impact] law (docs/physics.md §3)
-GIVEN_POINT_MODELS = ("impulse",)  # the models that apply a given [impact] point (pymunk ignores it)
-ENGAGEMENT_MODELS = ("impulse",)  # the models that read [impact] point = "engagement" (docs/physics.md §4)
 # [impact] restitution of every run: the documented constant 0.1 and the law of the closing speed "speed"
 # (docs/physics.md §13b); each test is run with both
 RESTITUTION_VARIANTS: tuple = (0.1, "speed")
-APPROACH_GAP = 0.1  # m of closing travel between the cars at the start of an approach_scene
 DV_QUANTITIES = ("delta_v", "impact_delta_v")  # the delta-V quantities (figure, goal check)
 CRUSH_QUANTITIES = ("crush_dynamic", "crush_residual")
 GOAL_PCT = {"impulse": 10.0, "multibody": 15.0, "exudyn": 15.0}  # issue 24's goal on car-to-car delta-V
@@ -104,36 +102,6 @@ def variant_scene(path: Path, law: str | None = None, restitution=None, **impact
     return scene_from_dict(data, source=path, base_dir=path.parent)
 
 
-def approach_scene(scene, gap: float = APPROACH_GAP):
-    """A scene with a given point of impact (the collision position, outlines overlapping) as a model that
-    finds its own contact needs it: the point dropped and every vehicle moved back along its start velocity
-    by one time T, the shortest that parts the outlines (bisection) plus `gap` / closing speed; driving on
-    undisturbed, the cars would reach the published collision position together. Unchanged without a
-    given point."""
-    from crashlab.scene import start_overlaps
-    if scene.impact.point is None:
-        return scene
-    free = scene.replace(impact=dataclasses.replace(scene.impact, point=None, plane_angle=None))
-
-    def moved(t):
-        return free.replace(vehicles=tuple(
-            dataclasses.replace(v, x=v.x - t * v.speed * math.cos(v.heading),
-                                y=v.y - t * v.speed * math.sin(v.heading)) for v in free.vehicles))
-
-    lo, hi = 0.0, 0.01
-    while start_overlaps(moved(hi)):
-        lo, hi = hi, 2.0 * hi
-        if hi > 60.0:
-            raise ValueError(f"{scene.source}: the vehicles do not part when moved back along their velocities")
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if start_overlaps(moved(mid)) else (lo, mid)
-    vel = [(v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)) for v in free.vehicles]
-    closing = max((math.hypot(a[0] - b[0], a[1] - b[1]) for k, a in enumerate(vel) for b in vel[k + 1:]),
-                  default=0.0)
-    return moved(hi + (gap / closing if closing > 0 else 0.0))
-
-
 def _vehicle_rows(outcome, name: str) -> list[dict]:
     return [r for r in outcome.impact_rows if r["vehicle"] == name]
 
@@ -149,6 +117,14 @@ def _post_velocity(outcome, scene, name: str) -> tuple[float, float]:
     rows = _vehicle_rows(outcome, name)
     return (speed * math.cos(head) + sum(r["dvx"] for r in rows),
             speed * math.sin(head) + sum(r["dvy"] for r in rows))
+
+
+def reads_collision_position(model: str) -> bool:
+    """Whether the model resolves an impact at a given collision position ([impact] point and plane_angle, or
+    point = "engagement": CollisionModel.collision_position, docs/physics.md §4); the others find their own
+    contacts and are run from the approach alone."""
+    from crashlab.registry import MODELS, load
+    return load(MODELS, model).collision_position
 
 
 def has_quantity(model: str, quantity: str) -> bool:
@@ -210,8 +186,9 @@ def runs(model: str, test: dict) -> list[dict]:
     laws = IMPACT_LAWS if model in LAW_MODELS else ("-",)
     with open(test["scene"], "rb") as fh:
         has_point = "point" in tomllib.load(fh).get("impact", {})
-    contacts = ("given", "found") if has_point and model in GIVEN_POINT_MODELS else ("found",)
-    contacts += ("engagement",) if model in ENGAGEMENT_MODELS else ()
+    given = reads_collision_position(model)
+    contacts = ("given", "found") if has_point and given else ("found",)
+    contacts += ("engagement",) if given else ()
     return [{"law": law, "restitution": e, "contact": c}
             for law in laws for e in RESTITUTION_VARIANTS for c in contacts]
 

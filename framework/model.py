@@ -13,7 +13,7 @@ from .errors import InputError
 from .options import ModelOptions, parse
 from .outcome import Outcome
 from .population import ARRAYS, Population, Variants
-from .scene import Scene, driver_input_key
+from .scene import Scene, approach_scene, approach_time, driver_input_key
 
 INVALID = ("raise", "fail", "unchecked")  # what simulate_population does with a row that is no valid scene
 
@@ -28,13 +28,45 @@ def _refuse_unhonoured_inputs(model, scenes) -> None:
                              "friction zones; use a model that does (crashlab models)")
 
 
+def _as_run(model, scene: Scene) -> tuple[Scene, list[str]]:
+    """The scene a model runs and what the run's Outcome says about it (docs/physics.md §4 "Approach"): a model
+    that finds its own contacts (collision_position False) runs a collision position ([impact] point, outlines
+    overlapping by design) from its approach, the vehicles moved back along their velocities until apart (bodies
+    started inside each other bear the overlap as crush at once); the impulse model's [impact] point =
+    "engagement" it does not read. InputError (impact.point) where the vehicles do not part."""
+    if model.collision_position:
+        return scene, []
+    notes = []
+    if scene.impact.point is not None:
+        try:
+            t = approach_time(scene)
+        except ValueError as err:
+            raise InputError(scene.source, "impact.point", f"{err}: model {model.name!r} finds its own contacts "
+                             "and cannot start inside the collision position") from None
+        notes.append(f"{model.name} finds its own contacts: it runs the collision position ([impact] point) from "
+                     f"{t:.3f} s before it, each vehicle moved back along its start velocity until the outlines "
+                     "are 0.1 m apart; its times count from there (docs/physics.md §4 \"Approach\")")
+        scene = approach_scene(scene)
+    if scene.impact.engagement:
+        notes.append(f'{model.name} ignores [impact] point = "engagement" (an impulse-model setting): it finds '
+                     "its own contacts")
+    return scene, notes
+
+
 def _guarded(method, check):
-    """`method` (simulate or simulate_batch) followed by the physics guard's `check` on what it returns."""
+    """`method` (simulate or simulate_batch) on the scenes as the model runs them (_as_run) followed by the
+    physics guard's `check` on what it returns."""
     @functools.wraps(method)
     def wrapper(self, scenes, *args, **kwargs):
         if not self.driver_inputs:
             _refuse_unhonoured_inputs(self, scenes)
+        one = isinstance(scenes, Scene)
+        runs = [_as_run(self, s) for s in ([scenes] if one else scenes)]
+        scenes = runs[0][0] if one else [s for s, _ in runs]
         outs = method(self, scenes, *args, **kwargs)
+        for out, (_, notes) in zip([outs] if one else outs, runs):
+            if notes and isinstance(out, Outcome):
+                out.warnings[:0] = notes
         check(scenes, outs, self.guard_skip)
         return outs
     wrapper.__guarded__ = True
@@ -71,8 +103,13 @@ def _guarded_population(method):
         good = np.flatnonzero(why == "")
         pop = Population.empty(len(values), scene.vehicle_names)
         pop.mass[:] = scene_fields.vehicle_columns(scene, fs, values, ("mass",))["mass"]
-        if len(good):
+        if len(good) and not self.collision_position and (scene.impact.point is not None or scene.impact.engagement):
+            # each row's scene as the model runs it (its approach depends on the row's speeds and poses: _as_run)
+            part = Population.of_outcomes(simulate_each(self, Variants(scene, tuple(fs), values[good]).scenes()),
+                                          scene.vehicle_names)
+        elif len(good):
             part = method(self, scene, fs, values[good])
+        if len(good):
             _put_rows(pop, good, part)
         for k in bad:
             pop.fail(k, f"no valid scene: {why[k]}")
@@ -158,6 +195,10 @@ class CollisionModel(abc.ABC):
     # True: the model honours driver actions and friction zones (docs/physics.md §2a); a model that does not
     # is refused scenes that have them instead of quietly ignoring them
     driver_inputs: bool = False
+    # True: the model resolves an impact at a given collision position ([impact] point and plane_angle, the outlines
+    # overlapping: the impulse model, docs/physics.md §4); False: it finds its own contacts, and the base class runs
+    # such a scene from its approach (crashlab.scene.approach_scene, a warning says so: _as_run)
+    collision_position: bool = False
     # True: Diagnostics.max_penetration is a contact depth (a crush to compare with a crash test's); False: rigid
     # outlines resolved at first touch (the impulse model), no crush to compare
     contact_depth: bool = True

@@ -7,6 +7,7 @@ are cheap copies made with `Scene.with_vehicle` / `Scene.replace`.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Literal
 
 from .vehicle import VehicleSpec
@@ -226,6 +227,46 @@ def start_overlap_rows(scene: Scene, x, y, heading) -> list:
             rb = (b.x, b.y, b.heading, b.length / 2, b.length / 2, b.width / 2)  # barrier_outline's rectangle
             hits.append((ni, f"barrier {k}", rect_overlap_rows(ri, rb) > tol))
     return hits
+
+
+APPROACH_GAP = 0.1  # m of closing travel between the outlines at the start of an approach (approach_scene)
+
+
+def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
+    """How long before a collision position ([impact] point, outlines overlapping) its approach starts
+    (docs/physics.md §4 "Approach"): the shortest time T that, every vehicle moved back along its start velocity
+    by T, parts the outlines (bisection), plus `gap` / the largest closing speed of two vehicles. Raises
+    ValueError when moving back by a minute does not part them (vehicles at rest)."""
+    lo, hi = 0.0, 0.01
+    while start_overlaps(_moved_back(scene, hi)):
+        lo, hi = hi, 2.0 * hi
+        if hi > 60.0:
+            raise ValueError("the vehicles do not part when moved back along their velocities")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if start_overlaps(_moved_back(scene, mid)) else (lo, mid)
+    vel = [(v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)) for v in scene.vehicles]
+    closing = max((math.hypot(a[0] - b[0], a[1] - b[1]) for k, a in enumerate(vel) for b in vel[k + 1:]),
+                  default=0.0)
+    return hi + (gap / closing if closing > 0 else 0.0)
+
+
+def approach_scene(scene: Scene, gap: float = APPROACH_GAP) -> Scene:
+    """A scene with a collision position as a model that finds its own contacts needs it (docs/physics.md §4
+    "Approach"): the point and plane dropped and every vehicle moved back along its start velocity by
+    approach_time; driving on undisturbed, the vehicles would reach the collision position together. Unchanged
+    without a given point."""
+    if scene.impact.point is None:
+        return scene
+    return _moved_back(scene, approach_time(scene, gap))
+
+
+def _moved_back(scene: Scene, t: float) -> Scene:
+    """The scene without its given point, every vehicle moved back along its start velocity by t [s]."""
+    return scene.replace(impact=dataclasses.replace(scene.impact, point=None, plane_angle=None),
+                         vehicles=tuple(dataclasses.replace(v, x=v.x - t * v.speed * math.cos(v.heading),
+                                                            y=v.y - t * v.speed * math.sin(v.heading))
+                                        for v in scene.vehicles))
 
 
 def polygon_problem(points) -> str | None:

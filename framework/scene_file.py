@@ -130,7 +130,8 @@ class ImpactFile(_Strict):
         default="ambrosio", description="regularised friction law of the continuous-contact models")
     point: Annotated[tuple[Position, Position] | None, WrapValidator(_point_or_engagement)] = Field(
         default=None, json_schema_extra=_or_word("engagement"),
-        description=f"m, collision position [x, y]; |x|, |y| <= {POSITION_MAX:g}; or \"engagement\" "
+        description=f"m, collision position [x, y] (the impulse model's; a model that finds its own contacts runs "
+        f"from its approach, docs/physics.md §4); |x|, |y| <= {POSITION_MAX:g}; or \"engagement\" "
         "(impulse model): the point and contact plane where the outlines, moved along their velocities from first "
         "touch, overlap by engagement_depth (docs/physics.md §4)")
     plane_angle: Angle | None = Field(default=None, description="deg, tangent of the contact plane")

@@ -153,15 +153,6 @@ def test_conformance():
     check_collision_model(model())
 
 
-def test_given_impact_point_is_ignored_with_a_warning():
-    scene = scene_from_dict({
-        "duration": 0.3, "impact": {"point": [1.9, 0.0], "plane_angle": 90.0},
-        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 50.0},
-                     {"name": "V2", "vehicle": "clio", "x": 3.8, "heading": 180.0}]})
-    out = model().simulate(scene)
-    assert any("ignores the given impact point" in w for w in out.warnings)
-
-
 @pytest.mark.parametrize("bad", [{"dt": 0.0}, {"dt": "1e-3"}, {"iterations": 0}, {"iterations": 2.5},
                                  {"collision_slop": -1.0}, {"v_rest": 0.0}, {"ground_forces": "no"},
                                  {"record_dt": -0.1}, {"unknown": 1}])

@@ -10,6 +10,7 @@ import dataclasses
 import math
 
 from crashlab.comparison import validation
+from crashlab.scene import approach_scene
 from crashlab.scene_file import load_scene
 
 
@@ -200,7 +201,7 @@ def test_car_to_car_impulse_conserves_momentum_and_errors_are_recorded(tmp_path,
     assert (tmp_path / validation.FIGURE).is_file()
     for t in tests:
         for law in validation.IMPACT_LAWS:
-            found = validation.approach_scene(validation.variant_scene(t["scene"], law))
+            found = approach_scene(validation.variant_scene(t["scene"], law))
             engaged = found.replace(impact=dataclasses.replace(found.impact, engagement=True))
             for scene in (validation.variant_scene(t["scene"], law), found, engaged):
                 out = validation._simulate("impulse", scene)[0]
@@ -218,7 +219,7 @@ def test_approach_scene_parts_the_cars_along_their_velocities():
     for t in _tests(*ROSE_TESTS):
         given = load_scene(t["scene"])
         assert start_overlaps(given)  # the collision position: the outlines overlap by design
-        app = validation.approach_scene(given)
+        app = approach_scene(given)
         assert app.impact.point is None and not start_overlaps(app)
         back = []
         for a, g in zip(app.vehicles, given.vehicles):
@@ -228,8 +229,8 @@ def test_approach_scene_parts_the_cars_along_their_velocities():
             assert dx * math.cos(g.heading) + dy * math.sin(g.heading) > 0
         assert math.isclose(back[0], back[1], rel_tol=1e-9)
         # without the gap the outlines just touch: a little further forward they overlap
-        nogap = validation.approach_scene(given, gap=0.0)
-        closer = validation.approach_scene(given, gap=-0.01)
+        nogap = approach_scene(given, gap=0.0)
+        closer = approach_scene(given, gap=-0.01)
         assert not start_overlaps(nogap) and start_overlaps(closer)
 
 

@@ -115,6 +115,7 @@ class ImpulseModel(CollisionModel):
     name = "impulse"
     compiles = "impulse"
     contact_depth = False  # rigid outlines, the impact resolved at first touch: no crush depth
+    collision_position = True  # a given [impact] point and plane_angle are its impact (docs/physics.md §4)
     driver_inputs = True  # actions and friction zones (docs/physics.md §2a): the kernel's _motion and step policy
 
     class Options(ModelOptions):

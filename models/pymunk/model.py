@@ -51,8 +51,8 @@ class PymunkModel(CollisionModel):
       ground_forces = True   tyre/road forces on; False leaves only the contacts (momentum checks)
 
     The pair's restitution and friction are set exactly from the scene's [impact] on the arbiter in
-    every pre-solve (Chipmunk would otherwise multiply the per-shape coefficients). A given impact point
-    and contact plane are ignored: the engine finds its own contacts (a warning says so).
+    every pre-solve (Chipmunk would otherwise multiply the per-shape coefficients). The engine finds its own
+    contacts: a scene with a collision position runs from its approach (crashlab.model, a warning says so).
 
     Impacts: one contact episode (begin .. separate of a pair) is one impact. Its delta-V and yaw-rate
     change are the velocity jumps the contact caused, i.e. the change of velocity over the steps of the

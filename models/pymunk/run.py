@@ -77,12 +77,6 @@ class Run:
         dt, rec_dt = m.dt, m.record_dt
         mu = scene.road.friction
         warnings = []
-        if scene.impact.point is not None:
-            warnings.append("pymunk ignores the given impact point and plane_angle: the engine finds its "
-                            "own contacts")
-        if scene.impact.engagement:
-            warnings.append('pymunk ignores [impact] point = "engagement" (an impulse-model setting): the engine '
-                            "finds its own contacts")
         S, S1 = np.empty((nv, 6)), np.empty((nv, 6))
         F = np.zeros((nv, 3))
         acc = np.zeros((nv, 2))
