@@ -235,8 +235,8 @@ APPROACH_GAP = 0.1  # m of closing travel between the outlines at the start of a
 def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
     """How long before a collision position ([impact] point, outlines overlapping) its approach starts
     (docs/physics.md §4 "Approach"): the shortest time T that, every vehicle moved back along its start velocity
-    by T, parts the outlines (bisection), plus `gap` / the largest closing speed of two vehicles. Raises
-    ValueError when moving back by a minute does not part them (vehicles at rest)."""
+    by T, parts the outlines (bisection), plus `gap` / the largest closing speed of two bodies (a barrier stands
+    still). Raises ValueError when moving back by a minute does not part them (vehicles at rest)."""
     lo, hi = 0.0, 0.01
     while start_overlaps(_moved_back(scene, hi)):
         lo, hi = hi, 2.0 * hi
@@ -246,6 +246,8 @@ def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if start_overlaps(_moved_back(scene, mid)) else (lo, mid)
     vel = [(v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)) for v in scene.vehicles]
+    if scene.barriers:  # a barrier stands still
+        vel.append((0.0, 0.0))
     closing = max((math.hypot(a[0] - b[0], a[1] - b[1]) for k, a in enumerate(vel) for b in vel[k + 1:]),
                   default=0.0)
     return hi + (gap / closing if closing > 0 else 0.0)

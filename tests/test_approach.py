@@ -89,3 +89,15 @@ def test_the_engagement_point_is_said_to_be_ignored():
     out = crashlab.simulate(scene_from_dict(d), model="pymunk")
     assert any(w.startswith('pymunk ignores [impact] point = "engagement"') for w in out.warnings)
     assert not any("collision position" in w for w in out.warnings)
+
+
+def test_a_barrier_collision_position_starts_its_gap_away():
+    # a saloon (front 2.072 m ahead of its CG) 0.3 m into a wall whose face stands at x = 5 (the wall 1 m thick)
+    d = {"duration": 0.5, "impact": {"point": [5.0, 0.0], "plane_angle": 90.0},
+         "barriers": [{"x": 5.5, "y": 0.0, "heading": 90.0, "length": 10.0, "width": 1.0}],
+         "vehicles": [{"name": "V1", "vehicle": "saloon", "x": 5.0 + 0.3 - 2.072, "speed": 50.0}]}
+    scene = scene_from_dict(d)
+    app = approach_scene(scene)
+    # moved back along x until its front is the gap (0.1 m) short of the face (failed before: no gap to a barrier)
+    assert math.isclose(app.vehicles[0].x + 2.072, 5.0 - 0.1, abs_tol=1e-9)
+    assert app.vehicles[0].y == 0.0 and app.impact.point is None
