@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import abc
 import functools
+import math
 import types
 
 import numpy as np
@@ -45,7 +46,11 @@ def _as_run(model, scene: Scene) -> tuple[Scene, list[str]]:
                              "and cannot start inside the collision position") from None
         notes.append(f"{model.name} finds its own contacts: it runs the collision position ([impact] point) from "
                      f"{t:.3f} s before it, each vehicle moved back along its start velocity until the outlines "
-                     "are 0.1 m apart; its times count from there (docs/physics.md §4 \"Approach\")")
+                     "are 0.1 m apart; its times count from there, the scene's duration and driver actions as much "
+                     "later (docs/physics.md §4 \"Approach\")")
+        notes += [f"{v.name}'s start yaw rate turns it by {math.degrees(v.yaw_rate * t):.1f} deg on the straight "
+                  "approach: it reaches the collision position at another heading"
+                  for v in scene.vehicles if v.yaw_rate]
         scene = approach_scene(scene)
     if scene.impact.engagement:
         notes.append(f'{model.name} ignores [impact] point = "engagement" (an impulse-model setting): it finds '

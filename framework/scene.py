@@ -256,18 +256,23 @@ def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
 def approach_scene(scene: Scene, gap: float = APPROACH_GAP) -> Scene:
     """A scene with a collision position as a model that finds its own contacts needs it (docs/physics.md §4
     "Approach"): the point and plane dropped and every vehicle moved back along its start velocity by
-    approach_time; driving on undisturbed, the vehicles would reach the collision position together. Unchanged
-    without a given point."""
+    approach_time, the duration and the driver actions that much later (a collision position's times count from
+    it); driving on undisturbed, the vehicles would reach the collision position together. Unchanged without a
+    given point."""
     if scene.impact.point is None:
         return scene
     return _moved_back(scene, approach_time(scene, gap))
 
 
 def _moved_back(scene: Scene, t: float) -> Scene:
-    """The scene without its given point, every vehicle moved back along its start velocity by t [s]."""
+    """The scene without its given point, every vehicle moved back along its start velocity by t [s], its
+    driver actions and the duration t later (their times count from the collision position)."""
     return scene.replace(impact=dataclasses.replace(scene.impact, point=None, plane_angle=None),
+                         duration=scene.duration + t,
                          vehicles=tuple(dataclasses.replace(v, x=v.x - t * v.speed * math.cos(v.heading),
-                                                            y=v.y - t * v.speed * math.sin(v.heading))
+                                                            y=v.y - t * v.speed * math.sin(v.heading),
+                                                            actions=tuple(dataclasses.replace(a, t=a.t + t)
+                                                                          for a in v.actions))
                                         for v in scene.vehicles))
 
 

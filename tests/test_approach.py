@@ -101,3 +101,19 @@ def test_a_barrier_collision_position_starts_its_gap_away():
     # moved back along x until its front is the gap (0.1 m) short of the face (failed before: no gap to a barrier)
     assert math.isclose(app.vehicles[0].x + 2.072, 5.0 - 0.1, abs_tol=1e-9)
     assert app.vehicles[0].y == 0.0 and app.impact.point is None
+
+
+def test_the_duration_and_driver_actions_keep_their_time_after_the_collision_position():
+    d = {**SCENE, "vehicles": [{**SCENE["vehicles"][0], "actions": [{"t": 0.2, "brake": 1.0}]},
+                               {**SCENE["vehicles"][1], "yaw_rate": 30.0}]}
+    scene = scene_from_dict(d)
+    app = approach_scene(scene)
+    v, a = scene.vehicles[0], app.vehicles[0]
+    t_back = (v.x - a.x) / v.speed  # V1 drives along +x
+    assert t_back > 0
+    assert math.isclose(app.vehicles[0].actions[0].t, 0.2 + t_back, rel_tol=1e-12)
+    assert math.isclose(app.duration, scene.duration + t_back, rel_tol=1e-12)
+    out = crashlab.simulate(scene, model="multibody")
+    turned = [w for w in out.warnings if w.startswith("V2's start yaw rate turns it by")]
+    assert len(turned) == 1 and math.isclose(float(re.search(r"by ([\d.]+) deg", turned[0]).group(1)),
+                                             30.0 * t_back, abs_tol=0.051)
