@@ -126,7 +126,10 @@ S_BOUND, S_RX, S_RY, S_RH = 44, 45, 46, 47
 # a re-touch within an open episode (contact_episodes.episode_step): 1 while its contact lasts, and the episode's
 # impulse (3) when it began (a graze, which carries less than GRAZE_SHARE of it, does not move the episode's end)
 S_RT, S_JR = 48, 49
-N_PST = 52
+# structure law, the engagement's hysteresis (§13a "Engagement"): 1 where the last accepted evaluation of the open
+# episode crushed along the engagement normal (ENGAGED_BAND)
+S_ENG = 52
+N_PST = 53
 # per-stage outputs PSG[stage, p]: G_DEL is the penetration beyond the permanent crush (> 0: in contact; the
 # overlap of the undeformed shapes itself for the generic law), G_CRUSH the overlap of the undeformed shapes
 # (total crush), G_WIDTH the engaged width
@@ -134,11 +137,13 @@ N_PST = 52
 # structure law: the geometric crush measure of the evaluation and which one (S_CR, S_CM); the shapes' plan gap g
 # (GAP_FAR where the gates found them apart)
 G_RAW, G_MEAS, G_GAP = 12, 13, 14
+# structure law: 1 where the evaluation crushed along the engagement normal (S_ENG at accepted evaluations)
+G_ENG = 15
 # structure law, the face memory's candidates (§13a "Face memory", contact_episodes.track_peak keeps them at accepted
 # evaluations): G_NS strips recorded (0: none), from G_STRIP four numbers per strip: the bin of body 1's struck face
 # it lies on (FM's column; -1: none), body 1's crush there, the same for body 2
-G_NS, G_STRIP = 15, 16
-N_PSG_HEAD = 16
+G_NS, G_STRIP = 16, 17
+N_PSG_HEAD = 17
 GAP_FAR = 1.0
 # broad-phase counters BPC: pair evaluations, removed by the plan bounding circles, by the height ranges,
 # by the oriented boxes (15-axis SAT), and those that reach the gap search (narrow phase)
@@ -154,6 +159,12 @@ N_OUT, N_STRIP = 64, 24
 # setback added back (the pair's own memory S_CM1, S_CM2 candidates: contact_episodes.remember_strips)
 G_OWN = G_STRIP + 4 * N_STRIP
 N_PSG = G_OWN + 2
+# m: in an open episode an engaged pair stays engaged while its crush along the engagement normal is at most this
+# below the shapes' overlap, and a pair on the overlap's normal engages once it is this above (§13a "Engagement"):
+# at equality the normal flipped between the two measures' on round-off, 65 deg apart (a saloon pushing a locked
+# Clio at rest: exudyn's load iteration never settled); 1 mm moves a structure's force by at most w B 1 mm (1.5 kN
+# for a saloon's front)
+ENGAGED_BAND = 1e-3
 # face memory FM[v] (§13a "Face memory"): each vehicle's own largest crush along each struck face (front, rear,
 # left, right, roof, underbody: crush_structure.face_code) in N_FACE_BIN bins across it (front and rear across the
 # width, the others along the length), kept for the run and shared by every partner: first what every strip on a
@@ -668,13 +679,17 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
             # it from the episode's first touch (S_C0 set until the contact opens, then held)
             e0, e1, ok = engagement_normal(PST[p, S_FACE_I], PST[p, S_FACE_J], A1, A2, k2 == 1)
             measure = 1.0
+            # the hysteresis (§13a "Engagement"): in an open episode, an engaged pair stays engaged down to
+            # ENGAGED_BAND below the overlap, a pair on the overlap's normal engages from ENGAGED_BAND above it
+            band = 0.0 if PST[p, S_ACT] == NONE else ENGAGED_BAND if PST[p, S_ENG] > 0.0 else -ENGAGED_BAND
             if ok:
                 top = support_value_body(0, e0, e1, 0.0, sh1, rc1, A1)
                 bot = -support_value_body(k2, -e0, -e1, 0.0, sh2, rc2, A2)
                 if PST[p, S_ACT] == NONE:
                     PST[p, S_C0] = top - bot + g if e0 * d0 + e1 * d1 > 0.0 else -1.0
                 measure = 2.0 if PST[p, S_C0] >= 0.0 else 1.0
-                if PST[p, S_C0] >= 0.0 and top - bot - PST[p, S_C0] >= -g:
+                if PST[p, S_C0] >= 0.0 and top - bot - PST[p, S_C0] >= -g - band:
+                    psg[p, G_ENG] = 1.0
                     # engaged: the crush along the struck faces' normal; at least the overlap -g (below, where the
                     # overlap has grown across it: the shapes are not let through each other without a force)
                     crush = top - bot - PST[p, S_C0]
@@ -697,12 +712,13 @@ def contacts_awake(Y, nq, CSH, BOXR, BOXA, BOXE, PP, PST, psg, FX, BPC, OUT, FM,
             psg[p, G_RAW], psg[p, G_MEAS] = crush, measure
             if PST[p, S_ACT] != NONE and PST[p, S_CM] > 0.0:
                 crush = PST[p, S_CI] + (crush - PST[p, S_CR] if measure == PST[p, S_CM] else 0.0)
-            if crush < -g:
-                # never less than the shapes' overlap -g (continuous too): a crush held below it by a switch let
-                # the pair sink into each other without a force (audit seed 4: 0.33 m); along its own normal
+            if crush < -g - (max(band, 0.0) if psg[p, G_ENG] > 0.0 else 0.0):
+                # never less than the shapes' overlap -g (continuous too; an engaged pair within ENGAGED_BAND of
+                # it): a crush held below it by a switch let the pair sink into each other without a force (audit
+                # seed 4: 0.33 m); along its own normal
                 crush, d0, d1, M = -g, gd0, gd1, Mg
                 psg[p, G_TH] = th
-                psg[p, G_RAW], psg[p, G_MEAS] = crush, 1.0
+                psg[p, G_RAW], psg[p, G_MEAS], psg[p, G_ENG] = crush, 1.0, 0.0
             psg[p, G_CRUSH] = crush
         elif PST[p, S_ACT] == NONE and g < 0.0:  # the struck sides at the first touch, which share the episode's
             # energy in its impact rows (§21)

@@ -24,6 +24,7 @@ from .chassis_contact import (
     FM_ANY,
     G_CRUSH,
     G_DEL,
+    G_ENG,
     G_FN,
     G_FX,
     G_MEAS,
@@ -51,6 +52,7 @@ from .chassis_contact import (
     S_DD0,
     S_DD1,
     S_DDT,
+    S_ENG,
     S_JR,
     S_JX,
     S_MAXPEN,
@@ -134,10 +136,12 @@ def accumulate(PST, p, w, out):
 @njit(cache=True)
 def sync_crush(PST, p, out):
     """The continuous crush's reference (docs/physics.md §13a): the crush of the accepted evaluation `out`, its
-    geometric measure and which one it is (a pair the broad phase left out is not measured: kept)."""
+    geometric measure and which one it is, and whether it was engaged (S_ENG; a pair the broad phase left out is not
+    measured: kept)."""
     if out[G_MEAS] == 0.0:
         return
     PST[p, S_CI], PST[p, S_CR], PST[p, S_CM] = out[G_CRUSH], out[G_RAW], out[G_MEAS]
+    PST[p, S_ENG] = out[G_ENG]
 
 
 @njit(cache=True)
