@@ -14,7 +14,7 @@ from .errors import InputError
 from .options import ModelOptions, parse
 from .outcome import Outcome
 from .population import ARRAYS, Population, Variants
-from .scene import Scene, approach_scene, approach_time, driver_input_key
+from .scene import APPROACH_GAP, Scene, approach_scene, approach_time, driver_input_key
 
 INVALID = ("raise", "fail", "unchecked")  # what simulate_population does with a row that is no valid scene
 
@@ -46,8 +46,8 @@ def _as_run(model, scene: Scene) -> tuple[Scene, list[str]]:
                              "and cannot start inside the collision position") from None
         notes.append(f"{model.name} finds its own contacts: it runs the collision position ([impact] point) from "
                      f"{t:.3f} s before it, each vehicle moved back along its start velocity until the outlines "
-                     "are 0.1 m apart; its times count from there, the scene's duration and driver actions as much "
-                     "later (docs/physics.md §4 \"Approach\")")
+                     f"are {APPROACH_GAP:g} m of closing travel apart; its times count from there, the scene's "
+                     "duration and driver actions as much later (docs/physics.md §4 \"Approach\")")
         notes += [f"{v.name}'s start yaw rate turns it by {math.degrees(v.yaw_rate * t):.1f} deg on the straight "
                   "approach: it reaches the collision position at another heading"
                   for v in scene.vehicles if v.yaw_rate]
