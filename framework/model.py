@@ -51,7 +51,7 @@ def _as_run(model, scene: Scene) -> tuple[Scene, list[str]]:
         notes += [f"{v.name}'s start yaw rate turns it by {math.degrees(v.yaw_rate * t):.1f} deg on the straight "
                   "approach: it reaches the collision position at another heading"
                   for v in scene.vehicles if v.yaw_rate]
-        scene = approach_scene(scene)
+        scene = approach_scene(scene, t=t)
     if scene.impact.engagement:
         notes.append(f'{model.name} ignores [impact] point = "engagement" (an impulse-model setting): it finds '
                      "its own contacts")

@@ -253,15 +253,15 @@ def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
     return hi + (gap / closing if closing > 0 else 0.0)
 
 
-def approach_scene(scene: Scene, gap: float = APPROACH_GAP) -> Scene:
+def approach_scene(scene: Scene, gap: float = APPROACH_GAP, t: float | None = None) -> Scene:
     """A scene with a collision position as a model that finds its own contacts needs it (docs/physics.md §4
     "Approach"): the point and plane dropped and every vehicle moved back along its start velocity by
     approach_time, the duration and the driver actions that much later (a collision position's times count from
-    it); driving on undisturbed, the vehicles would reach the collision position together. Unchanged without a
-    given point."""
+    it; t: that time where the caller has it already); driving on undisturbed, the vehicles would reach the
+    collision position together. Unchanged without a given point."""
     if scene.impact.point is None:
         return scene
-    return _moved_back(scene, approach_time(scene, gap))
+    return _moved_back(scene, approach_time(scene, gap) if t is None else t)
 
 
 def _moved_back(scene: Scene, t: float) -> Scene:
