@@ -204,6 +204,8 @@ def validation_rows(models: list[str], quick: bool = False, tests: list[dict] | 
             for run_ in runs(model, t):
                 scene = variant_scene(t["scene"], None if run_["law"] == "-" else run_["law"], run_["restitution"])
                 if run_["contact"] in ("found", "engagement"):
+                    # built here (not left to the model's base class): the quantities are read against this scene,
+                    # and the runs carry no approach warning
                     scene = approach_scene(scene)
                 if run_["contact"] == "engagement":
                     scene = scene.replace(impact=dataclasses.replace(scene.impact, engagement=True))

@@ -29,13 +29,19 @@ def _refuse_unhonoured_inputs(model, scenes) -> None:
                              "friction zones; use a model that does (crashlab models)")
 
 
+def _runs_otherwise(model, scene: Scene) -> bool:
+    """Whether the model runs another scene than the one given (_as_run): one that finds its own contacts given a
+    collision position or the impulse model's point = "engagement"."""
+    return not model.collision_position and (scene.impact.point is not None or scene.impact.engagement)
+
+
 def _as_run(model, scene: Scene) -> tuple[Scene, list[str]]:
     """The scene a model runs and what the run's Outcome says about it (docs/physics.md §4 "Approach"): a model
     that finds its own contacts (collision_position False) runs a collision position ([impact] point, outlines
     overlapping by design) from its approach, the vehicles moved back along their velocities until apart (bodies
     started inside each other bear the overlap as crush at once); the impulse model's [impact] point =
     "engagement" it does not read. InputError (impact.point) where the vehicles do not part."""
-    if model.collision_position:
+    if not _runs_otherwise(model, scene):
         return scene, []
     notes = []
     if scene.impact.point is not None:
@@ -44,13 +50,19 @@ def _as_run(model, scene: Scene) -> tuple[Scene, list[str]]:
         except ValueError as err:
             raise InputError(scene.source, "impact.point", f"{err}: model {model.name!r} finds its own contacts "
                              "and cannot start inside the collision position") from None
-        notes.append(f"{model.name} finds its own contacts: it runs the collision position ([impact] point) from "
-                     f"{t:.3f} s before it, each vehicle moved back along its start velocity until the outlines "
-                     f"are {APPROACH_GAP:g} m of closing travel apart; its times count from there, the scene's "
-                     "duration and driver actions as much later (docs/physics.md §4 \"Approach\")")
-        notes += [f"{v.name}'s start yaw rate turns it by {math.degrees(v.yaw_rate * t):.1f} deg on the straight "
-                  "approach: it reaches the collision position at another heading"
-                  for v in scene.vehicles if v.yaw_rate]
+        if t == 0.0:
+            notes.append(f"{model.name} finds its own contacts: it ignores the given [impact] point, whose outlines "
+                         "do not overlap at the start (docs/physics.md §4 \"Approach\")")
+        else:
+            notes.append(f"{model.name} finds its own contacts: it runs the collision position ([impact] point) "
+                         f"from {t:.3f} s before it, each vehicle moved back along its start velocity until the "
+                         f"outlines are {APPROACH_GAP:g} m of closing travel apart; its times count from there, the "
+                         "scene's duration and driver actions as much later (docs/physics.md §4 \"Approach\")")
+            notes += [f"{v.name}'s start yaw rate turns it by {math.degrees(v.yaw_rate * t):.1f} deg on the "
+                      "straight approach: it reaches the collision position at another heading"
+                      for v in scene.vehicles if abs(math.degrees(v.yaw_rate * t)) >= 0.05]
+            notes += [f"{v.name}'s start steer angle curves its path on the approach, which is taken straight: it "
+                      "reaches the collision position elsewhere" for v in scene.vehicles if v.steer]
         scene = approach_scene(scene, t=t)
     if scene.impact.engagement:
         notes.append(f'{model.name} ignores [impact] point = "engagement" (an impulse-model setting): it finds '
@@ -70,8 +82,9 @@ def _guarded(method, check):
         scenes = runs[0][0] if one else [s for s, _ in runs]
         outs = method(self, scenes, *args, **kwargs)
         for out, (_, notes) in zip([outs] if one else outs, runs):
-            if notes and isinstance(out, Outcome):
-                out.warnings[:0] = notes
+            if notes and isinstance(out, Outcome):  # after the model's own (a failed run's reason comes first); once
+                # (a batch's default runs simulate, wrapped too)
+                out.warnings += [n for n in notes if n not in out.warnings]
         check(scenes, outs, self.guard_skip)
         return outs
     wrapper.__guarded__ = True
@@ -108,8 +121,9 @@ def _guarded_population(method):
         good = np.flatnonzero(why == "")
         pop = Population.empty(len(values), scene.vehicle_names)
         pop.mass[:] = scene_fields.vehicle_columns(scene, fs, values, ("mass",))["mass"]
-        if len(good) and not self.collision_position and (scene.impact.point is not None or scene.impact.engagement):
-            # each row's scene as the model runs it (its approach depends on the row's speeds and poses: _as_run)
+        if len(good) and _runs_otherwise(self, scene):
+            # each row's scene as the model runs it (its approach depends on the row's speeds and poses: _as_run;
+            # a model's own simulate_population is not used for them)
             part = Population.of_outcomes(simulate_each(self, Variants(scene, tuple(fs), values[good]).scenes()),
                                           scene.vehicle_names)
         elif len(good):

@@ -232,25 +232,31 @@ def start_overlap_rows(scene: Scene, x, y, heading) -> list:
 APPROACH_GAP = 0.1  # m of closing travel between the outlines at the start of an approach (approach_scene)
 
 
+APPROACH_MAX = 60.0  # s: the longest approach searched (vehicles that do not part by then are at rest)
+
+
 def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
     """How long before a collision position ([impact] point, outlines overlapping) its approach starts
     (docs/physics.md §4 "Approach"): the shortest time T that, every vehicle moved back along its start velocity
-    by T, parts the outlines (bisection), plus `gap` / the largest closing speed of two bodies (a barrier stands
-    still). Raises ValueError when moving back by a minute does not part them (vehicles at rest)."""
+    by T, parts the outlines (bisection), plus `gap` / the largest closing speed of the pairs that overlap (a
+    barrier stands still), where that parts no other pair; 0 where no outlines overlap at the start. Raises
+    ValueError when moving back by APPROACH_MAX does not part them (vehicles at rest)."""
+    hits = start_overlaps(scene)
+    if not hits:
+        return 0.0
     lo, hi = 0.0, 0.01
     while start_overlaps(_moved_back(scene, hi)):
-        lo, hi = hi, 2.0 * hi
-        if hi > 60.0:
+        if hi >= APPROACH_MAX:
             raise ValueError("the vehicles do not part when moved back along their velocities")
+        lo, hi = hi, min(2.0 * hi, APPROACH_MAX)
     for _ in range(60):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if start_overlaps(_moved_back(scene, mid)) else (lo, mid)
-    vel = [(v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)) for v in scene.vehicles]
-    if scene.barriers:  # a barrier stands still
-        vel.append((0.0, 0.0))
-    closing = max((math.hypot(a[0] - b[0], a[1] - b[1]) for k, a in enumerate(vel) for b in vel[k + 1:]),
-                  default=0.0)
-    return hi + (gap / closing if closing > 0 else 0.0)
+    vel = {v.name: (v.speed * math.cos(v.heading), v.speed * math.sin(v.heading)) for v in scene.vehicles}
+    closing = max(math.hypot(vel[a][0] - vel.get(b, (0.0, 0.0))[0], vel[a][1] - vel.get(b, (0.0, 0.0))[1])
+                  for a, b in hits)
+    t = hi + (gap / closing if closing > 0 else 0.0)
+    return t if not start_overlaps(_moved_back(scene, t)) else hi
 
 
 def approach_scene(scene: Scene, gap: float = APPROACH_GAP, t: float | None = None) -> Scene:
