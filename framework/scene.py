@@ -239,7 +239,7 @@ def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
     """How long before a collision position ([impact] point, outlines overlapping) its approach starts
     (docs/physics.md §4 "Approach"): the shortest time T that, every vehicle moved back along its start velocity
     by T, parts the outlines (bisection), plus `gap` / the largest closing speed of the pairs that overlap (a
-    barrier stands still), where that parts no other pair; 0 where no outlines overlap at the start. Raises
+    barrier stands still), where that touches no other pair; 0 where no outlines overlap at the start. Raises
     ValueError when moving back by APPROACH_MAX does not part them (vehicles at rest)."""
     hits = start_overlaps(scene)
     if not hits:
@@ -256,7 +256,7 @@ def approach_time(scene: Scene, gap: float = APPROACH_GAP) -> float:
     closing = max(math.hypot(vel[a][0] - vel.get(b, (0.0, 0.0))[0], vel[a][1] - vel.get(b, (0.0, 0.0))[1])
                   for a, b in hits)
     t = hi + (gap / closing if closing > 0 else 0.0)
-    return t if not start_overlaps(_moved_back(scene, t)) else hi
+    return hi if gap > 0.0 and start_overlaps(_moved_back(scene, t)) else t
 
 
 def approach_scene(scene: Scene, gap: float = APPROACH_GAP, t: float | None = None) -> Scene:
