@@ -230,8 +230,6 @@ def start_overlap_rows(scene: Scene, x, y, heading) -> list:
 
 
 APPROACH_GAP = 0.1  # m of closing travel between the outlines at the start of an approach (approach_scene)
-
-
 APPROACH_MAX = 60.0  # s: the longest approach searched (vehicles that do not part by then are at rest)
 
 
