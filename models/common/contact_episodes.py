@@ -218,9 +218,8 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
     vel_j now) as record IMP[n] if there is room, deactivate and reset the pair; returns n + 1 (n for a push below
     PUSH_DV_MIN, not written)."""
     jj = PST[p, S_JX] ** 2 + PST[p, S_JX + 1] ** 2 + PST[p, S_JX + 2] ** 2
-    if PST[p, S_PUSH] > 0.0 and jj < (PUSH_DV_MIN * PP[p, P_MEFF]) ** 2:
-        n -= 1
-    elif n < IMP.shape[0]:
+    skip = PST[p, S_PUSH] > 0.0 and jj < (PUSH_DV_MIN * PP[p, P_MEFF]) ** 2
+    if not skip and n < IMP.shape[0]:
         r = IMP[n]
         r[I_I], r[I_J], r[I_T0], r[I_T1] = PP[p, P_I], PP[p, P_J], PST[p, S_T0], t1
         for k in range(3):
@@ -235,7 +234,7 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
     PST[p, S_ACT] = NONE
     PST[p, S_PUSH] = 0.0
     reset_sums(PST, p)
-    return n + 1
+    return n if skip else n + 1
 
 
 @njit(cache=True)
