@@ -162,6 +162,13 @@ def cmd_damage(args):
     return 0
 
 
+def cmd_stiffness(args):
+    """`crashlab stiffness`: a side's CRASH3 A and B from its crash tests (crashlab.stiffness)."""
+    from .stiffness import command
+    print(command(args.side, args.test, args.b0, args.restitution, args.source, args.json))
+    return 0
+
+
 def cmd_examples(args):
     """`crashlab examples`: the bundled examples and vehicles; `crashlab examples copy DIR` writes them out."""
     from ..tools import examples
@@ -375,6 +382,20 @@ def build_parser():
     d.add_argument("--restitution", type=float, default=0.0, help="with --with: the impact's restitution")
     d.add_argument("--json", action="store_true", help="print JSON")
     d.set_defaults(fn=cmd_damage)
+    st = command("stiffness", "a side's CRASH3 stiffness A, B from its crash tests (Campbell's crash plot; "
+                 "docs/physics.md)")
+    st.add_argument("--side", required=True, choices=["front", "rear", "side"], help="the side the tests crushed")
+    st.add_argument("--test", action="append", required=True, metavar="MASS:SPEED:C1,..,Cn:WIDTH[:BARRIER_MASS]",
+                    help="one crash test: test mass [kg], impact speed [km/h], residual crush profile [m] (2, 4 or "
+                    "6 points) over the crush width [m]; a rigid moving barrier's mass [kg] (default: a fixed "
+                    "rigid barrier); repeat for more tests")
+    st.add_argument("--b0", default=None, metavar="KMH|fit", help="the no-damage speed [km/h], or `fit` (two or "
+                    "more tests); default the class estimates' value (front, rear 7.9 km/h; side 3.2 km/h)")
+    st.add_argument("--restitution", type=float, default=0.0, help="the tests' restitution: the crush energy is "
+                    "(1 - e^2) of the closing motion's (default 0, the crash plot's convention)")
+    st.add_argument("--source", default="", help="the source text of the table printed (default: the tests)")
+    st.add_argument("--json", action="store_true", help="print JSON")
+    st.set_defaults(fn=cmd_stiffness)
     ex = command("examples", "the bundled example scenes, studies and vehicles; `copy DIR` writes them out")
     ex.add_argument("action", nargs="?", choices=["copy"], help="copy: write every example to DIR")
     ex.add_argument("dir", nargs="?", metavar="DIR", help="a new or empty folder")

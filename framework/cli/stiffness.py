@@ -1,0 +1,75 @@
+"""`crashlab stiffness --side S --test MASS:SPEED:C1,...,Cn:WIDTH[:BARRIER_MASS] [--test ...] [--b0 KMH|fit]`: a
+side's CRASH3 A and B from its crash tests, read from the command line; the fit in crashlab.stiffness
+(docs/physics.md §28 "Stiffness from crash tests")."""
+from __future__ import annotations
+
+import json
+
+from ..damage import crush_energy
+from ..errors import InputError
+from ..stiffness import CrashTest, default_b0, fit_stiffness
+from ..units import kmh_to_ms
+from .damage import parse_profile
+
+
+def parse_test(text: str, key: str, where: str = "command line") -> CrashTest:
+    """'MASS:SPEED:C1,...,Cn:WIDTH[:BARRIER_MASS]' (kg, km/h, m, m, kg) as a CrashTest (checked by the fit)."""
+    parts = str(text).split(":")
+    if len(parts) not in (4, 5):
+        raise InputError(where, key, f"MASS:SPEED:C1,...,Cn:WIDTH[:BARRIER_MASS] (kg, km/h, m, m, kg), got {text!r}")
+    try:
+        mass, speed, width = float(parts[0]), float(parts[1]), float(parts[3])
+        barrier = float(parts[4]) if len(parts) == 5 else None
+    except ValueError:
+        raise InputError(where, key, f"MASS, SPEED, WIDTH and BARRIER_MASS are numbers (kg, km/h, m, kg), got "
+                         f"{text!r}") from None
+    return CrashTest(mass, kmh_to_ms(speed), tuple(parse_profile(parts[2], f"{key} profile", where)), width,
+                     barrier, text)
+
+
+def command(side: str, tests: list[str], b0: str | None = None, restitution: float = 0.0, source: str = "",
+            as_json: bool = False) -> str:
+    """What `crashlab stiffness` prints: A, B, G, the crash plot and each test's EBS against the fit's, and the
+    vehicle file's [structure.<side>] table to paste (text), or the same as JSON. b0: km/h, "fit", or None for
+    the side's class value (crashlab.structure.CRUSH_REFERENCE)."""
+    if side not in ("front", "rear", "side"):
+        raise InputError("command line", "--side", f"one of front, rear, side, got {side!r}")
+    structure = side
+    parsed = [parse_test(t, f"--test {k + 1}") for k, t in enumerate(tests or [])]
+    if b0 is None:
+        b0_ms = default_b0(side)
+    elif str(b0).strip().lower() == "fit":
+        b0_ms = None
+    else:
+        try:
+            b0_ms = kmh_to_ms(float(b0))
+        except ValueError:
+            raise InputError("command line", "--b0", f"a speed in km/h or 'fit', got {b0!r}") from None
+    fit = fit_stiffness(parsed, b0_ms, restitution)
+    if fit.b0_fitted:
+        how = "b0 fitted"
+    elif b0 is not None:
+        how = f"b0 = {fit.b0 * 3.6:.2f} km/h given"
+    else:
+        how = f"b0 = {fit.b0 * 3.6:.2f} km/h, the class estimates' value for a {structure}"
+    src = source or (f"derived: crash plot of {len(parsed)} test(s) ({'; '.join(t.label for t in parsed)}), {how}, "
+                     f"restitution {restitution:g} (crashlab stiffness, docs/physics.md §28)")
+    rep = {"side": structure, "A": fit.A, "B": fit.B, "G": fit.G, "b0_kmh": fit.b0 * 3.6, "b1_per_s": fit.b1,
+           "b0_fitted": fit.b0_fitted, "width": fit.width, "source": src,
+           "tests": [{"test": t.label, "energy": e, "ebs_kmh": v * 3.6, "ebs_fit_kmh": f * 3.6,
+                      "energy_fit": crush_energy(list(t.profile), t.width, fit.A, fit.B)}
+                     for t, e, v, f in zip(parsed, fit.energies, fit.ebs, fit.ebs_fitted)],
+           "warnings": list(fit.warnings)}
+    if as_json:
+        return json.dumps(rep, indent=2)
+    lines = [f"CRASH3 stiffness of the {structure} from {len(parsed)} crash test(s) ({how}):",
+             f"  A = {fit.A:.1f} N/m   B = {fit.B:.1f} N/m^2   G = A^2/2B = {fit.G:.1f} J/m",
+             f"  crash plot EBS = b0 + b1 C: b0 = {fit.b0 * 3.6:.2f} km/h, b1 = {fit.b1:.3f} 1/s "
+             "(the tests' mean mass per crush width)", "",
+             f"  {'test':<40} {'energy [J]':>11} {'EBS [km/h]':>11} {'fit [km/h]':>11}"]
+    for t in rep["tests"]:
+        lines.append(f"  {t['test'][:40]:<40} {t['energy']:>11.0f} {t['ebs_kmh']:>11.2f} {t['ebs_fit_kmh']:>11.2f}")
+    lines += ["", "For the vehicle file:", "", f"[structure.{structure}]", f"A = {fit.A:.1f}", f"B = {fit.B:.1f}",
+              f"width = {fit.width:g}", f"source = {json.dumps(src, ensure_ascii=False)}"]
+    lines += [f"warning: {w}" for w in fit.warnings]
+    return "\n".join(lines)
