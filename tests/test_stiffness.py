@@ -150,6 +150,7 @@ def test_command_prints_a_structure_table_a_vehicle_file_takes(tmp_path, capsys)
     (["--test", "1500:56:0.5,0.5:1.8", "--b0", "slow"], "--b0"),
     (["--test", "1500:56:0.5,0.5:1.8", "--b0", "fit"], "--b0"),
     (["--test", "1500:56:0.5,0.5:1.8", "--restitution", "1.2"], "--restitution"),
+    (["--test", "1500:56:0.5,0.5:1.8", "--vehicle", "nosuch"], "--vehicle"),
 ])
 def test_the_command_answers_bad_input_with_one_line_and_exit_2(args, key, capsys):
     assert main(["stiffness", "--side", "front", *args]) == 2
@@ -162,3 +163,18 @@ def test_b0_in_kmh_on_the_command_line():
     rep = json.loads(command("rear", ["1500:48.28:0.4,0.4:1.8:1814"], "10", as_json=True))
     assert rep["b0_kmh"] == pytest.approx(10.0, rel=1e-9) and rep["side"] == "rear"
     assert math.isfinite(rep["A"]) and rep["source"].startswith("derived:")
+
+
+def test_the_vehicles_present_structure_beside_the_fit():
+    """--vehicle: the EBS the vehicle's present coefficients give each test's profile (by quadrature here); NHTSA
+    10146's profile read with the library saloon's class estimate is 27 % slow (docs/physics.md §28)."""
+    from crashlab.cli.stiffness import command
+    profile = (0.380, 0.466, 0.511, 0.518, 0.489, 0.370)
+    rep = json.loads(command("front", ["1719:57.09:" + ",".join(map(str, profile)) + ":1.26"], as_json=True,
+                             vehicle="saloon"))
+    s = load_vehicle("saloon").structure["front"]
+    energy = _energy_by_quad(profile, 1.26, s.A, s.B)
+    assert rep["tests"][0]["energy_vehicle"] == pytest.approx(energy, rel=1e-9)
+    assert rep["tests"][0]["ebs_vehicle_kmh"] == pytest.approx(math.sqrt(2 * energy / 1719.0) * 3.6, rel=1e-9)
+    assert rep["tests"][0]["ebs_vehicle_kmh"] / 57.09 - 1 == pytest.approx(-0.27, abs=0.01)
+    assert rep["vehicle"]["source"].startswith("estimate:")

@@ -165,7 +165,7 @@ def cmd_damage(args):
 def cmd_stiffness(args):
     """`crashlab stiffness`: a side's CRASH3 A and B from its crash tests (crashlab.stiffness)."""
     from .stiffness import command
-    print(command(args.side, args.test, args.b0, args.restitution, args.source, args.json))
+    print(command(args.side, args.test, args.b0, args.restitution, args.source, args.json, args.vehicle))
     return 0
 
 
@@ -394,6 +394,8 @@ def build_parser():
     st.add_argument("--restitution", type=float, default=0.0, help="the tests' restitution: the crush energy is "
                     "(1 - e^2) of the closing motion's (default 0, the crash plot's convention)")
     st.add_argument("--source", default="", help="the source text of the table printed (default: the tests)")
+    st.add_argument("--vehicle", default=None, help="a library vehicle or vehicle file: the EBS its present "
+                    "structure of the side gives each test's profile, beside the fit's")
     st.add_argument("--json", action="store_true", help="print JSON")
     st.set_defaults(fn=cmd_stiffness)
     ex = command("examples", "the bundled example scenes, studies and vehicles; `copy DIR` writes them out")

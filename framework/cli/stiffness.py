@@ -4,12 +4,13 @@ side's CRASH3 A and B from its crash tests, read from the command line; the fit 
 from __future__ import annotations
 
 import json
+import math
 
 from ..damage import crush_energy
 from ..errors import InputError
 from ..stiffness import CrashTest, default_b0, fit_stiffness
 from ..units import kmh_to_ms
-from .damage import parse_profile
+from .damage import parse_profile, vehicle_for
 
 
 def parse_test(text: str, key: str, where: str = "command line") -> CrashTest:
@@ -28,10 +29,11 @@ def parse_test(text: str, key: str, where: str = "command line") -> CrashTest:
 
 
 def command(side: str, tests: list[str], b0: str | None = None, restitution: float = 0.0, source: str = "",
-            as_json: bool = False) -> str:
+            as_json: bool = False, vehicle: str | None = None) -> str:
     """What `crashlab stiffness` prints: A, B, G, the crash plot and each test's EBS against the fit's, and the
     vehicle file's [structure.<side>] table to paste (text), or the same as JSON. b0: km/h, "fit", or None for
-    the side's class value (crashlab.structure.CRUSH_REFERENCE)."""
+    the side's class value (crashlab.structure.CRUSH_REFERENCE). `vehicle` (a library name or vehicle file): the
+    EBS its present structure of the side gives each test's profile beside them."""
     if side not in ("front", "rear", "side"):
         raise InputError("command line", "--side", f"one of front, rear, side, got {side!r}")
     structure = side
@@ -46,6 +48,7 @@ def command(side: str, tests: list[str], b0: str | None = None, restitution: flo
         except ValueError:
             raise InputError("command line", "--b0", f"a speed in km/h or 'fit', got {b0!r}") from None
     fit = fit_stiffness(parsed, b0_ms, restitution)
+    present = vehicle_for(vehicle, target_key="--vehicle").structure[structure] if vehicle is not None else None
     if fit.b0_fitted:
         how = "b0 fitted"
     elif b0 is not None:
@@ -60,15 +63,26 @@ def command(side: str, tests: list[str], b0: str | None = None, restitution: flo
                       "energy_fit": crush_energy(list(t.profile), t.width, fit.A, fit.B)}
                      for t, e, v, f in zip(parsed, fit.energies, fit.ebs, fit.ebs_fitted)],
            "warnings": list(fit.warnings)}
+    if present is not None:
+        rep["vehicle"] = {"name": vehicle, "A": present.A, "B": present.B, "width": present.width,
+                          "source": present.source}
+        for row, t in zip(rep["tests"], parsed):
+            energy = crush_energy(list(t.profile), t.width, present.A, present.B)
+            row["energy_vehicle"], row["ebs_vehicle_kmh"] = energy, math.sqrt(2.0 * energy / t.mass) * 3.6
     if as_json:
         return json.dumps(rep, indent=2)
     lines = [f"CRASH3 stiffness of the {structure} from {len(parsed)} crash test(s) ({how}):",
              f"  A = {fit.A:.1f} N/m   B = {fit.B:.1f} N/m^2   G = A^2/2B = {fit.G:.1f} J/m",
              f"  crash plot EBS = b0 + b1 C: b0 = {fit.b0 * 3.6:.2f} km/h, b1 = {fit.b1:.3f} 1/s "
              "(the tests' mean mass per crush width)", "",
-             f"  {'test':<40} {'energy [J]':>11} {'EBS [km/h]':>11} {'fit [km/h]':>11}"]
+             f"  {'test':<40} {'energy [J]':>11} {'EBS [km/h]':>11} {'fit [km/h]':>11}"
+             + (f" {'now [km/h]':>11}" if present is not None else "")]
     for t in rep["tests"]:
-        lines.append(f"  {t['test'][:40]:<40} {t['energy']:>11.0f} {t['ebs_kmh']:>11.2f} {t['ebs_fit_kmh']:>11.2f}")
+        lines.append(f"  {t['test'][:40]:<40} {t['energy']:>11.0f} {t['ebs_kmh']:>11.2f} {t['ebs_fit_kmh']:>11.2f}"
+                     + (f" {t['ebs_vehicle_kmh']:>11.2f}" if present is not None else ""))
+    if present is not None:
+        lines += ["", f"  now: {vehicle}'s {structure}, A = {present.A:.1f} N/m, B = {present.B:.1f} N/m^2 over "
+                  f"{present.width:g} m ({present.source[:70]}{'...' if len(present.source) > 70 else ''})"]
     lines += ["", "For the vehicle file:", "", f"[structure.{structure}]", f"A = {fit.A:.1f}", f"B = {fit.B:.1f}",
               f"width = {fit.width:g}", f"source = {json.dumps(src, ensure_ascii=False)}"]
     lines += [f"warning: {w}" for w in fit.warnings]
