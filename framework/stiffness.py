@@ -13,10 +13,11 @@ The crush energy of a profile with A, B (damage.crush_energy) is E = A S1 + B S2
 S1 = ∫ C dx and S2 = ∫ C² / 2 dx over the width, the crush linear between the points. Written with
 a0 = A / √B = √(2G) and s = √B it is E = a0 s S1 + s² S2 + a0² L / 2: for a uniform crush C, E = L (a0 + s C)² / 2,
 Campbell's line EBS = b0 + b1 C with b0 = a0 √(L / m), b1 = s √(L / m). The fit: the no-damage speed b0 given
-(a0 from it) and s, or with two or more tests b0 too, by least squares of the tests' EBS (√(2 E / m), the speed
-the model's energy gives against the test's; scipy.optimize.least_squares).
+(a0 from it at the widest test's crush width W, the table's width, and the tests' mean mass: the b0 a vehicle
+file's checks read) and s, or with two or more tests b0 too, by least squares of the tests' EBS (√(2 E / m), the
+speed the model's energy gives against the test's; scipy.optimize.least_squares).
 
-Only the core is imported (crashlab.damage, crashlab.errors, crashlab.structure).
+Only the core is imported (crashlab.damage, crashlab.errors, crashlab.scene, crashlab.structure, crashlab.vehicle).
 """
 from __future__ import annotations
 
@@ -25,15 +26,32 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from pydantic import ValidationError
 from scipy.optimize import least_squares
 
 from .damage import DAMAGE_WIDTH_MIN, _finite, check_profile
 from .errors import InputError
-from .structure import CRUSH_REFERENCE, NO_DAMAGE_SPEED_MAX, NO_DAMAGE_SPEED_MIN
+from .scene import SPEED_MAX
+from .structure import (
+    CRUSH_REFERENCE,
+    NO_DAMAGE_SPEED_MAX,
+    NO_DAMAGE_SPEED_MIN,
+    STRUCTURE_WIDTH_RANGE,
+    StructureSideFile,
+    crash_plot,
+)
+from .vehicle import MASS_RANGE, crush_56_problem
 
-# m/s, the least spread of the tests' mean crush over which a fit of b0 from the tests is a line and not a
+# m, the least spread of the tests' mean crush over which a fit of b0 from the tests is a line and not a
 # guess (two tests 2 cm apart in crush leave b0 to their scatter): below it b0 must be given
 CRUSH_SPREAD_MIN = 0.05
+# m, the least mean residual crush of a test: below, no crash plot (a scuff, or a depth in km read as m)
+CRUSH_MIN = 0.001
+# the least slope s = sqrt(B) [sqrt(N)/m] of the fit's search (a bound of the solver, B > 0)
+SLOPE_MIN = 1e-6
+# 1/s, the least crash-plot slope b1 a fit may give: 1 m of crush for 3.6 km/h of EBS is no vehicle (a vehicle
+# file's checks need b1 >= 3.8 1/s through C56 <= 2 m; the library's 20-40 1/s)
+B1_MIN = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,30 +98,35 @@ def check_test(test: CrashTest, key: str, where: str = "command line") -> CrashT
     mass = _finite(test.mass, f"{key} mass", where)
     speed = _finite(test.speed, f"{key} speed", where)
     width = _finite(test.width, f"{key} width", where)
-    if mass <= 0.0:
-        raise InputError(where, f"{key} mass", f"{mass:g} kg: must be > 0")
-    if speed <= 0.0:
-        raise InputError(where, f"{key} speed", f"{speed:g}: the impact speed must be > 0")
-    if width < DAMAGE_WIDTH_MIN:
-        raise InputError(where, f"{key} width", f"{width:g} m: the crush width must be at least "
-                         f"{DAMAGE_WIDTH_MIN:g} m")
+    lo, hi = MASS_RANGE
+    if not lo <= mass <= hi:
+        raise InputError(where, f"{key} mass", f"{mass:.6g} kg: a vehicle's test mass lies within {lo:g}-{hi:g} kg")
+    if not 0.0 < speed * 3.6 <= SPEED_MAX:
+        raise InputError(where, f"{key} speed", f"{speed * 3.6:.6g} km/h: the impact speed must be > 0 and at most "
+                         f"{SPEED_MAX:g} km/h")
+    if not DAMAGE_WIDTH_MIN <= width <= STRUCTURE_WIDTH_RANGE[1]:
+        raise InputError(where, f"{key} width", f"{width:.6g} m: the crush width must lie within "
+                         f"{DAMAGE_WIDTH_MIN:g}-{STRUCTURE_WIDTH_RANGE[1]:g} m")
     barrier = test.barrier_mass
     if barrier is not None:
         barrier = _finite(barrier, f"{key} barrier mass", where)
-        if barrier <= 0.0:
-            raise InputError(where, f"{key} barrier mass", f"{barrier:g} kg: must be > 0")
+        if not lo <= barrier <= hi:
+            raise InputError(where, f"{key} barrier mass", f"{barrier:.6g} kg: a moving barrier's mass lies within "
+                             f"{lo:g}-{hi:g} kg")
     profile = tuple(check_profile(list(test.profile), f"{key} profile", where))
-    if max(profile) <= 0.0:
-        raise InputError(where, f"{key} profile", "no residual crush: a test without crush gives no crash plot "
-                         "(at most the no-damage speed b0)")
-    return CrashTest(mass, speed, profile, width, barrier, test.label)
+    checked = CrashTest(mass, speed, profile, width, barrier, test.label)
+    if checked.mean_crush < CRUSH_MIN:
+        raise InputError(where, f"{key} profile", f"mean residual crush {checked.mean_crush:.3g} m: a test without "
+                         f"crush (under {CRUSH_MIN * 1000:g} mm) gives no crash plot (at most the no-damage speed b0)")
+    return checked
 
 
 @dataclasses.dataclass(frozen=True)
 class StiffnessFit:
-    """A, B [N/m, N/m²] and G [J/m] of the side from its tests; b0 [m/s] (given or fitted) and b1 [1/s] of the
-    crash plot for the tests' mean mass per crush width; per test its crush energy [J], EBS [m/s] and the EBS the
-    fitted A, B give its profile [m/s]; warnings."""
+    """A, B [N/m, N/m²] and G [J/m] of the side from its tests over `width` [m] (the widest test's crush width, the
+    table's); b0 [m/s] (given or fitted) and b1 [1/s] of the crash plot at that width and the tests' mean `mass`
+    [kg], as a vehicle file's checks read them; per test its crush energy [J], EBS [m/s] and the EBS the fitted A,
+    B give its profile [m/s]; warnings."""
 
     A: float
     B: float
@@ -112,6 +135,7 @@ class StiffnessFit:
     b1: float
     b0_fitted: bool
     width: float
+    mass: float
     energies: tuple[float, ...]
     ebs: tuple[float, ...]
     ebs_fitted: tuple[float, ...]
@@ -119,10 +143,11 @@ class StiffnessFit:
 
 
 def fit_stiffness(tests: Sequence[CrashTest], b0: float | None, restitution: float = 0.0,
-                  where: str = "command line") -> StiffnessFit:
-    """A and B of one side from its crash tests (module docstring): b0 [m/s] given (the no-damage speed; a0 from
-    it with the tests' mean m / L), or None to fit it with s from two or more tests whose mean crush spans at least
-    CRUSH_SPREAD_MIN. InputError (one line) for bad tests or a fit the tests cannot carry."""
+                  where: str = "command line", side: str = "front") -> StiffnessFit:
+    """A and B of one side from its crash tests (module docstring): b0 [m/s] given (the no-damage speed at the
+    widest test's crush width W and the tests' mean mass m, a0 = b0 √(m / W)), or None to fit it with s from two
+    or more tests whose mean crush spans at least CRUSH_SPREAD_MIN. InputError (one line) for bad tests or a fit
+    the tests cannot carry; warnings where the table is outside what a vehicle file takes (table_problems)."""
     if not tests:
         raise InputError(where, "--test", "give at least one crash test")
     tests = [check_test(t, f"--test {k + 1}", where) for k, t in enumerate(tests)]
@@ -133,8 +158,9 @@ def fit_stiffness(tests: Sequence[CrashTest], b0: float | None, restitution: flo
     ebs = np.sqrt(2.0 * energies / masses)
     s1, s2 = np.array([t.moments() for t in tests]).T
     widths = np.array([t.width for t in tests])
-    # the crash plot's b0 and b1 for the tests' mean mass per unit crush width (one vehicle: the same for each)
-    m_per_l = float(np.mean(masses / widths))
+    # the table's width and the crash plot's b0, b1 there at the tests' mean mass (what a vehicle file's checks read)
+    width, mass = float(np.max(widths)), float(np.mean(masses))
+    scale = math.sqrt(mass / width)
 
     def model_ebs(a0, s):
         return np.sqrt(2.0 * (a0 * s * s1 + s * s * s2 + 0.5 * a0 * a0 * widths) / masses)
@@ -147,47 +173,72 @@ def fit_stiffness(tests: Sequence[CrashTest], b0: float | None, restitution: flo
         # start: the line through the tests' (mean crush, EBS) in Campbell's form, then the profiles' own integrals
         c = np.array([t.mean_crush for t in tests])
         slope, icpt = np.polyfit(c, ebs, 1)
-        x0 = [max(icpt, 0.5) * math.sqrt(m_per_l), max(slope, 1.0) * math.sqrt(m_per_l)]
-        sol = least_squares(lambda x: model_ebs(x[0], x[1]) - ebs, x0, bounds=([0.0, 1e-9], [np.inf, np.inf]),
+        x0 = [max(icpt, 0.5) * scale, max(slope, 1.0) * scale]
+        sol = least_squares(lambda x: model_ebs(x[0], x[1]) - ebs, x0, bounds=([0.0, SLOPE_MIN], [np.inf, np.inf]),
                             xtol=1e-14, ftol=1e-14, gtol=1e-14)
         a0, s = (float(v) for v in sol.x)
+        if a0 / scale < NO_DAMAGE_SPEED_MIN:
+            raise InputError(where, "--b0", f"the tests' crash plot reaches zero crush at {a0 / scale * 3.6:.2f} km/h "
+                             f"(held at >= 0), below the {NO_DAMAGE_SPEED_MIN * 3.6:.1f} km/h a vehicle structure "
+                             f"has: give b0 (the class estimates' {default_b0(side) * 3.6:.1f} km/h for a {side})")
     else:
         b0 = _finite(b0, "--b0", where)
-        if b0 < 0.0:
-            raise InputError(where, "--b0", f"{b0:g}: the no-damage speed must be >= 0")
-        a0 = b0 * math.sqrt(m_per_l)
+        if not 0.0 < b0 * 3.6 <= SPEED_MAX:
+            raise InputError(where, "--b0", f"{b0 * 3.6:.6g} km/h: the no-damage speed must be > 0 and at most "
+                             f"{SPEED_MAX:g} km/h")
+        a0 = b0 * scale
         # each test alone: its quadratic in s, s^2 S2 + a0 S1 s + (a0^2 L / 2 - E) = 0
-        roots = (-a0 * s1 + np.sqrt((a0 * s1) ** 2 - 4.0 * s2 * (0.5 * a0 * a0 * widths - energies))) / (2.0 * s2)
-        if np.any(~np.isfinite(roots)) or np.any(roots <= 0.0):
-            k = int(np.argmax(~np.isfinite(roots) | (roots <= 0.0)))
-            raise InputError(where, f"--test {k + 1}", f"its energy {energies[k]:.0f} J is no more than the "
-                             f"{0.5 * a0 * a0 * widths[k]:.0f} J absorbed without residual crush at b0 = "
-                             f"{b0 * 3.6:.1f} km/h: the crush cannot come from this speed (check the speed, the "
-                             "profile or b0)")
-        sol = least_squares(lambda x: model_ebs(a0, x[0]) - ebs, [float(np.mean(roots))], bounds=([1e-9], [np.inf]),
-                            xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        no_damage = 0.5 * a0 * a0 * widths
+        for k in range(len(tests)):
+            if energies[k] <= no_damage[k]:
+                raise InputError(where, f"--test {k + 1}", f"its energy {energies[k]:.0f} J (EBS "
+                                 f"{ebs[k] * 3.6:.1f} km/h) is no more than the {no_damage[k]:.0f} J its "
+                                 f"{widths[k]:g} m absorb without residual crush at b0 = {b0 * 3.6:.1f} km/h (its own "
+                                 f"no-damage speed {math.sqrt(2 * no_damage[k] / masses[k]) * 3.6:.1f} km/h): the "
+                                 "crush cannot come from this speed (check the speed, the profile or b0)")
+        roots = (-a0 * s1 + np.sqrt((a0 * s1) ** 2 + 4.0 * s2 * (energies - no_damage))) / (2.0 * s2)
+        sol = least_squares(lambda x: model_ebs(a0, x[0]) - ebs, [max(float(np.mean(roots)), 2 * SLOPE_MIN)],
+                            bounds=([SLOPE_MIN], [np.inf]), xtol=1e-14, ftol=1e-14, gtol=1e-14)
         s = float(sol.x[0])
+    if s / scale < B1_MIN:
+        raise InputError(where, "--test", f"the tests' EBS does not rise with their crush (the crash plot's slope "
+                         f"b1 = {s / scale:.3g} 1/s, under {B1_MIN:g}): they give no stiffness (check the speeds, "
+                         "profiles and b0)")
     A, B = a0 * s, s * s
-    G = 0.5 * a0 * a0
     fitted = model_ebs(a0, s)
     warnings = []
-    if b0 is None and a0 <= 1e-9:
-        warnings.append("the tests' crash plot reaches zero crush at or below zero speed: b0 is held at 0 (give b0, "
-                        "the published no-damage speeds are 2.2-4.5 m/s for fronts and rears)")
-    b0_out = a0 / math.sqrt(m_per_l)
-    if b0_out > NO_DAMAGE_SPEED_MAX or (b0_out < NO_DAMAGE_SPEED_MIN and not warnings):
-        warnings.append(f"b0 = {b0_out * 3.6:.1f} km/h lies outside {NO_DAMAGE_SPEED_MIN * 3.6:.1f}-"
-                        f"{NO_DAMAGE_SPEED_MAX * 3.6:.1f} km/h, the range a vehicle file's structure accepts "
-                        "(docs/physics.md §28 \"Limits of the input\")")
     worst = float(np.max(np.abs(fitted - ebs)))
     if len(tests) > 1 and worst > 0.1 * float(np.min(ebs)):
         warnings.append(f"the tests scatter about the fitted crash plot by up to {worst * 3.6:.1f} km/h of EBS "
                         "(more than 10 % of the slowest test's): one line may not describe them")
-    return StiffnessFit(A, B, G, b0_out, s / math.sqrt(m_per_l), b0 is None, float(np.max(widths)),
+    if side == "side" and any(t.barrier_mass is not None for t in tests):
+        warnings.append("a side test's moving barrier (FMVSS 214) is deformable: its own crush absorbs part of the "
+                        "energy counted here as the car's, so A and B are an upper bound")
+    warnings += table_problems(A, B, width, mass)
+    b0_out, b1_out = crash_plot(A, B, width, mass)
+    return StiffnessFit(A, B, 0.5 * a0 * a0, b0_out, b1_out, b0 is None, width, mass,
                         tuple(float(e) for e in energies), tuple(float(v) for v in ebs),
                         tuple(float(v) for v in fitted), tuple(warnings))
 
 
+def table_problems(A: float, B: float, width: float, mass: float) -> list[str]:
+    """Why a vehicle file of `mass` [kg] would refuse the structure table A, B over `width`: its bounds
+    (StructureSideFile), the no-damage speed's range and the crash plot's 56 km/h crush (crashlab.vehicle's
+    checks, docs/physics.md §28 "Limits of the input"); [] when it takes it."""
+    try:
+        StructureSideFile(A=A, B=B, width=width)
+    except ValidationError as err:
+        return [f"a vehicle file refuses this table: {e['loc'][0]} {e['msg']}" for e in err.errors()]
+    b0 = crash_plot(A, B, width, mass)[0]
+    if not NO_DAMAGE_SPEED_MIN <= b0 <= NO_DAMAGE_SPEED_MAX:
+        return [f"a vehicle file of {mass:.0f} kg refuses this table: its no-damage speed {b0 * 3.6:.1f} km/h lies "
+                f"outside {NO_DAMAGE_SPEED_MIN * 3.6:.1f}-{NO_DAMAGE_SPEED_MAX * 3.6:.1f} km/h (docs/physics.md §28 "
+                "\"Limits of the input\")"]
+    problem = crush_56_problem(A, B, width, mass)
+    return [f"a vehicle file refuses this table: {problem}"] if problem else []
+
+
 def default_b0(side: str) -> float:
-    """m/s, the no-damage speed of `side` the class estimates take (crashlab.structure.CRUSH_REFERENCE)."""
-    return CRUSH_REFERENCE["side" if side in ("left", "right") else side][0]
+    """m/s, the no-damage speed of `side` (front, rear, side) the class estimates take
+    (crashlab.structure.CRUSH_REFERENCE)."""
+    return CRUSH_REFERENCE[side][0]

@@ -35,6 +35,7 @@ NO_DAMAGE_SPEED_MIN = 0.3
 # (C56 of 17-43 m for a 1600 kg car), or B far too stiff for the mass (docs/physics.md §28 "Limits of the input")
 CRUSH_56_SPEED = 15.6
 CRUSH_56_RANGE = (0.05, 2.0)
+STRUCTURE_WIDTH_RANGE = (0.1, 30.0)  # m, a side's structure width
 
 
 class StructureSideFile(BaseModel):
@@ -45,9 +46,9 @@ class StructureSideFile(BaseModel):
                    "crush (F/w = A + B C)", lo_open=True)
     B: Real = bounded(*B_RANGE, "N/m^2, CRASH3 stiffness coefficient B: force per unit width per metre of residual "
                    "crush; G = A^2 / 2B is the energy per unit width absorbed without residual crush", lo_open=True)
-    width: Real | None = bounded(0.1, 30.0, "m, the width over which A and B hold (the widest damage they apply to); "
-                              "default the vehicle's width for front and rear, its length for a side; at most that",
-                              default=None)
+    width: Real | None = bounded(*STRUCTURE_WIDTH_RANGE, "m, the width over which A and B hold (the widest damage "
+                                 "they apply to); default the vehicle's width for front and rear, its length for a "
+                                 "side; at most that", default=None)
     source: str = Field("", description="where A and B come from; an estimated pair's source starts with "
                         "'estimate:'", pattern=r"^[^\x00-\x1f\x7f]*$")
 

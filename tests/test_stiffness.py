@@ -111,14 +111,53 @@ def test_bad_tests_are_one_line_naming_the_key(tests, b0, key):
     assert "\n" not in str(err.value)
 
 
-def test_a_fit_with_b0_at_zero_or_scattered_tests_warns():
+def test_a_fit_the_tests_cannot_carry_is_refused_and_scatter_warns():
     m, L = 1500.0, 1.8
-    # the two tests' line crosses zero crush at a negative speed: b0 held at 0, said
-    fit = fit_stiffness([CrashTest(m, 10.0, (0.5,) * 2, L), CrashTest(m, 20.0, (0.8,) * 2, L)], None)
-    assert fit.b0 == pytest.approx(0.0, abs=1e-6) and any("held at 0" in w for w in fit.warnings)
+    # the two tests' line crosses zero crush at a negative speed: b0 cannot be fitted, give it
+    with pytest.raises(InputError) as err:
+        fit_stiffness([CrashTest(m, 10.0, (0.5,) * 2, L), CrashTest(m, 20.0, (0.8,) * 2, L)], None)
+    assert err.value.key == "--b0"
+    # equal speeds at different crush: the EBS does not rise with crush, no stiffness
+    with pytest.raises(InputError) as err:
+        fit_stiffness([CrashTest(m, 15.6, (0.5,) * 2, L), CrashTest(m, 15.6, (0.1,) * 2, L)], None)
+    assert err.value.key == "--test" and "does not rise" in err.value.problem
     fit = fit_stiffness([CrashTest(m, 10.0, (0.3,) * 2, L), CrashTest(m, 12.0, (0.5,) * 2, L),
                          CrashTest(m, 18.0, (0.6,) * 2, L)], None)
     assert any("scatter" in w for w in fit.warnings)
+
+
+@pytest.mark.parametrize("test, key", [
+    (CrashTest(1500, 1e160, (0.5, 0.5), 1.8), "--test 1 speed"),
+    (CrashTest(1e-300, 15.0, (0.5, 0.5), 1.8), "--test 1 mass"),
+    (CrashTest(1e308, 15.0, (0.5, 0.5), 1.8), "--test 1 mass"),
+    (CrashTest(1500, 15.0, (1e-160, 1e-160), 1.8), "--test 1 profile"),
+    (CrashTest(1500, 15.0, (0.5, 0.5), 1e6), "--test 1 width"),
+    (CrashTest(1500, 15.0, (0.5, 0.5), 1.8, 1e300), "--test 1 barrier mass"),
+])
+def test_numbers_out_of_any_vehicles_range_are_refused_not_overflowed(test, key):
+    """Found by a review (2026-11-28): these gave tracebacks (overflow, non-finite residuals) or a false message."""
+    with pytest.raises(InputError) as err:
+        fit_stiffness([test], 2.2)
+    assert err.value.key == key
+
+
+def test_b0_is_the_one_a_vehicle_file_reads_at_the_tables_width():
+    """Tests of two crush widths: the given b0 holds at the printed width (the widest) and the tests' mean mass,
+    where crashlab.structure.crash_plot (the vehicle file's check) reads it back; a review found the file's b0
+    11.2 km/h for a given 7.92 before."""
+    tests = [CrashTest(1500.0, 56 * KMH, (0.5, 0.5), 1.8), CrashTest(1500.0, 40 * KMH, (0.5, 0.5), 0.6)]
+    fit = fit_stiffness(tests, 2.2)
+    assert fit.width == 1.8 and crash_plot(fit.A, fit.B, 1.8, 1500.0)[0] == pytest.approx(2.2, rel=1e-9)
+
+
+@pytest.mark.parametrize("test, side, words", [
+    (CrashTest(1500.0, 15.6 * KMH, (0.5, 0.5), 1.8), "front", "a residual crush of 3.14 m"),  # m/s as km/h
+    (CrashTest(1500.0, 56 * KMH, (0.001, 0.001), 1.8), "front", "a vehicle file refuses this table: A"),
+    (CrashTest(1300.0, 32 * KMH, (0.3, 0.3), 1.68, 1360.0), "side", "deformable"),
+])
+def test_a_table_a_vehicle_file_would_refuse_warns(test, side, words):
+    fit = fit_stiffness([test], 2.2 if side == "front" else 0.9, side=side)
+    assert any(words in w for w in fit.warnings), fit.warnings
 
 
 def test_command_prints_a_structure_table_a_vehicle_file_takes(tmp_path, capsys):
@@ -151,11 +190,23 @@ def test_command_prints_a_structure_table_a_vehicle_file_takes(tmp_path, capsys)
     (["--test", "1500:56:0.5,0.5:1.8", "--b0", "fit"], "--b0"),
     (["--test", "1500:56:0.5,0.5:1.8", "--restitution", "1.2"], "--restitution"),
     (["--test", "1500:56:0.5,0.5:1.8", "--vehicle", "nosuch"], "--vehicle"),
+    (["--test", "1500:56:0.5,0.5:1.8", "--source", "a\x7fb"], "--source"),
+    (["--test", "1500:56:0.5,0.5:1.8", "--source", "two\nlines"], "--source"),
+    (["--test", "1500:56:0.5,0.5:1.8", "--source", "\udcff"], "--source"),
+    (["--test", "1500:56:0.5,0\n.5:1.8"], "--test 1"),
+    (["--test", "1500:56:0.5,0.5:1.8", "--b0", "-5"], "-5 km/h"),
 ])
 def test_the_command_answers_bad_input_with_one_line_and_exit_2(args, key, capsys):
     assert main(["stiffness", "--side", "front", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and key in err[0]
+
+
+def test_a_given_source_is_marked_derived():
+    from crashlab.cli.stiffness import command
+    rep = json.loads(command("front", ["1719:57.09:0.38,0.47,0.51,0.52,0.49,0.37:1.26"], source="NHTSA 10146",
+                             as_json=True))
+    assert rep["source"] == "derived: NHTSA 10146"
 
 
 def test_b0_in_kmh_on_the_command_line():

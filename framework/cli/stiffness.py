@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 from ..damage import crush_energy
 from ..errors import InputError
@@ -15,7 +16,8 @@ from .damage import parse_profile, vehicle_for
 
 def parse_test(text: str, key: str, where: str = "command line") -> CrashTest:
     """'MASS:SPEED:C1,...,Cn:WIDTH[:BARRIER_MASS]' (kg, km/h, m, m, kg) as a CrashTest (checked by the fit)."""
-    parts = str(text).split(":")
+    _text(text, key, where)
+    parts = str(text).strip().split(":")
     if len(parts) not in (4, 5):
         raise InputError(where, key, f"MASS:SPEED:C1,...,Cn:WIDTH[:BARRIER_MASS] (kg, km/h, m, m, kg), got {text!r}")
     try:
@@ -25,7 +27,25 @@ def parse_test(text: str, key: str, where: str = "command line") -> CrashTest:
         raise InputError(where, key, f"MASS, SPEED, WIDTH and BARRIER_MASS are numbers (kg, km/h, m, kg), got "
                          f"{text!r}") from None
     return CrashTest(mass, kmh_to_ms(speed), tuple(parse_profile(parts[2], f"{key} profile", where)), width,
-                     barrier, text)
+                     barrier, str(text).strip())
+
+
+def _text(text: str, key: str, where: str = "command line") -> str:
+    """The text of an option that goes into the printed table: no control characters (a vehicle file's source
+    takes none) and encodable as UTF-8 (a byte that is not arrives as a lone surrogate)."""
+    text = str(text)
+    if re.search(r"[\x00-\x08\x0a-\x1f\x7f]", text.strip()):
+        raise InputError(where, key, "contains a control character (a vehicle file's source takes none)")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(where, key, "is not UTF-8 text") from None
+    return text
+
+
+def _number(x: float) -> str:
+    """A coefficient for the table: one decimal from 100 up, else six significant digits (no 0.0 for a small one)."""
+    return f"{x:.1f}" if abs(x) >= 100.0 else f"{x:.6g}"
 
 
 def command(side: str, tests: list[str], b0: str | None = None, restitution: float = 0.0, source: str = "",
@@ -36,7 +56,6 @@ def command(side: str, tests: list[str], b0: str | None = None, restitution: flo
     EBS its present structure of the side gives each test's profile beside them."""
     if side not in ("front", "rear", "side"):
         raise InputError("command line", "--side", f"one of front, rear, side, got {side!r}")
-    structure = side
     parsed = [parse_test(t, f"--test {k + 1}") for k, t in enumerate(tests or [])]
     if b0 is None:
         b0_ms = default_b0(side)
@@ -47,17 +66,19 @@ def command(side: str, tests: list[str], b0: str | None = None, restitution: flo
             b0_ms = kmh_to_ms(float(b0))
         except ValueError:
             raise InputError("command line", "--b0", f"a speed in km/h or 'fit', got {b0!r}") from None
-    fit = fit_stiffness(parsed, b0_ms, restitution)
-    present = vehicle_for(vehicle, target_key="--vehicle").structure[structure] if vehicle is not None else None
+    fit = fit_stiffness(parsed, b0_ms, restitution, side=side)
+    present = vehicle_for(vehicle, target_key="--vehicle").structure[side] if vehicle is not None else None
     if fit.b0_fitted:
         how = "b0 fitted"
     elif b0 is not None:
         how = f"b0 = {fit.b0 * 3.6:.2f} km/h given"
     else:
-        how = f"b0 = {fit.b0 * 3.6:.2f} km/h, the class estimates' value for a {structure}"
-    src = source or (f"derived: crash plot of {len(parsed)} test(s) ({'; '.join(t.label for t in parsed)}), {how}, "
-                     f"restitution {restitution:g} (crashlab stiffness, docs/physics.md §28)")
-    rep = {"side": structure, "A": fit.A, "B": fit.B, "G": fit.G, "b0_kmh": fit.b0 * 3.6, "b1_per_s": fit.b1,
+        how = f"b0 = {fit.b0 * 3.6:.2f} km/h, the class estimates' value for a {side}"
+    src = _text(source, "--source").strip() or (f"crash plot of {len(parsed)} test(s) ("
+                                                f"{'; '.join(t.label for t in parsed)}), {how}, restitution "
+                                                f"{restitution:g} (crashlab stiffness, docs/physics.md §28)")
+    src = src if src.startswith("derived") else f"derived: {src}"
+    rep = {"side": side, "A": fit.A, "B": fit.B, "G": fit.G, "b0_kmh": fit.b0 * 3.6, "b1_per_s": fit.b1,
            "b0_fitted": fit.b0_fitted, "width": fit.width, "source": src,
            "tests": [{"test": t.label, "energy": e, "ebs_kmh": v * 3.6, "ebs_fit_kmh": f * 3.6,
                       "energy_fit": crush_energy(list(t.profile), t.width, fit.A, fit.B)}
@@ -71,19 +92,19 @@ def command(side: str, tests: list[str], b0: str | None = None, restitution: flo
             row["energy_vehicle"], row["ebs_vehicle_kmh"] = energy, math.sqrt(2.0 * energy / t.mass) * 3.6
     if as_json:
         return json.dumps(rep, indent=2)
-    lines = [f"CRASH3 stiffness of the {structure} from {len(parsed)} crash test(s) ({how}):",
-             f"  A = {fit.A:.1f} N/m   B = {fit.B:.1f} N/m^2   G = A^2/2B = {fit.G:.1f} J/m",
+    lines = [f"CRASH3 stiffness of the {side} from {len(parsed)} crash test(s) ({how}):",
+             f"  A = {_number(fit.A)} N/m   B = {_number(fit.B)} N/m^2   G = A^2/2B = {_number(fit.G)} J/m",
              f"  crash plot EBS = b0 + b1 C: b0 = {fit.b0 * 3.6:.2f} km/h, b1 = {fit.b1:.3f} 1/s "
-             "(the tests' mean mass per crush width)", "",
+             f"(over {fit.width:g} m at the tests' mean mass {fit.mass:.0f} kg)", "",
              f"  {'test':<40} {'energy [J]':>11} {'EBS [km/h]':>11} {'fit [km/h]':>11}"
              + (f" {'now [km/h]':>11}" if present is not None else "")]
     for t in rep["tests"]:
         lines.append(f"  {t['test'][:40]:<40} {t['energy']:>11.0f} {t['ebs_kmh']:>11.2f} {t['ebs_fit_kmh']:>11.2f}"
                      + (f" {t['ebs_vehicle_kmh']:>11.2f}" if present is not None else ""))
     if present is not None:
-        lines += ["", f"  now: {vehicle}'s {structure}, A = {present.A:.1f} N/m, B = {present.B:.1f} N/m^2 over "
+        lines += ["", f"  now: {vehicle}'s {side}, A = {_number(present.A)} N/m, B = {_number(present.B)} N/m^2 over "
                   f"{present.width:g} m ({present.source[:70]}{'...' if len(present.source) > 70 else ''})"]
-    lines += ["", "For the vehicle file:", "", f"[structure.{structure}]", f"A = {fit.A:.1f}", f"B = {fit.B:.1f}",
+    lines += ["", "For the vehicle file:", "", f"[structure.{side}]", f"A = {_number(fit.A)}", f"B = {_number(fit.B)}",
               f"width = {fit.width:g}", f"source = {json.dumps(src, ensure_ascii=False)}"]
     lines += [f"warning: {w}" for w in fit.warnings]
     return "\n".join(lines)
