@@ -44,7 +44,7 @@ SIGMA_FIRST_ORDER = (0.3, 0.5)
 
 
 # ---------------------------------------------------------------- checks of the inputs
-def _finite(value, key: str, where: str) -> float:
+def finite_number(value, key: str, where: str) -> float:
     # any real number (numpy's too: numbers.Real), not a boolean (numpy's is no numbers.Real)
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise InputError(where, key, f"must be a finite number, got {value!r}")
@@ -62,7 +62,7 @@ def check_profile(profile: Sequence[float], key: str = "profile", where: str = "
         n = len(profile)
         raise InputError(where, key, f"{n} crush depth{'' if n == 1 else 's'} given: CRASH3 uses 2, 4 or 6 equally "
                          "spaced points over the damaged width")
-    out = [_finite(c, f"{key}[{i + 1}]", where) for i, c in enumerate(profile)]
+    out = [finite_number(c, f"{key}[{i + 1}]", where) for i, c in enumerate(profile)]
     for i, c in enumerate(out):
         if c < 0:
             raise InputError(where, f"{key}[{i + 1}]", f"crush depth {c:g} m is negative (residual crush is "
@@ -122,7 +122,7 @@ def pdof_factor(alpha_deg: float, key: str = "pdof", where: str = "damage") -> t
     tangential force would exceed what friction in the crush zone can carry, and the factor is held at 2
     (the limit McHenry gives for the revised energy correction factor) with a warning. A force more than
     90 deg off the normal pulls the side outwards and cannot have crushed it: InputError."""
-    a = abs(_finite(alpha_deg, key, where))
+    a = abs(finite_number(alpha_deg, key, where))
     if a >= 90.0 - 1e-9:
         raise InputError(where, key, f"the force is {a:.1f} deg off the normal of the struck side: it cannot have "
                          "crushed this side (check the side and the PDOF: vehicle axes, the direction the force "
@@ -135,20 +135,24 @@ def pdof_factor(alpha_deg: float, key: str = "pdof", where: str = "damage") -> t
                  "far the surfaces slid)")
 
 
+def profile_moments(profile: Sequence[float], width: float) -> tuple[float, float]:
+    """(S1 [m²], S2 [m³]): the integrals over the width of C and of C² / 2 for a profile of n equally spaced
+    depths, the crush linear between the points: per segment of width d between depths Ci, Cj,
+    d (Ci + Cj) / 2 and d (Ci² + Ci Cj + Cj²) / 6 (crush_energy, crashlab.stiffness)."""
+    _segments(profile, width)
+    d = width / (len(profile) - 1)
+    pairs = list(zip(profile[:-1], profile[1:]))
+    return (sum(d * (ci + cj) / 2.0 for ci, cj in pairs),
+            sum(d * (ci * ci + ci * cj + cj * cj) / 6.0 for ci, cj in pairs))
+
+
 def crush_energy(profile: Sequence[float], width: float, A: float, B: float) -> float:
     """J, CRASH3 crush energy of a profile of n equally spaced depths over `width` [m], without the PDOF
-    correction: the integral over the width of A C + B C^2 / 2 + G (G = A^2 / 2B), the crush linear
-    between the points: per segment of width d between depths Ci, Cj,
-        d [A (Ci + Cj) / 2 + B (Ci^2 + Ci Cj + Cj^2) / 6 + G]."""
-    _segments(profile, width)
+    correction: the integral over the width of A C + B C^2 / 2 + G (G = A^2 / 2B), the crush linear between the
+    points: A S1 + B S2 + G width (profile_moments)."""
     _stiffness(A, B)
-    n = len(profile)
-    d = width / (n - 1)
-    G = A * A / (2.0 * B)
-    e = 0.0
-    for ci, cj in zip(profile[:-1], profile[1:]):
-        e += d * (A * (ci + cj) / 2.0 + B * (ci * ci + ci * cj + cj * cj) / 6.0 + G)
-    return e
+    s1, s2 = profile_moments(profile, width)
+    return A * s1 + B * s2 + A * A / (2.0 * B) * width
 
 
 def crush_centroid(profile: Sequence[float], width: float) -> tuple[float, float]:
@@ -236,8 +240,8 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
     study file)."""
     side = _side(side, where, prefix + "side")
     profile = check_profile(profile, prefix + "profile", where)
-    width = _finite(width, prefix + "width", where)
-    offset = _finite(offset, prefix + "offset", where)
+    width = finite_number(width, prefix + "width", where)
+    offset = finite_number(offset, prefix + "offset", where)
     flank = FACE_STRUCTURE[side] == "side"
     structure: Structure = spec.structure[FACE_STRUCTURE[side]]
     limit, what = (spec.length, "length") if flank else (spec.width, "width")
@@ -260,7 +264,7 @@ def report(spec: VehicleSpec, side: str, profile: Sequence[float], width: float,
                          f"outside the {side} ({lo:g} .. {hi:g} m from the "
                          f"{'CG' if flank else 'centreline'})")
     if pdof is not None:
-        pdof = _finite(pdof, prefix + "pdof", where)
+        pdof = finite_number(pdof, prefix + "pdof", where)
         if not -180.0 <= pdof <= 180.0:  # (as [evidence.damage.V] holds it)
             raise InputError(where, prefix + "pdof", f"{pdof:g} deg: the PDOF lies in [-180, 180] deg")
     if side == "side" and pdof is None:  # the flank sets the moment arm (and so gamma and the delta-V)
@@ -462,8 +466,8 @@ def profile_for_ees(ees_kmh: float, spec: VehicleSpec, side: str, width: float, 
     C solves f L (A C + B C^2/2 + G) = m EES^2 / 2; below the no-damage EES (f L G) it is all zeros. Bad
     input: InputError naming `where` and `prefix` + the key (as `report`)."""
     s = spec.structure[FACE_STRUCTURE[_side(side, where, prefix + "side")]]
-    ees_kmh = _finite(ees_kmh, prefix + "ees", where)
-    width = _finite(width, prefix + "width", where)
+    ees_kmh = finite_number(ees_kmh, prefix + "ees", where)
+    width = finite_number(width, prefix + "width", where)
     _argument(ees_kmh >= 0.0, "ees_kmh", ees_kmh, "an EES >= 0 [km/h]")
     _argument(width > 0.0, "width", width, "a damaged width > 0 [m]")
     _argument(n in PROFILE_POINTS, "n", n, "2, 4 or 6 points (CRASH3)")

@@ -29,7 +29,7 @@ import numpy as np
 from pydantic import ValidationError
 from scipy.optimize import least_squares
 
-from .damage import DAMAGE_WIDTH_MIN, _finite, check_profile
+from .damage import DAMAGE_WIDTH_MIN, check_profile, finite_number, profile_moments
 from .errors import InputError
 from .scene import SPEED_MAX
 from .structure import (
@@ -79,12 +79,8 @@ class CrashTest:
         return 0.5 * self.energy_mass * self.speed ** 2 * (1.0 - restitution ** 2)
 
     def moments(self) -> tuple[float, float]:
-        """(S1 [m²], S2 [m³]): ∫ C dx and ∫ C² / 2 dx over the width, the crush linear between the points (the
-        integrals of damage.crush_energy)."""
-        d = self.width / (len(self.profile) - 1)
-        pairs = list(zip(self.profile[:-1], self.profile[1:]))
-        return (sum(d * (ci + cj) / 2.0 for ci, cj in pairs),
-                sum(d * (ci * ci + ci * cj + cj * cj) / 6.0 for ci, cj in pairs))
+        """(S1 [m²], S2 [m³]): ∫ C dx and ∫ C² / 2 dx over the width (damage.profile_moments)."""
+        return profile_moments(self.profile, self.width)
 
     @property
     def mean_crush(self) -> float:
@@ -95,9 +91,9 @@ class CrashTest:
 def check_test(test: CrashTest, key: str, where: str = "command line") -> CrashTest:
     """The test with its numbers checked (InputError naming `key`, one line): masses and speed finite and > 0, a
     CRASH3 profile (damage.check_profile), a crush width of at least DAMAGE_WIDTH_MIN."""
-    mass = _finite(test.mass, f"{key} mass", where)
-    speed = _finite(test.speed, f"{key} speed", where)
-    width = _finite(test.width, f"{key} width", where)
+    mass = finite_number(test.mass, f"{key} mass", where)
+    speed = finite_number(test.speed, f"{key} speed", where)
+    width = finite_number(test.width, f"{key} width", where)
     lo, hi = MASS_RANGE
     if not lo <= mass <= hi:
         raise InputError(where, f"{key} mass", f"{mass:.6g} kg: a vehicle's test mass lies within {lo:g}-{hi:g} kg")
@@ -109,7 +105,7 @@ def check_test(test: CrashTest, key: str, where: str = "command line") -> CrashT
                          f"{DAMAGE_WIDTH_MIN:g}-{STRUCTURE_WIDTH_RANGE[1]:g} m")
     barrier = test.barrier_mass
     if barrier is not None:
-        barrier = _finite(barrier, f"{key} barrier mass", where)
+        barrier = finite_number(barrier, f"{key} barrier mass", where)
         if not lo <= barrier <= hi:
             raise InputError(where, f"{key} barrier mass", f"{barrier:.6g} kg: a moving barrier's mass lies within "
                              f"{lo:g}-{hi:g} kg")
@@ -182,7 +178,7 @@ def fit_stiffness(tests: Sequence[CrashTest], b0: float | None, restitution: flo
                              f"(held at >= 0), below the {NO_DAMAGE_SPEED_MIN * 3.6:.1f} km/h a vehicle structure "
                              f"has: give b0 (the class estimates' {default_b0(side) * 3.6:.1f} km/h for a {side})")
     else:
-        b0 = _finite(b0, "--b0", where)
+        b0 = finite_number(b0, "--b0", where)
         if not 0.0 < b0 * 3.6 <= SPEED_MAX:
             raise InputError(where, "--b0", f"{b0 * 3.6:.6g} km/h: the no-damage speed must be > 0 and at most "
                              f"{SPEED_MAX:g} km/h")
