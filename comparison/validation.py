@@ -395,10 +395,10 @@ def write_figure(rows: list[dict], path: Path, unit: str = "km/h") -> Path | Non
     tests = sorted({r["test"] for r in pts})
     # a marker per model, law and contact; the restitution by the fill: open 0.1, filled "speed" (§13b)
     variants = sorted({(r["model"], r["law"], r["contact"]) for r in pts})
-    markers = "osD^v<>PXh*"
+    markers = "osD^v<>PXh*pd8H+x1234"  # distinct for up to 21 variants (the full run has 13)
     colours = plt.get_cmap("tab10")
     top = 1.1 * max(max(r["published"], r["simulated"]) for r in pts)
-    fig, ax = plt.subplots(figsize=(7.5, 6.5))
+    fig, ax = plt.subplots(figsize=(10.5, 6.5))
     ax.fill_between([0, top], [0, 0.9 * top], [0, 1.1 * top], color="0.85", label="+-10 %")
     ax.plot([0, top], [0, top], color="k", lw=1, label="1:1")
     for k, var in enumerate(variants):
@@ -421,7 +421,7 @@ def write_figure(rows: list[dict], path: Path, unit: str = "km/h") -> Path | Non
     ax.set_xlabel(f"measured delta-V [{unit}]")
     ax.set_ylabel(f"simulated delta-V [{unit}]")
     ax.set_title("Validation: simulated against measured delta-V (each vehicle of each crash test)")
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # beside the axes: it hid points
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
