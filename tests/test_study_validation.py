@@ -105,8 +105,10 @@ ROSE_TESTS = {"nhtsa4363": ((2.6, 23.8, 180, 35.1), (5.7, 10.6, 32, 35.0), 55, 0
               "nhtsa4474": ((2.9, 34.7, 180, 35.0), (5.5, 15.2, 31.6, 35.0), 51.8, 0.150, (40.5, 28.7), (40, 194))}
 # RICSAC: speeds [mph], measured delta-V [mph], estimated weights [lb]
 RICSAC_TESTS = {"ricsac2": ((31.53, 31.53), (19.5, 25.8), (3982, 3010)),
-                "ricsac3": ((21.23, 0.0), (9.4, 15.4), (4930, 3010))}
-CAR_TO_CAR = ("nhtsa4363", "nhtsa4438", "nhtsa4364", "nhtsa4474", "ricsac2", "ricsac3")
+                "ricsac3": ((21.23, 0.0), (9.4, 15.4), (4930, 3010)),
+                "ricsac6": ((21.47, 21.47), (9.2, 14.6), (3982, 3982 * 9.2 / 14.6)),
+                "ricsac10": ((31.35, 31.35), (28.7, 13.1), (4930 * 13.1 / 28.7, 4930))}
+CAR_TO_CAR = ("nhtsa4363", "nhtsa4438", "nhtsa4364", "nhtsa4474", "ricsac2", "ricsac3", "ricsac6", "ricsac10")
 
 
 def _tests(*ids):
@@ -152,6 +154,47 @@ def test_car_to_car_scenes_and_published_numbers_match_the_source_tables():
                 assert math.isclose(v.spec.mass, weights[k] * LB, abs_tol=0.1)
                 assert math.isclose(v.speed * 3.6, speeds[k] * MPH, abs_tol=1e-3)
                 assert math.isclose(_published(t, "impact_delta_v", name), dv[k] * MPH, abs_tol=1e-3)
+
+
+def _moved_to_contact(scene):
+    """The scene's vehicles moved forward along their velocities until their outlines first touch (the inverse of
+    approach_scene's gap): {name: (x, y, heading, vehicle)}."""
+    from crashlab.scene import start_overlaps
+    lo, hi = 0.0, 0.1
+    moved = {}
+    for _ in range(60):
+        t = 0.5 * (lo + hi)
+        moved = scene.replace(vehicles=tuple(dataclasses.replace(v, x=v.x + t * v.speed * math.cos(v.heading),
+                                                                y=v.y + t * v.speed * math.sin(v.heading))
+                                             for v in scene.vehicles))
+        lo, hi = (lo, t) if start_overlaps(moved) else (t, hi)
+    return {v.name: v for v in moved.vehicles}
+
+
+def test_ricsac_6_and_10_touch_where_the_sources_figure_shows():
+    """The collision positions read from Day's figure (studies/validation/README.md), checked by hand geometry
+    at the moment the outlines touch: RICSAC 6, the Malibu's right front corner on the Rabbit's right side 0.7 m
+    behind its front bumper; RICSAC 10, the Civic's front square on the Torino's right side, its centre 0.65 m
+    behind the Torino's front bumper. Each within 2 cm (the scenes print 0.1 mm; the gap closes at 0.1 m)."""
+    (r6,) = _tests("ricsac6")
+    cars = _moved_to_contact(load_scene(r6["scene"]))
+    malibu, rabbit = cars["V1"], cars["V2"]
+    h = malibu.heading
+    corner = (malibu.x + malibu.spec.cg_to_front * math.cos(h) + malibu.spec.width / 2 * math.sin(h),
+              malibu.y + malibu.spec.cg_to_front * math.sin(h) - malibu.spec.width / 2 * math.cos(h))
+    # in the Rabbit's frame (heading 0): its right side at y = -width / 2, its front bumper at x = cg_to_front
+    cx, cy = corner[0] - rabbit.x, corner[1] - rabbit.y
+    assert rabbit.heading == 0.0 and math.isclose(math.degrees(h), 120.0)
+    assert abs(cy + rabbit.spec.width / 2) < 0.02
+    assert abs(rabbit.spec.cg_to_front - cx - 0.7) < 0.02
+    (r10,) = _tests("ricsac10")
+    cars = _moved_to_contact(load_scene(r10["scene"]))
+    civic, torino = cars["V1"], cars["V2"]
+    front = (civic.x + civic.spec.cg_to_front * math.cos(civic.heading),
+             civic.y + civic.spec.cg_to_front * math.sin(civic.heading))
+    assert torino.heading == 0.0 and math.isclose(math.degrees(civic.heading), 90.0)
+    assert abs(front[1] - torino.y + torino.spec.width / 2) < 0.02
+    assert abs(torino.x + torino.spec.cg_to_front - front[0] - 0.65) < 0.02
 
 
 def test_rose_geometry_reproduces_roses_own_analysis():
