@@ -250,6 +250,52 @@ def test_sustained_push_matches_the_analytic_push():
     assert out.diagnostics["t_end"] < t1 + 0.5, "at rest against each other ends the run"
 
 
+def test_a_push_after_push_time_is_a_push_row_with_the_analytic_split():
+    """The shared episode rule (crashlab.outcome, docs/physics.md §15, §18): the push scene above gives one impact
+    row per car, the contact up to PUSH_TIME after the touch, and one push row, the rest. Independent reference:
+    after the plastic impact at the common speed v_c the locked car V2 is pushed at the pair's deceleration
+    a = mu g m2 / (m1 + m2), so the contact force on it is m2 a + mu g m2 = mu g m1 m2 / (m1 + m2): its impact row
+    carries v_c plus that force over PUSH_TIME, its push row that force over the rest of the contact (rows exclude
+    the tyre forces, §18). Within 2 %. Before the rule pymunk gave one row of kind "continuous" for the whole 2 s."""
+    from crashlab.outcome import PUSH, PUSH_TIME
+    from crashlab.vehicle import load_vehicle
+    spec = load_vehicle("clio")
+
+    def ov(m):
+        return {"mass": m, "yaw_inertia": spec.yaw_inertia * m / spec.mass, "rolling_resistance": 0.0}
+    gap = spec.cg_to_front + spec.cg_to_rear + 0.3
+    scene = scene_from_dict({
+        "duration": 10.0, "road": {"friction": 0.8}, "impact": {"restitution": 0.0, "friction": 0.3},
+        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 30.0, "overrides": ov(1500.0)},
+                     {"name": "V2", "vehicle": "clio", "x": gap, "wheels": "locked", "overrides": ov(1000.0)}]})
+    out = model().simulate(scene)
+    assert out.outcome_ok, out.warnings
+    rows = sorted((r for r in out.impact_rows if r["vehicle"] == "V2"), key=lambda r: r["t"])
+    assert [r["kind"] for r in rows] == ["continuous", PUSH]
+    impact, push = rows
+    assert push["t"] == pytest.approx(impact["t"] + PUSH_TIME, abs=2 * model().dt)
+    (t0, t1), = out.contact_intervals
+    vc = 1500.0 * 30.0 / 3.6 / 2500.0
+    force_per_m2 = 0.8 * G * 1500.0 / 2500.0  # contact force on V2 over its mass
+    assert math.hypot(impact["dvx"], impact["dvy"]) == pytest.approx(vc + force_per_m2 * PUSH_TIME, rel=0.02)
+    assert math.hypot(push["dvx"], push["dvy"]) == pytest.approx(force_per_m2 * (t1 - push["t"]), rel=0.02)
+
+
+def test_a_re_touch_before_the_pair_is_5_cm_apart_continues_its_episode():
+    """RICSAC 10 (studies/validation): the Civic's front slides along the Torino's side, its contact breaking and
+    closing again; the pair is never 5 cm apart until they part, so the collision is one episode, one row per car
+    (before the shared rule, Chipmunk's begin .. separate: four rows within 0.17 s). Its delta-V then holds the
+    whole momentum exchange: m1 dv1 = m2 dv2 (the contact impulse's, both cars' tyre parts taken out)."""
+    scene = load_scene(Path(__file__).resolve().parents[1] / "studies/validation/ricsac10_civic_torino_side.toml")
+    out = model().simulate(scene)
+    assert out.outcome_ok, out.warnings
+    rows = [r for r in out.impact_rows if r["other"] in ("V1", "V2")]
+    assert len({r["t"] for r in rows}) == 1 and len(rows) == 2
+    m = {v.name: v.spec.mass for v in scene.vehicles}
+    p = [sum(m[r["vehicle"]] * r[ax] for r in rows) for ax in ("dvx", "dvy")]
+    assert math.hypot(*p) < 1e-6 * max(m[r["vehicle"]] * math.hypot(r["dvx"], r["dvy"]) for r in rows)
+
+
 @pytest.mark.slow
 def test_stress_sweep_full():
     """100 seeded random scenes (tests/test_impulse_stress.py's space) and the 20 extremes, 10 s each:

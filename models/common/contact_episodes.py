@@ -365,9 +365,13 @@ def contact_intervals(t0, t1, t_rec, road):
         for k in range(road.shape[0]):
             if road[k, v] > 0:
                 iv.append((float(t_rec[k - 1, v]) if k > 0 else 0.0, float(t_rec[k, v])))
-    iv.sort()
+    return merged_intervals(iv)
+
+
+def merged_intervals(iv):
+    """The union of intervals (t_start, t_end) [s], sorted; intervals that touch are one."""
     out = []
-    for a, b in iv:
+    for a, b in sorted(iv):
         if out and a <= out[-1][1]:
             out[-1] = (out[-1][0], max(out[-1][1], b))
         else:

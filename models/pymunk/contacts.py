@@ -1,25 +1,37 @@
 """The contacts of a pymunk run (docs/physics.md §18): Chipmunk's collision callbacks open a contact episode
-per pair at `begin` and close it at `separate` (one impact row each), set the pair's restitution and friction
-on the arbiter every pre-solve, and each step's contact velocity jumps and the kinetic energy the contact
-impulses removed are booked to the open episodes."""
+per pair at `begin`, set the pair's restitution and friction on the arbiter every pre-solve, and each step's
+contact velocity jumps and the kinetic energy the contact impulses removed are booked to the episodes in contact.
+An episode lasts until the pair is SEPARATION apart (a re-touch before continues it) and its contact later than
+PUSH_TIME after its start is its push, as in every model (crashlab.outcome; docs/physics.md §15, §18)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from numba import njit
 
-from crashlab.geometry import overlap_centroid
+from crashlab.geometry import overlap_centroid, penetration
+from crashlab.models.common.contact_episodes import PUSH_DV_MIN
 from crashlab.models.common.planar_vehicle import struck_side
+from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
 from crashlab.restitution import restitution_at
+
+# the separating-axis test compiled for this Python loop (crashlab.geometry's is register_jitable: in Python it runs
+# interpreted, 0.17 ms a call, 9 % of a side collision's run while its pair parts)
+_penetration = njit(cache=True)(penetration)
 
 
 class Episode:
-    """One contact episode of a pair (vehicle i, vehicle or barrier k)."""
+    """One contact episode of a pair (vehicle i, vehicle or barrier k): its impact ("continuous") or its push."""
 
-    __slots__ = ("dv", "e", "energy", "i", "j", "k", "plane", "px", "py", "sides", "t", "t_end", "weight")
+    __slots__ = ("cp", "dv", "e", "energy", "i", "j", "k", "kind", "n", "plane", "px", "py", "sides", "t",
+                 "t_end", "weight")
 
-    def __init__(self, t, i, k, px, py, plane, e, sides):
+    def __init__(self, t, i, k, px, py, plane, e, sides, kind="continuous"):
         self.t, self.i, self.k, self.px, self.py, self.plane = t, i, k, px, py, plane
+        self.kind = kind
+        self.n = (0.0, 0.0)  # the contact normal from i to k and a contact point, of the last step with an impulse
+        self.cp = (px, py)
         self.sides = sides  # the sides of i and k its first contact strikes (planar_vehicle.struck_side; 0: barrier)
         self.e = e  # the episode's restitution (the scene's, or its law at the first contact's closing speed)
         self.t_end = t  # end of the last step with a contact impulse
@@ -60,14 +72,36 @@ def step_energy(S1, jump, mass, iz, vehicles):
     return de
 
 
+def _outline(shape) -> np.ndarray:
+    """A pymunk polygon's corners in the world frame, counter-clockwise (crashlab.geometry's convention)."""
+    return np.array([tuple(shape.body.local_to_world(v)) for v in shape.get_vertices()])
+
+
 def _overlap_middle(arb, px, py) -> tuple[float, float]:
     """The middle of the two shapes' overlap at their first contact (crashlab.geometry.overlap_centroid), the point
     whose side each vehicle is struck on (docs/physics.md §21); the contact point (px, py) where it has no area.
     Not the contact point itself: at an angle that is the striking car's corner, on the diagonal that separates its
     front from its side."""
-    outlines = [np.array([tuple(s.body.local_to_world(v)) for v in s.get_vertices()]) for s in arb.shapes]
-    x, y, _ = overlap_centroid(outlines[0], outlines[1])
+    x, y, _ = overlap_centroid(*(_outline(s) for s in arb.shapes))
     return (x, y) if math.isfinite(x) else (px, py)
+
+
+def _contact(arb, sgn) -> tuple[float, float, float, float]:
+    """An arbiter's contact point (the mean of its points' midpoints) and normal, oriented by sgn (from i to k)."""
+    cps = arb.contact_point_set
+    pts = cps.points
+    px = sum(0.5 * (p.point_a.x + p.point_b.x) for p in pts) / max(len(pts), 1)
+    py = sum(0.5 * (p.point_a.y + p.point_b.y) for p in pts) / max(len(pts), 1)
+    return px, py, sgn * cps.normal.x, sgn * cps.normal.y
+
+
+def written(ep, mass) -> bool:
+    """Whether an episode gives impact rows: every impact; a push whose impulse changed the pair's relative velocity
+    by PUSH_DV_MIN or more (a light touch at rest writes none, as in the 3D models: contact_episodes.close_episode)."""
+    if ep.kind != PUSH:
+        return True
+    rel = ep.dv[0, 0:2] - (ep.dv[1, 0:2] if ep.k < len(mass) else 0.0)
+    return math.hypot(rel[0], rel[1]) >= PUSH_DV_MIN
 
 
 class Contacts:
@@ -82,7 +116,8 @@ class Contacts:
         self.bodies, self.owner, self.impact, self.dt, self.P = bodies, owner, impact, dt, P
         self.nv = len(bodies)
         self.t = 0.0
-        self.open = {}  # (i, k) -> open Episode
+        self.open = {}  # (i, k) -> the Episode of a pair in contact
+        self.ended = {}  # (i, k) -> (its Episode, its two shapes): contact ended, the pair not yet SEPARATION apart
         self.episodes = []
         self.touching = np.zeros(self.nv, bool)
         self.hit = np.zeros(self.nv, bool)
@@ -109,16 +144,20 @@ class Contacts:
 
     def _begin(self, arb, space, data):
         i, k, sgn = self._pair(arb)
+        t = self.t + self.dt
+        px, py, nx, ny = _contact(arb, sgn)
+        if (i, k) in self.ended:  # a re-touch before the pair was SEPARATION apart: the episode goes on
+            ep, _ = self.ended.pop((i, k))
+            if ep.kind == PUSH or t - ep.t < PUSH_TIME:
+                self.open[(i, k)] = ep
+            else:  # later than PUSH_TIME after its impact: the impact's push (§15)
+                self._open(arb, i, k, t, px, py, nx, ny, ep.e, PUSH)
+            return
         if math.isnan(self.contact_t):
-            self.contact_t = self.t + self.dt
+            self.contact_t = t
             for q, body in enumerate(self.bodies):  # positions at touch, velocities before the impulses
                 v = body.velocity
                 self.contact[q] = (body.position.x, body.position.y, body.angle, math.hypot(v.x, v.y))
-        cps = arb.contact_point_set
-        pts = cps.points
-        px = sum(0.5 * (p.point_a.x + p.point_b.x) for p in pts) / max(len(pts), 1)
-        py = sum(0.5 * (p.point_a.y + p.point_b.y) for p in pts) / max(len(pts), 1)
-        nx, ny = sgn * cps.normal.x, sgn * cps.normal.y  # from i to k
         # restitution of the episode: the scene's, or its law at the normal closing speed of the first
         # contact (docs/physics.md §13b), kept for the whole episode (Chipmunk re-reads it every step)
         vi = self.bodies[i].velocity_at_world_point((px, py))
@@ -126,14 +165,20 @@ class Contacts:
         e, why = restitution_at(max(-((vk[0] - vi.x) * nx + (vk[1] - vi.y) * ny), 0.0), self.impact)
         if why:
             self.law_warnings.append(why)
-        sx, sy = _overlap_middle(arb, px, py)
-        ep = Episode(self.t + self.dt, i, k, px, py, math.atan2(nx, -ny), e,
-                     (self._struck_side(i, sx, sy), self._struck_side(k, sx, sy) if k < self.nv else 0))
-        self.open[(i, k)] = ep
-        self.episodes.append(ep)
+        self._open(arb, i, k, t, px, py, nx, ny, e, "continuous")
         for q in (i, k):
             if q < self.nv and not self.hit[q]:
                 self.hit[q] = True  # locked_after_impact wheels lock from here (driver_inputs.effective_mode)
+
+    def _open(self, arb, i, k, t, px, py, nx, ny, e, kind) -> None:
+        """A new episode of pair (i, k) in contact from t at point (px, py), normal (nx, ny) from i to k: an impact,
+        or the push of one (kind PUSH)."""
+        sx, sy = _overlap_middle(arb, px, py)
+        ep = Episode(t, i, k, px, py, math.atan2(nx, -ny), e,
+                     (self._struck_side(i, sx, sy), self._struck_side(k, sx, sy) if k < self.nv else 0), kind)
+        ep.n = (nx, ny)
+        self.open[(i, k)] = ep
+        self.episodes.append(ep)
 
     def _pre_solve(self, arb, space, data):
         imp = self.impact
@@ -158,10 +203,34 @@ class Contacts:
             ep.j[1] += sgn * j.y
             if j.x != 0.0 or j.y != 0.0:
                 ep.t_end = self.t + self.dt
+                px, py, nx, ny = _contact(arb, sgn)
+                ep.cp, ep.n = (px, py), (nx, ny)
 
     def _separate(self, arb, space, data):
         i, k, _ = self._pair(arb)
-        self.open.pop((i, k), None)
+        ep = self.open.pop((i, k), None)
+        if ep is not None:
+            self.ended[(i, k)] = (ep, arb.shapes)
+
+    def step_end(self, t: float) -> None:
+        """After a step to t (its impulses booked): an impact in contact later than PUSH_TIME after its start goes on
+        as its push from the first step end where the pair does not separate at the contact point (an impact still
+        rebounding keeps its rebound); an ended episode whose pair is SEPARATION apart is over (the outlines' largest
+        separating-axis gap, crashlab.geometry.penetration; docs/physics.md §15)."""
+        if not self.open and not self.ended:
+            return
+        for (i, k), ep in list(self.open.items()):
+            if ep.kind != PUSH and t - ep.t >= PUSH_TIME:
+                vi = self.bodies[i].velocity_at_world_point(ep.cp)
+                vk = tuple(self.bodies[k].velocity_at_world_point(ep.cp)) if k < self.nv else (0.0, 0.0)
+                if (vk[0] - vi.x) * ep.n[0] + (vk[1] - vi.y) * ep.n[1] <= 0.0:  # approaching or resting
+                    push = Episode(t, i, k, *ep.cp, math.atan2(ep.n[0], -ep.n[1]), ep.e, ep.sides, PUSH)
+                    push.n = ep.n
+                    self.open[(i, k)] = push
+                    self.episodes.append(push)
+        for pair, (_, shapes) in list(self.ended.items()):
+            if _penetration(*(_outline(s) for s in shapes))[0] <= -SEPARATION:
+                del self.ended[pair]
 
     def book(self, S1, jump, mass, iz):
         """Share each vehicle's contact jump of this step among its contact episodes: the velocity jump

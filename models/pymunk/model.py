@@ -54,7 +54,9 @@ class PymunkModel(CollisionModel):
     every pre-solve (Chipmunk would otherwise multiply the per-shape coefficients). The engine finds its own
     contacts: a scene with a collision position runs from its approach (crashlab.model, a warning says so).
 
-    Impacts: one contact episode (begin .. separate of a pair) is one impact. Its delta-V and yaw-rate
+    Impacts: one contact episode of a pair is one impact: from Chipmunk's begin until the pair is 5 cm apart (a
+    re-touch before continues it), its contact later than 0.3 s after the touch a row of kind "push" (the rule
+    of every model, crashlab.outcome; docs/physics.md §15, §18). Its delta-V and yaw-rate
     change are the velocity jumps the contact caused, i.e. the change of velocity over the steps of the
     episode minus the part of the tyre forces (known exactly: Chipmunk adds F dt / m); the energy is the
     kinetic energy the contact impulses removed. The point is the middle of the contact points and the
