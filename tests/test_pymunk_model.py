@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -279,6 +280,47 @@ def test_a_push_after_push_time_is_a_push_row_with_the_analytic_split():
     force_per_m2 = 0.8 * G * 1500.0 / 2500.0  # contact force on V2 over its mass
     assert math.hypot(impact["dvx"], impact["dvy"]) == pytest.approx(vc + force_per_m2 * PUSH_TIME, rel=0.02)
     assert math.hypot(push["dvx"], push["dvy"]) == pytest.approx(force_per_m2 * (t1 - push["t"]), rel=0.02)
+
+
+def test_a_re_touch_after_the_pair_was_5_cm_apart_is_a_new_impact():
+    """The push scene with e = 0.3: the struck car rebounds, the pair parts by more than 5 cm (measured here from
+    the recorded positions: the gap between V1's front and V2's rear, the cars aligned) and V1 catches it up
+    later than PUSH_TIME: a second impact row of kind "continuous", not the first one's push."""
+    from crashlab.outcome import PUSH_TIME
+    from crashlab.vehicle import load_vehicle
+    spec = load_vehicle("clio")
+    gap = spec.cg_to_front + spec.cg_to_rear + 0.3
+    scene = scene_from_dict({
+        "duration": 3.0, "road": {"friction": 0.8}, "impact": {"restitution": 0.3, "friction": 0.3},
+        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 30.0, "overrides": {"mass": 1500.0}},
+                     {"name": "V2", "vehicle": "clio", "x": gap, "wheels": "locked", "overrides": {"mass": 1000.0}}]})
+    out = model().simulate(scene)
+    assert out.outcome_ok, out.warnings
+    rows = sorted((r for r in out.impact_rows if r["vehicle"] == "V2"), key=lambda r: r["t"])
+    assert [r["kind"] for r in rows[:2]] == ["continuous", "continuous"]
+    assert rows[1]["t"] - rows[0]["t"] > PUSH_TIME
+    t1, t2 = rows[0]["t"] + rows[0]["duration"], rows[1]["t"]
+    tr1, tr2 = out.trajectories["V1"], out.trajectories["V2"]
+    between = (np.asarray(tr1["t"]) > t1) & (np.asarray(tr1["t"]) < t2)
+    parted = (np.asarray(tr2["x"]) - spec.cg_to_rear) - (np.asarray(tr1["x"]) + spec.cg_to_front)
+    assert between.any() and parted[between].max() > 0.05
+
+
+def test_a_re_touch_within_5_cm_later_than_push_time_is_the_push():
+    """RICSAC 10 with restitution "speed": the Civic's contact ends and closes again 0.3 s after the touch without
+    the pair parting by 5 cm: that re-touch is the impact's push (a row of kind "push"), not part of the impact."""
+    from crashlab.outcome import PUSH, PUSH_TIME
+    data = tomllib.loads((Path(__file__).resolve().parents[1]
+                          / "studies/validation/ricsac10_civic_torino_side.toml").read_text())
+    data["impact"]["restitution"] = "speed"
+    out = model().simulate(scene_from_dict(data))
+    assert out.outcome_ok, out.warnings
+    rows = sorted((r for r in out.impact_rows if r["vehicle"] == "V2"), key=lambda r: r["t"])
+    kinds = [r["kind"] for r in rows]
+    assert PUSH in kinds
+    push = rows[kinds.index(PUSH)]
+    assert push["t"] - rows[0]["t"] >= PUSH_TIME
+    assert rows[0]["t"] + rows[0]["duration"] < push["t"]  # the contact had ended: a re-touch
 
 
 def test_a_re_touch_before_the_pair_is_5_cm_apart_continues_its_episode():

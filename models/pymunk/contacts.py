@@ -148,10 +148,10 @@ class Contacts:
         px, py, nx, ny = _contact(arb, sgn)
         if (i, k) in self.ended:  # a re-touch before the pair was SEPARATION apart: the episode goes on
             ep, _ = self.ended.pop((i, k))
-            if ep.kind == PUSH or t - ep.t < PUSH_TIME:
+            if ep.kind == PUSH or t - ep.t < PUSH_TIME - 0.5 * self.dt:  # (t counts steps: half a step for round-off)
                 self.open[(i, k)] = ep
-            else:  # later than PUSH_TIME after its impact: the impact's push (§15)
-                self._open(arb, i, k, t, px, py, nx, ny, ep.e, PUSH)
+            else:  # later than PUSH_TIME after its impact: the impact's push (§15), the impact's sides struck
+                self._open(arb, i, k, t, px, py, nx, ny, ep.e, PUSH, ep.sides)
             return
         if math.isnan(self.contact_t):
             self.contact_t = t
@@ -165,17 +165,17 @@ class Contacts:
         e, why = restitution_at(max(-((vk[0] - vi.x) * nx + (vk[1] - vi.y) * ny), 0.0), self.impact)
         if why:
             self.law_warnings.append(why)
-        self._open(arb, i, k, t, px, py, nx, ny, e, "continuous")
+        sx, sy = _overlap_middle(arb, px, py)
+        self._open(arb, i, k, t, px, py, nx, ny, e, "continuous",
+                   (self._struck_side(i, sx, sy), self._struck_side(k, sx, sy) if k < self.nv else 0))
         for q in (i, k):
             if q < self.nv and not self.hit[q]:
                 self.hit[q] = True  # locked_after_impact wheels lock from here (driver_inputs.effective_mode)
 
-    def _open(self, arb, i, k, t, px, py, nx, ny, e, kind) -> None:
-        """A new episode of pair (i, k) in contact from t at point (px, py), normal (nx, ny) from i to k: an impact,
-        or the push of one (kind PUSH)."""
-        sx, sy = _overlap_middle(arb, px, py)
-        ep = Episode(t, i, k, px, py, math.atan2(nx, -ny), e,
-                     (self._struck_side(i, sx, sy), self._struck_side(k, sx, sy) if k < self.nv else 0), kind)
+    def _open(self, arb, i, k, t, px, py, nx, ny, e, kind, sides) -> None:
+        """A new episode of pair (i, k) in contact from t at point (px, py), normal (nx, ny) from i to k, striking
+        `sides`: an impact, or the push of one (kind PUSH)."""
+        ep = Episode(t, i, k, px, py, math.atan2(nx, -ny), e, sides, kind)
         ep.n = (nx, ny)
         self.open[(i, k)] = ep
         self.episodes.append(ep)
@@ -220,7 +220,7 @@ class Contacts:
         if not self.open and not self.ended:
             return
         for (i, k), ep in list(self.open.items()):
-            if ep.kind != PUSH and t - ep.t >= PUSH_TIME:
+            if ep.kind != PUSH and t - ep.t >= PUSH_TIME - 0.5 * self.dt:
                 vi = self.bodies[i].velocity_at_world_point(ep.cp)
                 vk = tuple(self.bodies[k].velocity_at_world_point(ep.cp)) if k < self.nv else (0.0, 0.0)
                 if (vk[0] - vi.x) * ep.n[0] + (vk[1] - vi.y) * ep.n[1] <= 0.0:  # approaching or resting

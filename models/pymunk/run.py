@@ -12,7 +12,7 @@ from crashlab.models.common.contact_episodes import merged_intervals
 from crashlab.models.common.driver_inputs import pack_action_tables, pack_zones
 from crashlab.models.common.impact_rows import pair_rows, struck_compliance
 from crashlab.models.common.planar_vehicle import N_PARAMS, P_IZ, P_MASS, pack_vehicle
-from crashlab.outcome import PUSH, Outcome
+from crashlab.outcome import Outcome
 from crashlab.scene import barrier_outline
 
 from .contacts import Contacts, step_energy, written
@@ -161,17 +161,16 @@ class Run:
         names = scene.vehicle_names
         heads = [c.contact[q, 2] if not math.isnan(c.contact[q, 2]) else S[q, 2] for q in range(nv)]
         rows, compliance = [], struck_compliance(v.spec for v in scene.vehicles)
-        for ep in c.episodes:  # the force on a vehicle has the direction of its contact velocity jump
-            if written(ep, P[:, P_MASS]):
-                rows += pair_rows(names, P[:, P_MASS], ep.i, ep.k, ep.t, ep.energy, ep.dv, ep.dv[:, 0:2],
-                                  (heads[ep.i], heads[ep.k] if ep.k < nv else 0.0), (ep.px, ep.py), ep.plane,
-                                  ep.kind, ep.sides, compliance, duration=ep.t_end - ep.t)
+        kept = [ep for ep in c.episodes if written(ep, P[:, P_MASS])]  # the episodes with rows (a light push has none)
+        for ep in kept:  # the force on a vehicle has the direction of its contact velocity jump
+            rows += pair_rows(names, P[:, P_MASS], ep.i, ep.k, ep.t, ep.energy, ep.dv, ep.dv[:, 0:2],
+                              (heads[ep.i], heads[ep.k] if ep.k < nv else 0.0), (ep.px, ep.py), ep.plane,
+                              ep.kind, ep.sides, compliance, duration=ep.t_end - ep.t)
         if not c.episodes:
             warnings.append("no contact between the vehicles")
         # core (crashlab.diagnostics): fixed steps, none rejected; max_penetration from the arbiters' contact depths;
-        # a push is its impact's episode (docs/physics.md §15)
-        diagnostics = {"steps": steps, "rejected_steps": 0, "t_end": self.t,
-                       "episodes": sum(ep.kind != PUSH for ep in c.episodes),
+        # episodes: those with rows, pushes included, as the 3D models count their records
+        diagnostics = {"steps": steps, "rejected_steps": 0, "t_end": self.t, "episodes": len(kept),
                        "max_penetration": c.max_depth, "kinetic_energy_start": ke0,
                        "energy_dissipated_impacts": -e_contact, "dt": self.m.dt,
                        "iterations": self.m.iterations}
@@ -181,4 +180,4 @@ class Run:
         return Outcome(names, S[:, 0:3].copy(), S[:, 3:6].copy(), c.contact.copy(), c.contact_t,
                        trajectories, rows, diagnostics, warnings, ok, self.m.name, wall,
                        contact_intervals=merged_intervals([(ep.t, ep.t_end) for ep in c.episodes]),
-                       impact_energy=[ep.energy for ep in c.episodes])
+                       impact_energy=[ep.energy for ep in kept])
