@@ -228,20 +228,27 @@ def test_stress_extremes_short():
     assert _stress(scenes, check_moving=False) == []
 
 
-def test_sustained_push_matches_the_analytic_push():
-    """A free-rolling car pushing a locked one (e = 0): the pair moves off at the common speed and slides
-    v_c^2 / (2 mu g m2 / (m1 + m2)) together (as test_impulse_sustained_contact.py), within 1 %; the
-    episode's contact interval spans the push and the run ends when both are at rest against each other."""
+def push_scene(restitution=0.0, duration=10.0):
+    """A free-rolling Clio of 1500 kg at 30 km/h into a locked one of 1000 kg standing 0.3 m ahead (no rolling
+    resistance): the scene and the distance of their centres."""
     from crashlab.vehicle import load_vehicle
     spec = load_vehicle("clio")
 
     def ov(m):
         return {"mass": m, "yaw_inertia": spec.yaw_inertia * m / spec.mass, "rolling_resistance": 0.0}
     gap = spec.cg_to_front + spec.cg_to_rear + 0.3
-    scene = scene_from_dict({
-        "duration": 10.0, "road": {"friction": 0.8}, "impact": {"restitution": 0.0, "friction": 0.3},
+    return scene_from_dict({
+        "duration": duration, "road": {"friction": 0.8},
+        "impact": {"restitution": restitution, "friction": 0.3},
         "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 30.0, "overrides": ov(1500.0)},
-                     {"name": "V2", "vehicle": "clio", "x": gap, "wheels": "locked", "overrides": ov(1000.0)}]})
+                     {"name": "V2", "vehicle": "clio", "x": gap, "wheels": "locked", "overrides": ov(1000.0)}]}), gap
+
+
+def test_sustained_push_matches_the_analytic_push():
+    """A free-rolling car pushing a locked one (e = 0): the pair moves off at the common speed and slides
+    v_c^2 / (2 mu g m2 / (m1 + m2)) together (as test_impulse_sustained_contact.py), within 1 %; the
+    episode's contact interval spans the push and the run ends when both are at rest against each other."""
+    scene, gap = push_scene()
     out = model().simulate(scene)
     assert out.outcome_ok, out.warnings
     vc, a = 1500.0 * 30.0 / 3.6 / 2500.0, 0.8 * G * 1000.0 / 2500.0
@@ -259,16 +266,7 @@ def test_a_push_after_push_time_is_a_push_row_with_the_analytic_split():
     carries v_c plus that force over PUSH_TIME, its push row that force over the rest of the contact (rows exclude
     the tyre forces, §18). Within 2 %. Before the rule pymunk gave one row of kind "continuous" for the whole 2 s."""
     from crashlab.outcome import PUSH, PUSH_TIME
-    from crashlab.vehicle import load_vehicle
-    spec = load_vehicle("clio")
-
-    def ov(m):
-        return {"mass": m, "yaw_inertia": spec.yaw_inertia * m / spec.mass, "rolling_resistance": 0.0}
-    gap = spec.cg_to_front + spec.cg_to_rear + 0.3
-    scene = scene_from_dict({
-        "duration": 10.0, "road": {"friction": 0.8}, "impact": {"restitution": 0.0, "friction": 0.3},
-        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 30.0, "overrides": ov(1500.0)},
-                     {"name": "V2", "vehicle": "clio", "x": gap, "wheels": "locked", "overrides": ov(1000.0)}]})
+    scene, gap = push_scene()
     out = model().simulate(scene)
     assert out.outcome_ok, out.warnings
     rows = sorted((r for r in out.impact_rows if r["vehicle"] == "V2"), key=lambda r: r["t"])
@@ -289,11 +287,7 @@ def test_a_re_touch_after_the_pair_was_5_cm_apart_is_a_new_impact():
     from crashlab.outcome import PUSH_TIME
     from crashlab.vehicle import load_vehicle
     spec = load_vehicle("clio")
-    gap = spec.cg_to_front + spec.cg_to_rear + 0.3
-    scene = scene_from_dict({
-        "duration": 3.0, "road": {"friction": 0.8}, "impact": {"restitution": 0.3, "friction": 0.3},
-        "vehicles": [{"name": "V1", "vehicle": "clio", "speed": 30.0, "overrides": {"mass": 1500.0}},
-                     {"name": "V2", "vehicle": "clio", "x": gap, "wheels": "locked", "overrides": {"mass": 1000.0}}]})
+    scene, _ = push_scene(restitution=0.3, duration=3.0)
     out = model().simulate(scene)
     assert out.outcome_ok, out.warnings
     rows = sorted((r for r in out.impact_rows if r["vehicle"] == "V2"), key=lambda r: r["t"])
