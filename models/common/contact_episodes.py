@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
+from crashlab.outcome import PUSH, PUSH_DV_MIN, PUSH_TIME, SEPARATION
 
 from .chassis_contact import (
     ENDED,
@@ -87,10 +87,6 @@ N_IMP = 25
 # its end does not move the episode's end, so the impact's delta-V and duration are its pulse's, not the pulse's
 # plus the tyre forces until the graze (docs/physics.md §15 "Episodes and pushes")
 GRAZE_SHARE = 0.01
-# m/s: a push whose impulse changes the pair's relative velocity by less than this (0.1 km/h, the resolution crash
-# tests report delta-V at) writes no record: its impulse acts, but a row would be noise (once places never crushed
-# bear, 2026-11-28, light touches at rest gave push rows of 0.1-9 N s: 42 of exudyn's 250 rows on 90 random scenes)
-PUSH_DV_MIN = 0.1 / 3.6
 # m/s: the least normal approach speed at a touch whose rebound ratio an impact row reports as its restitution
 # (a car's corner grazing a post touched at 0.001 m/s along a normal that then turned: "e" 2800)
 APPROACH_MIN = 0.1

@@ -11,9 +11,8 @@ import numpy as np
 from numba import njit
 
 from crashlab.geometry import overlap_centroid, penetration
-from crashlab.models.common.contact_episodes import PUSH_DV_MIN
 from crashlab.models.common.planar_vehicle import struck_side
-from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION
+from crashlab.outcome import PUSH, PUSH_DV_MIN, PUSH_TIME, SEPARATION
 from crashlab.restitution import restitution_at
 
 # the separating-axis test compiled for this Python loop (crashlab.geometry's is register_jitable: in Python it runs
