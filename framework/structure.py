@@ -38,6 +38,10 @@ CRUSH_56_RANGE = (0.05, 2.0)
 STRUCTURE_WIDTH_RANGE = (0.1, 30.0)  # m, a side's structure width
 
 
+# a structure table's source: text without control characters (line breaks, tabs)
+SOURCE_PATTERN = r"^[^\x00-\x1f\x7f]*$"
+
+
 class StructureSideFile(BaseModel):
     """[structure.front], [structure.rear] or [structure.side]: the CRASH3 stiffness of that side."""
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -50,7 +54,7 @@ class StructureSideFile(BaseModel):
                                  "they apply to); default the vehicle's width for front and rear, its length for a "
                                  "side; at most that", default=None)
     source: str = Field("", description="where A and B come from; an estimated pair's source starts with "
-                        "'estimate:'", pattern=r"^[^\x00-\x1f\x7f]*$")
+                        "'estimate:'", pattern=SOURCE_PATTERN)
 
 
 # The class defaults and the library's estimates (docs/physics.md §28): Campbell's crash plot through the

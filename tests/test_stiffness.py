@@ -192,6 +192,7 @@ def test_command_prints_a_structure_table_a_vehicle_file_takes(tmp_path, capsys)
     (["--test", "1500:56:0.5,0.5:1.8", "--vehicle", "nosuch"], "--vehicle"),
     (["--test", "1500:56:0.5,0.5:1.8", "--source", "a\x7fb"], "--source"),
     (["--test", "1500:56:0.5,0.5:1.8", "--source", "two\nlines"], "--source"),
+    (["--test", "1500:56:0.5,0.5:1.8", "--source", "a\tb"], "--source"),  # a tab: the vehicle file refuses it too
     (["--test", "1500:56:0.5,0.5:1.8", "--source", "\udcff"], "--source"),
     (["--test", "1500:56:0.5,0\n.5:1.8"], "--test 1"),
     (["--test", "1500:56:0.5,0.5:1.8", "--b0", "-5"], "-5 km/h"),

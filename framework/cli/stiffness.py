@@ -10,6 +10,7 @@ import re
 from ..damage import crush_energy
 from ..errors import InputError
 from ..stiffness import CrashTest, default_b0, fit_stiffness
+from ..structure import SOURCE_PATTERN
 from ..units import kmh_to_ms
 from .damage import parse_profile, vehicle_for
 
@@ -34,7 +35,7 @@ def _text(text: str, key: str, where: str = "command line") -> str:
     """The text of an option that goes into the printed table: no control characters (a vehicle file's source
     takes none) and encodable as UTF-8 (a byte that is not arrives as a lone surrogate)."""
     text = str(text)
-    if re.search(r"[\x00-\x08\x0a-\x1f\x7f]", text.strip()):
+    if not re.fullmatch(SOURCE_PATTERN, text.strip()):  # the vehicle file's own rule (crashlab.structure)
         raise InputError(where, key, "contains a control character (a vehicle file's source takes none)")
     try:
         text.encode("utf-8")
