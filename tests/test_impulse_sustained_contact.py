@@ -163,3 +163,31 @@ def test_mass_override_sets_the_delta_v_split(model, make_scene):
     assert imp["V1"] / imp["V2"] == pytest.approx(suv / 700.0, rel=0.10)
     first = out.impacts[out.impacts.t == out.impacts.t.min()].set_index("vehicle")
     assert first.at["V1", "delta_v"] / first.at["V2", "delta_v"] == pytest.approx(suv / 700.0, rel=1e-9)
+
+
+def test_a_row_decided_by_its_sustained_contact_is_said(model, make_scene):
+    """The analytic push's impact row: the impact's own impulse m* v0 (e = 0), then V1 pushes V2 (braked by mu g) with
+    the contact force mu g m* until PUSH_TIME, so the follow-ups change the row's impulse by mu g T / v0 of the
+    impact's (T the row's span). Above SUSTAINED_SHARE (0.5) the run says so, with the share and each car's delta-V
+    beside the impact's own (m2 v0 / (m1 + m2) for V1, m1 v0 / (m1 + m2) for V2); below it says nothing. A single
+    run and a population's row alike (docs/physics.md §5 "Sustained share")."""
+    import re
+    m1, m2, mu = 1500.0, 1000.0, 0.8
+    for v0, said in ((10.0, True), (30.0, False)):  # km/h: mu g T / v0 = 0.85 and 0.28
+        scene = _push_scene(make_scene, v0, m1, m2, mu)
+        out = model.simulate(scene)
+        row = out.impact_rows[0]
+        share = mu * G * (row["t_end"] - row["t"]) / (v0 * KMH)
+        found = [w for w in out.warnings if "sustained contact" in w]
+        assert bool(found) == said, (v0, share, out.warnings)
+        pop = model.simulate_population(scene, ["vehicles.V1.speed"], [[v0]])
+        assert [w for w in pop.warnings[0].split("\n") if "sustained contact" in w] == found
+        if said:
+            (w,) = found
+            assert float(re.search(r"by (\d+) % of the impact's own", w).group(1)) == pytest.approx(100 * share,
+                                                                                                  abs=1.0)
+            own = [float(x) for x in re.findall(r"the impact's own (\d+\.\d)", w)]
+            assert own == pytest.approx([v0 * m2 / (m1 + m2), v0 * m1 / (m1 + m2)], abs=0.051)
+            rows = [float(x) for x in re.findall(r"V\d (\d+\.\d) km/h", w)]
+            assert rows == pytest.approx([np.hypot(out.impact_rows[k]["dvx"], out.impact_rows[k]["dvy"]) / KMH
+                                          for k in (0, 1)], abs=0.051)

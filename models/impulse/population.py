@@ -21,7 +21,7 @@ from crashlab.population import Population
 
 from . import kernel as K
 from . import layout as L
-from .run_warnings import over_capacity, run_warnings
+from .run_warnings import over_capacity, run_warnings, sustained
 
 _STATE = ("x", "y", "heading", "speed", "yaw_rate")
 _SETTING = {"restitution": "restitution", "friction": "impact_friction", "engagement_depth": "engagement_depth"}
@@ -97,7 +97,7 @@ def _warnings(pop, scene, fs, P, cfg, imp, diag) -> None:
     if scene.impact.engagement:
         other |= (valid & np.isin(recs[..., L.I_ENGAGE], (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK))).any(1)
     with np.errstate(invalid="ignore"):  # (unfilled rows hold any numbers; valid masks them)
-        other |= (valid & over_capacity(recs)).any(1)
+        other |= (valid & (over_capacity(recs) | sustained(recs))).any(1)
     held = np.zeros(len(n_imp), bool)
     if speed_law:
         closing = np.abs(recs[..., L.I_CLOSING])

@@ -1,11 +1,13 @@
 """The warnings of a finished run of the impulse model, from its impact records: no contact, a slip that reverses
-under a law that does not follow it (docs/physics.md §3), an engagement not placed as asked (§4), an impact that
-dissipates more energy than its engaged width absorbs within the crush zones (§4 "Engaged width"), restitution =
-"speed" held at its end value outside the law's data (§13b). One home for the Outcome (model.py) and the population
+under a law that does not follow it (docs/physics.md §3), an impact whose sustained contact decides its row (§5), an
+engagement not placed as asked (§4), an impact that dissipates more energy than its engaged width absorbs within the
+crush zones (§4 "Engaged width"), restitution = "speed" held at its end value outside the law's data (§13b). One home for the Outcome (model.py) and the population
 (population.py), so both carry the same words."""
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from crashlab.models.common.impact_rows import barrier_name
 from crashlab.restitution import SPEED, range_warning
@@ -14,6 +16,10 @@ from crashlab.units import ms_to_kmh
 
 from . import layout as L
 from .laws import SLIP_REVERSES
+
+# the plastic follow-up impulses of an impact's sustained contact (§5) that change its impulse by more than this share
+# of the impact's own make its row more the rigid outlines' contact than the impact law's: said (§5 "Sustained share")
+SUSTAINED_SHARE = 0.5
 
 
 def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
@@ -26,6 +32,7 @@ def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
     warnings = [] if len(imp) else ["no contact between the vehicles"]
     if scene.impact.law != "routh":
         warnings += _slip_warnings(names, mass, imp, scene.impact.law)
+    warnings += _sustained_warnings(names, mass, imp)
     if scene.impact.engagement:
         depth = scene.impact.engagement_depth if engagement_depth is None else engagement_depth
         warnings += _engagement_warnings(names, imp, depth)
@@ -65,6 +72,40 @@ def _slip_warnings(names, mass, imp, law):
                    f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
                    f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
     return out
+
+
+def _sustained_warnings(names, mass, imp):
+    """A warning per impact whose episode's plastic follow-up impulses (§5: the rigid outlines touching on after the
+    impact, up to PUSH_TIME) change its impulse by more than SUSTAINED_SHARE of the impact's own (I_OWN_*): each
+    vehicle's delta-V of the row beside the impact's own (docs/physics.md §5 "Sustained share")."""
+    out = []
+    nv = len(names)
+    for n, r in enumerate(imp):
+        if not sustained(r):
+            continue
+        own = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT])
+        added = math.hypot(r[L.I_PN] - r[L.I_OWN_PN], r[L.I_PT] - r[L.I_OWN_PT])
+        i, j = int(r[L.I_I]), int(r[L.I_J])
+        sides = [(i, L.I_DVX_I, L.I_DVY_I)] + ([(j, L.I_DVX_J, L.I_DVY_J)] if j < nv else [])
+        dv = "; ".join(f"{names[q]} {ms_to_kmh(math.hypot(r[x], r[y])):.1f} km/h, the impact's own "
+                       f"{ms_to_kmh(own / mass[q]):.1f}" for q, x, y in sides)
+        other = names[j] if j < nv else barrier_name(j - nv)
+        share = f"{100.0 * added / own:.0f} % of the impact's own" if own > 0.0 else "more than the impact's own"
+        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the plastic impulses of its "
+                   f"sustained contact ({int(r[L.I_N_FOLLOW])} over {r[L.I_T_END] - r[L.I_T]:.2f} s) change its "
+                   f"impulse by {share}: its delta-V ({dv}) rests as much on the rigid outlines touching on as on "
+                   "the impact law, which takes the collision as over at once; check it with a model that crushes "
+                   "(crashlab compare --models impulse,multibody; docs/physics.md §5 \"Sustained share\")")
+    return out
+
+
+def sustained(recs):
+    """Impact records (not a push's) whose follow-up impulses change the impulse by more than SUSTAINED_SHARE of the
+    impact's own (I_PN, I_PT: the row's; I_OWN_PN, I_OWN_PT: the impact's; §5 "Sustained share"); any shape
+    (..., N_IMP): a run's row, the population's records."""
+    added = np.hypot(recs[..., L.I_PN] - recs[..., L.I_OWN_PN], recs[..., L.I_PT] - recs[..., L.I_OWN_PT])
+    return (recs[..., L.I_KIND] != L.PUSH) & (recs[..., L.I_N_FOLLOW] >= 1) & \
+        (added > SUSTAINED_SHARE * np.hypot(recs[..., L.I_OWN_PN], recs[..., L.I_OWN_PT]))
 
 
 def _engagement_warnings(names, imp, depth):
