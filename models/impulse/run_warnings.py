@@ -1,8 +1,8 @@
 """The warnings of a finished run of the impulse model, from its impact records: no contact, a slip that reverses
 under a law that does not follow it (docs/physics.md §3), an impact whose sustained contact decides its row (§5), an
 engagement not placed as asked (§4), an impact that dissipates more energy than its engaged width absorbs within the
-crush zones (§4 "Engaged width"), restitution = "speed" held at its end value outside the law's data (§13b). One home for the Outcome (model.py) and the population
-(population.py), so both carry the same words."""
+crush zones (§4 "Engaged width"), restitution = "speed" held at its end value outside the law's data (§13b). One
+home for the Outcome (model.py) and the population (population.py), so both carry the same words."""
 from __future__ import annotations
 
 import math
