@@ -1,12 +1,14 @@
 """What the 3D models' chassis contact (chassis_contact.py) reports after a run: the guard's interpenetration check
 with the contact bodies, the speed law's range warnings of the pairs' crushes (docs/physics.md §13a, §13b), the
 structures the contact used where they do not hold: a tilted vehicle's roof or underbody, a crush deeper than
-the struck face's crush zone (§13a "A tilted body", §28 "Crush zone"), and a vehicle's contacts with different
-partners at the same time, whose rows' delta-Vs each hold them all (§21 "Concurrent contacts")."""
+the struck face's crush zone (§13a "A tilted body", §28 "Crush zone"), a vehicle's contacts with different
+partners at the same time, whose rows' delta-Vs each hold them all (§21 "Concurrent contacts"), and an impact row
+whose delta-V the road forces of a long contact moved away from its contact impulse (§15 "Road forces in a row")."""
 from __future__ import annotations
 
 import math
 
+from crashlab.outcome import PUSH
 from crashlab.restitution import range_warning
 from crashlab.structure import TILTED_FACES, crush_zone_warning
 
@@ -66,21 +68,31 @@ def structure_warnings(scene, rows) -> list:
 CONCURRENT_DV = 0.1
 
 
+def _significant(rows, mass) -> dict:
+    """{vehicle: its rows whose own contact impulse changes its speed by CONCURRENT_DV at least}."""
+    by_vehicle: dict = {}
+    for r in rows:
+        if math.hypot(r["impulse_x"], r["impulse_y"]) >= CONCURRENT_DV * mass[r["vehicle"]]:
+            by_vehicle.setdefault(r["vehicle"], []).append(r)
+    return by_vehicle
+
+
+def _concurrent(mine) -> list:
+    """The rows of one vehicle (its significant ones) that overlap in time (t to t + duration) with a row of
+    another partner, by time."""
+    return sorted((a for a in mine if any(b["other"] != a["other"] and b["t"] < a["t"] + a["duration"]
+                                          and a["t"] < b["t"] + b["duration"] for b in mine)), key=lambda a: a["t"])
+
+
 def concurrent_contact_warnings(rows, mass) -> list:
     """One reason per vehicle whose contact episodes with different partners overlap in time (the rows' t to
     t + duration; pushes included): a 3D row's delta-V is the vehicle's CG velocity change over its episode, so
     each of those rows holds the other contacts' impulses too (§21 "Concurrent contacts"); the reason gives each
     such row's delta-V beside its own contact impulse (in plan) over the vehicle's mass. mass: {name: kg}; rows
     with the 3D models' impulse_x, impulse_y and duration."""
-    by_vehicle: dict = {}
-    for r in rows:  # contacts whose own impulse changes the vehicle's speed by CONCURRENT_DV at least
-        if math.hypot(r["impulse_x"], r["impulse_y"]) >= CONCURRENT_DV * mass[r["vehicle"]]:
-            by_vehicle.setdefault(r["vehicle"], []).append(r)
     out = []
-    for name, mine in by_vehicle.items():
-        hit = sorted((a for a in mine if any(b["other"] != a["other"] and b["t"] < a["t"] + a["duration"]
-                                             and a["t"] < b["t"] + b["duration"] for b in mine)),
-                     key=lambda a: a["t"])
+    for name, mine in _significant(rows, mass).items():
+        hit = _concurrent(mine)
         if not hit:
             continue
         shown = "; ".join(f"with {a['other']} at t = {a['t']:.3f} s: {3.6 * math.hypot(a['dvx'], a['dvy']):.1f} "
@@ -91,3 +103,39 @@ def concurrent_contact_warnings(rows, mass) -> list:
                    f"{name}'s CG velocity change over its episode and holds the other contacts' impulses too "
                    f"({shown}{more}; docs/physics.md §21 \"Concurrent contacts\")")
     return out
+
+
+# a row (an impact's, not a push's) whose delta-V differs from its own contact impulse over the vehicle's mass by more
+# than this share of the latter (in plan) is said: road forces moved it over a long contact (§15 "Road forces in a row")
+ROAD_SHARE = 0.1
+
+
+def road_share_warnings(rows, mass) -> list:
+    """One reason per impact row whose delta-V (the vehicle's CG velocity change over its episode, §15) lies more
+    than ROAD_SHARE of its own contact impulse over the mass away from that (the vector difference in plan): the
+    tyres acted through a long contact. Rows that overlap a contact with another partner are
+    concurrent_contact_warnings' (their difference is the other contact's). mass: {name: kg}."""
+    out = []
+    for name, mine in _significant(rows, mass).items():
+        concurrent = {id(a) for a in _concurrent(mine)}
+        for r in mine:
+            if r["kind"] == PUSH or id(r) in concurrent:
+                continue
+            jx, jy = r["impulse_x"] / mass[name], r["impulse_y"] / mass[name]
+            apart = math.hypot(r["dvx"] - jx, r["dvy"] - jy)
+            if apart <= ROAD_SHARE * math.hypot(jx, jy):
+                continue
+            out.append(f"{name}'s delta-V in its impact with {r['other']} at t = {r['t']:.3f} s, "
+                       f"{3.6 * math.hypot(r['dvx'], r['dvy']):.1f} km/h, is its CG's velocity change over the "
+                       f"{1e3 * r['duration']:.0f} ms contact, road forces included; its contact impulse alone gives "
+                       f"{3.6 * math.hypot(jx, jy):.1f} km/h, {100.0 * apart / math.hypot(jx, jy):.0f} % away, as "
+                       "the impulse model and CRASH3 count it: a measured delta-V matches the one or the other as far "
+                       "as its window takes in the tyres (docs/physics.md §15 \"Road forces in a "
+                       "row\")")
+    return out
+
+
+def row_warnings(scene, rows, mass) -> list:
+    """What a 3D run's impact rows say (the models' one call): structure_warnings, concurrent_contact_warnings and
+    road_share_warnings. mass: {name: kg}."""
+    return structure_warnings(scene, rows) + concurrent_contact_warnings(rows, mass) + road_share_warnings(rows, mass)

@@ -180,8 +180,7 @@ class Records:
                               struck_compliance(vs.spec for vs in self.scene.vehicles), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
-        warnings += contact_report.structure_warnings(self.scene, rows)
-        warnings += contact_report.concurrent_contact_warnings(rows, dict(zip(self.names, mass)))
+        warnings += contact_report.row_warnings(self.scene, rows, dict(zip(self.names, mass)))
         if self.n_unsettled:
             ok = False
             warnings.append(f"the contact loads did not settle at the shortest step ({o['min_step']:g} s) in "

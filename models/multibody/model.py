@@ -28,12 +28,7 @@ from crashlab.models.common.contact_episodes import (
     impact_rows,
 )
 from crashlab.models.common.contact_force import FRICTION_V0, FRICTION_V1, FRICTION_VS, chi, friction_code
-from crashlab.models.common.contact_report import (
-    concurrent_contact_warnings,
-    end_overlap,
-    speed_law_warnings,
-    structure_warnings,
-)
+from crashlab.models.common.contact_report import end_overlap, row_warnings, speed_law_warnings
 from crashlab.models.common.crush_structure import clamp_restitution, speed_law_setting, structure_row
 from crashlab.models.common.driver_inputs import (
     A_MODE,
@@ -330,8 +325,7 @@ class MultibodyModel(CollisionModel):
         rows = impact_rows(names, BODY[:, :, 0].sum(1), imp, struck_compliance(vs.spec for vs in scene.vehicles), heads)
         if any(r["open"] for r in rows):
             warnings.append("a contact was still active at the end of the run")
-        warnings += structure_warnings(scene, rows)
-        warnings += concurrent_contact_warnings(rows, dict(zip(names, BODY[:, :, 0].sum(1))))
+        warnings += row_warnings(scene, rows, dict(zip(names, BODY[:, :, 0].sum(1))))
         intervals = contact_intervals(imp[:, I_T0], imp[:, I_T1], traj[:nr, :, REC.R_T], traj[:nr, :, REC.R_ROAD])
         diagnostics["road_contact_time"] = {n: float(np.sum(np.diff(traj[:nr, v, REC.R_T])
                                                             * (traj[1:nr, v, REC.R_ROAD] > 0)))
