@@ -81,7 +81,7 @@ def _sustained_warnings(names, mass, imp):
     out = []
     nv = len(names)
     for n, r in enumerate(imp):
-        if not sustained(r):
+        if r[L.I_N_FOLLOW] < 1 or not sustained(r):  # (the scalar test first: most impacts have no follow-up)
             continue
         own = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT])
         added = math.hypot(r[L.I_PN] - r[L.I_OWN_PN], r[L.I_PT] - r[L.I_OWN_PT])
