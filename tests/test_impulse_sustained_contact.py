@@ -184,10 +184,33 @@ def test_a_row_decided_by_its_sustained_contact_is_said(model, make_scene):
         assert [w for w in pop.warnings[0].split("\n") if "sustained contact" in w] == found
         if said:
             (w,) = found
-            assert float(re.search(r"by (\d+) % of the impact's own", w).group(1)) == pytest.approx(100 * share,
-                                                                                                  abs=1.0)
+            assert float(re.search(r"own impulse is (\d+) % of its row's", w).group(1)) == \
+                pytest.approx(100 / (1 + share), abs=1.0)  # collinear: m* v0 of m* v0 (1 + share)
             own = [float(x) for x in re.findall(r"the impact's own (\d+\.\d)", w)]
             assert own == pytest.approx([v0 * m2 / (m1 + m2), v0 * m1 / (m1 + m2)], abs=0.051)
             rows = [float(x) for x in re.findall(r"V\d (\d+\.\d) km/h", w)]
             assert rows == pytest.approx([np.hypot(out.impact_rows[k]["dvx"], out.impact_rows[k]["dvy"]) / KMH
                                           for k in (0, 1)], abs=0.051)
+
+
+def test_the_sustained_share_is_the_vector_sum_after_the_impacts_instant():
+    """`sustained` on records written here: the follow-ups' impulse is the vector difference of the row's and the
+    impact's own (n-t frame), so a tangential follow-up counts as a normal one; the rule's edge is SUSTAINED_SHARE
+    of the impact's own; follow-ups all at the impact's instant (the sweeps over simultaneous contacts) and push
+    rows are no sustained contact."""
+    from crashlab.models.impulse import layout as L
+    from crashlab.models.impulse.run_warnings import SUSTAINED_SHARE, sustained
+
+    def rec(pn, pt, own=(1000.0, 0.0), t_end=0.1, kind=1.0, follow=3.0):
+        r = np.zeros(L.N_IMP)
+        r[L.I_OWN_PN], r[L.I_OWN_PT] = own
+        r[L.I_PN], r[L.I_PT], r[L.I_T], r[L.I_T_END], r[L.I_KIND], r[L.I_N_FOLLOW] = pn, pt, 0.0, t_end, kind, follow
+        return r
+
+    k = 1000.0 * SUSTAINED_SHARE
+    recs = np.array([rec(1000.0 + 0.9 * k, 0.0), rec(1000.0 + 1.1 * k, 0.0),  # along the normal: below, above
+                     rec(1000.0, 0.9 * k), rec(1000.0, 1.1 * k),  # tangential only: below, above
+                     rec(1000.0 + 0.8 * k, 0.8 * k),  # both: |(0.8, 0.8)| k = 1.13 k
+                     rec(1000.0 + 3 * k, 0.0, t_end=0.0),  # all at the impact's instant
+                     rec(1000.0 + 3 * k, 0.0, kind=L.PUSH), rec(1000.0 + 3 * k, 0.0, follow=0.0)])
+    assert sustained(recs).tolist() == [False, True, False, True, True, False, False, False]

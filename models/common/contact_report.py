@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from crashlab.outcome import PUSH
+from crashlab.outcome import PUSH, PUSH_TIME
 from crashlab.restitution import range_warning
 from crashlab.structure import TILTED_FACES, crush_zone_warning
 
@@ -105,33 +105,35 @@ def concurrent_contact_warnings(rows, mass) -> list:
     return out
 
 
-# a row (an impact's, not a push's) whose delta-V differs from its own contact impulse over the vehicle's mass by more
-# than this share of the latter (in plan) is said: road forces moved it over a long contact (§15 "Road forces in a row")
+# a row (an impact's, not a push's) whose contact lasts longer than a collision's pulse (about 0.1-0.2 s, §5; PUSH_TIME
+# / 2) and whose delta-V differs from its own contact impulse over the vehicle's mass by more than ROAD_SHARE of the
+# latter (in plan) is said: the road forces of the long contact moved it (§15 "Road forces in a row")
 ROAD_SHARE = 0.1
+LONG_CONTACT = PUSH_TIME / 2
 
 
 def road_share_warnings(rows, mass) -> list:
-    """One reason per impact row whose delta-V (the vehicle's CG velocity change over its episode, §15) lies more
-    than ROAD_SHARE of its own contact impulse over the mass away from that (the vector difference in plan): the
-    tyres acted through a long contact. Rows that overlap a contact with another partner are
-    concurrent_contact_warnings' (their difference is the other contact's). mass: {name: kg}."""
+    """One reason per impact row whose contact lasts longer than LONG_CONTACT and whose delta-V (the vehicle's CG
+    velocity change over its episode, §15) lies more than ROAD_SHARE of its own contact impulse over the mass away
+    from that (the vector difference in plan, printed as the road's part). Rows that overlap a contact with
+    another partner are concurrent_contact_warnings' (their difference is the other contact's). mass: {name: kg}."""
     out = []
     for name, mine in _significant(rows, mass).items():
         concurrent = {id(a) for a in _concurrent(mine)}
         for r in mine:
-            if r["kind"] == PUSH or id(r) in concurrent:
+            if r["kind"] == PUSH or id(r) in concurrent or r["duration"] <= LONG_CONTACT:
                 continue
             jx, jy = r["impulse_x"] / mass[name], r["impulse_y"] / mass[name]
-            apart = math.hypot(r["dvx"] - jx, r["dvy"] - jy)
-            if apart <= ROAD_SHARE * math.hypot(jx, jy):
+            road = math.hypot(r["dvx"] - jx, r["dvy"] - jy)
+            if road <= ROAD_SHARE * math.hypot(jx, jy):
                 continue
             out.append(f"{name}'s delta-V in its impact with {r['other']} at t = {r['t']:.3f} s, "
                        f"{3.6 * math.hypot(r['dvx'], r['dvy']):.1f} km/h, is its CG's velocity change over the "
-                       f"{1e3 * r['duration']:.0f} ms contact, road forces included; its contact impulse alone gives "
-                       f"{3.6 * math.hypot(jx, jy):.1f} km/h, {100.0 * apart / math.hypot(jx, jy):.0f} % away, as "
-                       "the impulse model and CRASH3 count it: a measured delta-V matches the one or the other as far "
-                       "as its window takes in the tyres (docs/physics.md §15 \"Road forces in a "
-                       "row\")")
+                       f"{1e3 * r['duration']:.0f} ms contact: its contact impulse alone gives "
+                       f"{3.6 * math.hypot(jx, jy):.1f} km/h (as the impulse model and CRASH3 count it), and the road "
+                       f"forces over the contact {3.6 * road:.1f} km/h ({100.0 * road / math.hypot(jx, jy):.0f} % "
+                       "of that); a measured delta-V matches the one or the other as far as its window takes in the "
+                       "tyres (docs/physics.md §15 \"Road forces in a row\")")
     return out
 
 

@@ -76,35 +76,40 @@ def _slip_warnings(names, mass, imp, law):
 
 def _sustained_warnings(names, mass, imp):
     """A warning per impact whose episode's plastic follow-up impulses (§5: the rigid outlines touching on after the
-    impact, up to PUSH_TIME) change its impulse by more than SUSTAINED_SHARE of the impact's own (I_OWN_*): each
-    vehicle's delta-V of the row beside the impact's own (docs/physics.md §5 "Sustained share")."""
+    impact, up to PUSH_TIME) change its impulse by more than SUSTAINED_SHARE of the impact's own (`sustained`):
+    the impact's own impulse as a share of the row's, and each vehicle's delta-V of the row beside the impact's own
+    (docs/physics.md §5 "Sustained share")."""
     out = []
     nv = len(names)
     for n, r in enumerate(imp):
         if r[L.I_N_FOLLOW] < 1 or not sustained(r):  # (the scalar test first: most impacts have no follow-up)
             continue
         own = math.hypot(r[L.I_OWN_PN], r[L.I_OWN_PT])
-        added = math.hypot(r[L.I_PN] - r[L.I_OWN_PN], r[L.I_PT] - r[L.I_OWN_PT])
         i, j = int(r[L.I_I]), int(r[L.I_J])
         sides = [(i, L.I_DVX_I, L.I_DVY_I)] + ([(j, L.I_DVX_J, L.I_DVY_J)] if j < nv else [])
         dv = "; ".join(f"{names[q]} {ms_to_kmh(math.hypot(r[x], r[y])):.1f} km/h, the impact's own "
                        f"{ms_to_kmh(own / mass[q]):.1f}" for q, x, y in sides)
         other = names[j] if j < nv else barrier_name(j - nv)
-        share = f"{100.0 * added / own:.0f} % of the impact's own" if own > 0.0 else "more than the impact's own"
-        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the plastic impulses of its "
-                   f"sustained contact ({int(r[L.I_N_FOLLOW])} over {r[L.I_T_END] - r[L.I_T]:.2f} s) change its "
-                   f"impulse by {share}: its delta-V ({dv}) rests as much on the rigid outlines touching on as on "
-                   "the impact law, which takes the collision as over at once; check it with a model that crushes "
-                   "(crashlab compare --models impulse,multibody; docs/physics.md §5 \"Sustained share\")")
+        row = math.hypot(r[L.I_PN], r[L.I_PT])
+        part = f"{100.0 * own / row:.0f} % of its row's" if row > 0.0 else "cancelled in its row"
+        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the impact's own impulse is "
+                   f"{part}, the rest the plastic impulses of its sustained contact ({int(r[L.I_N_FOLLOW])} over "
+                   f"{1e3 * (r[L.I_T_END] - r[L.I_T]):.0f} ms): its delta-V ({dv}) rests on the rigid outlines "
+                   "touching on, which the impact law, taking the collision as over at once, does not "
+                   "model; check it with a model that crushes (crashlab compare --models impulse,multibody; "
+                   "docs/physics.md §5 \"Sustained share\")")
     return out
 
 
 def sustained(recs):
-    """Impact records (not a push's) whose follow-up impulses change the impulse by more than SUSTAINED_SHARE of the
-    impact's own (I_PN, I_PT: the row's; I_OWN_PN, I_OWN_PT: the impact's; §5 "Sustained share"); any shape
-    (..., N_IMP): a run's row, the population's records."""
+    """Impact records (not a push's) whose follow-up impulses after the impact's instant change the impulse by more
+    than SUSTAINED_SHARE of the impact's own (I_PN, I_PT: the row's; I_OWN_PN, I_OWN_PT: the impact's; §5
+    "Sustained share"). A row whose follow-ups all came at the impact's instant (I_T_END = I_T: the sweeps over
+    simultaneous contacts, a car squeezed against a wall) has no sustained contact. Any shape (..., N_IMP): a run's
+    row, the population's records."""
     added = np.hypot(recs[..., L.I_PN] - recs[..., L.I_OWN_PN], recs[..., L.I_PT] - recs[..., L.I_OWN_PT])
-    return (recs[..., L.I_KIND] != L.PUSH) & (recs[..., L.I_N_FOLLOW] >= 1) & \
+    later = (recs[..., L.I_N_FOLLOW] >= 1) & (recs[..., L.I_T_END] > recs[..., L.I_T])
+    return (recs[..., L.I_KIND] != L.PUSH) & later & \
         (added > SUSTAINED_SHARE * np.hypot(recs[..., L.I_OWN_PN], recs[..., L.I_OWN_PT]))
 
 
