@@ -22,6 +22,12 @@ from .laws import SLIP_REVERSES
 SUSTAINED_SHARE = 0.5
 
 
+def _label(names, n, r) -> str:
+    """'impact n (Vi-Vj at t = ... s)': how every warning here names impact record r (row n; a barrier by its name)."""
+    nv, i, j = len(names), int(r[L.I_I]), int(r[L.I_J])
+    return f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[L.I_T]:.3f} s)"
+
+
 def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
                  engagement_depth: float | None = None) -> list[str]:
     """The warnings of a finished run from its impact records imp (its n_impacts rows) and the vehicles' masses:
@@ -66,8 +72,7 @@ def _slip_warnings(names, mass, imp, law):
                        for q, _, _ in sides)
         yaw = ", ".join(f"{names[q]} {math.degrees(r[o]):.0f} instead of {math.degrees(r[a]):.0f} deg/s"
                         for q, o, a in sides)
-        other = names[j] if j < nv else barrier_name(j - nv)
-        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the slip at the point of impact "
+        out.append(f"{_label(names, n, r)}: the slip at the point of impact "
                    f"{what}: delta-V "
                    f"{100.0 * (own / alt - 1.0):+.0f} % ({dv}), its direction {off:.0f} deg off, yaw-rate change "
                    f"{yaw}; use [impact] law = \"routh\" (docs/physics.md §3)")
@@ -89,10 +94,9 @@ def _sustained_warnings(names, mass, imp):
         sides = [(i, L.I_DVX_I, L.I_DVY_I)] + ([(j, L.I_DVX_J, L.I_DVY_J)] if j < nv else [])
         dv = "; ".join(f"{names[q]} {ms_to_kmh(math.hypot(r[x], r[y])):.1f} km/h, the impact's own "
                        f"{ms_to_kmh(own / mass[q]):.1f}" for q, x, y in sides)
-        other = names[j] if j < nv else barrier_name(j - nv)
         row = math.hypot(r[L.I_PN], r[L.I_PT])
         part = f"{100.0 * own / row:.0f} % of its row's" if row > 0.0 else "cancelled in its row"
-        out.append(f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): the impact's own impulse is "
+        out.append(f"{_label(names, n, r)}: the impact's own impulse is "
                    f"{part}, the rest the plastic impulses of its sustained contact ({int(r[L.I_N_FOLLOW])} over "
                    f"{1e3 * (r[L.I_T_END] - r[L.I_T]):.0f} ms): its delta-V ({dv}) rests on the rigid outlines "
                    "touching on, which the impact law, taking the collision as over at once, does not "
@@ -117,13 +121,11 @@ def _engagement_warnings(names, imp, depth):
     """A warning per impact that [impact] point = "engagement" could not place as asked (I_ENGAGE,
     contact._engagement, docs/physics.md §4)."""
     out = []
-    nv = len(names)
     for n, r in enumerate(imp):
         flag = int(r[L.I_ENGAGE])
         if flag not in (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK):
             continue
-        i, j = int(r[L.I_I]), int(r[L.I_J])
-        what = f"impact {n + 1} ({names[i]}-{names[j] if j < nv else barrier_name(j - nv)} at t = {r[L.I_T]:.3f} s)"
+        what = _label(names, n, r)
         if flag == L.ENGAGE_AMBIGUOUS:
             out.append(f"{what}: the crushed faces at engagement give no contact plane (the smaller principal "
                        f"value is {100.0 * r[L.I_ENGAGE_RATIO]:.0f} % of the larger, above "
@@ -152,10 +154,9 @@ def _capacity_warning(scene, names, n, r):
     parts = [(names[q], scene.vehicles[q].spec, STRUCK_FACES[int(r[k])]) for q, k in ((i, L.I_SIDE_I), (j, L.I_SIDE_J))
              if q < nv]
     zones = " and ".join(f"{name}'s {face} ({crush_zone(spec, face)[0]:.2f} m)" for name, spec, face in parts)
-    other = names[j] if j < nv else barrier_name(j - nv)
     likely = ("the cars likely pass each other (a small overlap or a glance)" if j < nv else
               f"{names[i]} likely crushes past its crush zone or slides off the barrier (a narrow one, or its end)")
-    return (f"impact {n + 1} ({names[i]}-{other} at t = {r[L.I_T]:.3f} s): its engaged width {r[L.I_WIDTH]:.2f} m "
+    return (f"{_label(names, n, r)}: its engaged width {r[L.I_WIDTH]:.2f} m "
             f"absorbs at most {r[L.I_CAPACITY] / 1e3:.0f} kJ within the crush zone{'s' if j < nv else ''} of {zones}, "
             f"the impact dissipates {r[L.I_ENERGY] / 1e3:.0f} kJ: the structures cannot stop the overlap and "
             f"{likely}, which the impulse model's impact, fully engaged, does not follow "
