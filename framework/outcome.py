@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .diagnostics import Diagnostics
+from .restitution import V_MIN
 from .units import json_number, ms_to_kmh, rad_to_deg
 
 # A vehicle is at rest at the end when its CG moves slower than REST_SPEED and it turns slower than
@@ -39,6 +40,11 @@ CONTACT_COLUMNS = ["crush", "peak_force", "duration", "restitution"]
 PUSH = "push"
 PUSH_TIME = 0.3
 SEPARATION = 0.05
+# m/s: a re-touch later than PUSH_TIME (or within a push) closing this fast or faster, whose impulse changes the
+# pair's relative velocity by as much, is a re-impact with an impact row of its own, not the push (a struck car's
+# flank swinging back into the other; the 3D models, docs/physics.md §15 "Re-impacts"): the least closing speed of
+# the staged collisions the restitution law's data hold (Cipriani et al. 2002, crashlab.restitution.V_MIN)
+REIMPACT_SPEED = V_MIN
 # m/s: a push whose impulse changes the pair's relative velocity by less than this (0.1 km/h, the resolution crash
 # tests report delta-V at) writes no row: its impulse acts, but a row would be noise (once places never crushed
 # bear, 2026-11-28, light touches at rest gave push rows of 0.1-9 N s: 42 of exudyn's 250 rows on 90 random scenes)

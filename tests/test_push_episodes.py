@@ -1,6 +1,7 @@
 """Contact episodes and pushes of the 3D models (docs/physics.md §15 "Episodes and pushes"): an episode lasts until
 the pair is SEPARATION apart (a re-touch before continues it), and its contact later than PUSH_TIME after the
-impact is a push row of its own, as in the impulse model (§5; crashlab.outcome).
+impact is a push row of its own, as in the impulse model (§5; crashlab.outcome), unless it closes at REIMPACT_SPEED
+or faster with a collision's impulse: a re-impact, an impact row of its own.
 
 A rolling bus that strikes a standing car's side pushes it: the car slides ahead on its tyres, the bus catches it
 up, the crushed structures touch again and again. Each touch was an episode and an impact row of its own (21 in
@@ -17,7 +18,7 @@ import pytest
 
 from crashlab.models.common import chassis_contact as C
 from crashlab.models.common import contact_episodes as EP
-from crashlab.outcome import PUSH, PUSH_TIME, SEPARATION, collision_rows
+from crashlab.outcome import PUSH, PUSH_TIME, REIMPACT_SPEED, SEPARATION, collision_rows
 
 sys.path.insert(0, str(Path(__file__).parent))
 from conftest import build_scene  # noqa: E402
@@ -28,9 +29,10 @@ def _pair():
     return PP, np.zeros((1, C.N_PST)), np.zeros((8, EP.N_IMP))
 
 
-def _step(IMP, n, PP, PST, t, d, gap, v):
-    """One accepted step's end at t: in contact d, gap `gap`, vehicle 1 moving at v (vehicle 2 at -v)."""
-    return EP.episode_step(IMP, n, PP, PST, 0, t, t, t, d, gap, 1.0, (v, 0.0, 0.0), (-v, 0.0, 0.0))
+def _step(IMP, n, PP, PST, t, d, gap, v, dd=0.5):
+    """One accepted step's end at t: in contact d, gap `gap`, normal closing speed dd (a push's touch by default),
+    vehicle 1 moving at v (vehicle 2 at -v)."""
+    return EP.episode_step(IMP, n, PP, PST, 0, t, t, t, d, gap, dd, (v, 0.0, 0.0), (-v, 0.0, 0.0))
 
 
 def test_a_retouch_within_the_separation_continues_the_episode():
@@ -124,6 +126,75 @@ def test_a_contact_that_outlasts_push_time_splits_there():
         n = _step(IMP, n, PP, PST, 0.1 * k, 0.01, -0.01, 10.0 - k)
     assert n == 1 and IMP[0, EP.I_T1] == pytest.approx(PUSH_TIME) and PST[0, C.S_PUSH] == 1.0
     assert IMP[0, EP.I_DVI] == pytest.approx(-3.0)
+
+
+def test_a_retouch_closing_as_fast_as_a_collision_is_a_reimpact():
+    """Touch at 0, ended at 0.1 s; at 0.5 s (later than PUSH_TIME) a re-touch closing at 4.6 m/s (the probe's struck
+    saloon swinging back into the Clio, 253 kN; a push row before): a record of its own from 0.5 s, an impact row
+    (kind "continuous") with its restitution, and its contact later than PUSH_TIME after its own start is its push.
+    At REIMPACT_SPEED less a little the same re-touch is the push; at REIMPACT_SPEED the re-impact."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = _step(IMP, 0, PP, PST, 0.10, -0.01, -0.01, 3.0)
+    n = _step(IMP, n, PP, PST, 0.50, 0.01, -0.01, 2.0, dd=4.6)
+    assert n == 1 and IMP[0, EP.I_T1] == 0.10 and PST[0, C.S_PUSH] == EP.REIMPACT and PST[0, C.S_DD0] == 4.6
+    PST[0, C.S_JX] = 2e3
+    n = _step(IMP, n, PP, PST, 0.55, -0.01, -0.01, 1.0, dd=-0.46)          # it rebounds at 0.1
+    n = _step(IMP, n, PP, PST, 0.85, 0.01, -0.01, 1.0)                      # touches again softly: its push
+    assert n == 2 and PST[0, C.S_PUSH] == EP.PUSHING and PST[0, C.S_T0] == 0.85
+    # a re-impact still in contact PUSH_TIME after its start goes on as its push, as an impact does
+    PP2, PST2, IMP2 = _pair()
+    EP.open_episode(PST2, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    m = _step(IMP2, 0, PP2, PST2, 0.10, -0.01, -0.01, 3.0)
+    m = _step(IMP2, m, PP2, PST2, 0.50, 0.01, -0.01, 2.0, dd=4.6)
+    PST2[0, C.S_JX] = 2e3
+    m = _step(IMP2, m, PP2, PST2, 0.80, 0.01, -0.01, 1.0, dd=0.2)
+    assert m == 2 and IMP2[1, EP.I_PUSH] == EP.REIMPACT and IMP2[1, EP.I_T1] == 0.80
+    assert PST2[0, C.S_PUSH] == EP.PUSHING and PST2[0, C.S_T0] == 0.80
+    rows = EP.impact_rows(["V1", "V2"], [1500.0, 1500.0], IMP[:n], np.ones((2, 6)))
+    assert [r["kind"] for r in rows] == ["continuous"] * 4
+    assert (rows[2]["t"], rows[2]["restitution"]) == (0.50, pytest.approx(0.1))
+    for dd, kind in ((REIMPACT_SPEED - 1e-9, EP.PUSHING), (REIMPACT_SPEED, EP.REIMPACT)):
+        PP, PST, IMP = _pair()
+        EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+        n = _step(IMP, 0, PP, PST, 0.10, -0.01, -0.01, 3.0)
+        _step(IMP, n, PP, PST, 0.50, 0.01, -0.01, 2.0, dd=dd)
+        assert PST[0, C.S_PUSH] == kind
+
+
+def test_a_hard_retouch_in_a_push_is_a_reimpact():
+    """A push (opened at 0.5 s) ends at 0.6 s; a soft re-touch at 0.7 s continues it, a hard one at 0.9 s (2 m/s)
+    writes it and opens a re-impact, though the push is younger than PUSH_TIME."""
+    PP, PST, IMP = _pair()
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = _step(IMP, 0, PP, PST, 0.10, -0.01, -0.01, 3.0)
+    n = _step(IMP, n, PP, PST, 0.50, 0.01, -0.01, 2.0)
+    PST[0, C.S_JX] = 2e3
+    n = _step(IMP, n, PP, PST, 0.60, -0.01, -0.01, 2.0)
+    n = _step(IMP, n, PP, PST, 0.70, 0.01, -0.01, 2.0)
+    assert n == 1 and PST[0, C.S_PUSH] == EP.PUSHING and PST[0, C.S_T0] == 0.50
+    PST[0, C.S_JX] += 1e3                                    # the re-touch's impulse (no graze)
+    n = _step(IMP, n, PP, PST, 0.80, -0.01, -0.01, 2.0)
+    n = _step(IMP, n, PP, PST, 0.90, 0.01, -0.01, 2.0, dd=2.0)
+    assert n == 2 and IMP[1, EP.I_PUSH] == EP.PUSHING and IMP[1, EP.I_T1] == 0.80
+    assert PST[0, C.S_PUSH] == EP.REIMPACT and PST[0, C.S_T0] == 0.90
+
+
+@pytest.mark.parametrize("impulse, kind", [(2e3, "continuous"), (900.0, "continuous"), (700.0, PUSH)])
+def test_a_reimpact_that_exchanges_little_is_a_push(impulse, kind):
+    """A re-touch at 0.5 s closing at 2.6 m/s whose impulse changes the pair's relative velocity (1000 and 3000 kg:
+    the reduced mass 750 kg) by 2.7 m/s or 1.2 m/s is an impact row; by 0.93 m/s, under REIMPACT_SPEED, a push row:
+    its closing speed was not the pair's (exudyn's NHTSA 4363 at 1 s: 2.6 m/s at the touch, 0.2 m/s of exchange,
+    335 kN at a step). 900 N s is under either car's mass times REIMPACT_SPEED: the pair's reduced mass decides."""
+    PP = C.pair_table(2, 0, 1e6, 1.5, np.zeros((2, C.N_STR)), [1000.0, 3000.0])
+    PST, IMP = np.zeros((1, C.N_PST)), np.zeros((8, EP.N_IMP))
+    EP.open_episode(PST, 0, 0.0, 5.0, (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0))
+    n = _step(IMP, 0, PP, PST, 0.10, -0.01, -0.01, 3.0)
+    n = _step(IMP, n, PP, PST, 0.50, 0.01, -0.01, 2.0, dd=2.6)
+    PST[0, C.S_JX] = impulse
+    n = EP.finish_episode(IMP, n, PP, PST, 0, 0.7, 0.0, (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0))
+    rows = EP.impact_rows(["V1", "V2"], [1000.0, 3000.0], IMP[:n], np.ones((2, 6)))
+    assert [r["kind"] for r in rows] == ["continuous"] * 2 + [kind] * 2
 
 
 def _row_restitution(dd0, dd_end, split=False):
@@ -228,3 +299,42 @@ def test_a_soft_impact_longer_than_push_time_keeps_its_rebound():
     assert out.outcome_ok, out.warnings
     assert -out.final_si[0, 0] == pytest.approx(0.6 * 30.0 / 3.6, rel=0.01)
     assert [r["kind"] for r in out.impact_rows] == ["continuous"]
+
+
+@pytest.mark.parametrize("model", ["multibody", "exudyn"])
+def test_a_struck_car_swinging_back_is_a_reimpact_row(model):
+    """A scene of the probe (2026-11-28): a Clio at 57.7 km/h into a saloon moving at 6.8 km/h on locked wheels, at
+    115.5 deg and 1.0 m off its centre line. The pair stays within 5 cm, and 0.46 s after the impact's onset the
+    saloon swings back into the Clio, closing at 2.0 m/s, 0.35 s at up to 141 kN (exudyn 179 kN; the impact: 182
+    kN): a push row before, now an impact row of its own whose impulse exchanges more than REIMPACT_SPEED of the
+    pair's relative velocity (2.1 m/s), followed by the push. Its delta-V lies within the road's Coulomb impulse
+    mu g T of its contact impulse over the mass (tyres alone act beside the contact)."""
+    if model == "exudyn":
+        pytest.importorskip("exudyn")
+    from crashlab.registry import get_model
+    from crashlab.vehicle import load_vehicle
+
+    clio, saloon = load_vehicle("clio"), load_vehicle("saloon")
+    th, T, off = math.radians(115.5), 0.25, 1.0
+    v1, v2 = 57.7 / 3.6, 6.8 / 3.6
+    d = clio.cg_to_front + max(saloon.cg_to_front, saloon.cg_to_rear) + 0.4
+    mu = 0.8
+    sc = build_scene([{"vehicle": "clio", "speed": 57.7, "x": -v1 * T},
+                      {"vehicle": "saloon", "speed": 6.8, "heading": 115.5, "wheels": "locked",
+                       "x": d - v2 * T * math.cos(th), "y": off - v2 * T * math.sin(th)}],
+                     impact={"restitution": 0.1, "friction": 0.3}, road={"friction": mu}, duration=4.0)
+    out = get_model(model).simulate(sc)
+    assert out.outcome_ok, out.warnings
+    rows = collision_rows(out.impact_rows)
+    assert len(rows) == 4, [(r["kind"], r["t"]) for r in out.impact_rows]
+    first, again = rows[0], rows[2]
+    assert again["t"] >= first["t"] + PUSH_TIME + 0.1 and again["approach_speed"] >= REIMPACT_SPEED
+    assert again["peak_force"] > 0.5 * first["peak_force"]
+    m = {v.name: v.spec.mass for v in sc.vehicles}
+    m_red = m["V1"] * m["V2"] / (m["V1"] + m["V2"])
+    assert math.hypot(again["impulse_x"], again["impulse_y"]) >= 1.5 * REIMPACT_SPEED * m_red
+    pushes = [r for r in out.impact_rows if r["kind"] == PUSH]
+    assert pushes and min(r["t"] for r in pushes) >= again["t"]
+    for r in rows[2:]:
+        off = math.hypot(r["dvx"] - r["impulse_x"] / m[r["vehicle"]], r["dvy"] - r["impulse_y"] / m[r["vehicle"]])
+        assert off <= mu * 9.81 * r["duration"] * 1.05

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
-from crashlab.outcome import PUSH, PUSH_DV_MIN, PUSH_TIME, SEPARATION
+from crashlab.outcome import PUSH, PUSH_DV_MIN, PUSH_TIME, REIMPACT_SPEED, SEPARATION
 
 from .chassis_contact import (
     ENDED,
@@ -80,8 +80,13 @@ from .impact_rows import pair_rows
 # of i and j (crush_structure.face_code; 0 for a barrier), whose structures share the energy (§21)
 (I_I, I_J, I_T0, I_T1, I_JX, I_JY, I_JZ, I_PEAK, I_MAXPEN, I_ENERGY, I_PX, I_PY, I_TH, I_DVI, I_DVJ,
  I_DD0, I_DD1, I_OPEN, I_SIDE_I, I_SIDE_J) = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 19, 20, 21, 22, 23
-# I_PUSH: 1 for a push's record (the pair's contact later than PUSH_TIME after its impact, kind "push")
+# I_PUSH: the record's kind, as the pair state's S_PUSH while it is open: IMPACT (an impact, from the pair's first
+# touch), PUSHING (the pair's contact later than PUSH_TIME after its impact or re-impact, kind "push") or REIMPACT (a
+# re-touch later than PUSH_TIME, or in a push, closing at REIMPACT_SPEED or faster: its crushed structures damped as
+# a push's; close_episode writes it as an impact row where its impulse changes the pair's relative velocity by
+# REIMPACT_SPEED or more, else as a push's; docs/physics.md §15 "Re-impacts")
 I_PUSH = 24
+IMPACT, PUSHING, REIMPACT = 0.0, 1.0, 2.0
 N_IMP = 25
 # a re-touch within an episode whose contact carries less than this share of the episode's impulse so far is a graze:
 # its end does not move the episode's end, so the impact's delta-V and duration are its pulse's, not the pulse's
@@ -212,9 +217,14 @@ def reset_sums(PST, p):
 def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
     """Write the episode of pair p ending at t1 (normal velocity dd1 there, vehicles' velocities vel_i,
     vel_j now) as record IMP[n] if there is room, deactivate and reset the pair; returns n + 1 (n for a push below
-    PUSH_DV_MIN, not written)."""
+    PUSH_DV_MIN, not written). A re-impact's record whose impulse changes the pair's relative velocity by less
+    than REIMPACT_SPEED is a push's: its closing speed at the touch was a corner's turning or a step end's, not the
+    pair's (exudyn's NHTSA 4363: 2.6 m/s at the touch, 0.2 m/s of exchange)."""
     jj = PST[p, S_JX] ** 2 + PST[p, S_JX + 1] ** 2 + PST[p, S_JX + 2] ** 2
-    skip = PST[p, S_PUSH] > 0.0 and jj < (PUSH_DV_MIN * PP[p, P_MEFF]) ** 2
+    kind = PST[p, S_PUSH]
+    if kind == REIMPACT and jj < (REIMPACT_SPEED * PP[p, P_MEFF]) ** 2:
+        kind = PUSHING
+    skip = kind == PUSHING and jj < (PUSH_DV_MIN * PP[p, P_MEFF]) ** 2
     if not skip and n < IMP.shape[0]:
         r = IMP[n]
         r[I_I], r[I_J], r[I_T0], r[I_T1] = PP[p, P_I], PP[p, P_J], PST[p, S_T0], t1
@@ -226,9 +236,9 @@ def close_episode(IMP, n, PP, PST, p, t1, dd1, is_open, vel_i, vel_j):
         r[I_PX], r[I_PY], r[I_TH] = PST[p, S_PX], PST[p, S_PY], PST[p, S_PTH]
         r[I_DD0], r[I_DD1], r[I_OPEN] = PST[p, S_DD0], dd1, is_open
         r[I_SIDE_I], r[I_SIDE_J] = PST[p, S_SIDE_I], PST[p, S_SIDE_J]
-        r[I_PUSH] = PST[p, S_PUSH]
+        r[I_PUSH] = kind
     PST[p, S_ACT] = NONE
-    PST[p, S_PUSH] = 0.0
+    PST[p, S_PUSH] = IMPACT
     reset_sums(PST, p)
     return n if skip else n + 1
 
@@ -242,13 +252,14 @@ def _close_ended(IMP, n, PP, PST, p):
 
 
 @njit(cache=True)
-def _open_push(PST, p, t0, dd, vel_i, vel_j, touch):
-    """Open the push of pair p at t0 (its episode's contact later than PUSH_TIME after the impact): at a re-touch
-    (touch) the generic law's delta_dot0 is its approach velocity dd; a contact that goes on keeps its own."""
+def _open_late(PST, p, t0, dd, vel_i, vel_j, touch, kind):
+    """Open the record of pair p at t0 that follows its impact's (or re-impact's) record, of kind PUSHING or
+    REIMPACT (I_PUSH): at a re-touch (touch) the generic law's delta_dot0 is its approach velocity dd; a contact
+    that goes on keeps its own. Both are damped (crushed structures, §13a "Push damping")."""
     _open_record(PST, p, t0, max(dd, 0.0), vel_i, vel_j)
     if touch:
         PST[p, S_DDT] = max(dd, 0.0)
-    PST[p, S_PUSH] = 1.0
+    PST[p, S_PUSH] = kind
 
 
 @njit(cache=True)
@@ -259,9 +270,11 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
     (ENDED, its end remembered) until the pair is SEPARATION apart, then written; a re-touch before continues the
     episode. The contact later than PUSH_TIME after the episode's start is a push, from the first step end where
     the pair is not separating (dd >= 0): the episode is written there and a push record opened, which later
-    re-touches continue. Returns the number of records written so far."""
+    re-touches continue; a re-touch later than PUSH_TIME (or in a push) that closes at REIMPACT_SPEED or faster
+    opens a re-impact's record instead, which a push follows by the same rule (close_episode writes it as an impact
+    row where its impulse is a collision's). Returns the number of records written so far."""
     state = PST[p, S_ACT]
-    late = PST[p, S_PUSH] == 0.0
+    late = PST[p, S_PUSH] != PUSHING   # an impact's or re-impact's record, which a push follows
     if state == IN_CONTACT:
         if d <= 0.0:
             PST[p, S_ACT] = ENDED
@@ -274,12 +287,14 @@ def episode_step(IMP, n, PP, PST, p, t, t_part, t_touch, d, gap, dd, vel_i, vel_
             # not while the pair separates: an impact still unloading (a soft or narrow contact longer than
             # PUSH_TIME) keeps its rebound, which the push's damping would take (§15 "Episodes and pushes")
             n = close_episode(IMP, n, PP, PST, p, t, dd, 0.0, vel_i, vel_j)
-            _open_push(PST, p, t, dd, vel_i, vel_j, False)
+            _open_late(PST, p, t, dd, vel_i, vel_j, False, PUSHING)
     elif state == ENDED:
         if d > 0.0:
-            if late and t_touch - PST[p, S_T0] >= PUSH_TIME:
+            hard = dd >= REIMPACT_SPEED
+            if (late and t_touch - PST[p, S_T0] >= PUSH_TIME) or (not late and hard):
+                # a re-touch after the pulse: the push, or closing as fast as a collision, a re-impact
                 n = _close_ended(IMP, n, PP, PST, p)
-                _open_push(PST, p, t_touch, dd, vel_i, vel_j, True)
+                _open_late(PST, p, t_touch, dd, vel_i, vel_j, True, REIMPACT if hard else PUSHING)
             else:  # a re-touch within the episode: the generic law's delta_dot0 is its own (chassis_contact S_DDT)
                 PST[p, S_ACT], PST[p, S_DDT] = IN_CONTACT, max(dd, 0.0)
                 PST[p, S_RT] = 1.0
@@ -340,13 +355,13 @@ def impact_rows(names, mass, imp, compliance, heads=None):
                    for q in (i, j)]
         pair = pair_rows(names, mass, i, j, r[I_T0], r[I_ENERGY], (r[I_DVI:I_DVI + 3], r[I_DVJ:I_DVJ + 3]),
                          ((J[0], J[1]), (-J[0], -J[1])), heading, (r[I_PX], r[I_PY]), r[I_TH] + math.pi / 2,
-                         PUSH if r[I_PUSH] else "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance, crush=r[I_MAXPEN],
-                         peak_force=r[I_PEAK],
+                         PUSH if r[I_PUSH] == PUSHING else "continuous", (r[I_SIDE_I], r[I_SIDE_J]), compliance,
+                         crush=r[I_MAXPEN], peak_force=r[I_PEAK],
                          duration=r[I_T1] - r[I_T0], impulse=math.sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2]))
         for row, sgn in zip(pair, (1.0, -1.0)):
             row.update(impulse_x=sgn * J[0], impulse_y=sgn * J[1], impulse_z=sgn * J[2],
                        max_penetration=r[I_MAXPEN], approach_speed=dd0, separation_speed=-dd1,
-                       restitution=(-dd1 / dd0) if not r[I_PUSH] and dd0 >= APPROACH_MIN and dd1 <= 0
+                       restitution=(-dd1 / dd0) if r[I_PUSH] != PUSHING and dd0 >= APPROACH_MIN and dd1 <= 0
                        and not r[I_OPEN] else None,
                        open=bool(r[I_OPEN]))
         rows += pair

@@ -268,8 +268,9 @@ def simulate(Y, BODY, JNT, SPR, TYR, CT, DV, cfg, nslip, traj, diag, head, fz_st
             else:
                 push = PST[p, S_PUSH]
                 _episode(IMP, diag, p, PP, PST, PSG[6], Y, BODY, t, False)
-                if PST[p, S_PUSH] != push:
-                    need_k0 = True  # a push opened or ended: its damping (§13a) from the next step's first stage on
+                if (PST[p, S_PUSH] > 0.0) != (push > 0.0):
+                    need_k0 = True  # a damped record (a push or re-impact) opened or ended: its damping (§13a) from
+                    # the next step's first stage on
             if PST[p, S_ACT] == IN_CONTACT:
                 for v in (i, j):
                     if v < nv and not awake[v]:
