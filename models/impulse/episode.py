@@ -13,7 +13,7 @@ import math
 from numba import njit
 
 from crashlab.geometry import clip_convex, contact_zone_centroid, overlap_centroid, penetration
-from crashlab.outcome import PUSH_TIME, SEPARATION
+from crashlab.outcome import PUSH_TIME, REIMPACT_SPEED, SEPARATION
 
 from .contact import _centre, _circles_apart, _engagement, _outline, _point_velocity, _project_apart
 from .impacts import _apply_impulse, _merge_impact, _record_impact, _struck
@@ -30,6 +30,7 @@ from .layout import (
     I_ENGAGE_RATIO,
     I_KIND,
     I_N_FOLLOW,
+    I_REIMPACT,
     I_REVERSED,
     I_T,
     PUSH,
@@ -209,7 +210,9 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
     impact table (its point: the middle of the contact zone the approach will crush, or with [impact] point =
     "engagement" the overlap's centroid at engagement with its contact plane); a pair in an open episode that
     approaches gets a plastic contact impulse at the overlap's fastest approaching point, booked into the episode's
-    row; later than PUSH_TIME after the impact, into a push row of its own (layout.PUSH, §5). Several contacts at
+    row; later than PUSH_TIME after the impact, into a push row of its own (layout.PUSH, §5), or where it closes at
+    crashlab.outcome.REIMPACT_SPEED or faster there or in a push, into a re-impact's row (I_REIMPACT, §15
+    "Re-impacts"; impacts._settle_reimpacts after the run). Several contacts at
     once (a car squeezed between a car and a wall) are resolved together by sweeps of sequential impulses
     (projected Gauss-Seidel): after the first sweep a pair is approaching again only through its neighbours'
     impulses of this instant, so its further impulses are plastic and booked into its row. Returns
@@ -232,7 +235,10 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
             is_impact = row < 0
             # the contact outlasts a collision's pulse: from here on the episode is a push, in its own row (§5)
             # (a full table keeps the push in its impact's row: a push never fails a run)
-            push = not is_impact and imp[row, I_KIND] != PUSH and t - imp[row, I_T] > PUSH_TIME and n_imp < max_imp
+            late = not is_impact and imp[row, I_T] != t and (imp[row, I_KIND] == PUSH or t - imp[row, I_T] > PUSH_TIME)
+            # closing as fast as a collision there: a re-impact, a row of its own (as in the 3D models, §15)
+            reimpact = late and approach >= REIMPACT_SPEED and n_imp < max_imp
+            push = late and not reimpact and imp[row, I_KIND] != PUSH and n_imp < max_imp
             if is_impact and n_imp >= max_imp:
                 stop = True
                 break
@@ -248,7 +254,7 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
                     px, py = zx, zy
             e_k = e if is_impact else 0.0  # follow-ups are plastic (no bounce chatter)
             S_before[:] = S
-            alt = imp[n_imp] if is_impact else no_alt  # (the impact's row: its slip-reversal check)
+            alt = imp[n_imp] if is_impact or reimpact else no_alt  # (the impact's row: its slip-reversal check)
             pn, pt, kind, energy, gn = _apply_impulse(P, S, i, k, nv, px, py, nx, ny, e_k, mu_imp, law, alt)
             if kind < 0:
                 continue
@@ -260,9 +266,13 @@ def _impulses(P, S, B, cfg, t, nc, cl_i, cl_k, cl_n, cl_p, cl_v, cl_m, speeds, e
                 imp[n_imp, I_ENGAGE], imp[n_imp, I_ENGAGE_RATIO] = e_flag, e_ratio
                 episode[i, k] = n_imp
                 n_imp += 1
-            elif push:
-                _record_impact(imp, n_imp, t, i, k, nv, P, B, S_before, S, pn, pt, PUSH, energy, px, py, nx, ny)
-                imp[n_imp, I_REVERSED], imp[n_imp, I_CLOSING], imp[n_imp, I_N_FOLLOW] = 0.0, math.nan, 1.0
+            elif push or reimpact:
+                _record_impact(imp, n_imp, t, i, k, nv, P, B, S_before, S, pn, pt, kind if reimpact else PUSH, energy,
+                               px, py, nx, ny)
+                if push:
+                    imp[n_imp, I_REVERSED] = 0.0
+                imp[n_imp, I_CLOSING], imp[n_imp, I_N_FOLLOW] = math.nan, 1.0
+                imp[n_imp, I_REIMPACT] = 1.0 if reimpact else 0.0
                 episode[i, k] = n_imp
                 n_imp += 1
                 diag[D_FOLLOW] += 1

@@ -7,6 +7,7 @@ from numba import njit
 
 from crashlab.models.common.planar_vehicle import P_IZ, P_MASS, engaged_capacity, struck_side
 from crashlab.models.common.restitution_law import kernel_restitution
+from crashlab.outcome import REIMPACT_SPEED
 
 from .contact import _point_velocity
 from .laws import checked_impulse, collision_impulse, impact_matrix
@@ -41,12 +42,14 @@ from .layout import (
     I_PT,
     I_PX,
     I_PY,
+    I_REIMPACT,
     I_REVERSED,
     I_SIDE_I,
     I_SIDE_J,
     I_T,
     I_T_END,
     I_WIDTH,
+    PUSH,
 )
 
 
@@ -122,8 +125,22 @@ def _record_impact(imp, n, t, i, j, nv, P, B, S_before, S, pn, pt, kind, energy,
     bar = B[j - nv] if j >= nv else S[i, :0]  # a barrier's row (its own extent), else none
     imp[n, I_WIDTH], imp[n, I_CAPACITY] = engaged_capacity(P[i], S[i], imp[n, I_SIDE_I], P[q], S[q], imp[n, I_SIDE_J],
                                                            bar, -ny, nx)
-    imp[n, I_T_END], imp[n, I_N_FOLLOW] = t, 0.0
+    imp[n, I_T_END], imp[n, I_N_FOLLOW], imp[n, I_REIMPACT] = t, 0.0, 0.0
     imp[n, I_ENGAGE], imp[n, I_ENGAGE_RATIO] = 0.0, math.nan  # not placed at engagement (the caller sets them)
+
+
+@njit(cache=True)
+def _settle_reimpacts(P, imp, n, nv):
+    """After the run: a re-impact's row (I_REIMPACT) whose impulse changes the pair's relative velocity by less than
+    crashlab.outcome.REIMPACT_SPEED (|J| < m* REIMPACT_SPEED, m* the reduced mass; a barrier's pair: the vehicle's
+    mass) is a push's, as in the 3D models (docs/physics.md §5, §15 "Re-impacts")."""
+    for r in range(n):
+        if imp[r, I_REIMPACT] == 0.0:
+            continue
+        i, j = int(imp[r, I_I]), int(imp[r, I_J])
+        m = P[i, P_MASS] if j >= nv else P[i, P_MASS] * P[j, P_MASS] / (P[i, P_MASS] + P[j, P_MASS])
+        if math.hypot(imp[r, I_PN], imp[r, I_PT]) < REIMPACT_SPEED * m:
+            imp[r, I_KIND], imp[r, I_REVERSED], imp[r, I_REIMPACT] = PUSH, 0.0, 0.0
 
 
 @njit(cache=True)

@@ -56,7 +56,7 @@ from crashlab.units import G
 from .compiler import StagesCompiler
 from .contact import _circles_apart, _outline, _radius
 from .episode import _bisect, _gather_contacts, _given_impact, _impulses, _onset_test, _project
-from .impacts import _kinetic
+from .impacts import _kinetic, _settle_reimpacts
 from .layout import (
     D_COARSE,
     D_CONTACT_T,
@@ -357,6 +357,7 @@ def simulate_one(P, S0, B, cfg, A, NA, zones, rest, final, contact, imp, traj, d
         n_rec = _record(traj, n_rec, t, S)
     rest[:, :] = S[:, 0:3]
     final[:, :] = S[:, 3:6]
+    _settle_reimpacts(P, imp, n_imp, nv)
     diag[D_STEPS], diag[D_IMPACTS], diag[D_NREC], diag[D_T_END] = steps, n_imp, n_rec, t
     diag[D_STATUS] = status
 

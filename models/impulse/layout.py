@@ -31,8 +31,8 @@ SETTINGS = np.dtype([
 (I_T, I_I, I_J, I_DVX_I, I_DVY_I, I_DR_I, I_DVX_J, I_DVY_J, I_DR_J, I_ENERGY, I_PN, I_PT, I_KIND, I_PX,
  I_PY, I_PLANE, I_HEAD_I, I_HEAD_J, I_T_END, I_N_FOLLOW, I_REVERSED, I_OWN_PN, I_OWN_PT, I_OWN_DR_I, I_OWN_DR_J,
  I_ALT_PN, I_ALT_PT, I_ALT_DR_I, I_ALT_DR_J, I_CLOSING, I_ENGAGE, I_ENGAGE_RATIO, I_SIDE_I, I_SIDE_J, I_WIDTH,
- I_CAPACITY) = range(36)
-N_IMP = 36  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
+ I_CAPACITY, I_REIMPACT) = range(37)
+N_IMP = 37  # I_CLOSING: the normal closing speed at the impact, m/s (restitution = "speed", §13b)
 # I_WIDTH, I_CAPACITY: the impact's engaged width [m] and the energy [J] it absorbs within the struck crush zones
 # (planar_vehicle.engaged_capacity; run_warnings: an impact that dissipates more, §4 "Engaged width")
 # I_SIDE_I, I_SIDE_J: the face of i and of j the impact strikes (planar_vehicle.struck_side: 0 front, 1 rear, 2 left,
@@ -42,7 +42,9 @@ N_IMP = 36  # I_CLOSING: the normal closing speed at the impact, m/s (restitutio
 ENGAGE_USED, ENGAGE_AMBIGUOUS, ENGAGE_FALLBACK = 1, 2, 3
 # I_KIND: the impact's (laws.FULL, SLIDING, REVERSED), or PUSH: the episode's contact impulses later than PUSH_TIME
 # (crashlab.outcome) after its impact, one car pushing the other, in a row of their own (docs/physics.md §5); its
-# I_CLOSING is NaN (no impact)
+# I_CLOSING is NaN (no impact). I_REIMPACT: 1 for a re-impact's row, a contact impulse closing at
+# crashlab.outcome.REIMPACT_SPEED or faster in a push or later than PUSH_TIME after its impact (plastic, as every
+# follow-up; its I_CLOSING NaN), which impacts._settle_reimpacts makes a push's where its impulse is small
 PUSH = 3
 AMBIGUOUS_RATIO = 0.9  # principal values within 10 % of each other: the faces give no plane (docs/physics.md §4)
 # diagnostics

@@ -96,7 +96,7 @@ def _warnings(pop, scene, fs, P, cfg, imp, diag) -> None:
         other |= (valid & (recs[..., L.I_REVERSED] >= 0.5)).any(1)
     if scene.impact.engagement:
         other |= (valid & np.isin(recs[..., L.I_ENGAGE], (L.ENGAGE_AMBIGUOUS, L.ENGAGE_FALLBACK))).any(1)
-    with np.errstate(invalid="ignore"):  # (unfilled rows hold any numbers; valid masks them)
+    with np.errstate(invalid="ignore", over="ignore"):  # (unfilled rows hold any numbers; valid masks them)
         other |= (valid & (over_capacity(recs) | sustained(recs))).any(1)
     held = np.zeros(len(n_imp), bool)
     if speed_law:
@@ -104,8 +104,8 @@ def _warnings(pop, scene, fs, P, cfg, imp, diag) -> None:
         held = (valid & ((closing < V_MIN) | (closing > V_MAX))).any(1)
         for k in np.flatnonzero(pop.ok & held & ~other):
             rows = recs[k, :n_imp[k]]
-            pop.warnings[k] = "\n".join(filter(None, map(range_warning, rows[rows[:, L.I_KIND] != L.PUSH,
-                                                                              L.I_CLOSING].tolist())))
+            closing = rows[:, L.I_CLOSING]  # (a push's or a re-impact's row has none: NaN)
+            pop.warnings[k] = "\n".join(filter(None, map(range_warning, closing[np.isfinite(closing)].tolist())))
     for k in np.flatnonzero(pop.ok & other):
         pop.warnings[k] = "\n".join(run_warnings(scene, scene.vehicle_names, P[k, :, P_MASS], imp[k, :n_imp[k]],
                                                   speed_law, float(cfg["engagement_depth"][k])))

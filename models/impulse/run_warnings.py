@@ -44,8 +44,8 @@ def run_warnings(scene, names, mass, imp, speed_law: bool | None = None,
         warnings += _engagement_warnings(names, imp, depth)
     warnings += [_capacity_warning(scene, names, n, r) for n, r in enumerate(imp) if over_capacity(r)]
     if scene.impact.restitution_law == SPEED if speed_law is None else speed_law:
-        impacts = imp[imp[:, L.I_KIND] != L.PUSH]  # (a push row has no closing speed)
-        warnings += [w for w in map(range_warning, impacts[:, L.I_CLOSING].tolist()) if w]
+        closing = imp[:, L.I_CLOSING]  # (a push's or a re-impact's row has none: NaN, no restitution used)
+        warnings += [w for w in map(range_warning, closing[np.isfinite(closing)].tolist()) if w]
     return warnings
 
 
