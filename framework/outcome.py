@@ -42,8 +42,9 @@ PUSH_TIME = 0.3
 SEPARATION = 0.05
 # m/s: a re-touch later than PUSH_TIME (or within a push) closing this fast or faster, whose impulse changes the
 # pair's relative velocity by as much, is a re-impact with an impact row of its own, not the push (a struck car's
-# flank swinging back into the other; the 3D models, docs/physics.md §15 "Re-impacts"): the least closing speed of
-# the staged collisions the restitution law's data hold (Cipriani et al. 2002, crashlab.restitution.V_MIN)
+# flank swinging back into the other; the 3D and impulse models, docs/physics.md §15 "Re-impacts"): the least
+# closing speed of the staged collisions the restitution law's data hold (Cipriani et al. 2002,
+# crashlab.restitution.V_MIN)
 REIMPACT_SPEED = V_MIN
 # m/s: a push whose impulse changes the pair's relative velocity by less than this (0.1 km/h, the resolution crash
 # tests report delta-V at) writes no row: its impulse acts, but a row would be noise (once places never crushed
