@@ -68,31 +68,27 @@ def structure_warnings(scene, rows) -> list:
 CONCURRENT_DV = 0.1
 
 
-def _significant(rows, mass) -> dict:
-    """{vehicle: its rows whose own contact impulse changes its speed by CONCURRENT_DV at least}."""
+def _contacts(rows, mass) -> dict:
+    """{vehicle: (its rows whose own contact impulse changes its speed by CONCURRENT_DV at least, those of them that
+    overlap in time (t to t + duration) with a row of another partner, by time)}."""
     by_vehicle: dict = {}
     for r in rows:
         if math.hypot(r["impulse_x"], r["impulse_y"]) >= CONCURRENT_DV * mass[r["vehicle"]]:
             by_vehicle.setdefault(r["vehicle"], []).append(r)
-    return by_vehicle
+    return {name: (mine, sorted((a for a in mine if any(b["other"] != a["other"] and b["t"] < a["t"] + a["duration"]
+                                                         and a["t"] < b["t"] + b["duration"] for b in mine)),
+                                key=lambda a: a["t"]))
+            for name, mine in by_vehicle.items()}
 
 
-def _concurrent(mine) -> list:
-    """The rows of one vehicle (its significant ones) that overlap in time (t to t + duration) with a row of
-    another partner, by time."""
-    return sorted((a for a in mine if any(b["other"] != a["other"] and b["t"] < a["t"] + a["duration"]
-                                          and a["t"] < b["t"] + b["duration"] for b in mine)), key=lambda a: a["t"])
-
-
-def concurrent_contact_warnings(rows, mass) -> list:
+def concurrent_contact_warnings(rows, mass, contacts=None) -> list:
     """One reason per vehicle whose contact episodes with different partners overlap in time (the rows' t to
     t + duration; pushes included): a 3D row's delta-V is the vehicle's CG velocity change over its episode, so
     each of those rows holds the other contacts' impulses too (§21 "Concurrent contacts"); the reason gives each
     such row's delta-V beside its own contact impulse (in plan) over the vehicle's mass. mass: {name: kg}; rows
-    with the 3D models' impulse_x, impulse_y and duration."""
+    with the 3D models' impulse_x, impulse_y and duration; contacts: _contacts(rows, mass) where already found."""
     out = []
-    for name, mine in _significant(rows, mass).items():
-        hit = _concurrent(mine)
+    for name, (_, hit) in (_contacts(rows, mass) if contacts is None else contacts).items():
         if not hit:
             continue
         shown = "; ".join(f"with {a['other']} at t = {a['t']:.3f} s: {3.6 * math.hypot(a['dvx'], a['dvy']):.1f} "
@@ -112,14 +108,15 @@ ROAD_SHARE = 0.1
 LONG_CONTACT = PUSH_TIME / 2
 
 
-def road_share_warnings(rows, mass) -> list:
+def road_share_warnings(rows, mass, contacts=None) -> list:
     """One reason per impact row whose contact lasts longer than LONG_CONTACT and whose delta-V (the vehicle's CG
     velocity change over its episode, §15) lies more than ROAD_SHARE of its own contact impulse over the mass away
     from that (the vector difference in plan, printed as the road's part). Rows that overlap a contact with
-    another partner are concurrent_contact_warnings' (their difference is the other contact's). mass: {name: kg}."""
+    another partner are concurrent_contact_warnings' (their difference is the other contact's). mass: {name: kg};
+    contacts: _contacts(rows, mass) where already found."""
     out = []
-    for name, mine in _significant(rows, mass).items():
-        concurrent = {id(a) for a in _concurrent(mine)}
+    for name, (mine, hit) in (_contacts(rows, mass) if contacts is None else contacts).items():
+        concurrent = {id(a) for a in hit}
         for r in mine:
             if r["kind"] == PUSH or id(r) in concurrent or r["duration"] <= LONG_CONTACT:
                 continue
@@ -140,4 +137,6 @@ def road_share_warnings(rows, mass) -> list:
 def row_warnings(scene, rows, mass) -> list:
     """What a 3D run's impact rows say (the models' one call): structure_warnings, concurrent_contact_warnings and
     road_share_warnings. mass: {name: kg}."""
-    return structure_warnings(scene, rows) + concurrent_contact_warnings(rows, mass) + road_share_warnings(rows, mass)
+    contacts = _contacts(rows, mass)  # (the vehicles' contacts and their concurrent ones, found once for both)
+    return (structure_warnings(scene, rows) + concurrent_contact_warnings(rows, mass, contacts)
+            + road_share_warnings(rows, mass, contacts))
